@@ -1,0 +1,168 @@
+"""Joint friction laws (paper §II.B, Table I; DESIGN.md §2).
+
+Each law maps joint velocity ``v`` [rad/s] to the *resisting* torque [N m] at the joint. The
+friction torque adds to the motor torque. Laws take a math backend ``m`` (numpy by default) so the
+physics layer can evaluate the identical law as a Drake symbolic expression in C++.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+import yaml
+
+from sphere_env.models.mathbackend import NUMPY
+
+ASSETS = Path(__file__).resolve().parents[2] / "assets"
+DEFAULT_PRESETS = ASSETS / "friction" / "presets.yaml"
+
+
+def none_law(v, m=NUMPY):
+    """No friction: τ = 0."""
+    return 0.0 * v
+
+
+def viscous(v, c: float, m=NUMPY):
+    """Viscous: τ = −c v.  ``c`` [N m s/rad]."""
+    return -c * v
+
+
+def coulomb(v, mu_s: float, mu_d: float, c: float, v_tol: float = 0.05, m=NUMPY):
+    """Coulomb + viscous (eq. 2), regularized so a discrete step does not chatter.
+
+    The paper's law is discontinuous: static μ_s inside |v| < tol, otherwise −μ_d sign(v) − c v.
+    We replace sign(v) by tanh(v / (v_tol/3)) (99% of its final value at |v| = v_tol) and blend the
+    static level into the kinetic one with a Gaussian Stribeck term of width ``v_tol``:
+
+        τ = −[μ_d + (μ_s − μ_d) exp(−(v/v_tol)²)] tanh(3 v / v_tol) − c v
+
+    The law is smooth and odd; its slope at v = 0 is 3 μ_s / v_tol, which keeps an explicit
+    friction torque stable for the 5 ms plant step (see DESIGN notes in the README).
+    Units: μ_s, μ_d [N m], c [N m s/rad], v_tol [rad/s].
+    """
+    level = mu_d + (mu_s - mu_d) * m.exp(-(v / v_tol) * (v / v_tol))
+    return -level * m.tanh(3.0 * v / v_tol) - c * v
+
+
+def majd(v, f_w: float, f_c: float, sigma: float, omega_c: float, n: float, m=NUMPY):
+    """Majd–Simaan friction, continuous form (DESIGN.md §2):
+
+        τ = −( f_ω v + [f_c + σ e^{−|v/ω_c|} − (σ + f_c) e^{−|n v/ω_c|}] sign(v) )
+
+    The bracket vanishes at v = 0, so the law is continuous, and tends to f_ω v + f_c sign(v)
+    at high speed. (The paper's printed eq. 3 multiplies the bracket by f_ω v, a typesetting slip;
+    the authors' code uses σ − f_c, which jumps at v = 0.)
+    Units: f_ω [N m s/rad], f_c, σ [N m], ω_c [rad/s], n [-].
+    """
+    a = m.abs(v / omega_c)
+    bracket = f_c + sigma * m.exp(-a) - (sigma + f_c) * m.exp(-n * a)
+    return -(f_w * v + bracket * m.sign(v))
+
+
+# law name -> (function, ordered parameter names)
+FRICTION_LAWS: dict[str, tuple[Callable[..., Any], tuple[str, ...]]] = {
+    "none": (none_law, ()),
+    "viscous": (viscous, ("c",)),
+    "coulomb": (coulomb, ("mu_s", "mu_d", "c", "v_tol")),
+    "majd": (majd, ("f_w", "f_c", "sigma", "omega_c", "n")),
+}
+_OPTIONAL = {"coulomb": {"v_tol": 0.05}}
+_NONNEGATIVE = {"c", "mu_s", "mu_d", "f_w", "f_c", "sigma"}
+_POSITIVE = {"v_tol", "omega_c", "n"}
+
+
+@dataclass(frozen=True)
+class FrictionModel:
+    """A named friction law with its parameters, for one joint.
+
+    :param law: one of ``none``, ``viscous``, ``coulomb``, ``majd``.
+    :param params: the law's parameters by name (see each law for units).
+    """
+
+    law: str = "none"
+    params: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.law not in FRICTION_LAWS:
+            raise ValueError(
+                f"friction law: unknown value {self.law!r}; allowed: {sorted(FRICTION_LAWS)}"
+            )
+        names = FRICTION_LAWS[self.law][1]
+        full = dict(_OPTIONAL.get(self.law, {}))
+        full.update(self.params)
+        missing = [k for k in names if k not in full]
+        extra = [k for k in full if k not in names]
+        if missing or extra:
+            raise ValueError(
+                f"friction params for law {self.law!r}: got {sorted(self.params)}, "
+                f"missing {missing}, unexpected {extra}; allowed: {list(names)}"
+            )
+        for k, val in full.items():
+            if not isinstance(val, (int, float)) or not math.isfinite(val):
+                raise ValueError(f"friction param {k!r}: value {val!r} must be a finite number")
+            if k in _NONNEGATIVE and val < 0:
+                raise ValueError(f"friction param {k!r}: value {val} must be >= 0")
+            if k in _POSITIVE and val <= 0:
+                raise ValueError(f"friction param {k!r}: value {val} must be > 0")
+        object.__setattr__(self, "params", {k: float(full[k]) for k in names})
+
+    def torque(self, v, m=NUMPY):
+        """Resisting torque [N m] at joint velocity ``v`` [rad/s] (numpy or symbolic)."""
+        fn, names = FRICTION_LAWS[self.law]
+        return fn(v, *(self.params[k] for k in names), m=m)
+
+    def scaled(self, scale: float) -> "FrictionModel":
+        """The same law with every torque-level parameter multiplied by ``scale``."""
+        keep = {"v_tol", "omega_c", "n"}
+        return FrictionModel(
+            self.law, {k: (v if k in keep else v * scale) for k, v in self.params.items()}
+        )
+
+
+def load_friction_presets(path: str | Path | None = None) -> dict[str, FrictionModel]:
+    """Load named presets (``"<name>": {law: ..., params: {...}}``) from a YAML file."""
+    path = Path(path) if path is not None else DEFAULT_PRESETS
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as err:
+        raise ValueError(f"friction preset file {str(path)!r}: cannot read: {err}") from err
+    presets = (data or {}).get("presets")
+    if not isinstance(presets, dict) or not presets:
+        raise ValueError(f"friction preset file {str(path)!r}: needs a non-empty 'presets' mapping")
+    out = {}
+    for name, entry in presets.items():
+        if not isinstance(entry, dict) or "law" not in entry:
+            raise ValueError(f"friction preset {name!r} in {str(path)!r}: needs 'law' and 'params'")
+        out[name] = FrictionModel(entry["law"], entry.get("params", {}))
+    return out
+
+
+def resolve_friction(spec: str | FrictionModel | Mapping[str, Any], joint: str) -> FrictionModel:
+    """Turn a user spec into a :class:`FrictionModel`.
+
+    ``spec`` may be a FrictionModel, a mapping ``{law, params}``, a preset name
+    (``majd_steer``...), or a bare law name, which picks the Table I preset for ``joint``
+    (``majd`` on the drive joint -> ``majd_drive``; ``none`` -> no friction).
+    """
+    if isinstance(spec, FrictionModel):
+        return spec
+    if isinstance(spec, Mapping):
+        return FrictionModel(spec.get("law", "none"), spec.get("params", {}))
+    presets = load_friction_presets()
+    if spec in presets:
+        return presets[spec]
+    if f"{spec}_{joint}" in presets:
+        return presets[f"{spec}_{joint}"]
+    if spec == "none":
+        return FrictionModel("none")
+    allowed = sorted(set(FRICTION_LAWS) | set(presets))
+    raise ValueError(f"friction model for joint {joint!r}: unknown value {spec!r}; allowed: {allowed}")
+
+
+def friction_table(model: FrictionModel, v: np.ndarray) -> np.ndarray:
+    """Convenience for plots: τ(v) on a velocity grid."""
+    return np.asarray(model.torque(np.asarray(v, dtype=float)), dtype=float)
