@@ -200,10 +200,10 @@ class Terrain:
         """Ground normal under a point (symbolic-friendly)."""
         if self.ramp_length_m is None or self.alpha == 0.0:
             return self.n_ramp
-        from pydrake.symbolic import Expression, if_then_else
+        from pydrake.symbolic import Expression, Variable, if_then_else
 
         x_end = float(self.ramp_end_W[0])
-        if isinstance(p_W[0], Expression):
+        if isinstance(p_W[0], (Expression, Variable)):  # symbolic state variables are Variables
             return np.array([if_then_else(p_W[0] < x_end, nr, nz) for nr, nz in zip(self.n_ramp, (0.0, 0.0, 1.0))])
         return self.n_ramp if p_W[0] < x_end else np.array([0.0, 0.0, 1.0])
 
