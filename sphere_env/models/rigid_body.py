@@ -143,15 +143,39 @@ class RobotParameters:
             self.m_p * GRAVITY_M_S2 * self.r_p / self._ixx_about_centre("pendulum")
         )
 
-    def rolling_acceleration_m_s2(self, incline_rad: float, I_c_kgm2: float, d_m: float = 0.0) -> float:
-        """Initial acceleration of a rigid ball rolling without slip from rest down an incline.
+    @property
+    def com_below_centre_m(self) -> float:
+        """d: distance of the whole robot's COM below the sphere centre at θ = 0 [m]."""
+        return -sum(l.mass_kg * l.com_m[2] for l in self.links.values()) / self.m_total
 
-        ``I_c_kgm2`` is the inertia about the rolling axis through the COM; ``d_m`` is the COM
-        offset from the sphere centre toward the contact point (along the incline normal).
-        With d = 0 this is a = g sin α / (1 + I_c/(m R²)); in general the torque about the
-        contact point is m g (R − d) sin α and the inertia I_c + m (R − d)², so
-        a = α̈ R = m g (R − d) R sin α / (I_c + m (R − d)²).
+    @property
+    def inertia_y_about_com(self) -> float:
+        """I_G: whole-robot inertia about the y axis through its COM, joints locked [kg m²]."""
+        about_centre = sum(
+            l.inertia_kgm2[1] + l.mass_kg * (l.com_m[0] ** 2 + l.com_m[2] ** 2) for l in self.links.values()
+        )
+        return about_centre - self.m_total * self.com_below_centre_m**2
+
+    def locked_rolling_rhs(self, incline_rad: float):
+        """Exact planar dynamics of the joint-locked robot rolling without slip down an incline α.
+
+        Coordinates: rolling angle β (β = 0 with the COM straight below the centre), centre
+        travel s = R β. With d the COM offset and J(β) = I_G + m (R² + d² − 2 R d cos(β − α)):
+            J β̈ = m g (R sin α − d sin β) − m R d sin(β − α) β̇²
+        Returns f(t, [β, β̇]) for scipy's solve_ivp. For d = 0 this is the textbook
+        a = R β̈ = g sin α / (1 + I_G/(m R²)).
         """
-        m, R = self.m_total, self.radius_m
-        arm = R - d_m
-        return m * GRAVITY_M_S2 * arm * R * np.sin(incline_rad) / (I_c_kgm2 + m * arm * arm)
+        m, R, d, I_G, g = self.m_total, self.radius_m, self.com_below_centre_m, self.inertia_y_about_com, GRAVITY_M_S2
+
+        def rhs(_t, y):
+            beta, beta_dot = y
+            J = I_G + m * (R * R + d * d - 2 * R * d * np.cos(beta - incline_rad))
+            acc = (m * g * (R * np.sin(incline_rad) - d * np.sin(beta)) - m * R * d * np.sin(beta - incline_rad) * beta_dot**2) / J
+            return [beta_dot, acc]
+
+        return rhs
+
+    def uniform_ball_rolling_acceleration_m_s2(self, incline_rad: float) -> float:
+        """a = g sin α / (1 + I_c/(m R²)) for a ball whose COM is at its centre [m/s²]."""
+        I_c = self.inertia_y_about_com + self.m_total * self.com_below_centre_m**2
+        return GRAVITY_M_S2 * np.sin(incline_rad) / (1.0 + I_c / (self.m_total * self.radius_m**2))

@@ -41,18 +41,29 @@ def quaternion_y_axis(qw, qx, qy, qz):
     )
 
 
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a, b):
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]],
+        dtype=object if any(isinstance(x, Expression) for x in (*a, *b)) else float,
+    )
+
+
 def pipe_angle_expressions(y_W, w_W, n_W):
     """φ, φ̇ and the rocking axis, given the driveshaft axis y_W, base angular velocity w_W and the
     ground normal n_W (all world-frame; symbolic or numeric).
 
     φ = asin(ŷ·n): the driveshaft's tilt against the ground; positive about the axis ŷ×n/|ŷ×n|.
     """
-    s = y_W.dot(n_W)
+    s = _dot(y_W, n_W)
     cos_phi = sym.sqrt(1 - s * s) if isinstance(s, Expression) else np.sqrt(1 - s * s)
     phi = sym.asin(s) if isinstance(s, Expression) else np.arcsin(s)
-    y_dot = np.cross(w_W, y_W)
-    phi_dot = y_dot.dot(n_W) / cos_phi
-    axis = np.cross(y_W, n_W) / cos_phi
+    y_dot = _cross(w_W, y_W)
+    phi_dot = _dot(y_dot, n_W) / cos_phi
+    axis = [c / cos_phi for c in _cross(y_W, n_W)]
     return phi, phi_dot, axis
 
 
@@ -83,10 +94,10 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
         phi, phi_dot, axis = pipe_angle_expressions(y_W, w_W, n_W)
         # ω_d: shell angular velocity about the driveshaft, + when rolling toward +x_PC.
         drive_rate = v[layout["drive_v"]] if not layout["drive_locked"] else 0.0
-        omega_d = w_W.dot(y_W) - drive_rate
+        omega_d = _dot(w_W, y_W) - drive_rate
         tau_phi = -C * phi_dot - K * phi  # eq. 9, steer direction
         tau_d = -C * omega_d  # §IV, drive direction (no K_inject)
-        torque_W = tau_phi * axis + tau_d * y_W  # a pure couple on the shell
+        torque_W = [tau_phi * a + tau_d * y for a, y in zip(axis, y_W)]  # a pure couple on the shell
         for k in range(3):
             out[wi + k] += torque_W[k]
         if not layout["drive_locked"]:

@@ -430,6 +430,8 @@ class Twin:
         plant, pc = self.plant, self.plant_context
         plant.SetDefaultState(pc, pc.get_mutable_state())
         lay = self._layout
+        for joint in (self.steer, self.drive):
+            joint.Unlock(pc)
         if lay["steer_locked"]:
             self.steer.set_angle(pc, 0.0)
             self.steer.Lock(pc)
@@ -459,6 +461,13 @@ class Twin:
         self._motor_port.FixValue(self.context, np.zeros(2))
         self.simulator.Initialize()
         return self.state()
+
+    def lock_joints(self, steer: bool = False, drive: bool = False) -> None:
+        """Lock joints at their current angle (a brake) until the next ``reset``."""
+        for joint, flag in ((self.steer, steer), (self.drive, drive)):
+            if flag:
+                joint.set_angular_rate(self.plant_context, 0.0)
+                joint.Lock(self.plant_context)
 
     def advance(self, duration_s: float, motor_torque=(0.0, 0.0)) -> None:
         """Hold motor torques [τ_steer, τ_drive] (N m at the joints) for ``duration_s`` seconds."""
