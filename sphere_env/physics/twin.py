@@ -530,3 +530,108 @@ class Twin:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(self.meshcat.StaticHtml())
         return path
+
+    # ==== environment support (issue 3) — appended by the env helper ==============================
+    # Fast state readout, payload, ground friction and an unchecked torque path used by
+    # sphere_env.envs every control step. Nothing above this line depends on it.
+
+    def fast_state(self) -> TwinState:
+        """:meth:`state` for the ``free`` fixture in plain float math (≈10× cheaper).
+
+        Reads [q; v] once and evaluates the same formulas as :meth:`state` without Drake's
+        kinematics cache: R_WPC from the (normalized) base quaternion, φ = asin(ŷ·n),
+        φ̇ = ((ω×ŷ)·n)/cos φ, ω_d = ω·ŷ − q̇_d, ψ = atan2(−ŷ_x, ŷ_y), and the gravity direction in
+        the pipe frame g_P = Ry(q_d) R_WPCᵀ (0, 0, −1) (the drive joint rotates about −y_PC).
+        Falls back to :meth:`state` for the other fixtures.
+        """
+        lay = self._layout
+        if lay["base"] != "quaternion":
+            return self.state()
+        x = self.plant.GetPositionsAndVelocities(self.plant_context).tolist()
+        bq, bv = lay["base_q"], lay["nq"] + lay["base_v"]
+        qw, qx, qy, qz = x[bq : bq + 4]
+        px, py, pz = x[bq + 4 : bq + 7]
+        wx, wy, wz, vx, vy, vz = x[bv : bv + 6]
+        nq = lay["nq"]
+        theta, q_d = x[lay["steer_q"]], x[lay["drive_q"]]
+        theta_dot, qd_dot = x[nq + lay["steer_v"]], x[nq + lay["drive_v"]]
+        s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+        # ŷ_PC in W (column 1 of R_WPC) and row 2 of R_WPC.
+        yx, yy, yz = s * (qx * qy - qw * qz), 1.0 - s * (qx * qx + qz * qz), s * (qy * qz + qw * qx)
+        r20, r21, r22 = s * (qx * qz - qw * qy), s * (qy * qz + qw * qx), 1.0 - s * (qx * qx + qy * qy)
+        terrain = self.terrain
+        if terrain.ramp_length_m is not None and px >= float(terrain.ramp_end_W[0]):
+            nx, ny, nz = 0.0, 0.0, 1.0
+        else:
+            nx, ny, nz = (float(c) for c in terrain.n_ramp)
+        sphi = min(max(yx * nx + yy * ny + yz * nz, -1.0), 1.0)
+        cphi = max(math.sqrt(1.0 - sphi * sphi), 1e-9)
+        ydx, ydy, ydz = wy * yz - wz * yy, wz * yx - wx * yz, wx * yy - wy * yx  # ω × ŷ
+        hor = max(yx * yx + yy * yy, 1e-12)
+        c, sn = math.cos(q_d), math.sin(q_d)
+        gx, gy, gz = -r20, -r21, -r22  # gravity direction in PC
+        return TwinState(
+            time_s=self.context.get_time(),
+            theta=theta,
+            theta_dot=theta_dot,
+            drive_angle=q_d,
+            drive_rate=qd_dot,
+            phi=math.asin(sphi),
+            phi_dot=(ydx * nx + ydy * ny + ydz * nz) / cphi,
+            omega_d=wx * yx + wy * yy + wz * yz - qd_dot,
+            heading=math.atan2(-yx, yy),
+            heading_rate=(yx * ydy - yy * ydx) / hor,
+            position_m=np.array((px, py, pz)),
+            velocity_m_s=np.array((vx, vy, vz)),
+            gravity_in_pipe=np.array((c * gx + sn * gz, gy, c * gz - sn * gx)),
+            pressure_kpa=self._pressure_kpa,
+        )
+
+    def advance_unchecked(self, duration_s: float, motor_torque: np.ndarray) -> None:
+        """:meth:`advance` without input validation; ``motor_torque`` must be a finite float64 (2,)."""
+        self._motor_port.FixValue(self.context, motor_torque)
+        self.simulator.AdvanceTo(self.context.get_time() + duration_s)
+
+    def set_payload(self, mass_kg: float = 0.0, offset_m=(0.0, 0.0, 0.0)) -> None:
+        """Add a point-mass payload to the pendulum, at its nominal COM shifted by ``offset_m``
+        (pendulum frame, m). ``mass_kg = 0`` restores the URDF inertia. Context parameters only:
+        no rebuild; survives :meth:`reset`."""
+        from pydrake.multibody.tree import SpatialInertia, UnitInertia
+
+        m = _finite("payload_mass_kg", mass_kg, "[0, 50] kg")
+        if not 0.0 <= m <= 50.0:
+            raise ValueError(f"payload_mass_kg: value {mass_kg!r} outside allowed [0, 50] kg")
+        off = np.asarray(offset_m, dtype=float)
+        if off.shape != (3,) or not np.all(np.isfinite(off)) or np.any(np.abs(off) > 0.3):
+            raise ValueError(f"payload_com_offset_m: value {offset_m!r} must be 3 finite numbers within ±0.3 m")
+        if not hasattr(self, "_pendulum_inertia"):
+            self._pendulum_inertia = self.pendulum.default_spatial_inertia()
+        M0 = self._pendulum_inertia
+        M = SpatialInertia(M0.get_mass(), M0.get_com(), M0.get_unit_inertia())
+        if m > 0.0:
+            p = self._pendulum_inertia.get_com() + off
+            M += SpatialInertia(m, p, UnitInertia.PointMass(p))
+        self.pendulum.SetSpatialInertiaInBodyFrame(self.plant_context, M)
+
+    def set_ground_friction(self, mu: float) -> None:
+        """Set the effective shell–ground Coulomb friction [-] (static = dynamic) in the context.
+
+        Drake combines the two geometries' coefficients as 2 μ_s μ_g / (μ_s + μ_g); the shell keeps
+        ``config.ground_friction`` (it is rewritten by :meth:`set_pressure`), so the ground's value is
+        solved for: μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s.
+        """
+        mu_s = float(self.config.ground_friction)
+        mu = _finite("ground_friction", mu, f"(0, {2 * mu_s})")
+        if not 0.0 < mu < 2.0 * mu_s:
+            raise ValueError(f"ground_friction: value {mu!r} outside allowed (0, {2 * mu_s}) (shell μ = {mu_s})")
+        mu_g = mu * mu_s / (2.0 * mu_s - mu)
+        inspector = self.scene_graph.model_inspector()
+        for gid in inspector.GetAllGeometryIds():
+            if inspector.GetFrameId(gid) != inspector.world_frame_id():
+                continue  # only ground geometries (welded to the world)
+            if inspector.GetProximityProperties(gid) is None:
+                continue
+            props = ProximityProperties(inspector.GetProximityProperties(gid))
+            props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu_g, mu_g))
+            self.scene_graph.AssignRole(self.sg_context, self.shell_source_id, gid, props, RoleAssign.kReplace)
+        self._ground_friction = mu
