@@ -12,10 +12,13 @@ Output: generalized forces (size nv) for the plant's applied-generalized-force p
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.symbolic import Expression, Variable, if_then_else
 import pydrake.symbolic as sym
 
+COS_PHI_FLOOR = 1e-3
 GAIN_NAMES = ("K_inject", "C_inject", "steer_friction_scale", "drive_friction_scale")
 
 
@@ -36,34 +39,35 @@ SYMBOLIC = SymbolicMath()
 
 def quaternion_y_axis(qw, qx, qy, qz):
     """Second column of the rotation matrix of unit quaternion (w, x, y, z): the body y axis in W."""
-    return np.array(
-        [2 * (qx * qy - qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz + qw * qx)], dtype=object
-    )
+    return (2 * (qx * qy - qw * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz + qw * qx))
 
 
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _cross(a, b):
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]],
-        dtype=object if any(isinstance(x, Expression) for x in (*a, *b)) else float,
-    )
+def cross3(a, b):
+    """a × b for 3-sequences (numeric or symbolic), as a tuple."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def pipe_angle_expressions(y_W, w_W, n_W):
     """φ, φ̇ and the rocking axis, given the driveshaft axis y_W, base angular velocity w_W and the
     ground normal n_W (all world-frame; symbolic or numeric).
 
-    φ = asin(ŷ·n): the driveshaft's tilt against the ground; positive about the axis ŷ×n/|ŷ×n|.
+    φ = atan2(ŷ·n, |ŷ×n|): the driveshaft's tilt against the ground (= asin(ŷ·n) for a unit ŷ),
+    positive about the axis ŷ×n/|ŷ×n|. |ŷ×n| is floored at COS_PHI_FLOOR so the rates stay bounded
+    when the driveshaft stands vertical (φ → ±90°, far outside the shell model's validity).
     """
     s = _dot(y_W, n_W)
-    cos_phi = sym.sqrt(1 - s * s) if isinstance(s, Expression) else np.sqrt(1 - s * s)
-    phi = sym.asin(s) if isinstance(s, Expression) else np.arcsin(s)
-    y_dot = _cross(w_W, y_W)
+    yxn = cross3(y_W, n_W)
+    symbolic = isinstance(s, Expression) or isinstance(yxn[0], Expression)
+    sqrt, atan2, fmax = (sym.sqrt, sym.atan2, sym.max) if symbolic else (math.sqrt, math.atan2, max)
+    cos_phi = fmax(sqrt(_dot(yxn, yxn)), COS_PHI_FLOOR)
+    phi = atan2(s, cos_phi)
+    y_dot = cross3(w_W, y_W)
     phi_dot = _dot(y_dot, n_W) / cos_phi
-    axis = [c / cos_phi for c in _cross(y_W, n_W)]
+    axis = [c / cos_phi for c in yxn]
     return phi, phi_dot, axis
 
 

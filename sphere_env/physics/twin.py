@@ -43,7 +43,12 @@ from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, Symbol
 from sphere_env.models.friction import FrictionModel, resolve_friction
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration, check_shell_model
-from sphere_env.physics.forces import build_force_expressions, pipe_angle_expressions, quaternion_y_axis
+from sphere_env.physics.forces import (
+    build_force_expressions,
+    cross3,
+    pipe_angle_expressions,
+    quaternion_y_axis,
+)
 
 FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
 CONTACT_APPROXIMATIONS = ("sap", "lagged", "similar", "tamsi")
@@ -80,6 +85,8 @@ class TwinConfig:
     :param resolution_hint_m: hydroelastic mesh resolution [m]; ``None`` = calibration's value.
     :param contact_approximation: Drake discrete contact approximation; ``None`` picks ``sap``
         for point/injected and ``lagged`` (honours Hunt–Crossley dissipation) for hydroelastic.
+    :param bare_plant: build without the friction/injected-torque system: the benchmark's
+        bare-Drake floor (no joint friction, no injected shell torques).
     """
 
     fixture: str = "free"
@@ -95,6 +102,7 @@ class TwinConfig:
     urdf: str | Path | None = None
     resolution_hint_m: float | None = None
     contact_approximation: str | None = None
+    bare_plant: bool = False
 
     def __post_init__(self) -> None:
         if self.fixture not in FIXTURES:
@@ -217,15 +225,17 @@ class Terrain:
                 np.array([0.55, 0.5, 0.45, 1.0]),
             )
             return
-        L, thick, margin = self.ramp_length_m, 1.0, 2.0
-        centre = self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2
-        X_ramp = RigidTransform(self.R_WG, centre)
-        plant.RegisterCollisionGeometry(world, X_ramp, Box(L + margin, 20, thick), "ramp", props)
-        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 20, thick), "ramp_vis", np.array([0.55, 0.5, 0.45, 1.0]))
+        # Ramp + flat run-out = union of two half-spaces: the terrain height is the max of the two
+        # planes, so each half-space lies below the other's surface where that one is active.
+        # (Half-spaces are much cheaper than boxes for hydroelastic contact.)
         end = self.ramp_end_W
+        plant.RegisterCollisionGeometry(world, RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), "ramp", props)
+        plant.RegisterCollisionGeometry(world, RigidTransform(end), HalfSpace(), "runout", props)
+        L, thick, margin = self.ramp_length_m, 0.1, 2.0
+        X_ramp = RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2)
+        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 6, thick), "ramp_vis", np.array([0.55, 0.5, 0.45, 1.0]))
         X_run = RigidTransform(end + np.array([15.0, 0.0, -thick / 2]))
-        plant.RegisterCollisionGeometry(world, X_run, Box(30, 20, thick), "runout", props)
-        plant.RegisterVisualGeometry(world, X_run, Box(30, 20, thick), "runout_vis", np.array([0.45, 0.5, 0.55, 1.0]))
+        plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", np.array([0.45, 0.5, 0.55, 1.0]))
 
 
 class Twin:
@@ -312,19 +322,23 @@ class Twin:
             drive_locked=cfg.fixture in ("steer_plane", "stand"),
         )
 
-        # Friction + injected shell forces, evaluated in C++.
-        x, g, out = build_force_expressions(
-            self._layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model == "injected", self.terrain.normal_at
-        )
-        forces = builder.AddNamedSystem(
-            "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, g]), output=out)
-        )
-        self._gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
-        mux = builder.AddSystem(Multiplexer([nq + nv, len(g)]))
-        builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
-        builder.Connect(self._gain_source.get_output_port(), mux.get_input_port(1))
-        builder.Connect(mux.get_output_port(), forces.get_input_port())
-        builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
+        # Friction + injected shell forces, evaluated in C++. A bare plant (benchmark floor) leaves
+        # the applied-generalized-force port unconnected, i.e. zero.
+        self._gain_source = None
+        if not cfg.bare_plant:
+            x, g, out = build_force_expressions(
+                self._layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model == "injected",
+                self.terrain.normal_at,
+            )
+            forces = builder.AddNamedSystem(
+                "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, g]), output=out)
+            )
+            self._gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
+            mux = builder.AddSystem(Multiplexer([nq + nv, len(g)]))
+            builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
+            builder.Connect(self._gain_source.get_output_port(), mux.get_input_port(1))
+            builder.Connect(mux.get_output_port(), forces.get_input_port())
+            builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
 
         # Motor torques [τ_steer, τ_drive] at the joints, N m.
         order = [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()]
@@ -347,7 +361,9 @@ class Twin:
         self.context = self.simulator.get_mutable_context()
         self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
         self.sg_context = scene_graph.GetMyMutableContextFromRoot(self.context)
-        self._gain_context = self._gain_source.GetMyMutableContextFromRoot(self.context)
+        self._gain_context = (
+            None if self._gain_source is None else self._gain_source.GetMyMutableContextFromRoot(self.context)
+        )
         self._motor_port = self.diagram.get_input_port(0)
         self._motor_port.FixValue(self.context, np.zeros(2))
         self._friction_scale = np.array([1.0, 1.0])
@@ -405,6 +421,8 @@ class Twin:
         self._apply_gains()
 
     def _apply_gains(self) -> None:
+        if self._gain_source is None:  # bare plant
+            return
         K, C = 0.0, 0.0
         if self.config.shell_model == "injected":
             K, C = self.calibration.injected_gains(self._pressure_kpa, self.robot.M_eq, self.robot.K_eq)
@@ -480,39 +498,53 @@ class Twin:
     def positions_velocities(self) -> tuple[np.ndarray, np.ndarray]:
         return self.plant.GetPositions(self.plant_context), self.plant.GetVelocities(self.plant_context)
 
+    def _base_kinematics(self, q: np.ndarray, v: np.ndarray):
+        """Pitch-center y axis ŷ_PC, third row of R_WPC, position, angular and linear velocity, in W."""
+        lay = self._layout
+        if lay["base"] == "quaternion":
+            i, j = lay["base_q"], lay["base_v"]
+            qw, qx, qy, qz = q[i : i + 4] / math.sqrt(float(q[i : i + 4] @ q[i : i + 4]))
+            y_W = np.array(quaternion_y_axis(qw, qx, qy, qz))
+            row_z = (2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy))
+            return y_W, row_z, q[i + 4 : i + 7].copy(), v[j : j + 3].copy(), v[j + 3 : j + 6].copy()
+        if lay["base"] == "planar":  # coords (y_W, z_W, φ) about world x
+            i, j = lay["base_q"], lay["base_v"]
+            c, s_ = math.cos(q[i + 2]), math.sin(q[i + 2])
+            return (np.array([0.0, c, s_]), (0.0, s_, c), np.array([0.0, q[i], q[i + 1]]),
+                    np.array([v[j + 2], 0.0, 0.0]), np.array([0.0, v[j], v[j + 1]]))
+        return np.array([0.0, 1.0, 0.0]), (0.0, 0.0, 1.0), np.array([0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3)
+
     def state(self) -> TwinState:
-        """Read θ, φ, ω_d, heading, pose and rates from the context (DESIGN.md §1 names)."""
+        """Read θ, φ, ω_d, heading, pose and rates from the plant state (DESIGN.md §1 names)."""
         plant, pc, lay = self.plant, self.plant_context, self._layout
         q, v = plant.GetPositions(pc), plant.GetVelocities(pc)
-        X_WPC = plant.EvalBodyPoseInWorld(pc, self.pc)
-        V_WPC = plant.EvalBodySpatialVelocityInWorld(pc, self.pc)
-        R_WPC = X_WPC.rotation().matrix()
-        w_W = V_WPC.rotational()
-        p_W = X_WPC.translation()
-        y_W = R_WPC[:, 1]
-        n_W = np.asarray(self.terrain.normal_at(p_W), float)
-        drive_rate = float(v[lay["drive_v"]])
+        y_W, row_z, p_W, w_W, v_W = self._base_kinematics(q, v)
+        n_W = self.terrain.normal_at(p_W)
+        drive_angle, drive_rate = float(q[lay["drive_q"]]), float(v[lay["drive_v"]])
         phi, phi_dot, _ = pipe_angle_expressions(y_W, w_W, n_W)
-        omega_d = float(w_W.dot(y_W) - drive_rate)
-        f = np.cross(y_W, [0.0, 0.0, 1.0])
-        f_dot = np.cross(np.cross(w_W, y_W), [0.0, 0.0, 1.0])
-        heading = math.atan2(f[1], f[0])
-        heading_rate = (f[0] * f_dot[1] - f[1] * f_dot[0]) / max(f[0] ** 2 + f[1] ** 2, 1e-12)
-        R_WP = plant.EvalBodyPoseInWorld(pc, self.pipe).rotation().matrix()
+        omega_d = float(w_W @ y_W) - drive_rate  # ω_WP·ŷ: the pipe turns at −q̇_d about ŷ vs PC
+        # Heading: horizontal forward direction f = ŷ × ẑ = (y1, −y0, 0); ψ = atan2(f_y, f_x).
+        y_dot = cross3(w_W, y_W)
+        fx, fy, fx_dot, fy_dot = y_W[1], -y_W[0], y_dot[1], -y_dot[0]
+        heading = math.atan2(fy, fx)
+        heading_rate = (fx * fy_dot - fy * fx_dot) / max(fx * fx + fy * fy, 1e-12)
+        # Gravity in the pipe frame: −(third row of R_WP)ᵀ with R_WP = R_WPC R_y(−q_d).
+        c, s_ = math.cos(drive_angle), -math.sin(drive_angle)
+        gravity_in_pipe = -np.array([row_z[0] * c - row_z[2] * s_, row_z[1], row_z[0] * s_ + row_z[2] * c])
         return TwinState(
             time_s=self.context.get_time(),
             theta=float(q[lay["steer_q"]]),
             theta_dot=float(v[lay["steer_v"]]),
-            drive_angle=float(q[lay["drive_q"]]),
+            drive_angle=drive_angle,
             drive_rate=drive_rate,
             phi=float(phi),
             phi_dot=float(phi_dot),
             omega_d=omega_d,
             heading=heading,
             heading_rate=float(heading_rate),
-            position_m=p_W.copy(),
-            velocity_m_s=V_WPC.translational().copy(),
-            gravity_in_pipe=R_WP.T @ np.array([0.0, 0.0, -1.0]),
+            position_m=p_W,
+            velocity_m_s=v_W,
+            gravity_in_pipe=gravity_in_pipe,
             pressure_kpa=self._pressure_kpa,
         )
 

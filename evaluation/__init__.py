@@ -1,0 +1,1 @@
+"""Evaluation, benchmarks and the main demo job of sphere_env."""
