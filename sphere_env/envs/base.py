@@ -1,0 +1,520 @@
+"""Shared machinery of the sphere_env Gymnasium environments: physics → state → task.
+
+The env owns one :class:`~sphere_env.physics.twin.Twin` per distinct (quantized) incline, built
+once and reused by every reset; parameters (pressure, friction scales, ground friction, payload)
+change through the twin's context. Task logic (observation, reward terms, termination,
+randomization sampling) lives in :mod:`sphere_env.tasks` as plain functions.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import OrderedDict
+from pathlib import Path
+from typing import Any, Mapping
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle
+
+from sphere_env.models.friction import resolve_friction
+from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
+from sphere_env.tasks.observation import DEFAULT_NOISE_STD, N_MEASURED, assemble_observation
+from sphere_env.tasks.randomization import (
+    PARAMETERS,
+    RandomizationSpec,
+    clip_parameter,
+    schedule_pressure,
+)
+from sphere_env.tasks.termination import physics_failure
+
+logger = logging.getLogger(__name__)
+
+#: Default motor torque limits at the joints [N m]. Gravity caps the useful pendulum torque near
+#: (m_pc r_pc + m_p r_p) g ≈ 21.9 N m (DESIGN.md §1); the steer motor only lifts the pendulum
+#: (m_p r_p g ≈ 20.5 N m). Real limits are unpublished — both are kwargs.
+DEFAULT_STEER_TORQUE_LIMIT_NM = 20.0
+DEFAULT_DRIVE_TORQUE_LIMIT_NM = 22.0
+#: Distinct inclines get distinct twins (terrain is geometry); inclines are rounded to this.
+INCLINE_RESOLUTION_DEG = 1.0
+#: The pressure schedule is pushed to the twin when it moved by at least this much [kPa]
+#: (a hydroelastic pressure change costs ≈1 ms of SceneGraph work).
+PRESSURE_RESOLUTION_KPA = 0.01
+_NOMINAL = {
+    "steer_friction_scale": 1.0,
+    "drive_friction_scale": 1.0,
+    "ground_friction": 1.0,
+    "payload_mass_kg": 0.0,
+    "payload_com_offset_m": (0.0, 0.0, 0.0),
+}
+_MAX_TWINS = 12
+
+
+def _positive(kwarg: str, value: Any, upper: float | None = None) -> float:
+    if isinstance(value, bool):
+        raise ValueError(f"{kwarg}: value {value!r} is not a number")
+    try:
+        val = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{kwarg}: value {value!r} is not a number") from None
+    if not math.isfinite(val) or val <= 0 or (upper is not None and val > upper):
+        rng = f"(0, {upper}]" if upper is not None else "> 0"
+        raise ValueError(f"{kwarg}: value {value!r} must be finite and {rng}")
+    return val
+
+
+def _range(kwarg: str, value: Any, lo: float, hi: float) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{kwarg}: value {value!r} must be a pair (low, high)") from None
+    if not (math.isfinite(a) and math.isfinite(b) and lo <= a <= b <= hi):
+        raise ValueError(f"{kwarg}: value {value!r} must satisfy {lo} <= low <= high <= {hi}")
+    return a, b
+
+
+class SphereEnvBase(gym.Env, EzPickle):
+    """Base class; see :class:`~sphere_env.envs.RampDescentEnv` and :class:`~sphere_env.envs.RollEnv`.
+
+    Subclasses define the command, reward terms and termination via the ``_task_*`` hooks.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
+    _ramp = False  # whether the terrain is a finite ramp (incline randomizable)
+    _command_names: tuple[str, ...] = ()  # command components in the observation
+    _command_options: tuple[str, ...] = ()  # command values settable through reset(options=...)
+
+    def __init__(
+        self,
+        *,
+        shell_model: str = "injected",
+        friction_model: str | Mapping[str, Any] = "majd",
+        calibration: str | Path | None = None,
+        control_frequency_hz: float = 50.0,
+        time_step_s: float = 0.005,
+        steer_torque_limit_nm: float = DEFAULT_STEER_TORQUE_LIMIT_NM,
+        drive_torque_limit_nm: float = DEFAULT_DRIVE_TORQUE_LIMIT_NM,
+        randomization: Any = "default",
+        observe_pressure: bool = False,
+        observation_noise_scale: float = 0.0,
+        incline_deg: float = 0.0,
+        ramp_length_m: float | None = None,
+        render_mode: str | None = None,
+        meshcat: Any = False,
+        record_replay: bool = False,
+        render_size: tuple[int, int] = (480, 360),
+        **task_kwargs: Any,
+    ):
+        EzPickle.__init__(
+            self, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
+            control_frequency_hz=control_frequency_hz, time_step_s=time_step_s,
+            steer_torque_limit_nm=steer_torque_limit_nm, drive_torque_limit_nm=drive_torque_limit_nm,
+            randomization=randomization, observe_pressure=observe_pressure,
+            observation_noise_scale=observation_noise_scale, incline_deg=incline_deg,
+            ramp_length_m=ramp_length_m, render_mode=render_mode,
+            meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
+            render_size=render_size, **task_kwargs,
+        )
+        # ---- validate kwargs (each error names its kwarg) ----
+        if shell_model not in SHELL_MODELS:
+            raise ValueError(f"shell_model: unknown value {shell_model!r}; allowed: {list(SHELL_MODELS)}")
+        self.shell_model = shell_model
+        if isinstance(friction_model, Mapping) and set(friction_model) <= {"steer", "drive"} and friction_model:
+            steer_f, drive_f = friction_model.get("steer", "majd"), friction_model.get("drive", "majd")
+        else:
+            steer_f = drive_f = friction_model
+        try:
+            self._steer_friction = resolve_friction(steer_f, "steer")
+            self._drive_friction = resolve_friction(drive_f, "drive")
+        except (ValueError, TypeError) as err:
+            raise ValueError(f"friction_model: {err}") from None
+        try:
+            self.calibration = ShellCalibration.load(calibration)
+        except ValueError as err:
+            raise ValueError(f"calibration: {err}") from None
+        self._calibration_path = calibration
+        f_hz = _positive("control_frequency_hz", control_frequency_hz, 1000.0)
+        dt_plant = _positive("time_step_s", time_step_s, 0.05)
+        ratio = (1.0 / f_hz) / dt_plant
+        if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+            raise ValueError(
+                f"control_frequency_hz: value {control_frequency_hz!r} must make the control period "
+                f"an integer multiple of time_step_s={time_step_s} s"
+            )
+        self.control_period_s = 1.0 / f_hz
+        self.time_step_s = dt_plant
+        self.steer_torque_limit_nm = _positive("steer_torque_limit_nm", steer_torque_limit_nm, 200.0)
+        self.drive_torque_limit_nm = _positive("drive_torque_limit_nm", drive_torque_limit_nm, 200.0)
+        spec = RandomizationSpec.parse(randomization, ramp=self._ramp)
+        self.randomization = spec.resolved(self.calibration.pressure_range_kpa)
+        if not isinstance(observe_pressure, bool):
+            raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
+        self.observe_pressure = observe_pressure
+        noise = float(observation_noise_scale) if not isinstance(observation_noise_scale, bool) else -1.0
+        if not math.isfinite(noise) or noise < 0:
+            raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be finite and >= 0")
+        self.observation_noise_scale = noise
+        self._noise_std = DEFAULT_NOISE_STD * noise
+        try:
+            inc = float(incline_deg)
+        except (TypeError, ValueError):
+            raise ValueError(f"incline_deg: value {incline_deg!r} is not a number") from None
+        if not (math.isfinite(inc) and 0.0 <= inc <= 30.0):
+            raise ValueError(f"incline_deg: value {incline_deg!r} outside allowed [0, 30] deg")
+        self.incline_deg = inc
+        self.ramp_length_m = None if ramp_length_m is None else _positive("ramp_length_m", ramp_length_m, 100.0)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: value {render_mode!r}; allowed: {self.metadata['render_modes'] + [None]}")
+        self.render_mode = render_mode
+        if not isinstance(record_replay, bool):
+            raise ValueError(f"record_replay: value {record_replay!r} must be a bool")
+        self.record_replay = record_replay
+        try:
+            w, h = (int(v) for v in render_size)
+        except (TypeError, ValueError):
+            raise ValueError(f"render_size: value {render_size!r} must be (width, height) in pixels") from None
+        if not (16 <= w <= 4096 and 16 <= h <= 4096):
+            raise ValueError(f"render_size: value {render_size!r} must be within 16..4096 pixels")
+        self.render_size = (w, h)
+        self.metadata = {**self.metadata, "render_fps": f_hz}
+        self._task_init(**task_kwargs)  # validates task kwargs; raises on unknown ones
+
+        # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
+        self.meshcat = None
+        if meshcat is not False and meshcat is not None and not isinstance(meshcat, bool):
+            self.meshcat = meshcat
+        elif meshcat is True or render_mode == "human" or record_replay:
+            from pydrake.geometry import StartMeshcat
+
+            self.meshcat = StartMeshcat()
+            logger.info("sphere_env: Meshcat at %s", self.meshcat.web_url())
+
+        # ---- spaces ----
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        n_obs = N_MEASURED + len(self._command_names) + (1 if observe_pressure else 0)
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
+
+        # ---- physics ----
+        self._twins: OrderedDict[float, Any] = OrderedDict()
+        self.twin = self._get_twin(self._quantize_incline(self.incline_deg))
+        self._tau = np.zeros(2)
+        self._params: dict[str, Any] = {}
+        self._obs = np.zeros(n_obs, dtype=np.float32)
+        self._renderer_added: set[int] = set()
+        self._needs_reset = True
+
+    # ---- twins ---------------------------------------------------------------------------------
+    def _quantize_incline(self, incline_deg: float) -> float:
+        return round(float(incline_deg) / INCLINE_RESOLUTION_DEG) * INCLINE_RESOLUTION_DEG
+
+    def _get_twin(self, incline_deg: float):
+        twin = self._twins.get(incline_deg)
+        if twin is not None:
+            self._twins.move_to_end(incline_deg)
+            return twin
+        from sphere_env.physics.twin import Twin, TwinConfig
+
+        cfg = TwinConfig(
+            fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
+            drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
+            time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
+        )
+        twin = Twin(cfg, meshcat=self.meshcat)
+        twin._env_applied = dict(_NOMINAL)  # parameter values currently in this twin's context
+        self._twins[incline_deg] = twin
+        if len(self._twins) > _MAX_TWINS:
+            self._twins.popitem(last=False)
+        return twin
+
+    # ---- parameters ----------------------------------------------------------------------------
+    def _apply_params(self, twin, params: Mapping[str, Any]) -> None:
+        """Push changed parameters to the twin's context (cheap: only what changed)."""
+        applied = twin._env_applied
+        fs = (params["steer_friction_scale"], params["drive_friction_scale"])
+        if (applied["steer_friction_scale"], applied["drive_friction_scale"]) != fs:
+            twin.set_friction_scale(*fs)
+            applied["steer_friction_scale"], applied["drive_friction_scale"] = fs
+        if applied["ground_friction"] != params["ground_friction"]:
+            twin.set_ground_friction(params["ground_friction"])
+            applied["ground_friction"] = params["ground_friction"]
+        pay = (params["payload_mass_kg"], tuple(params["payload_com_offset_m"]))
+        if (applied["payload_mass_kg"], applied["payload_com_offset_m"]) != pay:
+            twin.set_payload(*pay)
+            applied["payload_mass_kg"], applied["payload_com_offset_m"] = pay
+
+    def _sample_params(self, options: Mapping[str, Any]) -> dict[str, Any]:
+        rng_p = self.calibration.pressure_range_kpa
+        params: dict[str, Any] = {
+            "pressure_kpa": self.calibration.nominal_pressure_kpa,
+            **_NOMINAL,
+            "incline_deg": self.incline_deg,
+        }
+        for name, val in self.randomization.sample(self.np_random).items():
+            params[name] = clip_parameter(name, val, rng_p)
+        sched = self.randomization.pressure_schedule
+        params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(self.np_random, 1))
+        # Explicit values from reset(options=...) win (replaying a logged trial).
+        for name, val in options.items():
+            if name in PARAMETERS:
+                spec = RandomizationSpec.parse({name: val}, ramp=self._ramp, kwarg="options")
+                spec = spec.resolved(rng_p, kwarg="options")
+                d = spec.terms[0].distribution
+                if d.kind != "fixed":
+                    raise ValueError(f"options: {name} must be a fixed value, got {val!r}")
+                params[name] = d.value
+            elif name == "pressure_rate_kpa_per_s":
+                r = float(val)
+                if not math.isfinite(r):
+                    raise ValueError(f"options: pressure_rate_kpa_per_s={val!r} is not finite")
+                params[name] = r
+        params["incline_deg"] = self._quantize_incline(params["incline_deg"])
+        return params
+
+    # ---- gym API -------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
+        """Start an episode. ``options`` (all optional):
+
+        * ``initial_state``: :class:`~sphere_env.physics.twin.InitialState` or a mapping of its
+          fields (angles rad, rates rad/s, position m, velocities m/s);
+        * any randomization parameter (``pressure_kpa`` [kPa], ``ground_friction``, ...), fixed
+          for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
+        * task command values (see the env's docstring).
+        """
+        super().reset(seed=seed)
+        options = dict(options or {})
+        from sphere_env.physics.twin import InitialState
+
+        allowed = set(PARAMETERS) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self._command_options)
+        for key in options:
+            if key not in allowed:
+                raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
+        params = self._sample_params(options)
+        init = options.get("initial_state")
+        if init is None:
+            init = self._task_default_initial_state()
+        elif isinstance(init, Mapping):
+            try:
+                init = InitialState(**init)
+            except TypeError as err:
+                raise ValueError(f"options: initial_state: {err}") from None
+        elif not isinstance(init, InitialState):
+            raise ValueError(f"options: initial_state={init!r} must be an InitialState or a mapping")
+        twin = self._get_twin(params["incline_deg"])
+        if twin is not self.twin and self.record_replay and self.twin.visualizer is not None:
+            self.twin.visualizer.StopRecording()
+        self.twin = twin
+        self._apply_params(twin, params)
+        twin.reset(init, pressure_kpa=params["pressure_kpa"])
+        self._p0 = self._p_applied = params["pressure_kpa"]
+        sched = self.randomization.pressure_schedule
+        self._sched_delay_s = 0.0 if sched is None else sched.delay_s
+        self._params = params
+        self._interval_next = {
+            t.parameter: t.interval_s for t in self.randomization.terms if t.mode == "interval"
+        }
+        if self.record_replay and twin.visualizer is not None:
+            twin.visualizer.DeleteRecording()
+            twin.visualizer.StartRecording(set_transforms_while_recording=True)
+            twin.visualizer.ForcedPublish(twin.visualizer.GetMyContextFromRoot(twin.context))
+        self._steps = 0
+        self._failed = None
+        self._needs_reset = False
+        state = twin.fast_state()
+        self._task_reset(state, options)
+        obs = self._observe(state)
+        info = self._info(state, {}, False)
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action):
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"action: value {action!r} is not numeric; expected shape (2,) in [-1, 1]") from None
+        if a.shape != (2,):
+            raise ValueError(f"action: shape {a.shape} invalid; expected (2,) = [steer, drive] in [-1, 1]")
+        a0, a1 = a.tolist()
+        if not (math.isfinite(a0) and math.isfinite(a1)):
+            raise ValueError(f"action: value {action!r} is not finite (NaN or inf); expected [steer, drive] in [-1, 1]")
+        if self._needs_reset:
+            raise RuntimeError("step: call reset() before step()")
+        # Clip to the box; +1 drive = forward (the drive joint axis is −y, so τ_joint = −a·limit).
+        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
+        a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
+        twin = self.twin
+        tau = self._tau
+        tau[0] = a0 * self.steer_torque_limit_nm
+        tau[1] = -a1 * self.drive_torque_limit_nm
+        if self._failed is None:
+            self._update_params_in_episode(twin.context.get_time())
+            try:
+                twin.advance_unchecked(self.control_period_s, tau)
+            except (RuntimeError, ValueError) as err:  # a diverged solve; never propagate
+                self._failed = f"physics_failure: {type(err).__name__}: {str(err).splitlines()[0][:200]}"
+        self._steps += 1
+        if self._failed is None:
+            state = twin.fast_state()
+            self._failed = physics_failure(state)
+        if self._failed is not None:
+            info = self._failed_info()
+            return self._obs.copy(), 0.0, False, True, info
+        terms, terminated, success = self._task_step(state, (a0, a1))
+        reward = 0.0
+        for v in terms.values():
+            reward += v
+        obs = self._observe(state)
+        info = self._info(state, terms, success)
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, False, info
+
+    # ---- pieces ----------------------------------------------------------------------------------
+    def _update_params_in_episode(self, t: float) -> None:
+        params = self._params
+        if self._interval_next:
+            changed = False
+            for t_term in self.randomization.terms:
+                nxt = self._interval_next.get(t_term.parameter)
+                if nxt is not None and t >= nxt - 1e-9:
+                    val = t_term.distribution.sample(self.np_random, PARAMETERS[t_term.parameter][1])
+                    params[t_term.parameter] = clip_parameter(t_term.parameter, val, self.calibration.pressure_range_kpa)
+                    self._interval_next[t_term.parameter] = nxt + t_term.interval_s
+                    changed = True
+                    if t_term.parameter == "pressure_kpa":
+                        self._p0 = params["pressure_kpa"]
+                        self._sched_delay_s = t  # schedule continues from the new value
+            if changed:
+                self._apply_params(self.twin, params)
+        rate = params["pressure_rate_kpa_per_s"]
+        if rate != 0.0:
+            p = schedule_pressure(self._p0, rate, self._sched_delay_s, t, self.calibration.pressure_range_kpa)
+            params["pressure_kpa"] = p
+            if abs(p - self._p_applied) >= PRESSURE_RESOLUTION_KPA:
+                self.twin.set_pressure(p)
+                self._p_applied = p
+        elif self._p_applied != params["pressure_kpa"]:
+            self.twin.set_pressure(params["pressure_kpa"])
+            self._p_applied = params["pressure_kpa"]
+
+    def _observe(self, state) -> np.ndarray:
+        noise = None
+        if self.observation_noise_scale > 0.0:
+            noise = self.np_random.normal(0.0, self._noise_std)
+        obs = assemble_observation(
+            state, self._task_command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise
+        )
+        self._obs = obs
+        return obs
+
+    def _info(self, state, terms: Mapping[str, float], success: bool) -> dict[str, Any]:
+        info = {f"reward_{k}": v for k, v in terms.items()} if terms else self._zero_terms()
+        info.update(
+            shell_model=self.shell_model,
+            pressure_kpa=self._params["pressure_kpa"],
+            theta=state.theta,
+            phi=state.phi,
+            omega_d=state.omega_d,
+            heading=state.heading,
+            position_m=state.position_m,
+            time_s=state.time_s,
+            is_success=success,
+            params=dict(self._params),
+        )
+        info.update(self._task_info())
+        return info
+
+    def _zero_terms(self) -> dict[str, float]:
+        return {f"reward_{k}": 0.0 for k in self._reward_term_names}
+
+    def _failed_info(self) -> dict[str, Any]:
+        info = self._zero_terms()
+        info.update(
+            shell_model=self.shell_model, pressure_kpa=self._params["pressure_kpa"], is_success=False,
+            truncation_reason=self._failed, params=dict(self._params),
+        )
+        info.update(self._task_info())
+        return info
+
+    # ---- rendering / replay -----------------------------------------------------------------------
+    def render(self):
+        """``human``: Meshcat (published as the sim advances; see the logged URL).
+        ``rgb_array``: an (H, W, 3) uint8 frame from Drake's RenderEngineVtk (EGL, headless),
+        camera following the robot from behind-left."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode= to gym.make")
+            return None
+        twin = self.twin
+        if self.render_mode == "human":
+            if twin.visualizer is not None:
+                twin.visualizer.ForcedPublish(twin.visualizer.GetMyContextFromRoot(twin.context))
+            return None
+        return self._render_rgb(twin)
+
+    def _render_rgb(self, twin) -> np.ndarray:
+        from pydrake.geometry import (
+            ClippingRange,
+            ColorRenderCamera,
+            MakeRenderEngineVtk,
+            RenderCameraCore,
+            RenderEngineVtkParams,
+        )
+        from pydrake.math import RigidTransform, RotationMatrix
+        from pydrake.systems.sensors import CameraInfo
+
+        if id(twin) not in self._renderer_added:
+            params = RenderEngineVtkParams()
+            params.backend = "EGL"  # headless; GLX needs an X display
+            twin.scene_graph.AddRenderer(twin.sg_context, "sphere_env_vtk", MakeRenderEngineVtk(params))
+            self._renderer_added.add(id(twin))
+            w, h = self.render_size
+            core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())
+            self._camera = ColorRenderCamera(core, False)
+        c = twin.fast_state().position_m
+        eye = c + np.array([-2.2, -2.2, 1.4])
+        z = c - eye
+        z /= np.linalg.norm(z)
+        x = np.cross(z, [0.0, 0.0, 1.0])
+        x /= np.linalg.norm(x)
+        X_WC = RigidTransform(RotationMatrix(np.column_stack([x, np.cross(z, x), z])), eye)
+        query = twin.scene_graph.get_query_output_port().Eval(twin.sg_context)
+        image = query.RenderColorImage(self._camera, twin.scene_graph.world_frame_id(), X_WC)
+        return np.array(image.data[:, :, :3], dtype=np.uint8)
+
+    def save_replay(self, path: str | Path) -> Path:
+        """Write the current (or just finished) episode as a self-contained Meshcat HTML replay.
+        Needs ``record_replay=True``."""
+        twin = self.twin
+        if not self.record_replay or twin.visualizer is None:
+            raise RuntimeError("save_replay: make the env with record_replay=True")
+        return twin.save_recording(path)
+
+    def close(self) -> None:
+        self._twins.clear()
+        self.meshcat = None
+
+    # ---- task hooks (subclasses) ------------------------------------------------------------------
+    _reward_term_names: tuple[str, ...] = ()
+
+    def _task_init(self, **kwargs: Any) -> None:
+        if kwargs:
+            raise ValueError(f"{next(iter(kwargs))}: unknown keyword argument for {type(self).__name__}")
+
+    def _task_default_initial_state(self):
+        from sphere_env.physics.twin import InitialState
+
+        return InitialState()
+
+    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
+        raise NotImplementedError
+
+    def _task_command(self, state) -> list[float]:
+        raise NotImplementedError
+
+    def _task_step(self, state, action: tuple[float, float]) -> tuple[dict[str, float], bool, bool]:
+        raise NotImplementedError
+
+    def _task_info(self) -> dict[str, Any]:
+        return {}

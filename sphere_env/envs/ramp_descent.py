@@ -1,0 +1,138 @@
+"""``sphere_env/RampDescent-v0``: the paper's ramp experiment (§IV) as a control task."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+from sphere_env.envs.base import SphereEnvBase
+from sphere_env.tasks.observation import wrap_angle
+from sphere_env.tasks.rewards import RampRewardWeights, make_weights, ramp_descent_terms
+from sphere_env.tasks.termination import ramp_status
+
+
+class RampDescentEnv(SphereEnvBase):
+    """Descend a ramp along the fall line while tracking a commanded drive speed ω_ref.
+
+    The robot starts at rest at the top of a ramp (16° by default, as in the paper) heading
+    downhill (+x_W, ψ = 0); the ramp ends in a flat run-out. Both pendulum motors are driven.
+    Gravity alone accelerates the robot: with zero torque, injected shell at nominal pressure,
+    ω_d reaches ≈3.3 rad/s at the end of a 4 m ramp (point contact, no shell damping: ≈10.7);
+    braking with the pendulum (holding it uphill) reaches mean speeds down to ≈2.4–2.9 rad/s,
+    pushing it downhill up to ≈4.8–6.1 (injected/hydroelastic, measured on the twin). ω_ref is
+    drawn per episode from ``omega_ref_range_rad_s`` = (1.5, 4.5) rad/s by default.
+
+    **Action space** ``Box(-1, 1, (2,), float32)``, clipped; NaN/inf raise ``ValueError``.
+
+    ===  ======  =========================================================================
+    idx  name    meaning
+    ===  ======  =========================================================================
+    0    steer   steer motor torque / ``steer_torque_limit_nm`` (default 20 N m); +1 leans the
+                 pendulum toward +θ, which turns the robot left (ψ increases)
+    1    drive   drive motor torque / ``drive_torque_limit_nm`` (default 22 N m); **+1 drives
+                 forward** (the URDF drive axis is −y, so the joint torque is −a·limit)
+    ===  ======  =========================================================================
+
+    **Observation space** ``Box(-inf, inf, (13,), float32)`` (14 with ``observe_pressure``):
+
+    ===  =============  ======  ================================================================
+    idx  name           unit    meaning (real-robot channel)
+    ===  =============  ======  ================================================================
+    0    theta          rad     steer joint angle θ (roll_joint)
+    1    theta_dot      rad/s   θ̇
+    2    drive_angle    rad     drive joint angle (pitch_joint), wrapped to [-π, π)
+    3    drive_rate     rad/s   drive joint rate
+    4    phi            rad     pipe angle φ against the ground (pipe_roll)
+    5    phi_dot        rad/s   φ̇
+    6    omega_d        rad/s   drive velocity ω_d, + forward (drive_shaft.velocity)
+    7    yaw_rate       rad/s   ψ̇ (IMU gyro / shell_yaw rate)
+    8-10 gravity_xyz    -       unit gravity direction in the pipe frame (IMU)
+    11   omega_ref      rad/s   command: target drive velocity
+    12   heading_error  rad     command: wrap(0 − ψ), heading error to the fall line (shell_yaw)
+    13   pressure_kpa   kPa     privileged, only with ``observe_pressure=True``
+    ===  =============  ======  ================================================================
+
+    Measured components 0–10 get Gaussian noise of ``observation_noise_scale`` × the defaults in
+    :data:`sphere_env.tasks.observation.DEFAULT_NOISE_STD` (off by default).
+
+    **Reward** = Σ terms, each reported as ``info["reward_<term>"]``
+    (:class:`~sphere_env.tasks.rewards.RampRewardWeights`; per-step terms scale with the control
+    period): ``speed`` (+ tolerance of ω_d − ω_ref), ``lateral`` (− |y| off the fall line),
+    ``heading`` (− (1 − cos ψ)), ``ctrl`` (− Σa²), ``success`` (+ on reaching the run-out),
+    ``off_ramp`` (− on leaving the lane).
+
+    **Episode end.** ``terminated`` on reaching the run-out (``is_success=True``) or leaving the
+    lane |y| > ``lane_half_width_m``. ``truncated`` by the registration's time limit (400 steps =
+    8 s at 50 Hz) or a physics failure (``info["truncation_reason"]``).
+
+    **kwargs** (plus those of :class:`~sphere_env.envs.base.SphereEnvBase`, listed in the README
+    table: ``shell_model``, ``friction_model``, ``calibration``, ``control_frequency_hz`` [Hz],
+    ``time_step_s`` [s], ``steer_torque_limit_nm``/``drive_torque_limit_nm`` [N m],
+    ``randomization``, ``observe_pressure``, ``observation_noise_scale``, ``render_mode``,
+    ``meshcat``, ``record_replay``, ``render_size`` [px]):
+
+    :param incline_deg: ramp incline [deg], default 16 (paper).
+    :param ramp_length_m: ramp length along the slope [m], default 4.
+    :param lane_half_width_m: lateral half-width of the ramp lane [m], default 1.
+    :param omega_ref_range_rad_s: (low, high) of the per-episode ω_ref [rad/s].
+    :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
+
+    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s].
+
+    **Version history.** v0: initial release.
+    """
+
+    _ramp = True
+    _command_names = ("omega_ref", "heading_error")
+    _command_options = ("omega_ref",)
+    _reward_term_names = ("speed", "lateral", "heading", "ctrl", "success", "off_ramp")
+
+    def __init__(
+        self,
+        *,
+        incline_deg: float = 16.0,
+        ramp_length_m: float = 4.0,
+        lane_half_width_m: float = 1.0,
+        omega_ref_range_rad_s: tuple[float, float] = (1.5, 4.5),
+        reward_weights: Mapping[str, float] | None = None,
+        **kwargs: Any,
+    ):
+        if ramp_length_m is None:
+            raise ValueError("ramp_length_m: value None not allowed for RampDescent; give a length in m")
+        super().__init__(
+            incline_deg=incline_deg, ramp_length_m=ramp_length_m, lane_half_width_m=lane_half_width_m,
+            omega_ref_range_rad_s=omega_ref_range_rad_s, reward_weights=reward_weights, **kwargs,
+        )
+
+    def _task_init(self, *, lane_half_width_m, omega_ref_range_rad_s, reward_weights, **kwargs) -> None:
+        from sphere_env.envs.base import _positive, _range
+
+        super()._task_init(**kwargs)
+        self.lane_half_width_m = _positive("lane_half_width_m", lane_half_width_m, 9.0)
+        self.omega_ref_range_rad_s = _range("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
+        self.reward_weights = make_weights(RampRewardWeights, reward_weights)
+
+    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
+        lo, hi = self.omega_ref_range_rad_s
+        self.omega_ref = float(self.np_random.uniform(lo, hi))
+        if "omega_ref" in options:
+            val = float(options["omega_ref"])
+            if not math.isfinite(val):
+                raise ValueError(f"options: omega_ref={options['omega_ref']!r} is not finite")
+            self.omega_ref = val
+        end = self.twin.terrain.ramp_end_W
+        self._ramp_end_x = float(end[0])
+
+    def _task_command(self, state) -> list[float]:
+        return [self.omega_ref, wrap_angle(-state.heading)]
+
+    def _task_step(self, state, action):
+        reached, off = ramp_status(state.position_m, self._ramp_end_x, self.lane_half_width_m)
+        terms = ramp_descent_terms(
+            self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref,
+            float(state.position_m[1]), state.heading, action, reached, off,
+        )
+        return terms, reached or off, reached
+
+    def _task_info(self) -> dict[str, Any]:
+        return {"omega_ref": self.omega_ref}

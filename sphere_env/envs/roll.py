@@ -1,0 +1,144 @@
+"""``sphere_env/Roll-v0``: rolling control on flat ground (speed and heading tracking)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+from sphere_env.envs.base import SphereEnvBase
+from sphere_env.tasks.observation import wrap_angle
+from sphere_env.tasks.rewards import RollRewardWeights, make_weights, roll_terms
+
+COMMAND_MODES = ("heading", "yaw_rate")
+
+
+class RollEnv(SphereEnvBase):
+    """Roll on flat ground at a commanded forward drive speed and heading (or yaw rate).
+
+    Steering comes from leaning the pendulum on the steer joint, as on the real robot: the lean
+    tilts the pipe (φ) and the rolling shell turns. Commands are drawn per episode and, with
+    ``command_resample_s``, again every that many seconds.
+
+    **Action space** ``Box(-1, 1, (2,), float32)``, clipped; NaN/inf raise ``ValueError``:
+    0 = steer torque / ``steer_torque_limit_nm`` (20 N m; +1 turns left, ψ increasing),
+    1 = drive torque / ``drive_torque_limit_nm`` (22 N m; **+1 drives forward**).
+
+    **Observation space** ``Box(-inf, inf, (13,), float32)`` (14 with ``observe_pressure``):
+    indices 0–10 as in :class:`~sphere_env.envs.RampDescentEnv` (θ [rad], θ̇ [rad/s], drive
+    angle [rad, wrapped], drive rate [rad/s], φ [rad], φ̇ [rad/s], ω_d [rad/s], ψ̇ [rad/s],
+    gravity direction in the pipe frame [-] ×3), then
+
+    ===  ==================  ======  =====================================================
+    11   omega_ref           rad/s   command: target drive velocity
+    12   heading_error       rad     ``command_mode="heading"``: wrap(ψ_ref − ψ)
+         (yaw_rate_ref)      rad/s   ``command_mode="yaw_rate"``: commanded ψ̇_ref
+    13   pressure_kpa        kPa     privileged, only with ``observe_pressure=True``
+    ===  ==================  ======  =====================================================
+
+    On flat ground at full drive torque the injected shell at nominal pressure settles near
+    ω_d ≈ 2.85 rad/s (0.87 m/s); the default ω_ref range (0.5, 2.5) rad/s stays inside that.
+
+    **Reward** = Σ terms (``info["reward_<term>"]``, :class:`RollRewardWeights`): ``speed``
+    (+ tolerance of ω_d − ω_ref), ``heading`` (+ tolerance of the heading or yaw-rate error),
+    ``ctrl`` (− Σa²). Per-step terms scale with the control period.
+
+    **Episode end.** Never terminates on its own; ``truncated`` by the registration's time limit
+    (500 steps = 10 s at 50 Hz) or a physics failure (``info["truncation_reason"]``).
+
+    :param omega_ref_range_rad_s: (low, high) of ω_ref [rad/s], default (0.5, 2.5).
+    :param heading_range_rad: ψ_ref ~ U[−r, r] relative to the start heading [rad], default π/2.
+    :param yaw_rate_range_rad_s: (low, high) of ψ̇_ref [rad/s] in yaw-rate mode, default (−0.5, 0.5).
+    :param command_mode: ``"heading"`` (default) or ``"yaw_rate"``.
+    :param command_resample_s: resample the command every this many seconds [s]; None = never.
+    :param reward_weights: mapping overriding :class:`RollRewardWeights` fields.
+
+    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] and ``heading_ref`` [rad] or
+    ``yaw_rate_ref`` [rad/s]. Base kwargs as in :class:`~sphere_env.envs.RampDescentEnv`.
+
+    **Version history.** v0: initial release.
+    """
+
+    _ramp = False
+    _reward_term_names = ("speed", "heading", "ctrl")
+
+    def __init__(
+        self,
+        *,
+        omega_ref_range_rad_s: tuple[float, float] = (0.5, 2.5),
+        heading_range_rad: float = math.pi / 2,
+        yaw_rate_range_rad_s: tuple[float, float] = (-0.5, 0.5),
+        command_mode: str = "heading",
+        command_resample_s: float | None = None,
+        reward_weights: Mapping[str, float] | None = None,
+        **kwargs: Any,
+    ):
+        if kwargs.get("ramp_length_m") is not None:
+            raise ValueError("ramp_length_m: not used by Roll (flat ground); leave it None")
+        if command_mode not in COMMAND_MODES:
+            raise ValueError(f"command_mode: unknown value {command_mode!r}; allowed: {list(COMMAND_MODES)}")
+        self._command_names = ("omega_ref", "heading_error" if command_mode == "heading" else "yaw_rate_ref")
+        self._command_options = ("omega_ref", "heading_ref" if command_mode == "heading" else "yaw_rate_ref")
+        super().__init__(
+            omega_ref_range_rad_s=omega_ref_range_rad_s, heading_range_rad=heading_range_rad,
+            yaw_rate_range_rad_s=yaw_rate_range_rad_s, command_mode=command_mode,
+            command_resample_s=command_resample_s, reward_weights=reward_weights, **kwargs,
+        )
+
+    def _task_init(self, *, omega_ref_range_rad_s, heading_range_rad, yaw_rate_range_rad_s, command_mode,
+                   command_resample_s, reward_weights, **kwargs) -> None:
+        from sphere_env.envs.base import _positive, _range
+
+        super()._task_init(**kwargs)
+        self.omega_ref_range_rad_s = _range("omega_ref_range_rad_s", omega_ref_range_rad_s, -30.0, 30.0)
+        try:
+            hr = float(heading_range_rad)
+        except (TypeError, ValueError):
+            raise ValueError(f"heading_range_rad: value {heading_range_rad!r} is not a number") from None
+        if not (math.isfinite(hr) and 0.0 <= hr <= math.pi):
+            raise ValueError(f"heading_range_rad: value {heading_range_rad!r} outside allowed [0, π] rad")
+        self.heading_range_rad = hr
+        self.yaw_rate_range_rad_s = _range("yaw_rate_range_rad_s", yaw_rate_range_rad_s, -5.0, 5.0)
+        self.command_mode = command_mode
+        self.command_resample_s = None if command_resample_s is None else _positive("command_resample_s", command_resample_s)
+        self.reward_weights = make_weights(RollRewardWeights, reward_weights)
+
+    def _sample_command(self) -> None:
+        rng = self.np_random
+        self.omega_ref = float(rng.uniform(*self.omega_ref_range_rad_s))
+        if self.command_mode == "heading":
+            self.heading_ref = float(rng.uniform(-self.heading_range_rad, self.heading_range_rad)) + self._heading0
+        else:
+            self.yaw_rate_ref = float(rng.uniform(*self.yaw_rate_range_rad_s))
+
+    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
+        self._heading0 = state.heading
+        self.heading_ref = self.yaw_rate_ref = 0.0
+        self._sample_command()
+        for key in ("omega_ref", "heading_ref", "yaw_rate_ref"):
+            if key in options:
+                val = float(options[key])
+                if not math.isfinite(val):
+                    raise ValueError(f"options: {key}={options[key]!r} is not finite")
+                setattr(self, key, val)
+        self._next_resample = self.command_resample_s
+
+    def _task_command(self, state) -> list[float]:
+        if self.command_mode == "heading":
+            return [self.omega_ref, wrap_angle(self.heading_ref - state.heading)]
+        return [self.omega_ref, self.yaw_rate_ref]
+
+    def _task_step(self, state, action):
+        if self._next_resample is not None and state.time_s >= self._next_resample - 1e-9:
+            self._sample_command()
+            self._next_resample += self.command_resample_s
+        if self.command_mode == "heading":
+            err, yaw_mode = wrap_angle(self.heading_ref - state.heading), False
+        else:
+            err, yaw_mode = state.heading_rate - self.yaw_rate_ref, True
+        terms = roll_terms(self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref, err, action, yaw_mode)
+        return terms, False, False
+
+    def _task_info(self) -> dict[str, Any]:
+        if self.command_mode == "heading":
+            return {"omega_ref": self.omega_ref, "heading_ref": self.heading_ref}
+        return {"omega_ref": self.omega_ref, "yaw_rate_ref": self.yaw_rate_ref}
