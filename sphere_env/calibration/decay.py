@@ -1,0 +1,274 @@
+"""Free-decay fits (paper Fig. 10 processing) and the pressure regressions ω_n(p), ζ(p).
+
+A transient y(t) = A e^{−ζ ω_n t} cos(ω_n √(1−ζ²) t + ϕ) + c is fitted by least squares
+(``scipy.optimize.curve_fit``); confidence intervals come from the parameter covariance and
+Student's t. The logarithmic decrement of successive peaks is an independent cross-check.
+Across pressures, ω_n(p) = a + b p (linear) and ζ(p) = s e^{r p} (exponential) are fitted with
+CIs and written as a calibration YAML that :meth:`ShellCalibration.load` reads directly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import yaml
+from scipy import stats
+from scipy.optimize import curve_fit
+from scipy.signal import find_peaks
+
+from sphere_env.models.shell import ShellCalibration
+
+
+def damped_sinusoid(t, amplitude, zeta, omega_n, phase, offset):
+    """y(t) = A e^{−ζ ω_n t} cos(ω_n √(1−ζ²) t + ϕ) + c  (t in s, ω_n in rad/s)."""
+    wd = omega_n * np.sqrt(np.clip(1.0 - zeta * zeta, 1e-12, None))
+    return amplitude * np.exp(-zeta * omega_n * t) * np.cos(wd * t + phase) + offset
+
+
+@dataclass(frozen=True)
+class DecayFit:
+    """Damped-sinusoid fit: ω_n [rad/s], ζ [-], with (low, high) confidence intervals.
+
+    ``logdec_zeta``/``logdec_omega_d`` are the log-decrement cross-check (NaN if < 2 peaks).
+    """
+
+    omega_n: float
+    zeta: float
+    omega_n_ci: tuple[float, float]
+    zeta_ci: tuple[float, float]
+    amplitude: float
+    phase: float
+    offset: float
+    rmse: float
+    logdec_zeta: float
+    logdec_omega_d: float
+    n_samples: int
+    confidence: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+def log_decrement(t: np.ndarray, y: np.ndarray, offset: float) -> tuple[float, float]:
+    """ζ and ω_d [rad/s] from successive peaks of |y − offset| (half-period log decrement).
+
+    Uses both maxima and minima: δ_half = ln(|x_k| / |x_{k+1}|) over half periods, so
+    δ = 2 δ_half per period and ζ = δ / √(4π² + δ²).
+    """
+    x = np.asarray(y, float) - offset
+    idx, _ = find_peaks(np.abs(x), prominence=0.05 * float(np.max(np.abs(x)) or 1.0))
+    idx = [i for i in idx if abs(x[i]) > 3e-3 * float(np.max(np.abs(x)))]
+    if len(idx) < 2:
+        return float("nan"), float("nan")
+    amps = np.abs(x[idx])
+    ts = np.asarray(t)[idx]
+    ratios = amps[:-1] / amps[1:]
+    good = ratios > 1.0
+    if not good.any():
+        return float("nan"), float("nan")
+    delta = 2.0 * float(np.mean(np.log(ratios[good])))
+    zeta = delta / math.sqrt(4 * math.pi**2 + delta**2)
+    omega_d = math.pi / float(np.mean(np.diff(ts)))
+    return zeta, omega_d
+
+
+def fit_free_decay(
+    t: np.ndarray,
+    y: np.ndarray,
+    transient_s: float = 0.0,
+    omega_guess: float | None = None,
+    confidence: float = 0.95,
+) -> DecayFit:
+    """Fit a damped sinusoid to ``y(t)`` after dropping the first ``transient_s`` seconds.
+
+    :param t: time [s]; :param y: signal (φ or θ) [rad].
+    :param omega_guess: initial ω_n [rad/s]; default from the peak spacing.
+    :param confidence: two-sided confidence level of the reported intervals.
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    keep = t >= t[0] + transient_s
+    t, y = t[keep] - t[keep][0], y[keep]
+    if len(t) < 8:
+        raise ValueError(f"fit_free_decay: {len(t)} samples after the transient; need >= 8")
+    offset0 = float(np.mean(y[-max(len(y) // 6, 1):]))
+    z_ld, wd_ld = log_decrement(t, y, offset0)
+    if omega_guess is None:
+        omega_guess = wd_ld if math.isfinite(wd_ld) else 2.0 * math.pi / max(t[-1], 1e-3)
+    zeta_guess = z_ld if math.isfinite(z_ld) and 0 < z_ld < 0.9 else 0.1
+    best = None
+    for ph in (0.0, math.pi / 2, -math.pi / 2, math.pi):
+        a0 = (y[0] - offset0) / (math.cos(ph) if abs(math.cos(ph)) > 0.2 else 1.0)
+        p0 = [a0, zeta_guess, omega_guess, ph, offset0]
+        bounds = ([-np.inf, 0.0, 1e-3, -2 * math.pi, -np.inf], [np.inf, 0.95, np.inf, 2 * math.pi, np.inf])
+        try:
+            popt, pcov = curve_fit(damped_sinusoid, t, y, p0=p0, bounds=bounds, maxfev=20000)
+        except RuntimeError:
+            continue
+        r = float(np.sqrt(np.mean((damped_sinusoid(t, *popt) - y) ** 2)))
+        if best is None or r < best[2]:
+            best = (popt, pcov, r)
+    if best is None:
+        raise ValueError("fit_free_decay: damped-sinusoid least squares did not converge")
+    popt, pcov, r = best
+    dof = max(len(t) - len(popt), 1)
+    tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+    std = np.sqrt(np.clip(np.diag(pcov), 0, None))
+    return DecayFit(
+        omega_n=float(popt[2]), zeta=float(popt[1]),
+        omega_n_ci=(float(popt[2] - tq * std[2]), float(popt[2] + tq * std[2])),
+        zeta_ci=(float(popt[1] - tq * std[1]), float(popt[1] + tq * std[1])),
+        amplitude=float(popt[0]), phase=float(popt[3]), offset=float(popt[4]), rmse=r,
+        logdec_zeta=z_ld, logdec_omega_d=wd_ld, n_samples=len(t), confidence=confidence,
+    )
+
+
+@dataclass(frozen=True)
+class PressureFit:
+    """ω_n(p) = intercept + slope p  and  ζ(p) = scale e^{rate p}, with CIs (p in kPa)."""
+
+    omega_n_intercept: float
+    omega_n_slope: float
+    zeta_scale: float
+    zeta_rate: float
+    ci: dict[str, tuple[float, float]]
+    pressures_kpa: tuple[float, ...]
+    confidence: float
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["ci"] = {k: list(v) for k, v in self.ci.items()}
+        d["pressures_kpa"] = list(self.pressures_kpa)
+        return d
+
+
+def fit_pressure_curves(
+    pressures_kpa: Sequence[float], omega_n: Sequence[float], zeta: Sequence[float], confidence: float = 0.95
+) -> PressureFit:
+    """Linear ω_n(p) and exponential ζ(p) regressions (paper Fig. 10) with CIs.
+
+    Needs at least 3 distinct pressures (2 parameters each plus one degree of freedom for a CI).
+    """
+    p = np.asarray(pressures_kpa, float)
+    w, z = np.asarray(omega_n, float), np.asarray(zeta, float)
+    if len(np.unique(p)) < 3:
+        raise ValueError(f"fit_pressure_curves: need >= 3 distinct pressures, got {sorted(set(p.tolist()))} kPa")
+    if np.any(z <= 0):
+        raise ValueError("fit_pressure_curves: every ζ must be > 0 for an exponential fit")
+    dof = max(len(p) - 2, 1)
+    tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+    lin = lambda x, a, b: a + b * x  # noqa: E731
+    (a, b), cov_w = curve_fit(lin, p, w)
+    # Exponential: start from the log-linear solution, then refine in linear space.
+    r0, ls0 = np.polyfit(p, np.log(z), 1)
+    expo = lambda x, s, r: s * np.exp(r * x)  # noqa: E731
+    (s, r), cov_z = curve_fit(expo, p, z, p0=[math.exp(ls0), r0], maxfev=20000)
+    sw, sz = np.sqrt(np.clip(np.diag(cov_w), 0, None)), np.sqrt(np.clip(np.diag(cov_z), 0, None))
+    ci = {
+        "omega_n_intercept": (a - tq * sw[0], a + tq * sw[0]),
+        "omega_n_slope": (b - tq * sw[1], b + tq * sw[1]),
+        "zeta_scale": (s - tq * sz[0], s + tq * sz[0]),
+        "zeta_rate": (r - tq * sz[1], r + tq * sz[1]),
+    }
+    ci = {k: (float(v[0]), float(v[1])) for k, v in ci.items()}
+    return PressureFit(float(a), float(b), float(s), float(r), ci, tuple(map(float, p)), confidence)
+
+
+def calibration_dict(
+    fit: PressureFit,
+    base: ShellCalibration | None = None,
+    pressure_range_kpa: tuple[float, float] | None = None,
+    nominal_pressure_kpa: float | None = None,
+    provenance: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """A calibration mapping in the :meth:`ShellCalibration.from_dict` format.
+
+    ω_n and ζ come from ``fit``; V(p) and the hydroelastic settings are kept from ``base``
+    (default: the shipped calibration). The pressure range defaults to the fitted pressures.
+    """
+    base = base or ShellCalibration.load()
+    lo, hi = pressure_range_kpa or (min(fit.pressures_kpa), max(fit.pressures_kpa))
+    raw = dict(base.raw)
+    out: dict[str, Any] = {
+        "name": raw.get("name", "fitted"),
+        "pressure_range_kpa": [float(lo), float(hi)],
+        "nominal_pressure_kpa": float(nominal_pressure_kpa if nominal_pressure_kpa is not None else 0.5 * (lo + hi)),
+        "omega_n": {"model": "linear", "intercept_rad_s": fit.omega_n_intercept, "slope_rad_s_per_kpa": fit.omega_n_slope},
+        "zeta": {"model": "exponential", "scale": fit.zeta_scale, "rate_per_kpa": fit.zeta_rate},
+        "contact_volume": raw["contact_volume"],
+        "hydroelastic": raw["hydroelastic"],
+        "provenance": provenance or {"omega_n, zeta": f"fitted by free decay at {list(fit.pressures_kpa)} kPa"},
+        "fit_ci": {k: list(v) for k, v in fit.ci.items()},
+    }
+    ShellCalibration.from_dict(out, source="<fitted>")  # refuse to return something the twin cannot load
+    return out
+
+
+def write_yaml(path: str | Path, data: dict[str, Any], header: str = "") -> Path:
+    """Write YAML atomically (temp file then rename), so a failure leaves nothing half-written."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    text = (header if not header or header.endswith("\n") else header + "\n") + yaml.safe_dump(
+        _plain(data), sort_keys=False, default_flow_style=None, width=110
+    )
+    tmp.write_text(text)
+    tmp.replace(path)
+    return path
+
+
+def _plain(x: Any) -> Any:
+    """numpy scalars/tuples -> plain Python for yaml.safe_dump."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return float(f"{float(x):.6g}")
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def plot_pressure_curves(
+    path: str | Path,
+    pressures_kpa: Sequence[float],
+    fits: Sequence[DecayFit],
+    curve: PressureFit,
+    omega_point_rad_s: float,
+) -> Path:
+    """Paper Fig. 10: ζ and ω_n per trial with CIs, the regressions, and the point-contact line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    p = np.asarray(pressures_kpa, float)
+    grid = np.linspace(p.min(), p.max(), 100)
+    fig, (az, aw) = plt.subplots(2, 1, figsize=(6, 6), sharex=True)
+    z = np.array([f.zeta for f in fits])
+    zerr = np.array([[f.zeta - f.zeta_ci[0], f.zeta_ci[1] - f.zeta] for f in fits]).T
+    w = np.array([f.omega_n for f in fits])
+    werr = np.array([[f.omega_n - f.omega_n_ci[0], f.omega_n_ci[1] - f.omega_n] for f in fits]).T
+    az.errorbar(p, z, yerr=zerr, fmt="o", label="free-decay fits")
+    az.plot(grid, curve.zeta_scale * np.exp(curve.zeta_rate * grid), "-",
+            label=f"ζ = {curve.zeta_scale:.3g} e^({curve.zeta_rate:.3g} p)")
+    az.set_ylabel("damping ratio ζ [-]")
+    az.legend()
+    aw.errorbar(p, w, yerr=werr, fmt="o", label="free-decay fits")
+    aw.plot(grid, curve.omega_n_intercept + curve.omega_n_slope * grid, "-",
+            label=f"ω_n = {curve.omega_n_intercept:.3g} + {curve.omega_n_slope:.3g} p")
+    aw.axhline(omega_point_rad_s, ls="--", color="k", label=f"point contact √(K_eq/M_eq) = {omega_point_rad_s:.3f}")
+    aw.set_xlabel("gauge pressure p [kPa]")
+    aw.set_ylabel("natural frequency ω_n [rad/s]")
+    aw.legend()
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
