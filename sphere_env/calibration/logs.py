@@ -389,3 +389,22 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
             )
         )
     return Manifest(p, root, tuple(trials))
+
+
+def write_log_csv(path: str | Path, t_s: np.ndarray, channels: Mapping[str, np.ndarray],
+                  t0_ns: int = 1_000_000_000) -> Path:
+    """Write channels in the RoboBall CSV format (ns ``timestamp``, ``roll_joint.position`` ...).
+
+    Used to synthesize logs from the twin (tests, examples). Channel names are project names.
+    """
+    names = {"theta": "roll_joint.position", "theta_dot": "roll_joint.velocity", "phi": "ball_roll.position",
+             "phi_dot": "ball_roll.velocity", "omega_d": "drive_shaft.velocity",
+             "drive_angle": "pitch_joint.position", "drive_rate": "pitch_joint.velocity",
+             "heading": "shell_yaw.position"}
+    df = pd.DataFrame({"timestamp": (t0_ns + np.round(np.asarray(t_s) * 1e9)).astype(np.int64)})
+    for k, v in channels.items():
+        df[names[k]] = np.asarray(v, float)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    df.to_csv(path, index=False)
+    return path

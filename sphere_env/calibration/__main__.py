@@ -1,0 +1,254 @@
+"""CLI: ``python -m sphere_env.calibration <command>``.
+
+Commands
+  shell        free-decay logs at several pressures -> ω_n(p), ζ(p) -> calibration YAML + plot
+  steer-fit    steer-plane logs at one pressure -> injected / hydroelastic parameters -> calibration YAML
+  friction     stand-swing logs -> friction law parameters -> preset YAML + overlay plot (+ leave-one-out)
+  sensitivity  hydroelastic ±50 % sweep (paper Fig. 11) on a process pool
+  validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
+  report       regenerate evaluation/results/validation/ from the real logs
+Every command reads a trial manifest (``--manifest``, default ``assets/logs/roboball.yaml``).
+Bad input exits with status 2 and a message naming the file, line/column or field.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+from pathlib import Path
+
+from sphere_env.calibration.logs import LogError, load_manifest
+
+REPO = Path(__file__).resolve().parents[2]
+DEFAULT_MANIFEST = REPO / "assets" / "logs" / "roboball.yaml"
+
+
+def _trials(args, required=()):
+    man = load_manifest(args.manifest, args.data_root)
+    specs = man.group(args.group) if args.group else list(man.trials)
+    if getattr(args, "trial", None):
+        specs = [man.by_name(n) for n in args.trial]
+    return man, [s.load(required=required) for s in specs]
+
+
+def cmd_shell(args) -> int:
+    from sphere_env.calibration.decay import calibration_dict, fit_free_decay, fit_pressure_curves, plot_pressure_curves, write_yaml
+    from sphere_env.models.rigid_body import RobotParameters
+    from sphere_env.models.shell import ShellCalibration
+
+    _, logs = _trials(args, required=(args.channel,))
+    fits, ps = [], []
+    for log in logs:
+        if log.pressure_kpa is None:
+            raise LogError(f"trial {log.name!r}: 'pressure_kpa' is null; free-decay curves need a pressure per trial")
+        fit = fit_free_decay(log.t, log[args.channel])
+        fits.append(fit)
+        ps.append(log.pressure_kpa)
+        print(f"{log.name}: p={log.pressure_kpa} kPa  ω_n={fit.omega_n:.4f} [{fit.omega_n_ci[0]:.4f}, {fit.omega_n_ci[1]:.4f}] rad/s"
+              f"  ζ={fit.zeta:.4f} [{fit.zeta_ci[0]:.4f}, {fit.zeta_ci[1]:.4f}]  log-dec ζ={fit.logdec_zeta:.4f}")
+    curve = fit_pressure_curves(ps, [f.omega_n for f in fits], [f.zeta for f in fits])
+    print(json.dumps(curve.as_dict(), indent=1))
+    base = ShellCalibration.load(args.base)
+    data = calibration_dict(curve, base, provenance={
+        "omega_n, zeta": f"free-decay fits of '{args.channel}' on {[log.name for log in logs]} ({args.manifest})"})
+    data["trial_fits"] = {log.name: f.as_dict() for log, f in zip(logs, fits)}
+    if args.out:
+        write_yaml(args.out, data, "# Written by python -m sphere_env.calibration shell")
+        print(f"wrote {args.out}")
+    if args.plot:
+        plot_pressure_curves(args.plot, ps, fits, curve, RobotParameters.from_urdf().omega_point_rad_s)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def cmd_steer_fit(args) -> int:
+    from sphere_env.calibration.decay import write_yaml
+    from sphere_env.calibration.shell_fit import fit_shell, install_calibration, steer_plane_twin, trial_rmse
+    from sphere_env.models.shell import ShellCalibration
+
+    man, logs = _trials(args, required=("phi", "theta"))
+    base = ShellCalibration.load(args.base)
+    p0 = args.pressure_kpa if args.pressure_kpa is not None else base.nominal_pressure_kpa
+    fit_logs = [log for log in logs if not args.fit_on or log.name in args.fit_on]
+    if not fit_logs:
+        raise LogError(f"--fit-on {args.fit_on}: no such trial in {[log.name for log in logs]}")
+    raw = dict(base.raw)
+    for model in args.models:
+        fixed = None
+        if model == "hydroelastic":
+            fixed = {"omega_n": float(ShellCalibration.from_dict(raw).omega_n(p0)),
+                     "zeta": float(ShellCalibration.from_dict(raw).zeta(p0))}
+        fit = fit_shell(fit_logs, model, p0, steer_friction=args.steer_friction,
+                        base=ShellCalibration.from_dict(raw, source=str(args.base or "default")),
+                        fixed_injected=fixed)
+        raw = fit.calibration
+        twin = steer_plane_twin(model, args.steer_friction, None, p0)
+        install_calibration(twin, raw, p0)
+        per = trial_rmse(twin, logs)
+        print(f"{model} at {p0} kPa fitted on {[log.name for log in fit_logs]}: {json.dumps(fit.params)}")
+        for name, r in per.items():
+            print(f"  {name}: RMSE φ {r['phi']:.4f} rad, θ {r['theta']:.4f} rad")
+    if args.out:
+        write_yaml(args.out, raw, "# Written by python -m sphere_env.calibration steer-fit")
+        print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_friction(args) -> int:
+    from sphere_env.calibration.friction_fit import fit_friction, leave_one_out, plot_stand_overlay, write_preset
+
+    _, logs = _trials(args, required=("theta",))
+    fixed = tuple(args.fixed) if args.fixed is not None else None
+    fit = fit_friction(logs, args.law, args.joint, fixed=fixed, fit_offset=args.fit_offset, starts=args.starts,
+                       seed=args.seed)
+    print(json.dumps(fit.as_dict(), indent=1))
+    if args.loo:
+        for row in leave_one_out(logs, law=args.law, joint=args.joint, fixed=fixed, fit_offset=args.fit_offset,
+                                 starts=args.starts, seed=args.seed):
+            print(f"held out {row['held_out']}: test RMSE {row['test_rmse_rad']:.4f} rad, "
+                  f"train RMSE {json.dumps({k: round(v, 4) for k, v in row['train_rmse_rad'].items()})}")
+    if args.plot:
+        plot_stand_overlay(args.plot, logs, {f"{args.law} fit": (fit.model, fit.theta_offset_rad)})
+        print(f"wrote {args.plot}")
+    if args.preset_file:
+        names = [log.name for log in logs]
+        write_preset(args.preset_file, args.preset_name or f"{args.law}_{args.joint}", fit.model,
+                     f"fitted by `python -m sphere_env.calibration friction` on {names}; "
+                     f"theta RMSE {json.dumps({k: round(v, 4) for k, v in fit.rmse_per_trial.items()})} rad")
+        print(f"wrote preset into {args.preset_file}")
+    return 0
+
+
+def cmd_sensitivity(args) -> int:
+    from sphere_env.calibration.sensitivity import markdown_table, plot_sweep, sweep
+    from sphere_env.models.shell import ShellCalibration
+
+    cal = ShellCalibration.load(args.calibration)
+    ps = args.pressures_kpa or [cal.pressure_range_kpa[0], cal.nominal_pressure_kpa, cal.pressure_range_kpa[1]]
+    for p in ps:
+        cal.check_pressure(p, "--pressures-kpa")
+    rows = sweep(ps, args.calibration, workers=args.workers, duration_s=args.duration_s)
+    print(markdown_table(rows))
+    if args.plot:
+        plot_sweep(args.plot, rows)
+    return 0
+
+
+def cmd_validate(args) -> int:
+    from sphere_env.calibration.validate import markdown_table, parse_tolerances, plot_overlays, tolerance_failures, validate
+
+    tol = parse_tolerances(args.tol)
+    _, logs = _trials(args)
+    rows = validate(logs, args.models, steer_friction=args.steer_friction, drive_friction=args.drive_friction,
+                    calibration=args.calibration, default_pressure_kpa=args.pressure_kpa)
+    print(markdown_table(rows))
+    if args.plot:
+        plot_overlays(args.plot, logs, rows)
+        print(f"wrote {args.plot}")
+    bad = tolerance_failures(rows, tol, args.tol_models)
+    for msg in bad:
+        print(f"TOLERANCE EXCEEDED: {msg}", file=sys.stderr)
+    return 1 if bad else 0
+
+
+def cmd_report(args) -> int:
+    from sphere_env.calibration.report import build_report
+
+    man = load_manifest(args.manifest, args.data_root)
+    if not man.available():
+        print(f"report: real logs not found at {man.data_root}; nothing written", file=sys.stderr)
+        return 2
+    cmd = "python -m sphere_env.calibration " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    path = build_report(man, args.out, cmd, workers=args.workers, starts=args.starts,
+                        sensitivity=not args.no_sensitivity)
+    print(f"wrote {path}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m sphere_env.calibration", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    def common(p, group=None):
+        p.add_argument("--manifest", default=str(DEFAULT_MANIFEST), help="trial manifest YAML")
+        p.add_argument("--data-root", default=None, help="override the manifest's data_root")
+        p.add_argument("--group", default=group, help=f"manifest group (default {group})")
+        p.add_argument("--trial", nargs="*", help="only these trial names")
+
+    p = sub.add_parser("shell", help="free decays at several pressures -> ω_n(p), ζ(p) calibration file")
+    common(p, "locked_steer")
+    p.add_argument("--channel", default="phi", choices=["phi", "theta"], help="decaying channel (rad)")
+    p.add_argument("--base", default=None, help="calibration whose V(p) and hydroelastic settings are kept")
+    p.add_argument("--out", help="calibration YAML to write")
+    p.add_argument("--plot", help="PNG of data, fits and the point-contact line")
+    p.set_defaults(func=cmd_shell)
+
+    p = sub.add_parser("steer-fit", help="steer-plane logs at one pressure -> shell parameters")
+    common(p, "steer_free")
+    p.add_argument("--models", nargs="+", default=["injected", "hydroelastic"], choices=["injected", "hydroelastic"])
+    p.add_argument("--pressure-kpa", type=float, default=None, help="pressure of the trials (default: nominal)")
+    p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation)")
+    p.add_argument("--steer-friction", default="majd_steer")
+    p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
+    p.add_argument("--out", help="calibration YAML to write")
+    p.set_defaults(func=cmd_steer_fit)
+
+    p = sub.add_parser("friction", help="stand swings -> friction parameters")
+    common(p, "stand_swing")
+    p.add_argument("--law", default="majd", choices=["viscous", "coulomb", "majd"])
+    p.add_argument("--joint", default="steer", choices=["steer"])
+    p.add_argument("--fixed", nargs="*", default=None, help="parameters held at their start value")
+    p.add_argument("--fit-offset", action="store_true", help="also fit an encoder offset θ_0 [rad]")
+    p.add_argument("--starts", type=int, default=4)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--loo", action="store_true", help="also run leave-one-out")
+    p.add_argument("--plot", help="overlay PNG (paper Fig. 7)")
+    p.add_argument("--preset-file", help="presets YAML to write the fit into")
+    p.add_argument("--preset-name", help="preset name (default <law>_<joint>)")
+    p.set_defaults(func=cmd_friction)
+
+    p = sub.add_parser("sensitivity", help="hydroelastic ±50% sweep (paper Fig. 11)")
+    p.add_argument("--calibration", default=None)
+    p.add_argument("--pressures-kpa", type=float, nargs="*")
+    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--duration-s", type=float, default=6.0)
+    p.add_argument("--plot")
+    p.set_defaults(func=cmd_sensitivity)
+
+    p = sub.add_parser("validate", help="logs against shell models; exit 1 past a tolerance")
+    common(p, None)
+    p.add_argument("--models", nargs="+", default=["point", "injected", "hydroelastic"])
+    p.add_argument("--calibration", default=None)
+    p.add_argument("--pressure-kpa", type=float, default=None, help="pressure for trials without one")
+    p.add_argument("--steer-friction", default="majd_steer")
+    p.add_argument("--drive-friction", default="majd_drive")
+    p.add_argument("--tol", nargs="*", help="limits like phi=0.1 theta=0.12 omega_d=0.5 pme=15")
+    p.add_argument("--tol-models", nargs="*", default=None, help="models the tolerance applies to (default all)")
+    p.add_argument("--plot")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("report", help="regenerate the committed validation report")
+    p.add_argument("--manifest", default=str(DEFAULT_MANIFEST))
+    p.add_argument("--data-root", default=None)
+    p.add_argument("--out", default=str(REPO / "evaluation" / "results" / "validation"))
+    p.add_argument("--workers", type=int, default=None)
+    p.add_argument("--starts", type=int, default=2)
+    p.add_argument("--no-sensitivity", action="store_true")
+    p.set_defaults(func=cmd_report)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except ValueError as err:  # LogError and config errors: named, nothing written
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

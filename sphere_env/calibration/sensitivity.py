@@ -1,0 +1,115 @@
+"""Hydroelastic sensitivity sweep (paper Fig. 11).
+
+At each pressure the calibration's hydroelastic modulus m(p) = f_n / V(p) and dissipation
+d(p) = k_d C_inject(p) are the control point; each is scaled by 0.5 and 1.5 (one at a time).
+Every case is a ``locked_steer`` free decay released at φ₀ on flat ground; ω_n and ζ come from a
+damped-sinusoid fit of φ(t). Reported: the simulated ζ, its change against the control point, and
+its error against the calibration curve ζ(p). Cases run on :func:`sphere_env.parallel.run_parallel`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.calibration.shell_fit import calibration_at
+from sphere_env.models.rigid_body import RobotParameters
+from sphere_env.models.shell import ShellCalibration
+from sphere_env.parallel import run_parallel
+
+CASES = (("control", 1.0, 1.0), ("modulus -50%", 0.5, 1.0), ("modulus +50%", 1.5, 1.0),
+         ("dissipation -50%", 1.0, 0.5), ("dissipation +50%", 1.0, 1.5))
+
+
+def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
+    """One locked-steer hydroelastic free decay. ``job`` keys: calibration (path or None),
+    pressure_kpa, modulus_scale, dissipation_scale, phi0_rad, duration_s, time_step_s, case."""
+    from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+
+    base = ShellCalibration.load(job.get("calibration"))
+    robot = RobotParameters.from_urdf()
+    p = float(job["pressure_kpa"])
+    m0, d0 = base.hydroelastic(p, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
+    m, d = m0 * job["modulus_scale"], d0 * job["dissipation_scale"]
+    twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
+                           drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
+                           time_step_s=job.get("time_step_s", 0.005)))
+    twin.calibration = ShellCalibration.from_dict(
+        calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>")
+    twin.set_pressure(p)
+    twin.reset(InitialState(roll=job.get("phi0_rad", 0.15)))
+    dt, n = 0.01, int(job.get("duration_s", 6.0) / 0.01)
+    t, phi = np.empty(n + 1), np.empty(n + 1)
+    t[0], phi[0] = 0.0, twin.state().phi
+    for i in range(1, n + 1):
+        twin.advance(dt)
+        t[i], phi[i] = i * dt, twin.state().phi
+    try:
+        fit = fit_free_decay(t, phi)
+        omega_n, zeta = fit.omega_n, fit.zeta
+    except ValueError:
+        omega_n = zeta = float("nan")
+    return {"case": job["case"], "pressure_kpa": p, "modulus_pa": m, "dissipation_s_per_m": d,
+            "omega_n": omega_n, "zeta": zeta, "zeta_curve": float(base.zeta(p)),
+            "omega_n_curve": float(base.omega_n(p))}
+
+
+def sweep(
+    pressures_kpa: Sequence[float],
+    calibration: str | Path | None = None,
+    workers: int | None = None,
+    phi0_rad: float = 0.15,
+    duration_s: float = 6.0,
+    time_step_s: float = 0.005,
+    cases: Sequence[tuple[str, float, float]] = CASES,
+) -> list[dict[str, Any]]:
+    """Run every (pressure, case); returns rows with ζ, its change vs control [%] and error vs ζ(p) [%]."""
+    jobs = [{"calibration": None if calibration is None else str(calibration), "pressure_kpa": float(p),
+             "modulus_scale": ms, "dissipation_scale": ds, "phi0_rad": phi0_rad, "duration_s": duration_s,
+             "time_step_s": time_step_s, "case": name}
+            for p in pressures_kpa for name, ms, ds in cases]
+    rows = run_parallel(decay_case, jobs, workers)
+    control = {r["pressure_kpa"]: r["zeta"] for r in rows if r["case"] == "control"}
+    for r in rows:
+        c = control.get(r["pressure_kpa"], float("nan"))
+        r["zeta_change_pct"] = 100.0 * (r["zeta"] - c) / c if c and math.isfinite(c) else float("nan")
+        r["zeta_error_vs_curve_pct"] = 100.0 * (r["zeta"] - r["zeta_curve"]) / r["zeta_curve"]
+    return rows
+
+
+def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    lines = ["| p [kPa] | case | modulus [Pa] | dissipation [s/m] | ω_n [rad/s] | ζ sim | ζ curve | Δζ vs control [%] | ζ error vs curve [%] |",
+             "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r['pressure_kpa']:.2f} | {r['case']} | {r['modulus_pa']:.3g} | {r['dissipation_s_per_m']:.3f} | "
+                     f"{r['omega_n']:.3f} | {r['zeta']:.3f} | {r['zeta_curve']:.3f} | {r['zeta_change_pct']:+.1f} | "
+                     f"{r['zeta_error_vs_curve_pct']:+.1f} |")
+    return "\n".join(lines)
+
+
+def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
+    """ζ vs pressure per case, with the calibration curve (paper Fig. 11 layout)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ps = sorted({r["pressure_kpa"] for r in rows})
+    ax.plot(ps, [next(r["zeta_curve"] for r in rows if r["pressure_kpa"] == p) for p in ps], "k--", label="ζ(p) curve")
+    for name in dict.fromkeys(r["case"] for r in rows):
+        sel = [r for r in rows if r["case"] == name]
+        ax.plot([r["pressure_kpa"] for r in sel], [r["zeta"] for r in sel], "o-", label=name)
+    ax.set_xlabel("gauge pressure p [kPa]")
+    ax.set_ylabel("simulated damping ratio ζ [-]")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
