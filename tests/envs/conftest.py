@@ -1,0 +1,37 @@
+"""Env test helpers."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sphere_env  # noqa: F401  (registers the ids)
+
+ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
+SHELL_MODELS = ("point", "injected", "hydroelastic")
+
+
+def rollout(env, n_steps, seed, action_seed=123, actions=None):
+    """Seeded random-action rollout; returns the list of (obs, reward, terminated, truncated, info)."""
+    rng = np.random.default_rng(action_seed)
+    out = [env.reset(seed=seed)]
+    for _ in range(n_steps):
+        a = rng.uniform(-1, 1, 2).astype(np.float32) if actions is None else actions
+        step = env.step(a)
+        out.append(step)
+        if step[2] or step[3]:
+            out.append(env.reset())
+    return out
+
+
+@pytest.fixture
+def make():
+    envs = []
+
+    def _make(env_id, **kw):
+        env = gym.make(env_id, **kw)
+        envs.append(env)
+        return env
+
+    yield _make
+    for env in envs:
+        env.close()
