@@ -1,0 +1,319 @@
+"""Training configuration: rl-zoo3-style hyperparameter YAML, resolved and validated up front.
+
+Everything that can be wrong with a configuration (algorithm, env id, hyperparameter names and
+values, env kwargs, randomization ranges) is refused here, in the main process, before any
+worker starts, with a ``ValueError`` whose message begins with the offending field.
+
+A hyperparameter file maps env ids to mappings of SB3 constructor arguments plus these keys
+(rl-zoo3 conventions):
+
+==================  ==========================================================================
+``n_envs``          parallel workers (``SubprocVecEnv`` when > 1)
+``n_timesteps``     total environment steps (``!!float 3e5`` is fine)
+``policy``          SB3 policy name (``MlpPolicy``)
+``normalize``       ``true``/``false`` or a mapping of ``VecNormalize`` arguments
+``env_kwargs``      keyword arguments of ``gymnasium.make`` (see the env docstrings)
+``randomization``   the env's randomization spec (:mod:`sphere_env.tasks.randomization`);
+                    overrides ``env_kwargs["randomization"]``
+==================  ==========================================================================
+
+``learning_rate`` and ``clip_range`` accept ``"lin_<value>"`` (linear decay to 0);
+``policy_kwargs`` may be a mapping or rl-zoo3's ``"dict(...)"`` string.
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import yaml
+
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+ALGOS = ("ppo", "sac")
+#: Keys of a hyperparameter section that are not algorithm constructor arguments.
+SPECIAL_KEYS = ("n_envs", "n_timesteps", "policy", "normalize", "env_kwargs", "randomization")
+#: Constructor arguments the trainer sets itself (refused in the YAML).
+RESERVED = ("self", "env", "tensorboard_log", "verbose", "seed", "device", "_init_setup_model")
+VECNORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
+MONITOR_KEYWORDS = ("pressure_kpa", "is_success")
+
+
+def algo_class(algo: str):
+    """The SB3 class for ``algo`` (``"ppo"``/``"sac"``)."""
+    if algo not in ALGOS:
+        raise ValueError(f"algo: unknown algorithm {algo!r}; allowed: {list(ALGOS)}")
+    from stable_baselines3 import PPO, SAC
+
+    return {"ppo": PPO, "sac": SAC}[algo]
+
+
+def linear_schedule(initial: float) -> Callable[[float], float]:
+    """rl-zoo3's ``lin_<x>``: value × progress_remaining (1 → 0 over training)."""
+
+    def schedule(progress_remaining: float) -> float:
+        return progress_remaining * initial
+
+    return schedule
+
+
+@dataclass
+class TrainConfig:
+    """A resolved, validated training configuration (what ``config.yaml`` of a run holds)."""
+
+    env_id: str
+    algo: str
+    seed: int = 0
+    n_timesteps: int = 100_000
+    n_envs: int = 2
+    policy: str = "MlpPolicy"
+    normalize: dict[str, Any] | None = field(default_factory=dict)  # None: no VecNormalize
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    randomization: Any = "default"
+    hyperparams: dict[str, Any] = field(default_factory=dict)  # algorithm constructor arguments
+    eval_freq: int = 10_000  # env steps between evaluations (summed over workers)
+    eval_episodes: int = 5
+    eval_randomization: Any = None  # None: the training randomization
+    checkpoint_freq: int = 20_000  # env steps between checkpoints
+    device: str = "cpu"
+    torch_threads: int = 1
+    hyperparams_file: str = ""
+
+    def as_dict(self) -> dict[str, Any]:
+        return copy.deepcopy(asdict(self))
+
+    @property
+    def worker_seeds(self) -> list[int]:
+        """Seed of each training worker (seed + rank); the eval env uses seed + 10_000."""
+        return [self.seed + rank for rank in range(self.n_envs)]
+
+    @property
+    def eval_seed(self) -> int:
+        return self.seed + 10_000
+
+    def make_kwargs(self, evaluation: bool = False) -> dict[str, Any]:
+        """kwargs for ``gymnasium.make`` (env kwargs + randomization)."""
+        rnd = self.randomization
+        if evaluation and self.eval_randomization is not None:
+            rnd = self.eval_randomization
+        return {**copy.deepcopy(self.env_kwargs), "randomization": copy.deepcopy(rnd)}
+
+    def algo_kwargs(self) -> dict[str, Any]:
+        """Hyperparameters turned into constructor arguments (schedules, policy_kwargs, tuples)."""
+        out: dict[str, Any] = {}
+        for key, val in self.hyperparams.items():
+            if key in ("learning_rate", "clip_range", "clip_range_vf") and isinstance(val, str):
+                out[key] = linear_schedule(_lin_value(key, val))
+            elif key == "policy_kwargs" and isinstance(val, str):
+                out[key] = _eval_policy_kwargs(val)
+            elif key == "policy_kwargs" and isinstance(val, Mapping):
+                out[key] = _policy_kwargs(dict(val))
+            elif key == "train_freq" and isinstance(val, list):
+                out[key] = tuple(val)
+            else:
+                out[key] = val
+        return out
+
+
+def _lin_value(key: str, val: str) -> float:
+    if not val.startswith("lin_"):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be a number or 'lin_<number>'")
+    try:
+        x = float(val[4:])
+    except ValueError:
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be a number or 'lin_<number>'") from None
+    if not math.isfinite(x) or x <= 0:
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be positive")
+    return x
+
+
+_ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU"}
+
+
+def _policy_kwargs(d: dict[str, Any]) -> dict[str, Any]:
+    """Activation names (``"tanh"``, ``"nn.ReLU"``) to torch classes."""
+    act = d.get("activation_fn")
+    if isinstance(act, str):
+        import torch.nn as nn
+
+        name = act.removeprefix("nn.")
+        name = _ACTIVATIONS.get(name.lower(), name)
+        if not hasattr(nn, name):
+            raise ValueError(f"hyperparams.policy_kwargs.activation_fn: unknown activation {act!r}")
+        d["activation_fn"] = getattr(nn, name)
+    return d
+
+
+def _eval_policy_kwargs(text: str) -> dict[str, Any]:
+    """rl-zoo3's ``"dict(net_arch=[64, 64], activation_fn=nn.Tanh)"``, evaluated without builtins."""
+    import torch.nn as nn
+
+    try:
+        out = eval(text, {"__builtins__": {}}, {"dict": dict, "nn": nn})  # noqa: S307 - restricted
+    except Exception as err:  # noqa: BLE001 - any syntax/name error is a config error
+        raise ValueError(f"hyperparams.policy_kwargs: cannot parse {text!r}: {err}") from None
+    if not isinstance(out, dict):
+        raise ValueError(f"hyperparams.policy_kwargs: {text!r} must evaluate to a dict")
+    return out
+
+
+def load_section(path: str | Path, env_id: str) -> dict[str, Any]:
+    """The mapping for ``env_id`` in a hyperparameter YAML file."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as err:
+        raise ValueError(f"hyperparams: cannot read {str(path)!r}: {err}") from None
+    if not isinstance(data, Mapping) or env_id not in data:
+        have = sorted(data) if isinstance(data, Mapping) else []
+        raise ValueError(f"env: no section for {env_id!r} in {str(path)!r}; sections: {have}")
+    section = data[env_id]
+    if not isinstance(section, Mapping):
+        raise ValueError(f"hyperparams: section {env_id!r} in {str(path)!r} must be a mapping")
+    return copy.deepcopy(dict(section))
+
+
+def check_env_id(env_id: str) -> None:
+    """Refuse ids that are not registered (sphere_env ids register on import)."""
+    import gymnasium as gym
+
+    import sphere_env  # noqa: F401 - registers the ids
+
+    if not isinstance(env_id, str) or env_id not in gym.registry:
+        ours = sorted(k for k in gym.registry if k.startswith("sphere_env/"))
+        raise ValueError(f"env: unknown env id {env_id!r}; registered sphere_env ids: {ours}")
+
+
+def _int(field_name: str, value: Any, low: int = 1) -> int:
+    if isinstance(value, bool):
+        raise ValueError(f"{field_name}: value {value!r} must be an integer >= {low}")
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{field_name}: value {value!r} must be an integer >= {low}") from None
+    if not math.isfinite(f) or f != int(f) or int(f) < low:
+        raise ValueError(f"{field_name}: value {value!r} must be an integer >= {low}")
+    return int(f)
+
+
+def _normalize(value: Any) -> dict[str, Any] | None:
+    if value is None or value is False:
+        return None
+    if value is True:
+        return {}
+    if isinstance(value, str):  # rl-zoo3's "dict(norm_obs=True, norm_reward=False)"
+        try:
+            value = eval(value, {"__builtins__": {}}, {"dict": dict, "True": True, "False": False})  # noqa: S307
+        except Exception as err:  # noqa: BLE001
+            raise ValueError(f"normalize: cannot parse {value!r}: {err}") from None
+    if not isinstance(value, Mapping):
+        raise ValueError(f"normalize: value {value!r} must be true, false or a mapping of VecNormalize arguments")
+    for k in value:
+        if k not in VECNORMALIZE_KEYS:
+            raise ValueError(f"normalize.{k}: unknown VecNormalize argument; allowed: {list(VECNORMALIZE_KEYS)}")
+    return dict(value)
+
+
+def resolve_config(
+    env_id: str,
+    algo: str,
+    hyperparams_file: str | Path | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    eval_freq: int | None = None,
+    eval_episodes: int = 5,
+    eval_randomization: Any = None,
+    checkpoint_freq: int | None = None,
+    device: str = "cpu",
+    torch_threads: int = 1,
+    build_env: bool = True,
+) -> TrainConfig:
+    """Read the YAML section for ``env_id``, apply ``overrides`` (same keys as the YAML) and
+    validate everything. Builds one env in-process (``build_env``) so env kwargs and randomization
+    are checked by the env itself, and the model once on it so hyperparameter values are too.
+
+    :raises ValueError: naming the field (``algo``, ``env``, ``hyperparams.<key>``,
+        ``env_kwargs.<kwarg>``, ``randomization.<parameter>``, ``n_envs``, ...).
+    """
+    cls = algo_class(algo)
+    check_env_id(env_id)
+    path = Path(hyperparams_file) if hyperparams_file else HYPERPARAMS_DIR / f"{algo}.yml"
+    section = load_section(path, env_id)
+    for key, val in (overrides or {}).items():
+        section[key] = copy.deepcopy(val)
+
+    allowed = set(inspect.signature(cls.__init__).parameters) - set(RESERVED)
+    hyper = {}
+    for key, val in section.items():
+        if key in SPECIAL_KEYS:
+            continue
+        if key not in allowed:
+            raise ValueError(
+                f"hyperparams.{key}: unknown hyperparameter for {cls.__name__}; "
+                f"allowed: {sorted(allowed - {'policy'}) + list(SPECIAL_KEYS)}"
+            )
+        hyper[key] = val
+    env_kwargs = section.get("env_kwargs") or {}
+    if not isinstance(env_kwargs, Mapping):
+        raise ValueError(f"env_kwargs: value {env_kwargs!r} must be a mapping")
+    env_kwargs = dict(env_kwargs)
+    randomization = section.get("randomization", env_kwargs.pop("randomization", "default"))
+    env_kwargs.pop("randomization", None)
+    policy = section.get("policy", "MlpPolicy")
+    if not isinstance(policy, str):
+        raise ValueError(f"policy: value {policy!r} must be a policy name such as 'MlpPolicy'")
+    n_envs = _int("n_envs", section.get("n_envs", 1))
+    n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000))
+    cfg = TrainConfig(
+        env_id=env_id, algo=algo, seed=_int("seed", seed, 0), n_timesteps=n_timesteps, n_envs=n_envs,
+        policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=env_kwargs,
+        randomization=randomization, hyperparams=hyper,
+        eval_freq=_int("eval_freq", eval_freq if eval_freq is not None else max(n_timesteps // 10, 1)),
+        eval_episodes=_int("eval_episodes", eval_episodes),
+        eval_randomization=eval_randomization,
+        checkpoint_freq=_int("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None else max(n_timesteps // 5, 1)),
+        device=device, torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
+    )
+    cfg.algo_kwargs()  # schedules and policy_kwargs parse
+    if build_env:
+        validate_with_env(cfg)
+    return cfg
+
+
+def _prefixed(err: Exception, prefix: str) -> ValueError:
+    msg = str(err)
+    if msg.startswith(("randomization", "options")):
+        return ValueError(msg)
+    return ValueError(f"{prefix}{msg}")
+
+
+def validate_with_env(cfg: TrainConfig) -> None:
+    """Build one env and the model on it in-process; errors become ValueErrors naming the field."""
+    import gymnasium as gym
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    for rnd, where in ((cfg.randomization, "randomization"), (cfg.eval_randomization, "eval_randomization")):
+        if rnd is None:
+            continue
+        kwargs = {**cfg.env_kwargs, "randomization": rnd}
+        try:
+            env = gym.make(cfg.env_id, **kwargs)
+        except ValueError as err:
+            msg = str(err)
+            if msg.startswith("randomization"):
+                raise ValueError(where + msg[len("randomization"):]) from None
+            raise ValueError(f"env_kwargs.{msg}") from None
+        except TypeError as err:
+            raise ValueError(f"env_kwargs: {err}") from None
+        if rnd is cfg.randomization:
+            venv = DummyVecEnv([lambda env=env: env])
+            try:
+                algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
+            except (ValueError, TypeError, AssertionError, KeyError) as err:
+                raise ValueError(f"hyperparams: {cfg.algo.upper()} refused the values: {err}") from None
+            venv.close()
+        else:
+            env.close()
