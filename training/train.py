@@ -148,6 +148,7 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
                 if ep is not None:
                     self._w.writerow([self.num_timesteps, f"{ep['r']:.6g}", ep["l"], int(bool(info.get("is_success"))),
                                       f"{info.get('pressure_kpa', float('nan')):.4g}"])
+                    self._f.flush()
             return True
 
         def _on_training_end(self) -> None:

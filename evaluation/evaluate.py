@@ -1,0 +1,623 @@
+"""Evaluate controllers on a sphere_env task over pressures × shell models × friction presets × seeds.
+
+    python -m evaluation.evaluate --controller zero pd ppo=runs/<run> \\
+        --pressures 3 8.5 14 --shell-models point injected hydroelastic --seeds 0 1 2 --out out/eval
+    python -m evaluation.evaluate --controller mypkg.ctrl:policy --friction majd viscous
+    python -m evaluation.evaluate --controller zero --pme-log my_ramp_log.csv --pme-log-pressure 8
+    python -m evaluation.evaluate ... --ray-address local      # or auto / ray://host:10001
+
+Every cell is a controlled experiment: the env's randomization is off, the pressure is fixed
+through ``reset(options={"pressure_kpa": p})``, and the seed fixes the episode's command (ω_ref),
+so all controllers, models and pressures see the same commands. Cells run in parallel on a local
+process pool (default) or on a Ray cluster (``--ray-address``; ``pip install -e .[ray]``); each
+cell is a pure function of its job, so the CSV is identical either way.
+
+Writes into ``--out``: ``episodes.csv`` (one row per episode, metrics of
+:mod:`evaluation.metrics`), ``traces.npz``, ``report.md`` (tables), ``plots/*.png`` (drive
+velocity vs time per pressure and model; error bars per pressure and model as in the paper's
+Figs. 13–14; success and tracking error vs pressure; PME) and ``replay_*.html`` (Meshcat).
+
+PME (eq. 12) for zero torque: every ordered pair of shell models (reference = "experiment") over
+the reference's on-ramp samples, and optionally against a user log: a CSV with columns ``t_s`` and
+``omega_d`` [rad/s] and optionally ``on_ramp`` (0/1; default: every sample counts).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from evaluation.controllers import check_spec, env_kwargs_of, make_controller, split_label
+from evaluation.metrics import TRACE_CHANNELS, episode_metrics, pme_between
+
+SHELL_MODELS = ("point", "injected", "hydroelastic")
+METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
+                  "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm", "time_on_ramp_s",
+                  "omega_ref_rad_s")
+KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
+
+
+@dataclass
+class SweepSpec:
+    """A grid to evaluate. Pressures in kPa; ``controllers`` are ``label=spec`` strings
+    (:mod:`evaluation.controllers`)."""
+
+    controllers: list[str]
+    env_id: str = "sphere_env/RampDescent-v0"
+    pressures_kpa: list[float] = field(default_factory=lambda: [3.0, 8.5, 14.0])
+    shell_models: list[str] = field(default_factory=lambda: list(SHELL_MODELS))
+    frictions: list[str] = field(default_factory=lambda: ["majd"])
+    seeds: list[int] = field(default_factory=lambda: [0, 1])
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+
+    def jobs(self) -> list[dict[str, Any]]:
+        """One picklable job per cell, grouped so that a worker reuses its envs."""
+        out = []
+        for label, spec in (split_label(c) for c in self.controllers):
+            kw = {**env_kwargs_of(spec), **self.env_kwargs}
+            for model in self.shell_models:
+                for fr in self.frictions:
+                    for p in self.pressures_kpa:
+                        for s in self.seeds:
+                            out.append(dict(controller=label, spec=spec, env_id=self.env_id, shell_model=model,
+                                            friction=fr, pressure_kpa=float(p), seed=int(s), env_kwargs=kw))
+        return out
+
+    def validate(self) -> None:
+        """Refuse bad grids before any worker starts (ValueError naming the field)."""
+        import gymnasium as gym
+
+        import sphere_env  # noqa: F401
+
+        if self.env_id not in gym.registry:
+            raise ValueError(f"env: unknown env id {self.env_id!r}")
+        if not self.controllers:
+            raise ValueError("controller: give at least one controller")
+        labels = [split_label(c)[0] for c in self.controllers]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"controller: labels must be unique, got {labels}")
+        for c in self.controllers:
+            check_spec(split_label(c)[1])
+        for m in self.shell_models:
+            if m not in SHELL_MODELS:
+                raise ValueError(f"shell_models: unknown model {m!r}; allowed: {list(SHELL_MODELS)}")
+        from sphere_env.models.shell import ShellCalibration
+
+        lo, hi = ShellCalibration.load(self.env_kwargs.get("calibration")).pressure_range_kpa
+        for p in self.pressures_kpa:
+            if not lo <= float(p) <= hi:
+                raise ValueError(f"pressures: {p} kPa outside the calibrated range [{lo}, {hi}] kPa")
+        if not self.seeds:
+            raise ValueError("seeds: give at least one seed")
+        env = gym.make(self.env_id, shell_model="point", randomization="off", **self.env_kwargs)  # checks kwargs
+        env.close()
+        for fr in self.frictions:
+            from sphere_env.models.friction import resolve_friction
+
+            try:
+                resolve_friction(fr, "drive")
+                resolve_friction(fr, "steer")
+            except ValueError as err:
+                raise ValueError(f"frictions: {err}") from None
+
+
+# ---- one cell (runs in a worker) -------------------------------------------------------------------------
+_ENVS: dict[str, Any] = {}
+_CONTROLLERS: dict[tuple[str, str], Any] = {}
+
+
+def _env(job: Mapping[str, Any], record_replay: bool = False):
+    import gymnasium as gym
+
+    import sphere_env  # noqa: F401
+
+    key = json.dumps([job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], record_replay],
+                     sort_keys=True, default=str)
+    env = _ENVS.get(key)
+    if env is None:
+        env = gym.make(job["env_id"], shell_model=job["shell_model"], friction_model=job["friction"],
+                       randomization="off", record_replay=record_replay, **job["env_kwargs"])
+        if not record_replay:
+            _ENVS[key] = env
+    return env
+
+
+def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Run one episode of ``job``; returns (row of metrics, trace)."""
+    env = env or _env(job)
+    u = env.unwrapped
+    if controller is None:
+        ck = (job["spec"], json.dumps([job["env_id"], job["env_kwargs"]], sort_keys=True, default=str))
+        controller = _CONTROLLERS.get(ck)
+        if controller is None:
+            controller = _CONTROLLERS[ck] = make_controller(job["spec"], env)
+    if hasattr(controller, "reset"):
+        controller.reset()
+    obs, info = env.reset(seed=job["seed"], options={"pressure_kpa": job["pressure_kpa"]})
+    ramp_end = getattr(u, "_ramp_end_x", math.inf)
+    ls, ld = u.steer_torque_limit_nm, u.drive_torque_limit_nm
+    dt = u.control_period_s
+    tr: dict[str, list[float]] = {k: [] for k in TRACE_CHANNELS}
+    ret, n, terminated, truncated = 0.0, 0, False, False
+    while not (terminated or truncated):
+        a = np.clip(np.asarray(controller(obs, info), dtype=np.float64).reshape(2), -1.0, 1.0)
+        obs, r, terminated, truncated, info = env.step(a)
+        ret += float(r)
+        n += 1
+        pos = info.get("position_m", (math.nan, math.nan, math.nan))
+        tr["t_s"].append(n * dt)
+        tr["omega_d"].append(float(obs[6]))
+        tr["omega_ref"].append(float(obs[11]))
+        tr["x_m"].append(float(pos[0]))
+        tr["y_m"].append(float(pos[1]))
+        tr["tau_steer_nm"].append(a[0] * ls)
+        tr["tau_drive_nm"].append(-a[1] * ld)  # joint torque (drive axis is −y): see RampDescentEnv
+        tr["theta_dot"].append(float(obs[1]))
+        tr["drive_rate"].append(float(obs[3]))
+        tr["on_ramp"].append(float(pos[0] < ramp_end))
+        tr["reward"].append(float(r))
+    trace = {k: np.asarray(v) for k, v in tr.items()}
+    row = {k: job[k] for k in KEY_COLUMNS}
+    row.update({"return": ret, "length": n, "is_success": bool(info.get("is_success", False)),
+                "terminated": bool(terminated), "truncated": bool(truncated),
+                "omega_ref_rad_s": float(trace["omega_ref"][0]) if n else math.nan,
+                "truncation_reason": info.get("truncation_reason", "")})
+    row.update(episode_metrics(trace, dt))
+    return row, trace
+
+
+def _run_job(job: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    return rollout(job)
+
+
+# ---- executors -----------------------------------------------------------------------------------------
+def run_jobs(jobs: Sequence[Mapping[str, Any]], workers: int | None = None, ray_address: str | None = None,
+             progress: bool = False) -> list[tuple[dict[str, Any], dict[str, np.ndarray]]]:
+    """Run cells in job order: in-process (``workers=1``), on a local process pool, or on Ray."""
+    jobs = list(jobs)
+    if ray_address is not None:
+        return _run_ray(jobs, ray_address, workers)
+    n = workers or max(len(os.sched_getaffinity(0)), 1)
+    if n <= 1 or len(jobs) <= 1:
+        return [_run_job(j) for j in jobs]
+    chunk = max(1, math.ceil(len(jobs) / (n * 3)))
+    # forkserver: workers never inherit torch/Drake threads of a training parent process
+    with ProcessPoolExecutor(max_workers=min(n, len(jobs)), mp_context=get_context("forkserver")) as pool:
+        it = pool.map(_run_job, jobs, chunksize=chunk)
+        if progress:
+            from tqdm import tqdm
+
+            it = tqdm(it, total=len(jobs), desc="evaluation cells")
+        return list(it)
+
+
+def _run_ray(jobs: list, address: str, workers: int | None) -> list:
+    try:
+        import ray
+    except ImportError:
+        raise ValueError("ray_address: Ray is not installed; pip install -e '.[ray]'") from None
+    started = False
+    if not ray.is_initialized():
+        if address == "local":
+            ray.init(num_cpus=workers or None, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(address=address, log_to_driver=False)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=1)(_run_job)
+        return ray.get([remote.remote(j) for j in jobs])
+    finally:
+        if started:
+            ray.shutdown()
+
+
+# ---- outputs -------------------------------------------------------------------------------------------
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return str(int(v))
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> Path:
+    cols = list(KEY_COLUMNS) + list(METRIC_COLUMNS) + ["truncation_reason"]
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for r in rows:
+            w.writerow([_fmt(r.get(c, "")) for c in cols])
+    return path
+
+
+def pme_rows(rows: Sequence[Mapping[str, Any]], traces: Sequence[Mapping[str, np.ndarray]],
+             controller: str = "zero") -> list[dict[str, Any]]:
+    """PME [%] of every ordered pair of shell models (reference → simulation) per (pressure,
+    friction, seed) for ``controller``'s episodes."""
+    cells: dict[tuple, dict[str, Mapping[str, np.ndarray]]] = {}
+    for r, tr in zip(rows, traces):
+        if r["controller"] == controller:
+            cells.setdefault((r["pressure_kpa"], r["friction"], r["seed"]), {})[r["shell_model"]] = tr
+    out = []
+    for (p, fr, s), by_model in sorted(cells.items()):
+        for ref, te in by_model.items():
+            for sim, ts in by_model.items():
+                if ref == sim:
+                    continue
+                out.append(dict(pressure_kpa=p, friction=fr, seed=s, reference=ref, simulation=sim,
+                                pme_percent=pme_between(te["t_s"], te["omega_d"], te["on_ramp"], ts["t_s"], ts["omega_d"])))
+    return out
+
+
+def load_user_log(path: str | Path) -> dict[str, np.ndarray]:
+    """A user ramp log: CSV with ``t_s``, ``omega_d`` [rad/s], optional ``on_ramp`` (0/1)."""
+    import pandas as pd
+
+    df = pd.read_csv(path)
+    for col in ("t_s", "omega_d"):
+        if col not in df:
+            raise ValueError(f"pme_log: {str(path)!r} has no column {col!r} (needs t_s, omega_d[, on_ramp])")
+    t = df["t_s"].to_numpy(float)
+    on = df["on_ramp"].to_numpy(bool) if "on_ramp" in df else np.ones(len(t), bool)
+    return {"t_s": t - t[0], "omega_d": df["omega_d"].to_numpy(float), "on_ramp": on}
+
+
+def pme_log_rows(log: Mapping[str, np.ndarray], rows, traces, pressure_kpa: float | None,
+                 controller: str = "zero") -> list[dict[str, Any]]:
+    """PME [%] of each shell model's zero-torque trace against a user log (nearest pressure)."""
+    cand = [(r, tr) for r, tr in zip(rows, traces) if r["controller"] == controller]
+    if not cand:
+        return []
+    ps = sorted({r["pressure_kpa"] for r, _ in cand})
+    p = ps[0] if pressure_kpa is None else min(ps, key=lambda x: abs(x - pressure_kpa))
+    out = []
+    for r, tr in cand:
+        if r["pressure_kpa"] == p:
+            out.append(dict(pressure_kpa=p, friction=r["friction"], seed=r["seed"], reference="log",
+                            simulation=r["shell_model"],
+                            pme_percent=pme_between(log["t_s"], log["omega_d"], log["on_ramp"], tr["t_s"], tr["omega_d"])))
+    return out
+
+
+def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict[str, Any]]:
+    """Mean (and std) of the metrics per group ``by``; success rate."""
+    groups: dict[tuple, list] = {}
+    for r in rows:
+        groups.setdefault(tuple(r[k] for k in by), []).append(r)
+    out = []
+    for key, rs in groups.items():
+        d = dict(zip(by, key))
+        d["episodes"] = len(rs)
+        d["success_rate"] = float(np.mean([r["is_success"] for r in rs]))
+        for m in ("return", "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j",
+                  "peak_torque_nm", "time_on_ramp_s"):
+            v = np.array([r[m] for r in rs], float)
+            d[m] = float(np.nanmean(v))
+            d[m + "_std"] = float(np.nanstd(v))
+        out.append(d)
+    return out
+
+
+# ---- plots ---------------------------------------------------------------------------------------------
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_drive_velocity(rows, traces, spec: SweepSpec, path: Path) -> Path:
+    """ω_d(t) per pressure (columns) and shell model (rows), one line per controller, first seed
+    and friction preset; ω_ref dashed. As the paper's ramp experiment, with the run-out marked."""
+    plt = _plt()
+    nr, nc = len(spec.shell_models), len(spec.pressures_kpa)
+    fig, axes = plt.subplots(nr, nc, figsize=(3.2 * nc, 2.4 * nr), sharex=True, sharey=True, squeeze=False)
+    labels = [split_label(c)[0] for c in spec.controllers]
+    s0, f0 = spec.seeds[0], spec.frictions[0]
+    for (r, tr) in zip(rows, traces):
+        if r["seed"] != s0 or r["friction"] != f0:
+            continue
+        i, j = spec.shell_models.index(r["shell_model"]), spec.pressures_kpa.index(r["pressure_kpa"])
+        ax = axes[i][j]
+        k = labels.index(r["controller"])
+        ax.plot(tr["t_s"], tr["omega_d"], color=f"C{k}", lw=1.2, label=r["controller"])
+        if k == 0:
+            ax.plot(tr["t_s"], tr["omega_ref"], "k--", lw=0.8, label="ω_ref")
+        off = np.flatnonzero(tr["on_ramp"] < 0.5)
+        if len(off):
+            ax.axvline(tr["t_s"][off[0]], color=f"C{k}", ls=":", lw=0.8)
+    for i, m in enumerate(spec.shell_models):
+        axes[i][0].set_ylabel(f"{m}\nω_d [rad/s]")
+    for j, p in enumerate(spec.pressures_kpa):
+        axes[0][j].set_title(f"{p:g} kPa")
+        axes[-1][j].set_xlabel("t [s]")
+    for ax in axes.flat:
+        ax.grid(alpha=0.3)
+    h, lab = axes[0][0].get_legend_handles_labels()
+    fig.legend(h, lab, loc="upper center", ncol=len(lab), fontsize=8, bbox_to_anchor=(0.5, 1.0))
+    fig.suptitle(f"Drive velocity on the ramp (seed {s0}, friction {f0}); dotted: run-out reached", y=1.04, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_error_bars(rows, traces, spec: SweepSpec, path: Path) -> Path:
+    """Paper Figs. 13–14 style: per pressure (groups) and shell model (bars), mean on-ramp ω_d ±
+    std over the on-ramp samples of all seeds (top) and tracking RMSE ± std over seeds (bottom);
+    one column per controller."""
+    plt = _plt()
+    labels = [split_label(c)[0] for c in spec.controllers]
+    fig, axes = plt.subplots(2, len(labels), figsize=(3.6 * len(labels), 5.2), squeeze=False, sharey="row")
+    w = 0.8 / len(spec.shell_models)
+    x = np.arange(len(spec.pressures_kpa))
+    for c, lab in enumerate(labels):
+        for i, m in enumerate(spec.shell_models):
+            mean, std, tm, ts = [], [], [], []
+            for p in spec.pressures_kpa:
+                sel = [(r, tr) for r, tr in zip(rows, traces)
+                       if r["controller"] == lab and r["shell_model"] == m and r["pressure_kpa"] == p]
+                samples = np.concatenate([tr["omega_d"][tr["on_ramp"] > 0.5] for _, tr in sel]) if sel else np.array([])
+                mean.append(samples.mean() if len(samples) else np.nan)
+                std.append(samples.std() if len(samples) else np.nan)
+                e = np.array([r["tracking_rmse_rad_s"] for r, _ in sel])
+                tm.append(e.mean() if len(e) else np.nan)
+                ts.append(e.std() if len(e) else np.nan)
+            axes[0][c].bar(x + (i - (len(spec.shell_models) - 1) / 2) * w, mean, w, yerr=std, capsize=3,
+                           color=f"C{i}", label=m)
+            axes[1][c].bar(x + (i - (len(spec.shell_models) - 1) / 2) * w, tm, w, yerr=ts, capsize=3, color=f"C{i}")
+        axes[0][c].set_title(lab)
+        for ax in axes[:, c]:
+            ax.set_xticks(x, [f"{p:g}" for p in spec.pressures_kpa])
+            ax.grid(alpha=0.3, axis="y")
+        axes[1][c].set_xlabel("pressure [kPa]")
+    axes[0][0].set_ylabel("on-ramp ω_d [rad/s]")
+    axes[1][0].set_ylabel("tracking RMSE [rad/s]")
+    axes[0][0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_success_tracking(agg_rows, spec: SweepSpec, path: Path) -> Path:
+    """Success rate and tracking RMSE against pressure; colour = controller, line style = model."""
+    plt = _plt()
+    labels = [split_label(c)[0] for c in spec.controllers]
+    styles = ["-", "--", ":", "-."]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    for c, lab in enumerate(labels):
+        for i, m in enumerate(spec.shell_models):
+            rs = sorted([a for a in agg_rows if a["controller"] == lab and a["shell_model"] == m],
+                        key=lambda a: a["pressure_kpa"])
+            p = [a["pressure_kpa"] for a in rs]
+            kw = dict(color=f"C{c}", ls=styles[i % 4], marker="o", ms=3, label=f"{lab} / {m}")
+            axes[0].plot(p, [a["success_rate"] for a in rs], **kw)
+            axes[1].errorbar(p, [a["tracking_rmse_rad_s"] for a in rs], yerr=[a["tracking_rmse_rad_s_std"] for a in rs],
+                             capsize=2, **kw)
+    axes[0].set_ylabel("success rate")
+    axes[0].set_ylim(-0.05, 1.05)
+    axes[1].set_ylabel("speed-tracking RMSE [rad/s]")
+    for ax in axes:
+        ax.set_xlabel("pressure [kPa]")
+        ax.grid(alpha=0.3)
+    axes[1].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_pme(pmes: Sequence[Mapping[str, Any]], path: Path, reference: str) -> Path | None:
+    """PME [%] of each model against ``reference`` vs pressure (mean ± std over seeds)."""
+    sel = [r for r in pmes if r["reference"] == reference]
+    if not sel:
+        return None
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for i, sim in enumerate(sorted({r["simulation"] for r in sel})):
+        ps = sorted({r["pressure_kpa"] for r in sel if r["simulation"] == sim})
+        v = [[r["pme_percent"] for r in sel if r["simulation"] == sim and r["pressure_kpa"] == p] for p in ps]
+        ax.errorbar(ps, [np.mean(x) for x in v], yerr=[np.std(x) for x in v], marker="o", capsize=3,
+                    color=f"C{i}", label=f"{sim} vs {reference}")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xlabel("pressure [kPa]")
+    ax.set_ylabel("PME [%] (> 0: underestimates)")
+    ax.set_title("Zero-torque descent, Point Mean Error (eq. 12), on-ramp samples", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+# ---- replay --------------------------------------------------------------------------------------------
+def save_replay(job: Mapping[str, Any], path: Path) -> Path:
+    """Re-run one cell in-process with Meshcat recording and write the HTML replay."""
+    env = _env(job, record_replay=True)
+    try:
+        rollout(job, env=env, controller=make_controller(job["spec"], env))
+        return env.unwrapped.save_replay(path)
+    finally:
+        env.close()
+
+
+# ---- report --------------------------------------------------------------------------------------------
+def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, files: Mapping[str, Path],
+                 wall_s: float, executor: str, extra: str = "") -> Path:
+    from evaluation._report import machine_info, markdown_table
+
+    info = machine_info()
+    lines = [
+        "# Controller evaluation",
+        "",
+        f"`{spec.env_id}`, randomization off; pressures {', '.join(f'{p:g}' for p in spec.pressures_kpa)} kPa × "
+        f"shell models {', '.join(spec.shell_models)} × friction {', '.join(spec.frictions)} × seeds "
+        f"{', '.join(map(str, spec.seeds))} → {len(rows)} episodes in {wall_s:.0f} s ({executor}).",
+        f"Machine: {info['cpu']}, {info['cores']} cores; drake {info['drake']}, torch {info['torch']}, "
+        f"sb3 {info['stable_baselines3']}, commit {info['commit']}.",
+        "",
+        "Controllers: " + ", ".join(f"`{split_label(c)[0]}` = `{split_label(c)[1]}`" for c in spec.controllers),
+        "",
+    ]
+    if extra:
+        lines += [extra, ""]
+    ctrl_cols = [("controller", "controller", ""), ("episodes", "episodes", "{:d}"),
+                 ("success_rate", "success", "{:.0%}"), ("return", "return", "{:.2f}"),
+                 ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+                 ("lateral_drift_m", "lateral drift m", "{:.3f}"), ("energy_j", "energy J", "{:.1f}"),
+                 ("peak_torque_nm", "peak torque N m", "{:.1f}"), ("time_on_ramp_s", "time on ramp s", "{:.2f}")]
+    lines += ["## Summary per controller (all cells)", "", markdown_table(agg_ctrl, ctrl_cols), ""]
+    cols = [("controller", "controller", ""), ("shell_model", "shell model", ""), ("friction", "friction", ""),
+            ("pressure_kpa", "pressure kPa", "{:g}"), ("success_rate", "success", "{:.0%}"),
+            ("return", "return", "{:.2f}"), ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+            ("mean_omega_d_rad_s", "mean ω_d rad/s", "{:.2f}"), ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+            ("energy_j", "energy J", "{:.1f}"), ("peak_torque_nm", "peak torque N m", "{:.1f}")]
+    lines += ["## Per controller, shell model and pressure (mean over seeds)", "",
+              markdown_table(sorted(agg_model, key=lambda a: (a["controller"], a["shell_model"], a["friction"],
+                                                               a["pressure_kpa"])), cols), ""]
+    if pmes:
+        pm = aggregate_pme(pmes)
+        lines += ["## Point Mean Error (eq. 12), zero-torque descent", "",
+                  "PME = mean over the reference's on-ramp samples of (ω_ref − ω_sim)/ω_ref × 100 %; "
+                  "positive when the simulation underestimates the reference. Mean ± std over seeds.", "",
+                  markdown_table(pm, [("reference", "reference", ""), ("simulation", "simulation", ""),
+                                      ("friction", "friction", ""), ("pressure_kpa", "pressure kPa", "{:g}"),
+                                      ("pme", "PME %", "")]), ""]
+    lines += ["## Files", ""] + [f"- {k}: `{v.relative_to(out) if v.is_relative_to(out) else v}`"
+                                  for k, v in files.items()]
+    path = out / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def aggregate_pme(pmes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    groups: dict[tuple, list[float]] = {}
+    for r in pmes:
+        groups.setdefault((r["reference"], r["simulation"], r["friction"], r["pressure_kpa"]), []).append(r["pme_percent"])
+    return [dict(reference=k[0], simulation=k[1], friction=k[2], pressure_kpa=k[3],
+                 pme=f"{np.mean(v):+.1f} ± {np.std(v):.1f}") for k, v in sorted(groups.items())]
+
+
+# ---- the whole sweep -----------------------------------------------------------------------------------
+def parse_replay(text: str, spec: SweepSpec) -> dict[str, Any]:
+    """``controller,shell_model,pressure_kpa,seed`` (missing fields: first of the grid)."""
+    parts = [p.strip() for p in text.split(",")] if text else []
+    labels = [split_label(c)[0] for c in spec.controllers]
+    ctrl = parts[0] if len(parts) > 0 and parts[0] else labels[0]
+    if ctrl not in labels:
+        raise ValueError(f"replay: controller {ctrl!r} not in {labels}")
+    model = parts[1] if len(parts) > 1 and parts[1] else spec.shell_models[0]
+    if model not in SHELL_MODELS:
+        raise ValueError(f"replay: shell model {model!r} not in {list(SHELL_MODELS)}")
+    p = float(parts[2]) if len(parts) > 2 and parts[2] else spec.pressures_kpa[len(spec.pressures_kpa) // 2]
+    seed = int(parts[3]) if len(parts) > 3 and parts[3] else spec.seeds[0]
+    cspec = dict(split_label(c) for c in spec.controllers)[ctrl]
+    return dict(controller=ctrl, spec=cspec, env_id=spec.env_id, shell_model=model, friction=spec.frictions[0],
+                pressure_kpa=p, seed=seed, env_kwargs={**env_kwargs_of(cspec), **spec.env_kwargs})
+
+
+def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_address: str | None = None,
+             replays: Sequence[str] = ("",), pme_log: str | Path | None = None, pme_log_pressure: float | None = None,
+             pme_reference: str = "hydroelastic", plots: bool = True, progress: bool = False,
+             extra_report: str = "") -> dict[str, Any]:
+    """Run the sweep and write CSV, traces, report, plots and replays into ``out``.
+
+    :returns: dict with ``rows``, ``pme``, ``files`` (name -> path), ``wall_s``.
+    """
+    spec.validate()
+    replay_jobs = [parse_replay(r, spec) for r in replays]
+    log = load_user_log(pme_log) if pme_log else None
+    out = Path(out)
+    (out / "plots").mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    results = run_jobs(spec.jobs(), workers, ray_address, progress)
+    wall = time.perf_counter() - t0
+    rows = [r for r, _ in results]
+    traces = [t for _, t in results]
+    files: dict[str, Path] = {"episodes CSV": write_csv(rows, out / "episodes.csv")}
+    np.savez_compressed(out / "traces.npz", **{f"{i}_{k}": v for i, t in enumerate(traces) for k, v in t.items()})
+    files["traces"] = out / "traces.npz"
+    pmes: list[dict[str, Any]] = []
+    labels = [split_label(c)[0] for c in spec.controllers]
+    if "zero" in labels:
+        pmes = pme_rows(rows, traces, "zero")
+        if log is not None:
+            pmes += pme_log_rows(log, rows, traces, pme_log_pressure, "zero")
+    if pmes:
+        with open(out / "pme.csv", "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(pmes[0]))
+            w.writeheader()
+            w.writerows(pmes)
+        files["PME CSV"] = out / "pme.csv"
+    agg_model = aggregate(rows, ("controller", "shell_model", "friction", "pressure_kpa"))
+    agg_ctrl = aggregate(rows, ("controller",))
+    if plots:
+        files["drive velocity plot"] = plot_drive_velocity(rows, traces, spec, out / "plots" / "drive_velocity.png")
+        files["error-bar plot"] = plot_error_bars(rows, traces, spec, out / "plots" / "error_bars.png")
+        files["success/tracking plot"] = plot_success_tracking(agg_model, spec, out / "plots" / "success_tracking.png")
+        ref = "log" if log is not None else pme_reference
+        p = plot_pme(pmes, out / "plots" / "pme.png", ref)
+        if p is not None:
+            files["PME plot"] = p
+    for rj in replay_jobs:
+        name = f"replay_{rj['controller']}_{rj['shell_model']}_{rj['pressure_kpa']:g}kPa_s{rj['seed']}.html"
+        files[f"replay {rj['controller']} {rj['shell_model']} {rj['pressure_kpa']:g} kPa"] = save_replay(rj, out / name)
+    executor = f"Ray at {ray_address}" if ray_address else f"process pool, {workers or 'all'} workers"
+    files["report"] = write_report(out, spec, rows, agg_model, agg_ctrl, pmes, files, wall, executor, extra_report)
+    return {"rows": rows, "pme": pmes, "files": files, "wall_s": wall, "agg_controller": agg_ctrl,
+            "agg_model": agg_model}
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
+                        help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
+    parser.add_argument("--env", default="sphere_env/RampDescent-v0")
+    parser.add_argument("--pressures", type=float, nargs="+", default=[3.0, 8.5, 14.0], help="kPa")
+    parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
+    parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    parser.add_argument("--env-kwargs", default="{}", help="YAML mapping of extra env kwargs")
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default out/eval/<time>)")
+    parser.add_argument("--workers", type=int, default=None, help="process-pool size (default: all cores)")
+    parser.add_argument("--ray-address", default=None, help="run on Ray: 'local' (start one), 'auto', or ray://host:port")
+    parser.add_argument("--replay", nargs="*", default=[""],
+                        help="episodes to save as Meshcat HTML: controller,shell_model,pressure,seed (blank = defaults)")
+    parser.add_argument("--pme-log", type=Path, default=None, help="CSV log (t_s, omega_d[, on_ramp]) for PME")
+    parser.add_argument("--pme-log-pressure", type=float, default=None, help="log's pressure [kPa]")
+    parser.add_argument("--pme-reference", default="hydroelastic", help="reference model of the PME plot")
+    args = parser.parse_args(argv)
+    import yaml
+
+    out = args.out or Path("out/eval") / time.strftime("%Y%m%d-%H%M%S")
+    spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressures,
+                     shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
+                     env_kwargs=yaml.safe_load(args.env_kwargs) or {})
+    try:
+        res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log, args.pme_log_pressure,
+                       args.pme_reference, progress=True)
+    except ValueError as err:
+        parser.exit(2, f"evaluation.evaluate: error: {err}\n")
+    print((out / "report.md").read_text())
+    for k, v in res["files"].items():
+        print(f"{k}: {v.resolve()}")
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,64 @@
+"""Per-episode metrics of a controller rollout, and the Point Mean Error (paper eq. 12).
+
+Pure numpy. An episode is summarized from its trace (one sample per control step, SI units):
+
+==========================  =======  ==============================================================
+``tracking_rmse_rad_s``     rad/s    RMS of ω_d − ω_ref over the on-ramp samples
+``mean_omega_d_rad_s``      rad/s    mean ω_d over the on-ramp samples
+``lateral_drift_m``         m        max |y| off the fall line through the start
+``energy_j``                J        motor work drawn, ∫ (|τ_s θ̇| + |τ_d q̇_d|) dt (no regeneration)
+``peak_torque_nm``          N m      max |τ| over both motors
+``time_on_ramp_s``          s        time until the run-out was reached (episode time if never)
+==========================  =======  ==============================================================
+
+The PME itself is :func:`sphere_env.calibration.simulate.pme_percent` (one implementation in the
+package); :func:`pme_between` applies it to two time series on (possibly) different time grids.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+#: Trace channels recorded per control step by :mod:`evaluation.evaluate`.
+TRACE_CHANNELS = ("t_s", "omega_d", "omega_ref", "x_m", "y_m", "tau_steer_nm", "tau_drive_nm",
+                  "theta_dot", "drive_rate", "on_ramp", "reward")
+
+
+def episode_metrics(trace: Mapping[str, np.ndarray], dt_s: float) -> dict[str, float]:
+    """Metrics of one episode from its trace (see the module table)."""
+    on = np.asarray(trace["on_ramp"], bool)
+    wd = np.asarray(trace["omega_d"], float)
+    ref = np.asarray(trace["omega_ref"], float)
+    sel = on if on.any() else np.ones_like(on)
+    err = wd[sel] - ref[sel]
+    power = np.abs(np.asarray(trace["tau_steer_nm"]) * np.asarray(trace["theta_dot"])) + np.abs(
+        np.asarray(trace["tau_drive_nm"]) * np.asarray(trace["drive_rate"]))
+    tau = np.concatenate([np.abs(trace["tau_steer_nm"]), np.abs(trace["tau_drive_nm"])])
+    n = len(wd)
+    return {
+        "tracking_rmse_rad_s": float(np.sqrt(np.mean(err**2))) if len(err) else math.nan,
+        "mean_omega_d_rad_s": float(np.mean(wd[sel])) if n else math.nan,
+        "lateral_drift_m": float(np.max(np.abs(trace["y_m"]))) if n else math.nan,
+        "energy_j": float(np.sum(power) * dt_s),
+        "peak_torque_nm": float(np.max(tau)) if len(tau) else 0.0,
+        "time_on_ramp_s": float(np.count_nonzero(on) * dt_s),
+    }
+
+
+def pme_between(t_e: np.ndarray, omega_e: np.ndarray, on_ramp_e: np.ndarray,
+                t_s: np.ndarray, omega_s: np.ndarray) -> float:
+    """PME [%] of a simulation (``t_s``, ``omega_s``) against a reference ("experiment": another
+    model or a real log; ``t_e``, ``omega_e``, its on-ramp mask ``on_ramp_e``).
+
+    The simulation is linearly interpolated onto the reference times; only reference samples on the
+    ramp and inside the simulated time span count. Positive when the simulation underestimates.
+    """
+    from sphere_env.calibration.simulate import pme_percent
+
+    t_e, w_e = np.asarray(t_e, float), np.asarray(omega_e, float)
+    t_s, w_s = np.asarray(t_s, float), np.asarray(omega_s, float)
+    mask = np.asarray(on_ramp_e, bool) & (t_e >= t_s[0] - 1e-9) & (t_e <= t_s[-1] + 1e-9)
+    return pme_percent(w_e, np.interp(t_e, t_s, w_s), mask)
