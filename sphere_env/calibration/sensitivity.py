@@ -113,3 +113,32 @@ def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def match_dissipation(calibration: str | Path | None, pressure_kpa: float, target_zeta: float | None = None,
+                      scale_bracket: tuple[float, float] = (0.05, 3.0), duration_s: float = 6.0,
+                      phi0_rad: float = 0.15, xtol: float = 0.01) -> dict[str, float]:
+    """Find the Hunt–Crossley dissipation d [s/m] at which the hydroelastic ``locked_steer`` free decay
+    has the damping ratio ``target_zeta`` (default: the calibration's ζ(p)); returns d and k_d = d / C_inject.
+
+    This is the paper's §III.D tuning of k_d, done by root finding on the simulated ζ.
+    """
+    from scipy.optimize import brentq
+
+    base = ShellCalibration.load(calibration)
+    robot = RobotParameters.from_urdf()
+    p = base.check_pressure(pressure_kpa)
+    target = float(base.zeta(p)) if target_zeta is None else float(target_zeta)
+    _, d0 = base.hydroelastic(p, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
+    _, c_inject = base.injected_gains(p, robot.M_eq, robot.K_eq)
+
+    def zeta_at(scale: float) -> float:
+        job = {"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
+               "modulus_scale": 1.0, "dissipation_scale": scale, "phi0_rad": phi0_rad,
+               "duration_s": duration_s, "case": "match"}
+        return decay_case(job)["zeta"] - target
+
+    scale = brentq(zeta_at, *scale_bracket, xtol=xtol)
+    d = d0 * scale
+    return {"pressure_kpa": p, "target_zeta": target, "dissipation_s_per_m": d, "k_d": d / c_inject,
+            "zeta_sim": zeta_at(scale) + target}
