@@ -93,7 +93,9 @@ def simulate_log(
                 out[k][i] = out[k][i - 1]
             continue
         try:
-            twin.advance(float(log.t[i] - log.t[i - 1]), motor_torque)
+            # Advance to the absolute log time (no drift from summed increments); the 1 ns margin
+            # keeps a sample that falls on a plant-step boundary on the same side as a live run.
+            twin.advance(max(float(log.t[i]) - twin.context.get_time() - 1e-9, 0.0), motor_torque)
             put(i, twin.state())
         except RuntimeError:  # a solver failure at absurd parameters: keep a flat, bad trace
             diverged = True
