@@ -116,7 +116,7 @@ class PendulumPDController:
 #: robot: the speed error anticipates it (``t_lead_s``) and the lean loop is off (a lean while the
 #: pendulum brakes, pitched far back, turns the robot unpredictably; it rolls straight anyway).
 PD_PRESETS = {
-    "RampDescentEnv": dict(t_lead_s=1.0, k_heading=0.0, k_yaw=0.0),
+    "RampDescentEnv": dict(t_lead_s=1.0, beta_max=1.2, k_heading=0.0, k_yaw=0.0),
     "RollEnv": dict(),
 }
 

@@ -39,8 +39,9 @@ DEFAULT_STEER_TORQUE_LIMIT_NM = 20.0
 DEFAULT_DRIVE_TORQUE_LIMIT_NM = 22.0
 #: Distinct inclines get distinct twins (terrain is geometry); inclines are rounded to this.
 INCLINE_RESOLUTION_DEG = 1.0
-#: The pressure schedule is pushed to the twin when it moved by at least this much [kPa]
-#: (a hydroelastic pressure change costs ≈1 ms of SceneGraph work).
+#: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
+#: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
+#: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms (Twin.set_pressure_cached).
 PRESSURE_RESOLUTION_KPA = 0.01
 _NOMINAL = {
     "steer_friction_scale": 1.0,
@@ -79,6 +80,34 @@ class SphereEnvBase(gym.Env, EzPickle):
     """Base class; see :class:`~sphere_env.envs.RampDescentEnv` and :class:`~sphere_env.envs.RollEnv`.
 
     Subclasses define the command, reward terms and termination via the ``_task_*`` hooks.
+
+    Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``):
+
+    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (DESIGN.md §3).
+    :param friction_model: joint friction: a law/preset name for both joints (``"majd"`` default,
+        ``"viscous"``, ``"coulomb"``, ``"none"``: the Table I presets) or ``{"steer": ..., "drive": ...}``.
+    :param calibration: path of a shell calibration YAML; ``None`` = the shipped one.
+    :param control_frequency_hz: policy rate [Hz], default 50; its period must be a multiple of
+        ``time_step_s``.
+    :param time_step_s: plant time step [s], default 0.005.
+    :param steer_torque_limit_nm: steer motor torque at action ±1 [N m], default 20.
+    :param drive_torque_limit_nm: drive motor torque at action ±1 [N m], default 22 (gravity caps
+        the useful pendulum torque near 21.9 N m).
+    :param randomization: domain randomization spec (:mod:`sphere_env.tasks.randomization`):
+        ``"default"`` (pressure uniform over the calibration range per reset), ``"off"``,
+        ``"full"``, a mapping, or a :class:`RandomizationSpec`. Sampled values are in
+        ``info["params"]``.
+    :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
+    :param observation_noise_scale: × default per-component noise σ (0 = off, default).
+    :param incline_deg: ground incline [deg] (ramp tasks).
+    :param ramp_length_m: ramp length along the slope [m]; ``None`` = infinite plane.
+    :param render_mode: ``None`` | ``"human"`` (Meshcat) | ``"rgb_array"`` (VTK/EGL frames).
+    :param meshcat: ``True`` or a ``pydrake.geometry.Meshcat`` to visualize without
+        ``render_mode="human"``; default False (never created in vector workers unless asked).
+    :param record_replay: record every episode for :meth:`save_replay` (creates a Meshcat).
+    :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).
+    :param hydroelastic_pressure_step_kpa: hydroelastic pressures snap to this grid [kPa], default
+        0.5, so re-meshed shells (≈90 ms each) are cached (≈2 ms); 0 = exact pressures.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
@@ -105,6 +134,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         meshcat: Any = False,
         record_replay: bool = False,
         render_size: tuple[int, int] = (480, 360),
+        hydroelastic_pressure_step_kpa: float = 0.5,
         **task_kwargs: Any,
     ):
         EzPickle.__init__(
@@ -115,7 +145,7 @@ class SphereEnvBase(gym.Env, EzPickle):
             observation_noise_scale=observation_noise_scale, incline_deg=incline_deg,
             ramp_length_m=ramp_length_m, render_mode=render_mode,
             meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
-            render_size=render_size, **task_kwargs,
+            render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa, **task_kwargs,
         )
         # ---- validate kwargs (each error names its kwarg) ----
         if shell_model not in SHELL_MODELS:
@@ -178,6 +208,14 @@ class SphereEnvBase(gym.Env, EzPickle):
         if not (16 <= w <= 4096 and 16 <= h <= 4096):
             raise ValueError(f"render_size: value {render_size!r} must be within 16..4096 pixels")
         self.render_size = (w, h)
+        try:
+            step = float(hydroelastic_pressure_step_kpa)
+        except (TypeError, ValueError):
+            raise ValueError(f"hydroelastic_pressure_step_kpa: value {hydroelastic_pressure_step_kpa!r} is not a number") from None
+        if not (math.isfinite(step) and 0.0 <= step <= 5.0):
+            raise ValueError(f"hydroelastic_pressure_step_kpa: value {hydroelastic_pressure_step_kpa!r} outside allowed [0, 5] kPa")
+        # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
+        self._p_step = step if shell_model == "hydroelastic" else 0.0
         self.metadata = {**self.metadata, "render_fps": f_hz}
         self._task_init(**task_kwargs)  # validates task kwargs; raises on unknown ones
 
@@ -270,7 +308,16 @@ class SphereEnvBase(gym.Env, EzPickle):
                     raise ValueError(f"options: pressure_rate_kpa_per_s={val!r} is not finite")
                 params[name] = r
         params["incline_deg"] = self._quantize_incline(params["incline_deg"])
+        params["pressure_kpa"] = self._quantize_pressure(params["pressure_kpa"])
         return params
+
+    def _quantize_pressure(self, p: float) -> float:
+        """Round to the hydroelastic pressure grid (identity for point/injected) [kPa]."""
+        if self._p_step <= 0.0:
+            return p
+        lo, hi = self.calibration.pressure_range_kpa
+        q = lo + round((p - lo) / self._p_step) * self._p_step
+        return min(max(round(q, 9), lo), hi)
 
     # ---- gym API -------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
@@ -306,7 +353,8 @@ class SphereEnvBase(gym.Env, EzPickle):
             self.twin.visualizer.StopRecording()
         self.twin = twin
         self._apply_params(twin, params)
-        twin.reset(init, pressure_kpa=params["pressure_kpa"])
+        twin.set_pressure_cached(params["pressure_kpa"])
+        twin.reset(init)
         self._p0 = self._p_applied = params["pressure_kpa"]
         sched = self.randomization.pressure_schedule
         self._sched_delay_s = 0.0 if sched is None else sched.delay_s
@@ -380,7 +428,10 @@ class SphereEnvBase(gym.Env, EzPickle):
                 nxt = self._interval_next.get(t_term.parameter)
                 if nxt is not None and t >= nxt - 1e-9:
                     val = t_term.distribution.sample(self.np_random, PARAMETERS[t_term.parameter][1])
-                    params[t_term.parameter] = clip_parameter(t_term.parameter, val, self.calibration.pressure_range_kpa)
+                    val = clip_parameter(t_term.parameter, val, self.calibration.pressure_range_kpa)
+                    if t_term.parameter == "pressure_kpa":
+                        val = self._quantize_pressure(val)
+                    params[t_term.parameter] = val
                     self._interval_next[t_term.parameter] = nxt + t_term.interval_s
                     changed = True
                     if t_term.parameter == "pressure_kpa":
@@ -391,12 +442,13 @@ class SphereEnvBase(gym.Env, EzPickle):
         rate = params["pressure_rate_kpa_per_s"]
         if rate != 0.0:
             p = schedule_pressure(self._p0, rate, self._sched_delay_s, t, self.calibration.pressure_range_kpa)
-            params["pressure_kpa"] = p
+            p = self._quantize_pressure(p)
             if abs(p - self._p_applied) >= PRESSURE_RESOLUTION_KPA:
-                self.twin.set_pressure(p)
+                self.twin.set_pressure_cached(p)
                 self._p_applied = p
+            params["pressure_kpa"] = self._p_applied  # what the physics uses
         elif self._p_applied != params["pressure_kpa"]:
-            self.twin.set_pressure(params["pressure_kpa"])
+            self.twin.set_pressure_cached(params["pressure_kpa"])
             self._p_applied = params["pressure_kpa"]
 
     def _observe(self, state) -> np.ndarray:
@@ -467,7 +519,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         if id(twin) not in self._renderer_added:
             params = RenderEngineVtkParams()
             params.backend = "EGL"  # headless; GLX needs an X display
-            twin.scene_graph.AddRenderer(twin.sg_context, "sphere_env_vtk", MakeRenderEngineVtk(params))
+            twin.add_renderer("sphere_env_vtk", MakeRenderEngineVtk(params))
             self._renderer_added.add(id(twin))
             w, h = self.render_size
             core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())

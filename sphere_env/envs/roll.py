@@ -35,8 +35,9 @@ class RollEnv(SphereEnvBase):
     13   pressure_kpa        kPa     privileged, only with ``observe_pressure=True``
     ===  ==================  ======  =====================================================
 
-    On flat ground at full drive torque the injected shell at nominal pressure settles near
-    ω_d ≈ 2.85 rad/s (0.87 m/s); the default ω_ref range (0.5, 2.5) rad/s stays inside that.
+    On flat ground at full drive torque the twin settles near ω_d ≈ 5.6 rad/s (injected shell,
+    nominal pressure) or 6.8 rad/s (hydroelastic); point contact, with no shell damping, keeps
+    accelerating. The default ω_ref range (0.5, 2.5) rad/s (0.15–0.76 m/s) is everyday speed.
 
     **Reward** = Σ terms (``info["reward_<term>"]``, :class:`RollRewardWeights`): ``speed``
     (+ tolerance of ω_d − ω_ref), ``heading`` (+ tolerance of the heading or yaw-rate error),

