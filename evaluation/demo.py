@@ -1,6 +1,107 @@
-"""`make demo`: the project's main job on its default configuration."""
+"""`make demo`: the project's main job on its default configuration, end to end.
 
-from evaluation.ramp_descent import main
+1. Train PPO on ``sphere_env/RampDescent-v0`` (injected shell, Majd friction) with the inflation
+   pressure randomized uniformly over the calibrated range at every reset
+   (training/hyperparams/ppo.yml, budget shortened by ``--train-steps``).
+2. Evaluate the trained policy against the baselines — zero torque (the paper's uncontrolled
+   descent) and the hand-written PD controller — over the low, nominal and high calibrated
+   pressures × all three shell models × 3 seeds, randomization off.
+3. Print where the run folder, report, plots and Meshcat replays are.
+
+    python -m evaluation.demo [--train-steps 150000] [--out out/demo] [--publish]
+
+``--publish`` copies the report and plots into ``evaluation/results/demo/`` (what the README shows).
+The uncontrolled-descent table of ``python -m evaluation.ramp_descent`` is still available on its own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import time
+from pathlib import Path
+
+ENV_ID = "sphere_env/RampDescent-v0"
+DEFAULT_TRAIN_STEPS = 150_000
+PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--train-steps", type=int, default=DEFAULT_TRAIN_STEPS, help="PPO env steps")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds")
+    parser.add_argument("--out", type=Path, default=Path("out/demo"), help="evaluation output folder")
+    parser.add_argument("--run-dir", type=Path, default=None, help="training run folder (default runs/demo_<time>)")
+    parser.add_argument("--workers", type=int, default=None, help="evaluation processes (default: all cores)")
+    parser.add_argument("--publish", action="store_true", help="copy report and plots to evaluation/results/demo/")
+    args = parser.parse_args(argv)
+
+    t_start = time.perf_counter()
+    from sphere_env.models.shell import ShellCalibration
+    from training.config import resolve_config
+    from training.train import train
+
+    from evaluation.evaluate import SweepSpec, evaluate
+
+    cal = ShellCalibration.load()
+    lo, hi = cal.pressure_range_kpa
+    pressures = [lo, cal.nominal_pressure_kpa, hi]
+    n = args.train_steps
+    print(f"[1/3] Training PPO on {ENV_ID} for {n} env steps, pressure ~ U[{lo:g}, {hi:g}] kPa per episode ...",
+          flush=True)
+    cfg = resolve_config(ENV_ID, "ppo", overrides={"n_timesteps": n}, seed=args.seed,
+                         eval_freq=max(n // 6, 1), eval_episodes=6, checkpoint_freq=max(n // 3, 1))
+    run_dir = args.run_dir or Path("runs") / f"demo_{time.strftime('%Y%m%d-%H%M%S')}"
+    t0 = time.perf_counter()
+    train(cfg, run_dir, progress_bar=True, command=["python", "-m", "evaluation.demo"])
+    t_train = time.perf_counter() - t0
+    timing = json.loads((run_dir / "timing.json").read_text())
+
+    print(f"[2/3] Evaluating ppo vs zero torque vs PD: pressures {pressures} kPa x point/injected/hydroelastic "
+          f"x seeds {args.seeds} ...", flush=True)
+    spec = SweepSpec(controllers=["zero", "pd", f"ppo={run_dir}"], env_id=ENV_ID, pressures_kpa=pressures,
+                     seeds=args.seeds)
+    t0 = time.perf_counter()
+    res = evaluate(spec, args.out, workers=args.workers,
+                   replays=[f"ppo,hydroelastic,{cal.nominal_pressure_kpa}", f"zero,hydroelastic,{cal.nominal_pressure_kpa}"],
+                   progress=True,
+                   extra_report=(f"Policy: PPO trained {timing['num_timesteps']} env steps in {t_train:.0f} s "
+                                 f"({timing['steps_per_s']:.0f} env steps/s, 2 workers), run folder `{run_dir}`."))
+    t_eval = time.perf_counter() - t0
+    wall = time.perf_counter() - t_start
+
+    from evaluation._report import markdown_table
+
+    agg = {a["controller"]: a for a in res["agg_controller"]}
+    cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"), ("return", "mean return", "{:.2f}"),
+            ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"), ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+            ("energy_j", "energy J", "{:.1f}"), ("peak_torque_nm", "peak torque N m", "{:.1f}")]
+    summary = {"train_steps": timing["num_timesteps"], "train_wall_s": t_train, "train_steps_per_s": timing["steps_per_s"],
+               "eval_wall_s": t_eval, "total_wall_s": wall,
+               "mean_return": {k: v["return"] for k, v in agg.items()},
+               "tracking_rmse_rad_s": {k: v["tracking_rmse_rad_s"] for k, v in agg.items()},
+               "ppo_beats_zero": agg["ppo"]["return"] > agg["zero"]["return"]}
+    (Path(args.out) / "demo_summary.json").write_text(json.dumps(summary, indent=2))
+    print("\n" + markdown_table(res["agg_controller"], cols) + "\n")
+    verdict = "beats" if summary["ppo_beats_zero"] else "does NOT beat"
+    print(f"PPO {verdict} zero torque on mean return ({agg['ppo']['return']:.2f} vs {agg['zero']['return']:.2f}); "
+          f"PD: {agg['pd']['return']:.2f}.")
+    print(f"[3/3] Done in {wall / 60:.1f} min (training {t_train:.0f} s, evaluation {t_eval:.0f} s).")
+    print(f"  run folder : {run_dir.resolve()}")
+    for k, v in res["files"].items():
+        print(f"  {k:<22s}: {Path(v).resolve()}")
+    if args.publish:
+        PUBLISH.mkdir(parents=True, exist_ok=True)
+        for f in ["report.md", "demo_summary.json", "episodes.csv"]:
+            shutil.copy(Path(args.out) / f, PUBLISH / f)
+        for png in (Path(args.out) / "plots").glob("*.png"):
+            shutil.copy(png, PUBLISH / png.name)
+        shutil.copy(run_dir / "learning_curve.png", PUBLISH / "learning_curve.png")
+        print(f"  published  : {PUBLISH}")
+    return summary
+
 
 if __name__ == "__main__":
     main()

@@ -160,6 +160,16 @@ def _eval_policy_kwargs(text: str) -> dict[str, Any]:
     return out
 
 
+def _number_or_str(val: Any) -> Any:
+    """YAML 1.1 reads ``1e-3`` as a string; turn numeric strings into floats."""
+    if isinstance(val, str):
+        try:
+            return float(val)
+        except ValueError:
+            return val
+    return val
+
+
 def load_section(path: str | Path, env_id: str) -> dict[str, Any]:
     """The mapping for ``env_id`` in a hyperparameter YAML file."""
     path = Path(path)
@@ -255,7 +265,7 @@ def resolve_config(
                 f"hyperparams.{key}: unknown hyperparameter for {cls.__name__}; "
                 f"allowed: {sorted(allowed - {'policy'}) + list(SPECIAL_KEYS)}"
             )
-        hyper[key] = val
+        hyper[key] = _number_or_str(val)
     env_kwargs = section.get("env_kwargs") or {}
     if not isinstance(env_kwargs, Mapping):
         raise ValueError(f"env_kwargs: value {env_kwargs!r} must be a mapping")

@@ -316,9 +316,10 @@ def load_config(run_dir: str | Path) -> TrainConfig:
 
 
 def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = False, progress_bar: bool = True,
-          verbose: int = 0, command: Sequence[str] | None = None) -> Path:
+          verbose: int = 0, command: Sequence[str] | None = None, return_model: bool = False):
     """Train per ``cfg`` into ``run_dir`` (new), or continue ``run_dir`` from its last checkpoint
-    (``resume``) up to ``cfg.n_timesteps`` total steps. Returns the run folder."""
+    (``resume``) up to ``cfg.n_timesteps`` total steps. Returns the run folder (and the in-memory
+    model, whose ``get_vec_normalize_env()`` holds the statistics, with ``return_model``)."""
     import torch
 
     torch.set_num_threads(cfg.torch_threads)
@@ -369,7 +370,7 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
     finally:
         venv.close()
     write_learning_curves(run_dir)
-    return run_dir
+    return (run_dir, model) if return_model else run_dir
 
 
 def _parse_params(items: Sequence[str]) -> dict[str, Any]:

@@ -1,0 +1,88 @@
+"""PPO training throughput: environment steps per second with 2 SubprocVecEnv workers.
+
+The shipped PPO hyperparameters for ``sphere_env/RampDescent-v0`` (training/hyperparams/ppo.yml),
+VecNormalize on, pressure randomization on, per shell model (point contact is the headline case).
+Timing starts after the first rollout+update (worker start-up and imports excluded) and
+includes rollouts and gradient updates, as a real training run does.
+
+    python -m evaluation.benchmark_train [--seconds 30] [--shell-models point injected]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+ENV_ID = "sphere_env/RampDescent-v0"
+TRAIN_COLUMNS = [("case", "case", ""), ("n_envs", "workers", "{:d}"), ("steps", "env steps timed", "{:d}"),
+                 ("wall_s", "wall s", "{:.1f}"), ("steps_per_s", "env steps/s", "{:.0f}")]
+
+
+def _throughput(shell_model: str, seconds: float, n_envs: int = 2, seed: int = 0) -> dict:
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from training.config import algo_class, resolve_config
+    from training.train import make_vec_env, wrap_normalize
+
+    cfg = resolve_config(ENV_ID, "ppo", overrides={"n_envs": n_envs, "env_kwargs": {"shell_model": shell_model}},
+                         seed=seed, build_env=False)
+    torch.set_num_threads(cfg.torch_threads)
+
+    class Clock(BaseCallback):
+        """Starts the clock after the first update; stops training after ``seconds``."""
+
+        def __init__(self):
+            super().__init__()
+            self.t0 = None
+            self.s0 = 0
+            self.t1 = None
+
+        def _on_rollout_start(self) -> None:
+            if self.t0 is None and self.num_timesteps > 0:
+                self.t0, self.s0 = time.perf_counter(), self.num_timesteps
+
+        def _on_step(self) -> bool:
+            if self.t0 is not None and time.perf_counter() - self.t0 > seconds:
+                return False
+            return True
+
+        def _on_rollout_end(self) -> None:
+            if self.t0 is not None:
+                self.t1, self.s1 = time.perf_counter(), self.num_timesteps
+
+    venv = wrap_normalize(cfg, make_vec_env(cfg, None))
+    try:
+        model = algo_class("ppo")(cfg.policy, venv, seed=seed, device="cpu", **cfg.algo_kwargs())
+        clock = Clock()
+        model.learn(total_timesteps=10**9, callback=clock)
+        # the last (interrupted) rollout is counted up to where it stopped: no update follows it
+        t1 = time.perf_counter()
+        steps = model.num_timesteps - clock.s0
+        wall = t1 - clock.t0
+    finally:
+        venv.close()
+    return dict(case=f"PPO, RampDescent, {shell_model} contact", shell_model=shell_model, n_envs=n_envs,
+                steps=int(steps), wall_s=wall, steps_per_s=steps / wall)
+
+
+def run_train_benchmark(seconds: float = 30.0, shell_models: tuple[str, ...] = ("point",)) -> list[dict]:
+    """PPO training throughput [env steps/s], 2 SubprocVecEnv workers, one row per shell model."""
+    return [_throughput(m, seconds) for m in shell_models]
+
+
+def main(argv: list[str] | None = None) -> None:
+    from evaluation._report import machine_info, markdown_table
+
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seconds", type=float, default=30.0, help="timed wall seconds per case")
+    parser.add_argument("--shell-models", nargs="+", default=["point"])
+    args = parser.parse_args(argv)
+    rows = run_train_benchmark(args.seconds, tuple(args.shell_models))
+    info = machine_info()
+    print(f"Machine: {info['cpu']}, {info['cores']} cores; torch {info['torch']}, sb3 {info['stable_baselines3']}\n")
+    print(markdown_table(rows, TRAIN_COLUMNS))
+
+
+if __name__ == "__main__":
+    main()
