@@ -194,3 +194,17 @@ def test_episode_replay_html(make, tmp_path):
     path = env.unwrapped.save_replay(tmp_path / "episode.html")
     text = path.read_text()
     assert path.stat().st_size > 10_000 and "<html" in text.lower()
+
+
+def test_human_render_uses_meshcat(make):
+    env = make("sphere_env/Roll-v0", shell_model="point", render_mode="human")
+    u = env.unwrapped
+    assert u.meshcat is not None and u.twin.visualizer is not None
+    env.reset(seed=0)
+    env.step(np.zeros(2, np.float32))
+    assert env.render() is None
+
+
+def test_no_meshcat_unless_asked(make):
+    env = make("sphere_env/Roll-v0", shell_model="point")
+    assert env.unwrapped.meshcat is None and env.unwrapped.twin.visualizer is None
