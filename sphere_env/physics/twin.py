@@ -591,11 +591,12 @@ class Twin:
         # ŷ_PC in W (column 1 of R_WPC) and row 2 of R_WPC.
         yx, yy, yz = s * (qx * qy - qw * qz), 1.0 - s * (qx * qx + qz * qz), s * (qy * qz + qw * qx)
         r20, r21, r22 = s * (qx * qz - qw * qy), s * (qy * qz + qw * qx), 1.0 - s * (qx * qx + qy * qy)
-        terrain = self.terrain
-        if terrain.ramp_length_m is not None and px >= float(terrain.ramp_end_W[0]):
-            nx, ny, nz = 0.0, 0.0, 1.0
-        else:
-            nx, ny, nz = (float(c) for c in terrain.n_ramp)
+        ground = self.__dict__.get("_fast_ground")
+        if ground is None:  # (ramp normal, x where the flat run-out starts)
+            t = self.terrain
+            x_end = math.inf if t.ramp_length_m is None else float(t.ramp_end_W[0])
+            ground = self._fast_ground = (tuple(float(c) for c in t.n_ramp), x_end)
+        nx, ny, nz = ground[0] if px < ground[1] else (0.0, 0.0, 1.0)
         sphi = min(max(yx * nx + yy * ny + yz * nz, -1.0), 1.0)
         cphi = max(math.sqrt(1.0 - sphi * sphi), 1e-9)
         ydx, ydy, ydz = wy * yz - wz * yy, wz * yx - wx * yz, wx * yy - wy * yx  # ω × ŷ
