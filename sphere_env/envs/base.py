@@ -517,15 +517,21 @@ class SphereEnvBase(gym.Env, EzPickle):
         from pydrake.systems.sensors import CameraInfo
 
         if id(twin) not in self._renderer_added:
+            from pydrake.geometry import LightParameter
+
             params = RenderEngineVtkParams()
             params.backend = "EGL"  # headless; GLX needs an X display
+            params.lights = [  # sun from above plus a camera headlight (defaults leave the ground dark)
+                LightParameter(type="directional", direction=[0.3, 0.2, -1.0], frame="world", intensity=0.9),
+                LightParameter(type="directional", direction=[0.0, 0.0, 1.0], frame="camera", intensity=0.4),
+            ]
             twin.add_renderer("sphere_env_vtk", MakeRenderEngineVtk(params))
             self._renderer_added.add(id(twin))
             w, h = self.render_size
             core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())
             self._camera = ColorRenderCamera(core, False)
         c = twin.fast_state().position_m
-        eye = c + np.array([-2.2, -2.2, 1.4])
+        eye = c + np.array([-1.5, -1.5, 0.9])
         z = c - eye
         z /= np.linalg.norm(z)
         x = np.cross(z, [0.0, 0.0, 1.0])
