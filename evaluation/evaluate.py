@@ -161,6 +161,7 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
         tr["omega_ref"].append(float(obs[11]))
         tr["x_m"].append(float(pos[0]))
         tr["y_m"].append(float(pos[1]))
+        tr["z_m"].append(float(pos[2]))
         tr["tau_steer_nm"].append(a[0] * ls)
         tr["tau_drive_nm"].append(-a[1] * ld)  # joint torque (drive axis is −y): see RampDescentEnv
         tr["theta_dot"].append(float(obs[1]))
@@ -450,7 +451,13 @@ def save_replay(job: Mapping[str, Any], path: Path) -> Path:
     """Re-run one cell in-process with Meshcat recording and write the HTML replay."""
     env = _env(job, record_replay=True)
     try:
-        rollout(job, env=env, controller=make_controller(job["spec"], env))
+        _, tr = rollout(job, env=env, controller=make_controller(job["spec"], env))
+        # Camera beside the path, looking at its middle, so the whole episode is in view.
+        p0 = np.array([tr["x_m"][0], tr["y_m"][0], tr["z_m"][0]])
+        p1 = np.array([tr["x_m"][-1], tr["y_m"][-1], tr["z_m"][-1]])
+        mid = 0.5 * (p0 + p1)
+        span = max(float(np.linalg.norm(p1 - p0)), 1.0)
+        env.unwrapped.meshcat.SetCameraPose(mid + np.array([0.0, -1.1 * span - 1.0, 0.35 * span + 0.5]), mid)
         return env.unwrapped.save_replay(path)
     finally:
         env.close()
@@ -570,7 +577,8 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
         files["drive velocity plot"] = plot_drive_velocity(rows, traces, spec, out / "plots" / "drive_velocity.png")
         files["error-bar plot"] = plot_error_bars(rows, traces, spec, out / "plots" / "error_bars.png")
         files["success/tracking plot"] = plot_success_tracking(agg_model, spec, out / "plots" / "success_tracking.png")
-        ref = "log" if log is not None else pme_reference
+        ref = pme_reference if pme_reference in spec.shell_models else spec.shell_models[-1]
+        ref = "log" if log is not None else ref
         p = plot_pme(pmes, out / "plots" / "pme.png", ref)
         if p is not None:
             files["PME plot"] = p
