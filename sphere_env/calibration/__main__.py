@@ -90,6 +90,17 @@ def cmd_steer_fit(args) -> int:
         print(f"{model} at {p0} kPa fitted on {[log.name for log in fit_logs]}: {json.dumps(fit.params)}")
         for name, r in per.items():
             print(f"  {name}: RMSE φ {r['phi']:.4f} rad, θ {r['theta']:.4f} rad")
+    if args.match_kd:
+        import tempfile
+
+        from sphere_env.calibration.sensitivity import match_dissipation
+
+        with tempfile.TemporaryDirectory() as tmp:
+            path = write_yaml(Path(tmp) / "cal.yaml", raw)
+            m = match_dissipation(path, p0)
+        raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"]))
+        print(f"hydroelastic k_d = {m['k_d']:.4f} (d = {m['dissipation_s_per_m']:.4f} s/m): locked-steer decay "
+              f"ζ = {m['zeta_sim']:.4f} matches ζ(p0) = {m['target_zeta']:.4f}")
     if args.out:
         write_yaml(args.out, raw, "# Written by python -m sphere_env.calibration steer-fit")
         print(f"wrote {args.out}")
@@ -193,6 +204,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation)")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
+    p.add_argument("--match-kd", action="store_true",
+                   help="then set hydroelastic k_d so the locked-steer hydroelastic decay has ζ(p0)")
     p.add_argument("--out", help="calibration YAML to write")
     p.set_defaults(func=cmd_steer_fit)
 

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from sphere_env.calibration.decay import fit_free_decay
 from sphere_env.calibration.friction_fit import evaluate_friction, fit_friction, leave_one_out, plot_stand_overlay
 from sphere_env.calibration.logs import Manifest
 from sphere_env.calibration.sensitivity import markdown_table as sweep_table, plot_sweep, sweep
@@ -58,6 +59,12 @@ def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers:
                     calibration=calibration, default_pressure_kpa=p0)
     plot_overlays(out / "steer_free_overlay.png", sf, rows)
     results["steer_free_shipped"] = [r.as_dict() for r in rows]
+    results["steer_free_decay"] = {}
+    for log in sf:  # what the logs themselves say, model-free (README: ω ≈ 2.0–2.2 rad/s, ζ ≈ 0.22–0.28)
+        try:
+            results["steer_free_decay"][log.name] = fit_free_decay(log.t, log["phi"]).as_dict()
+        except ValueError as err:
+            results["steer_free_decay"][log.name] = {"error": str(err)}
 
     # 3. Cross-validation: fit on one steer_free trial, validate on the other.
     xval = []
@@ -136,6 +143,16 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
           "Authors' Drake setup (hydroelastic 1.55e5 Pa, 0.405 s/m): φ 0.098 / 0.035 rad, θ 0.108 / 0.057 rad "
           "(165825 / 165853); point contact φ 0.44 / 0.49 rad.", "",
           "![steer_free overlay](steer_free_overlay.png)", "",
+          "Model-free cross-check: a damped sinusoid fitted to the logged φ(t) (the pendulum is free, so these are "
+          "not the locked-steer ω_n, ζ of the calibration):", "",
+          "| trial | ω_n [rad/s] (95 % CI) | ζ (95 % CI) | log-decrement ζ |", "| --- | --- | --- | ---: |"]
+    for name, d in res.get("steer_free_decay", {}).items():
+        if "error" in d:
+            L.append(f"| {name} | {d['error']} | | |")
+        else:
+            L.append(f"| {name} | {d['omega_n']:.3f} ({d['omega_n_ci'][0]:.3f}–{d['omega_n_ci'][1]:.3f}) | "
+                     f"{d['zeta']:.3f} ({d['zeta_ci'][0]:.3f}–{d['zeta_ci'][1]:.3f}) | {_f(d['logdec_zeta'])} |")
+    L += ["",
           "### Fit on one trial, validate on the other", "",
           "| model | fitted on | parameters | RMSE φ 165825 | RMSE θ 165825 | RMSE φ 165853 | RMSE θ 165853 |",
           "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
