@@ -43,6 +43,10 @@ class RollEnv(SphereEnvBase):
     (+ tolerance of ω_d − ω_ref), ``heading`` (+ tolerance of the heading or yaw-rate error),
     ``ctrl`` (− Σa²). Per-step terms scale with the control period.
 
+    ``info["is_success"]`` is True while both errors are within one tolerance width
+    (|ω_d − ω_ref| ≤ 0.5 rad/s, heading error ≤ 0.3 rad or yaw-rate error ≤ 0.3 rad/s), so SB3's
+    ``EvalCallback`` reports the fraction of episodes that end tracking the command.
+
     **Episode end.** Never terminates on its own; ``truncated`` by the registration's time limit
     (500 steps = 10 s at 50 Hz) or a physics failure (``info["truncation_reason"]``).
 
@@ -137,7 +141,11 @@ class RollEnv(SphereEnvBase):
         else:
             err, yaw_mode = state.heading_rate - self.yaw_rate_ref, True
         terms = roll_terms(self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref, err, action, yaw_mode)
-        return terms, False, False
+        w = self.reward_weights
+        tracking = abs(state.omega_d - self.omega_ref) <= w.speed_width and abs(err) <= (
+            w.yaw_rate_width if yaw_mode else w.heading_width
+        )
+        return terms, False, tracking
 
     def _task_info(self) -> dict[str, Any]:
         if self.command_mode == "heading":
