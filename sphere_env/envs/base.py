@@ -182,7 +182,10 @@ class SphereEnvBase(gym.Env, EzPickle):
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
         self.observe_pressure = observe_pressure
-        noise = float(observation_noise_scale) if not isinstance(observation_noise_scale, bool) else -1.0
+        try:
+            noise = float(observation_noise_scale) if not isinstance(observation_noise_scale, bool) else -1.0
+        except (TypeError, ValueError):
+            noise = -1.0
         if not math.isfinite(noise) or noise < 0:
             raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be finite and >= 0")
         self.observation_noise_scale = noise
@@ -236,11 +239,10 @@ class SphereEnvBase(gym.Env, EzPickle):
 
         # ---- physics ----
         self._twins: OrderedDict[float, Any] = OrderedDict()
-        self.twin = self._get_twin(self._quantize_incline(self.incline_deg))
+        self.twin = self._get_twin(self.incline_deg)
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
         self._obs = np.zeros(n_obs, dtype=np.float32)
-        self._renderer_added: set[int] = set()
         self._needs_reset = True
 
     # ---- twins ---------------------------------------------------------------------------------
@@ -291,6 +293,9 @@ class SphereEnvBase(gym.Env, EzPickle):
         }
         for name, val in self.randomization.sample(self.np_random).items():
             params[name] = clip_parameter(name, val, rng_p)
+        if "incline_deg" in params and params["incline_deg"] != self.incline_deg:
+            # Sampled inclines snap to a 1° grid: each distinct incline is its own twin (terrain).
+            params["incline_deg"] = self._quantize_incline(params["incline_deg"])
         sched = self.randomization.pressure_schedule
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(self.np_random, 1))
         # Explicit values from reset(options=...) win (replaying a logged trial).
@@ -307,7 +312,6 @@ class SphereEnvBase(gym.Env, EzPickle):
                 if not math.isfinite(r):
                     raise ValueError(f"options: pressure_rate_kpa_per_s={val!r} is not finite")
                 params[name] = r
-        params["incline_deg"] = self._quantize_incline(params["incline_deg"])
         params["pressure_kpa"] = self._quantize_pressure(params["pressure_kpa"])
         return params
 
@@ -516,7 +520,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         from pydrake.math import RigidTransform, RotationMatrix
         from pydrake.systems.sensors import CameraInfo
 
-        if id(twin) not in self._renderer_added:
+        if not getattr(twin, "_env_renderer", False):
             from pydrake.geometry import LightParameter
 
             params = RenderEngineVtkParams()
@@ -526,7 +530,7 @@ class SphereEnvBase(gym.Env, EzPickle):
                 LightParameter(type="directional", direction=[0.0, 0.0, 1.0], frame="camera", intensity=0.4),
             ]
             twin.add_renderer("sphere_env_vtk", MakeRenderEngineVtk(params))
-            self._renderer_added.add(id(twin))
+            twin._env_renderer = True
             w, h = self.render_size
             core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())
             self._camera = ColorRenderCamera(core, False)

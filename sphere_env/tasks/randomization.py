@@ -9,11 +9,11 @@ global RNG state. Every sampled value is reported in the env's ``info["params"]`
 Parameters (unit; nominal value when not randomized):
 
 ================================  ========  ==============================================
-``pressure_kpa``                  kPa       shell gauge pressure; calibration's nominal
+``pressure_kpa``                  kPa       shell gauge pressure; calibration's nominal (hydroelastic: snapped to the env's ``hydroelastic_pressure_step_kpa`` grid)
 ``steer_friction_scale``          -         × steer joint friction torque; 1
 ``drive_friction_scale``          -         × drive joint friction torque; 1
 ``ground_friction``               -         effective shell–ground Coulomb μ; 1
-``incline_deg``                   deg       ramp incline (reset only); the env's ``incline_deg``
+``incline_deg``                   deg       ramp incline, reset only, sampled values snap to 1°; env kwarg
 ``payload_mass_kg``               kg        point mass on the pendulum; 0
 ``payload_com_offset_m``          m (×3)    payload offset from the pendulum COM, pendulum frame; 0
 ================================  ========  ==============================================
