@@ -134,6 +134,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     from evaluation._report import RESULTS, machine_info, markdown_table
 
+    info = machine_info()  # at the start: the commit that is actually run
     s = soak(args.soak_steps)  # first, in a fresh process heap
     print({k: v for k, v in s.items() if k != "samples"}, flush=True)
     # Hydroelastic is ~5x slower per step: give it a third of the point/injected share.
@@ -145,7 +146,6 @@ def main(argv: list[str] | None = None) -> None:
             n = int(np.ceil(args.fuzz_steps * weights[sm] / total_w))
             rows.append(fuzz(env_id, sm, n))
             print(rows[-1], flush=True)
-    info = machine_info()
     fuzz_total = sum(r["steps"] for r in rows)
     fuzz_advanced = sum(r["advanced"] for r in rows)
     unexpected = sum(r["unexpected"] for r in rows)
