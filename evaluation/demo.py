@@ -8,7 +8,7 @@
    pressures × all three shell models × 3 seeds, randomization off.
 3. Print where the run folder, report, plots and Meshcat replays are.
 
-    python -m evaluation.demo [--train-steps 150000] [--out out/demo] [--publish]
+    python -m evaluation.demo [--train-steps 120000] [--out out/demo] [--publish]
 
 ``--publish`` copies the report and plots into ``evaluation/results/demo/`` (what the README shows).
 The uncontrolled-descent table of ``python -m evaluation.ramp_descent`` is still available on its own.
@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 ENV_ID = "sphere_env/RampDescent-v0"
-DEFAULT_TRAIN_STEPS = 150_000
+DEFAULT_TRAIN_STEPS = 120_000
 PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
 

@@ -39,7 +39,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from evaluation.controllers import check_spec, env_kwargs_of, make_controller, split_label
-from evaluation.metrics import TRACE_CHANNELS, episode_metrics, pme_between
+from evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 
 SHELL_MODELS = ("point", "injected", "hydroelastic")
 METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
@@ -500,8 +500,9 @@ def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, fi
     if pmes:
         pm = aggregate_pme(pmes)
         lines += ["## Point Mean Error (eq. 12), zero-torque descent", "",
-                  "PME = mean over the reference's on-ramp samples of (ω_ref − ω_sim)/ω_ref × 100 %; "
-                  "positive when the simulation underestimates the reference. Mean ± std over seeds.", "",
+                  "PME = mean over the reference's on-ramp samples of (ω_ref − ω_sim)/ω_ref × 100 % "
+                  f"(samples with |ω_ref| < {PME_MIN_SPEED_RAD_S} rad/s, the release, left out); positive when "
+                  "the simulation underestimates the reference. Mean ± std over seeds.", "",
                   markdown_table(pm, [("reference", "reference", ""), ("simulation", "simulation", ""),
                                       ("friction", "friction", ""), ("pressure_kpa", "pressure kPa", "{:g}"),
                                       ("pme", "PME %", "")]), ""]

@@ -48,17 +48,23 @@ def episode_metrics(trace: Mapping[str, np.ndarray], dt_s: float) -> dict[str, f
     }
 
 
+#: Reference samples slower than this are left out of the PME [rad/s]: at release ω_e ≈ 0 and the
+#: relative error (ω_e − ω_s)/ω_e is meaningless (a 0.05 rad/s contact jitter reads as −1000 %).
+PME_MIN_SPEED_RAD_S = 0.5
+
+
 def pme_between(t_e: np.ndarray, omega_e: np.ndarray, on_ramp_e: np.ndarray,
-                t_s: np.ndarray, omega_s: np.ndarray) -> float:
+                t_s: np.ndarray, omega_s: np.ndarray, min_speed_rad_s: float = PME_MIN_SPEED_RAD_S) -> float:
     """PME [%] of a simulation (``t_s``, ``omega_s``) against a reference ("experiment": another
     model or a real log; ``t_e``, ``omega_e``, its on-ramp mask ``on_ramp_e``).
 
     The simulation is linearly interpolated onto the reference times; only reference samples on the
-    ramp and inside the simulated time span count. Positive when the simulation underestimates.
+    ramp, inside the simulated time span and with |ω_e| > ``min_speed_rad_s`` count. Positive when
+    the simulation underestimates.
     """
     from sphere_env.calibration.simulate import pme_percent
 
     t_e, w_e = np.asarray(t_e, float), np.asarray(omega_e, float)
     t_s, w_s = np.asarray(t_s, float), np.asarray(omega_s, float)
     mask = np.asarray(on_ramp_e, bool) & (t_e >= t_s[0] - 1e-9) & (t_e <= t_s[-1] + 1e-9)
-    return pme_percent(w_e, np.interp(t_e, t_s, w_s), mask)
+    return pme_percent(w_e, np.interp(t_e, t_s, w_s), mask, min_speed=min_speed_rad_s)

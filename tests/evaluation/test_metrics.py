@@ -20,7 +20,9 @@ def test_pme_hand_values_sign_and_on_ramp_only():
     assert pme_between(t, w_e, np.ones(4, bool), t, 0.5 * w_e) == pytest.approx(50.0)
     assert pme_between(t, w_e, np.ones(4, bool), t, 1.2 * w_e) == pytest.approx(-20.0)
     # including the off-ramp sample changes the value: it really is excluded above
-    assert pme_between(t, w_e, np.ones(4, bool), t, w_s) != pytest.approx(100 * 0.25 / 3)
+    assert pme_between(t, w_e, np.ones(4, bool), t, w_s) == pytest.approx(100 * 1.25 / 4)
+    # the release (reference slower than the threshold) is left out too
+    assert pme_between(t, np.array([0.1, 4.0, 5.0, 10.0]), on, t, w_s) == pytest.approx(100 * -0.25 / 2)
 
 
 def test_pme_interpolates_simulation_onto_reference_times():
