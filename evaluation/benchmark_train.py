@@ -3,7 +3,9 @@
 The shipped PPO hyperparameters for ``sphere_env/RampDescent-v0`` (training/hyperparams/ppo.yml),
 VecNormalize on, pressure randomization on, per shell model (point contact is the headline case).
 Timing starts after the first rollout+update (worker start-up and imports excluded) and
-includes rollouts and gradient updates, as a real training run does.
+includes rollouts and gradient updates, as a real training run does. The CPU seconds of the main
+process and of the workers are reported too, with the throughput they imply on an otherwise idle
+machine (the development machine is shared, so the measured wall-clock rate depends on its load).
 
     python -m evaluation.benchmark_train [--seconds 30] [--shell-models point injected]
 """
@@ -11,11 +13,16 @@ includes rollouts and gradient updates, as a real training run does.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 ENV_ID = "sphere_env/RampDescent-v0"
 TRAIN_COLUMNS = [("case", "case", ""), ("n_envs", "workers", "{:d}"), ("steps", "env steps timed", "{:d}"),
-                 ("wall_s", "wall s", "{:.1f}"), ("steps_per_s", "env steps/s", "{:.0f}")]
+                 ("wall_s", "wall s", "{:.1f}"), ("steps_per_s", "env steps/s", "{:.0f}"),
+                 ("cpu_main_ms_per_step", "main CPU ms/step", "{:.3f}"),
+                 ("cpu_workers_ms_per_step", "workers CPU ms/step", "{:.3f}"),
+                 ("idle_estimate_steps_per_s", "idle-machine estimate steps/s", "{:.0f}"),
+                 ("load_avg_1min", "load avg", "{:.1f}")]
 
 
 def _throughput(shell_model: str, seconds: float, n_envs: int = 2, seed: int = 0) -> dict:
@@ -41,6 +48,7 @@ def _throughput(shell_model: str, seconds: float, n_envs: int = 2, seed: int = 0
         def _on_rollout_start(self) -> None:
             if self.t0 is None and self.num_timesteps > 0:
                 self.t0, self.s0 = time.perf_counter(), self.num_timesteps
+                self.c0 = (time.process_time(), _worker_cpu_s(venv))
 
         def _on_step(self) -> bool:
             if self.t0 is not None and time.perf_counter() - self.t0 > seconds:
@@ -60,10 +68,33 @@ def _throughput(shell_model: str, seconds: float, n_envs: int = 2, seed: int = 0
         t1 = time.perf_counter()
         steps = model.num_timesteps - clock.s0
         wall = t1 - clock.t0
+        cpu_main = time.process_time() - clock.c0[0]
+        cpu_workers = _worker_cpu_s(venv) - clock.c0[1]
     finally:
         venv.close()
+    # What the same work needs on an otherwise idle machine: the CPU seconds spent, spread over the
+    # cores, but never less than the main process's own share (it is serial with the workers).
+    cores = max(len(os.sched_getaffinity(0)), 1)
+    idle_wall = max((cpu_main + cpu_workers) / cores, cpu_main, cpu_workers / n_envs)
     return dict(case=f"PPO, RampDescent, {shell_model} contact", shell_model=shell_model, n_envs=n_envs,
-                steps=int(steps), wall_s=wall, steps_per_s=steps / wall)
+                steps=int(steps), wall_s=wall, steps_per_s=steps / wall, cpu_main_ms_per_step=1e3 * cpu_main / steps,
+                cpu_workers_ms_per_step=1e3 * cpu_workers / steps, idle_estimate_steps_per_s=steps / idle_wall,
+                load_avg_1min=os.getloadavg()[0])
+
+
+def _worker_cpu_s(venv) -> float:
+    """CPU seconds (user + system) used so far by the SubprocVecEnv worker processes."""
+    while hasattr(venv, "venv"):
+        venv = venv.venv
+    total = 0.0
+    tick = os.sysconf("SC_CLK_TCK")
+    for proc in getattr(venv, "processes", []):
+        try:
+            fields = open(f"/proc/{proc.pid}/stat").read().rsplit(")", 1)[1].split()
+            total += (int(fields[11]) + int(fields[12])) / tick
+        except (OSError, IndexError, ValueError):
+            pass
+    return total
 
 
 def run_train_benchmark(seconds: float = 30.0, shell_models: tuple[str, ...] = ("point",)) -> list[dict]:
