@@ -9,6 +9,8 @@ Per env id × shell model, single process, 50 Hz control (20 ms chunks, 5 ms pla
   ``advance(0.02, τ)``, interleaved with the env in blocks of 25 steps so both see the same
   machine load — the same trajectories, so the difference is the env's own work.
 * **overhead %** = env time per step / twin time per step − 1.
+* **env Python µs/step**: ``env.step`` (with wrappers) with the physics call stubbed out — the
+  env's own per-step work, less sensitive to machine load than the overhead ratio.
 * **reset ms**: mean wall time of ``env.reset()`` (diagram reused; no rebuild); hydroelastic
   after its per-pressure shell-mesh cache is warm.
 
@@ -40,6 +42,7 @@ ENV_COLUMNS = [
     ("env_steps_per_s", "env steps/s", "{:.0f}"),
     ("twin_steps_per_s", "bare twin steps/s", "{:.0f}"),
     ("overhead_pct", "env overhead %", "{:+.1f}"),
+    ("python_us_per_step", "env Python µs/step (physics stubbed)", "{:.1f}"),
     ("reset_ms", "reset ms", "{:.2f}"),
     ("aims_met", "aims (steps/s, overhead, reset)", ""),
 ]
@@ -88,6 +91,16 @@ def bench_case(env_id: str, shell_model: str, seconds: float, seed: int = 0, blo
     for _ in range(n_reset):
         env.reset()
     reset_ms = (time.perf_counter() - t0) / n_reset * 1e3
+    # The env's own Python per step, physics stubbed out (state frozen): less load-sensitive.
+    env.reset()
+    twin_now = u.twin
+    twin_now.advance_unchecked = lambda duration_s, motor_torque: None
+    acts = rng.uniform(-1.0, 1.0, size=(2000, 2)).astype(np.float32)
+    t0 = time.perf_counter()
+    for a in acts:
+        env.step(a)
+    python_us = (time.perf_counter() - t0) / len(acts) * 1e6
+    del twin_now.advance_unchecked
     env.close()
     env_sps, twin_sps = n / t_env, n / t_twin
     overhead = 100.0 * (t_env / t_twin - 1.0)
@@ -95,7 +108,8 @@ def bench_case(env_id: str, shell_model: str, seconds: float, seed: int = 0, blo
         env_sps >= AIM_STEPS_PER_S[shell_model], overhead <= AIM_OVERHEAD_PCT, reset_ms <= AIM_RESET_MS,
     )
     return dict(env=env_id.split("/")[1], shell_model=shell_model, steps=n,
-                env_steps_per_s=env_sps, twin_steps_per_s=twin_sps, overhead_pct=overhead, reset_ms=reset_ms,
+                env_steps_per_s=env_sps, twin_steps_per_s=twin_sps, overhead_pct=overhead,
+                python_us_per_step=python_us, reset_ms=reset_ms,
                 aims_met=" / ".join("yes" if ok else "no" for ok in aims))
 
 
