@@ -670,8 +670,8 @@ class Twin:
         self._ground_friction = mu
 
     # Hydroelastic pressure changes re-mesh the compliant shell (≈90 ms). The SceneGraph context's
-    # GeometryState for a given (pressure, ground friction) is cached and restored (≈2 ms, ≈1.8 MB
-    # each, LRU) — bit-identical to a fresh set_pressure.
+    # GeometryState for a given pressure is cached and restored (≈2 ms, ≈1.8 MB each, LRU), then
+    # the current ground friction re-applied if it differs — bit-identical to a fresh set_pressure.
     GEOMETRY_CACHE_SIZE = 24
 
     def set_pressure_cached(self, pressure_kpa: float) -> None:
@@ -684,18 +684,21 @@ class Twin:
         p = self.calibration.check_pressure(pressure_kpa, "pressure_kpa")
         cache = self.__dict__.setdefault("_geometry_cache", OrderedDict())
         idx = self._geometry_state_index()
-        key = (p, getattr(self, "_ground_friction", None))
-        snap = cache.get(key)
-        if snap is None:
+        mu = getattr(self, "_ground_friction", None)
+        entry = cache.get(p)
+        if entry is None:
             self.set_pressure(p)
-            cache[key] = self.sg_context.get_abstract_parameter(idx).Clone()
+            cache[p] = (self.sg_context.get_abstract_parameter(idx).Clone(), mu)
             if len(cache) > self.GEOMETRY_CACHE_SIZE:
                 cache.popitem(last=False)
         else:
+            snap, mu_snap = entry
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
-            cache.move_to_end(key)
+            cache.move_to_end(p)
             self._pressure_kpa = p
             self._apply_gains()
+            if mu_snap != mu:  # the snapshot carries the ground friction of its time: re-apply (≈0.2 ms)
+                self.set_ground_friction(1.0 if mu is None else mu)
 
     def _geometry_state_index(self) -> int:
         idx = self.__dict__.get("_geometry_index")
