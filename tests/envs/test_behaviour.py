@@ -208,3 +208,21 @@ def test_human_render_uses_meshcat(make):
 def test_no_meshcat_unless_asked(make):
     env = make("sphere_env/Roll-v0", shell_model="point")
     assert env.unwrapped.meshcat is None and env.unwrapped.twin.visualizer is None
+
+
+def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
+    def run(twin):
+        twin.reset(InitialState(theta=0.3))
+        for _ in range(30):
+            twin.advance(0.02, (3.0, -8.0))
+        return twin.state().phi, twin.state().omega_d
+
+    cached = Twin(TwinConfig(shell_model="hydroelastic"))
+    fresh = Twin(TwinConfig(shell_model="hydroelastic"))
+    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 1.2)):  # last: cache hit with another ground μ
+        cached.set_ground_friction(mu)
+        cached.set_pressure_cached(p)
+        fresh.set_ground_friction(mu)
+        fresh.set_pressure(p)
+        assert run(cached) == run(fresh)
+    assert len(cached._geometry_cache) == 2
