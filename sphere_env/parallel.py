@@ -1,5 +1,8 @@
 """A small process-pool executor for sweeps (calibration sensitivity, evaluation grids).
 
+Same semantics as the local pool of ``evaluation.evaluate.run_jobs`` (forkserver workers, job-order
+results, ``workers=1`` in-process), for any module-level job function.
+
 Each job is a picklable mapping handed to a module-level function; results come back in job
 order. ``workers=1`` runs in-process (no pool, easy debugging and profiling). Every worker
 builds its own Drake diagrams: pydrake objects are never shipped between processes.
@@ -7,8 +10,10 @@ builds its own Drake diagrams: pydrake objects are never shipped between process
 
 from __future__ import annotations
 
+import math
 import os
 from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 
@@ -33,8 +38,9 @@ def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[
     if n == 1 or len(jobs) <= 1:
         it: Sequence[Any] | Iterable[Any] = map(fn, jobs)
     else:
-        pool = ProcessPoolExecutor(max_workers=min(n, len(jobs)))
-        it = pool.map(fn, jobs)
+        # forkserver: workers never inherit torch/Drake threads of the parent (as evaluation.evaluate does)
+        pool = ProcessPoolExecutor(max_workers=min(n, len(jobs)), mp_context=get_context("forkserver"))
+        it = pool.map(fn, jobs, chunksize=max(1, math.ceil(len(jobs) / (n * 3))))
     if progress:
         from tqdm import tqdm
 
