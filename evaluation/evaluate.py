@@ -500,8 +500,9 @@ def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, fi
     if pmes:
         pm = aggregate_pme(pmes)
         lines += ["## Point Mean Error (eq. 12), zero-torque descent", "",
-                  "PME = mean over the reference's on-ramp samples of (ω_ref − ω_sim)/ω_ref × 100 % "
-                  f"(samples with |ω_ref| < {PME_MIN_SPEED_RAD_S} rad/s, the release, left out); positive when "
+                  "PME = mean over the reference's on-ramp samples of (ω_e − ω_s)/ω_e × 100 %, ω_e the "
+                  f"reference's and ω_s the simulation's drive velocity (samples with |ω_e| < {PME_MIN_SPEED_RAD_S} "
+                  "rad/s, the release, left out); positive when "
                   "the simulation underestimates the reference. Mean ± std over seeds.", "",
                   markdown_table(pm, [("reference", "reference", ""), ("simulation", "simulation", ""),
                                       ("friction", "friction", ""), ("pressure_kpa", "pressure kPa", "{:g}"),
@@ -586,7 +587,8 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
     for rj in replay_jobs:
         name = f"replay_{rj['controller']}_{rj['shell_model']}_{rj['pressure_kpa']:g}kPa_s{rj['seed']}.html"
         files[f"replay {rj['controller']} {rj['shell_model']} {rj['pressure_kpa']:g} kPa"] = save_replay(rj, out / name)
-    executor = f"Ray at {ray_address}" if ray_address else f"process pool, {workers or 'all'} workers"
+    executor = f"Ray at {ray_address}" if ray_address else (
+        f"process pool of {workers or max(len(os.sched_getaffinity(0)), 1)} workers" if (workers or 2) > 1 else "in-process")
     files["report"] = write_report(out, spec, rows, agg_model, agg_ctrl, pmes, files, wall, executor, extra_report)
     return {"rows": rows, "pme": pmes, "files": files, "wall_s": wall, "agg_controller": agg_ctrl,
             "agg_model": agg_model}
