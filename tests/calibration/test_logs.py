@@ -114,3 +114,18 @@ def test_cli_bad_log_writes_nothing(tmp_path, capsys):
     code = main(["friction", "--manifest", str(man), "--starts", "1", "--preset-file", str(out)])
     assert code == 2 and not out.exists()
     assert "duplicate time" in capsys.readouterr().err
+
+
+def test_shipped_example_mapping_and_manifest_load():
+    repo = Path(__file__).resolve().parents[2]
+    m = ColumnMapping.load(repo / "assets" / "logs" / "example_mapping.yaml")
+    assert m.time == ("t_ms", "ms") and "theta" in m.required
+    man = load_manifest(repo / "assets" / "logs" / "roboball.yaml")
+    assert {t.group for t in man.trials} == {"stand_swing", "steer_free"}
+    assert man.data_root.name == "roboball" and man.data_root.parent.name == "data"
+
+
+def test_report_without_logs_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "report"
+    assert main(["report", "--data-root", str(tmp_path / "absent"), "--out", str(out)]) == 2
+    assert not out.exists() and "not found" in capsys.readouterr().err
