@@ -17,7 +17,7 @@ import os
 import time
 
 ENV_ID = "sphere_env/RampDescent-v0"
-TRAIN_COLUMNS = [("case", "case", ""), ("n_envs", "workers", "{:d}"), ("steps", "env steps timed", "{:d}"),
+TRAIN_COLUMNS = [("case", "case", ""), ("n_workers", "worker processes", "{:d}"), ("steps", "env steps timed", "{:d}"),
                  ("wall_s", "wall s", "{:.1f}"), ("steps_per_s", "env steps/s", "{:.0f}"),
                  ("cpu_main_ms_per_step", "main CPU ms/step", "{:.3f}"),
                  ("cpu_workers_ms_per_step", "workers CPU ms/step", "{:.3f}"),
@@ -25,15 +25,17 @@ TRAIN_COLUMNS = [("case", "case", ""), ("n_envs", "workers", "{:d}"), ("steps", 
                  ("load_avg_1min", "load avg", "{:.1f}")]
 
 
-def _throughput(shell_model: str, seconds: float, n_envs: int = 2, seed: int = 0) -> dict:
+def _throughput(shell_model: str, seconds: float, n_envs: int = 2, n_workers: int | None = None, seed: int = 0) -> dict:
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
     from training.config import algo_class, resolve_config
     from training.train import make_vec_env, wrap_normalize
 
-    cfg = resolve_config(ENV_ID, "ppo", overrides={"n_envs": n_envs, "env_kwargs": {"shell_model": shell_model}},
-                         seed=seed, build_env=False)
+    overrides: dict = {"n_envs": n_envs, "env_kwargs": {"shell_model": shell_model}}
+    if n_workers is not None:  # same 512-sample rollout per update as the shipped 2 x 256
+        overrides.update(n_workers=n_workers, n_steps=max(512 // n_envs, 1))
+    cfg = resolve_config(ENV_ID, "ppo", overrides=overrides, seed=seed, build_env=False)
     torch.set_num_threads(cfg.torch_threads)
 
     class Clock(BaseCallback):
@@ -76,7 +78,10 @@ def _throughput(shell_model: str, seconds: float, n_envs: int = 2, seed: int = 0
     # cores, but never less than the main process's own share (it is serial with the workers).
     cores = max(len(os.sched_getaffinity(0)), 1)
     idle_wall = max((cpu_main + cpu_workers) / cores, cpu_main, cpu_workers / n_envs)
-    return dict(case=f"PPO, RampDescent, {shell_model} contact", shell_model=shell_model, n_envs=n_envs,
+    layout = (f"{n_envs} SubprocVecEnv workers" if n_workers is None
+              else f"{n_envs} envs on {n_workers} workers (BatchedSubprocVecEnv)")
+    return dict(case=f"PPO, RampDescent, {shell_model} contact, {layout}", shell_model=shell_model,
+                n_envs=n_envs, n_workers=n_workers or n_envs,
                 steps=int(steps), wall_s=wall, steps_per_s=steps / wall, cpu_main_ms_per_step=1e3 * cpu_main / steps,
                 cpu_workers_ms_per_step=1e3 * cpu_workers / steps, idle_estimate_steps_per_s=steps / idle_wall,
                 load_avg_1min=os.getloadavg()[0])
@@ -97,9 +102,16 @@ def _worker_cpu_s(venv) -> float:
     return total
 
 
-def run_train_benchmark(seconds: float = 30.0, shell_models: tuple[str, ...] = ("point",)) -> list[dict]:
-    """PPO training throughput [env steps/s], 2 SubprocVecEnv workers, one row per shell model."""
-    return [_throughput(m, seconds) for m in shell_models]
+def run_train_benchmark(seconds: float = 30.0, shell_models: tuple[str, ...] = ("point",),
+                        batched: bool = True) -> list[dict]:
+    """PPO training throughput [env steps/s] with 2 worker processes, per shell model: the shipped
+    config (2 envs, SubprocVecEnv) and, with ``batched``, 8 envs on the same 2 workers."""
+    rows = []
+    for m in shell_models:
+        rows.append(_throughput(m, seconds))
+        if batched:
+            rows.append(_throughput(m, seconds, n_envs=8, n_workers=2))
+    return rows
 
 
 def main(argv: list[str] | None = None) -> None:

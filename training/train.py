@@ -97,7 +97,14 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
         return DummyVecEnv(fns)
     fns = [partial(make_env, cfg.env_id, kwargs, s, None if mon is None else str(mon / f"train_{rank}"),
                    cfg.torch_threads) for rank, s in enumerate(cfg.worker_seeds)]
-    venv = SubprocVecEnv(fns) if cfg.n_envs > 1 else DummyVecEnv(fns)
+    if cfg.n_envs == 1:
+        venv = DummyVecEnv(fns)
+    elif cfg.n_workers is not None and cfg.n_workers < cfg.n_envs:
+        from training.vec_env import BatchedSubprocVecEnv
+
+        venv = BatchedSubprocVecEnv(fns, cfg.n_workers)
+    else:
+        venv = SubprocVecEnv(fns)
     venv.seed(cfg.seed)
     return venv
 
@@ -429,7 +436,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
 
 def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
     """A stored config as YAML-section overrides (so a resume re-validates exactly what ran)."""
-    return {"n_envs": cfg.n_envs, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
+    return {"n_envs": cfg.n_envs, "n_workers": cfg.n_workers, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
             "normalize": cfg.normalize if cfg.normalize is not None else False,
             "env_kwargs": cfg.env_kwargs, "randomization": cfg.randomization, **cfg.hyperparams}
 

@@ -1,0 +1,48 @@
+"""BatchedSubprocVecEnv (several envs per worker) behaves exactly like DummyVecEnv."""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+import pytest
+from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from training.train import make_env
+from training.vec_env import BatchedSubprocVecEnv
+
+
+@pytest.mark.slow
+def test_batched_equals_dummy_over_episodes_with_resets():
+    kw = {"shell_model": "point", "randomization": "default", "ramp_length_m": 1.0}
+    fns = [partial(make_env, "sphere_env/RampDescent-v0", kw, seed) for seed in range(5)]
+    a, b = DummyVecEnv(fns), BatchedSubprocVecEnv(fns, n_workers=2)
+    try:
+        assert len(b.processes) == 2 and b.num_envs == 5
+        a.seed(3)
+        b.seed(3)
+        np.testing.assert_array_equal(a.reset(), b.reset())
+        rng = np.random.default_rng(0)
+        dones = 0
+        for _ in range(120):  # 1 m ramps: several episodes end and auto-reset
+            act = rng.uniform(-1, 1, (5, 2)).astype(np.float32)
+            oa, ra, da, ia = a.step(act)
+            ob, rb, db, ib = b.step(act)
+            np.testing.assert_array_equal(oa, ob)
+            np.testing.assert_array_equal(ra, rb)
+            np.testing.assert_array_equal(da, db)
+            for x, y in zip(ia, ib):
+                assert x["pressure_kpa"] == y["pressure_kpa"]
+                assert x.get("TimeLimit.truncated") == y.get("TimeLimit.truncated")
+                if "terminal_observation" in x:
+                    np.testing.assert_array_equal(x["terminal_observation"], y["terminal_observation"])
+                    assert x["episode"]["r"] == y["episode"]["r"]
+            dones += int(da.sum())
+        assert dones >= 5
+        assert b.get_attr("shell_model") == ["point"] * 5
+        assert b.get_attr("spec", indices=[4])[0].id == "sphere_env/RampDescent-v0"
+        assert b.env_is_wrapped(Monitor) == [True] * 5
+    finally:
+        a.close()
+        b.close()
