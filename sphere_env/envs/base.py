@@ -244,6 +244,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         self._params: dict[str, Any] = {}
         self._obs = np.zeros(n_obs, dtype=np.float32)
         self._needs_reset = True
+        self._episode_updates = False
+        self._reward_keys = {k: f"reward_{k}" for k in self._reward_term_names}
 
     # ---- twins ---------------------------------------------------------------------------------
     def _quantize_incline(self, incline_deg: float) -> float:
@@ -366,6 +368,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         self._interval_next = {
             t.parameter: t.interval_s for t in self.randomization.terms if t.mode == "interval"
         }
+        # Only interval terms and a pressure schedule change parameters within an episode.
+        self._episode_updates = bool(self._interval_next) or params["pressure_rate_kpa_per_s"] != 0.0
         if self.record_replay and twin.visualizer is not None:
             twin.visualizer.DeleteRecording()
             twin.visualizer.StartRecording(set_transforms_while_recording=True)
@@ -382,13 +386,16 @@ class SphereEnvBase(gym.Env, EzPickle):
         return obs, info
 
     def step(self, action):
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"action: value {action!r} is not numeric; expected shape (2,) in [-1, 1]") from None
-        if a.shape != (2,):
-            raise ValueError(f"action: shape {a.shape} invalid; expected (2,) = [steer, drive] in [-1, 1]")
-        a0, a1 = a.tolist()
+        if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
+            a0, a1 = action.tolist()  # fast path: the usual float32 array
+        else:
+            try:
+                a = np.asarray(action, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"action: value {action!r} is not numeric; expected shape (2,) in [-1, 1]") from None
+            if a.shape != (2,):
+                raise ValueError(f"action: shape {a.shape} invalid; expected (2,) = [steer, drive] in [-1, 1]")
+            a0, a1 = a.tolist()
         if not (math.isfinite(a0) and math.isfinite(a1)):
             raise ValueError(f"action: value {action!r} is not finite (NaN or inf); expected [steer, drive] in [-1, 1]")
         if self._needs_reset:
@@ -401,7 +408,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         tau[0] = a0 * self.steer_torque_limit_nm
         tau[1] = -a1 * self.drive_torque_limit_nm
         if self._failed is None:
-            self._update_params_in_episode(twin.context.get_time())
+            if self._episode_updates:
+                self._update_params_in_episode(twin.context.get_time())
             try:
                 twin.advance_unchecked(self.control_period_s, tau)
             except (RuntimeError, ValueError) as err:  # a diverged solve; never propagate
@@ -466,19 +474,19 @@ class SphereEnvBase(gym.Env, EzPickle):
         return obs
 
     def _info(self, state, terms: Mapping[str, float], success: bool) -> dict[str, Any]:
-        info = {f"reward_{k}": v for k, v in terms.items()} if terms else self._zero_terms()
-        info.update(
-            shell_model=self.shell_model,
-            pressure_kpa=self._params["pressure_kpa"],
-            theta=state.theta,
-            phi=state.phi,
-            omega_d=state.omega_d,
-            heading=state.heading,
-            position_m=state.position_m,
-            time_s=state.time_s,
-            is_success=success,
-            params=dict(self._params),
-        )
+        keys = self._reward_keys
+        info = {keys[k]: v for k, v in terms.items()} if terms else self._zero_terms()
+        params = self._params
+        info["shell_model"] = self.shell_model
+        info["pressure_kpa"] = params["pressure_kpa"]
+        info["theta"] = state.theta
+        info["phi"] = state.phi
+        info["omega_d"] = state.omega_d
+        info["heading"] = state.heading
+        info["position_m"] = state.position_m
+        info["time_s"] = state.time_s
+        info["is_success"] = success
+        info["params"] = params.copy()
         info.update(self._task_info())
         return info
 
