@@ -28,6 +28,7 @@ from __future__ import annotations
 import copy
 import inspect
 import math
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -330,7 +331,9 @@ def validate_with_env(cfg: TrainConfig) -> None:
         if rnd is cfg.randomization:
             venv = DummyVecEnv([lambda env=env: env])
             try:
-                algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
+                with warnings.catch_warnings():  # e.g. PPO's batch-size hint for this 1-env stand-in
+                    warnings.simplefilter("ignore")
+                    algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
             except (ValueError, TypeError, AssertionError, KeyError) as err:
                 raise ValueError(f"hyperparams: {cfg.algo.upper()} refused the values: {err}") from None
             venv.close()
