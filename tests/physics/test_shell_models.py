@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sphere_env.models.decay import fit_free_decay
+from sphere_env.calibration.decay import fit_free_decay
 from sphere_env.physics import InitialState
 
 from .conftest import record
@@ -75,20 +75,19 @@ def test_set_pressure_mid_run_changes_injected_frequency(make_twin):
 
 
 def test_set_pressure_mid_run_changes_hydroelastic_sink(make_twin):
-    lo, hi = None, None
     twin = make_twin(fixture="free", shell_model="hydroelastic")
     lo, hi = twin.calibration.pressure_range_kpa
     twin.reset(pressure_kpa=lo)
-    record(twin, 1.0)
+    record(twin, 2.0)
     z_lo = twin.state().position_m[2]
     twin.set_pressure(hi)  # in the same run, no rebuild
-    record(twin, 1.0)
+    record(twin, 2.0)
     z_hi = twin.state().position_m[2]
     R = twin.robot.radius_m
     assert R - z_lo > R - z_hi > 0  # softer shell sinks deeper
     # ... by exactly what a twin built at that pressure settles to
     fresh = make_twin(fixture="free", shell_model="hydroelastic", pressure_kpa=hi)
-    record(fresh, 1.0)
+    record(fresh, 2.0)
     assert z_hi == pytest.approx(fresh.state().position_m[2], abs=2e-4)
     params = twin.shell_parameters()
     assert params["hydroelastic_modulus_pa"] > twin.shell_parameters(lo)["hydroelastic_modulus_pa"]
