@@ -4,9 +4,10 @@ Twin section (issue 2): 10 s of free rolling from rest down the 16° ramp (4 m, 
 run-out), Majd friction on both joints, advanced in 20 ms chunks as an environment would; per
 shell model, plus the same run on the bare plant (no friction system, no injected torques) of the
 same contact model. Real-time factor = simulated seconds / wall seconds; best of ``--repeats``.
-Environment section (issue 3): ``evaluation.benchmark_env.run_env_benchmarks`` when present.
+Environment section (issue 3): ``evaluation.benchmark_env.run_env_benchmarks``.
+Training section (issue 4): ``evaluation.benchmark_train.run_train_benchmark`` (PPO, 2 workers).
 
-    python -m evaluation.benchmark [--seconds 10] [--repeats 3] [--skip-env]
+    python -m evaluation.benchmark [--seconds 10] [--repeats 3] [--skip-env] [--skip-train]
 """
 
 from __future__ import annotations
@@ -65,6 +66,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeats", type=int, default=3, help="repeats per case (best is kept)")
     parser.add_argument("--skip-env", action="store_true", help="skip the Gymnasium environment section")
     parser.add_argument("--env-seconds", type=float, default=10.0, help="wall seconds per env case")
+    parser.add_argument("--skip-train", action="store_true", help="skip the PPO training-throughput section")
+    parser.add_argument("--train-seconds", type=float, default=30.0, help="wall seconds per training case")
     args = parser.parse_args(argv)
 
     info = machine_info()
@@ -88,18 +91,21 @@ def main(argv: list[str] | None = None) -> None:
     ]
     env_rows = []
     if not args.skip_env:
-        try:
-            from evaluation.benchmark_env import ENV_COLUMNS, run_env_benchmarks
-        except ImportError:
-            md += ["", "_Environment benchmark not available in this checkout._"]
-        else:
-            env_rows = run_env_benchmarks(args.env_seconds)
-            md += ["", "## Environments: env steps/s at 50 Hz control, random actions", "",
-                   markdown_table(env_rows, ENV_COLUMNS)]
+        from evaluation.benchmark_env import ENV_COLUMNS, run_env_benchmarks
+
+        env_rows = run_env_benchmarks(args.env_seconds)
+        md += ["", "## Environments: env steps/s at 50 Hz control, random actions", "",
+               markdown_table(env_rows, ENV_COLUMNS)]
+    train_rows = []
+    if not args.skip_train:
+        from evaluation.benchmark_train import TRAIN_COLUMNS, run_train_benchmark
+
+        train_rows = run_train_benchmark(args.train_seconds)
+        md += ["", "## Training: PPO throughput with 2 worker processes", "", markdown_table(train_rows, TRAIN_COLUMNS)]
     text = "\n".join(md) + "\n"
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "benchmark.md").write_text(text)
-    (RESULTS / "benchmark.json").write_text(json.dumps({"machine": info, "twin": twin_rows, "env": env_rows}, indent=2))
+    (RESULTS / "benchmark.json").write_text(json.dumps({"machine": info, "twin": twin_rows, "env": env_rows, "train": train_rows}, indent=2))
     print(text)
 
 
