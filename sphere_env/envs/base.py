@@ -41,7 +41,7 @@ DEFAULT_DRIVE_TORQUE_LIMIT_NM = 22.0
 INCLINE_RESOLUTION_DEG = 1.0
 #: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
-#: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms (Twin.set_pressure_cached).
+#: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms (cached inside Twin.set_pressure).
 PRESSURE_RESOLUTION_KPA = 0.01
 _NOMINAL = {
     "steer_friction_scale": 1.0,
@@ -359,7 +359,7 @@ class SphereEnvBase(gym.Env, EzPickle):
             self.twin.visualizer.StopRecording()
         self.twin = twin
         self._apply_params(twin, params)
-        twin.set_pressure_cached(params["pressure_kpa"])
+        twin.set_pressure(params["pressure_kpa"])
         twin.reset(init)
         self._p0 = self._p_applied = params["pressure_kpa"]
         sched = self.randomization.pressure_schedule
@@ -377,7 +377,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         self._steps = 0
         self._failed = None
         self._needs_reset = False
-        state = twin.fast_state()
+        state = twin.state()
         self._task_reset(state, options)
         obs = self._observe(state)
         info = self._info(state, {}, False)
@@ -416,7 +416,7 @@ class SphereEnvBase(gym.Env, EzPickle):
                 self._failed = f"physics_failure: {type(err).__name__}: {str(err).splitlines()[0][:200]}"
         self._steps += 1
         if self._failed is None:
-            state = twin.fast_state()
+            state = twin.state()
             self._failed = physics_failure(state)
         if self._failed is not None:
             info = self._failed_info()
@@ -456,11 +456,11 @@ class SphereEnvBase(gym.Env, EzPickle):
             p = schedule_pressure(self._p0, rate, self._sched_delay_s, t, self.calibration.pressure_range_kpa)
             p = self._quantize_pressure(p)
             if abs(p - self._p_applied) >= PRESSURE_RESOLUTION_KPA:
-                self.twin.set_pressure_cached(p)
+                self.twin.set_pressure(p)
                 self._p_applied = p
             params["pressure_kpa"] = self._p_applied  # what the physics uses
         elif self._p_applied != params["pressure_kpa"]:
-            self.twin.set_pressure_cached(params["pressure_kpa"])
+            self.twin.set_pressure(params["pressure_kpa"])
             self._p_applied = params["pressure_kpa"]
 
     def _observe(self, state) -> np.ndarray:
@@ -542,7 +542,7 @@ class SphereEnvBase(gym.Env, EzPickle):
             w, h = self.render_size
             core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())
             self._camera = ColorRenderCamera(core, False)
-        c = twin.fast_state().position_m
+        c = twin.state().position_m
         eye = c + np.array([-1.5, -1.5, 0.9])
         z = c - eye
         z /= np.linalg.norm(z)

@@ -13,6 +13,7 @@ Sign conventions (see README "Conventions"):
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
@@ -36,6 +37,7 @@ from pydrake.multibody.plant import (
 )
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint
+from pydrake.symbolic import Expression, Variable, if_then_else
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
@@ -199,21 +201,21 @@ class Terrain:
         self.R_WG = RotationMatrix.MakeYRotation(self.alpha)  # x_G down the fall line
         self.n_ramp = self.R_WG.col(2)
         self.t_ramp = self.R_WG.col(0)
+        self._n_ramp = tuple(float(c) for c in self.n_ramp)
+        # x_W where the flat run-out starts (inf: the incline never ends)
+        self._x_runout = math.inf if ramp_length_m is None or self.alpha == 0.0 else float(self.ramp_end_W[0])
 
     @property
     def ramp_end_W(self) -> np.ndarray | None:
         return None if self.ramp_length_m is None else self.t_ramp * self.ramp_length_m
 
     def normal_at(self, p_W):
-        """Ground normal under a point (symbolic-friendly)."""
-        if self.ramp_length_m is None or self.alpha == 0.0:
-            return self.n_ramp
-        from pydrake.symbolic import Expression, Variable, if_then_else
-
-        x_end = float(self.ramp_end_W[0])
+        """Ground normal n_W under a point, as a 3-tuple (numeric or symbolic in p_W)."""
+        if math.isinf(self._x_runout):
+            return self._n_ramp
         if isinstance(p_W[0], (Expression, Variable)):  # symbolic state variables are Variables
-            return np.array([if_then_else(p_W[0] < x_end, nr, nz) for nr, nz in zip(self.n_ramp, (0.0, 0.0, 1.0))])
-        return self.n_ramp if p_W[0] < x_end else np.array([0.0, 0.0, 1.0])
+            return tuple(if_then_else(p_W[0] < self._x_runout, nr, nz) for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
+        return self._n_ramp if p_W[0] < self._x_runout else (0.0, 0.0, 1.0)
 
     def register(self, plant, props: ProximityProperties) -> None:
         world = plant.world_body()
@@ -367,6 +369,8 @@ class Twin:
         self._motor_port = self.diagram.get_input_port(0)
         self._motor_port.FixValue(self.context, np.zeros(2))
         self._friction_scale = np.array([1.0, 1.0])
+        self._ground_friction = float(self.config.ground_friction)
+        self._geometry_cache: OrderedDict = OrderedDict()
         self._apply_pressure_to_context()
         self.reset()
 
@@ -387,6 +391,7 @@ class Twin:
         return props
 
     # ---- pressure --------------------------------------------------------------------------------
+    GEOMETRY_CACHE_SIZE = 24  # hydroelastic shells kept per twin, one per distinct pressure
     @property
     def pressure_kpa(self) -> float:
         return self._pressure_kpa
@@ -431,12 +436,31 @@ class Twin:
         )
 
     def _apply_pressure_to_context(self) -> None:
+        """Push the current pressure into the context.
+
+        injected: new K_inject, C_inject gains. hydroelastic: new shell proximity properties
+        (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
+        for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
+        cached per (pressure, ground friction), LRU, and restored in ≈2 ms when they recur;
+        results are bit-identical.
+        """
         self._apply_gains()
-        if self.config.shell_model == "hydroelastic":
-            self.scene_graph.AssignRole(
-                self.sg_context, self.shell_source_id, self.shell_geometry,
-                self._shell_properties(self._pressure_kpa), RoleAssign.kReplace,
-            )
+        if self.config.shell_model != "hydroelastic":
+            return
+        idx = self._geometry_state_index()
+        key = (self._pressure_kpa, self._ground_friction)
+        snap = self._geometry_cache.get(key)
+        if snap is not None:
+            self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
+            self._geometry_cache.move_to_end(key)
+            return
+        self.scene_graph.AssignRole(
+            self.sg_context, self.shell_source_id, self.shell_geometry,
+            self._shell_properties(self._pressure_kpa), RoleAssign.kReplace,
+        )
+        self._geometry_cache[key] = self.sg_context.get_abstract_parameter(idx).Clone()
+        if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:
+            self._geometry_cache.popitem(last=False)
 
     # ---- state -----------------------------------------------------------------------------------
     def reset(self, initial: InitialState | None = None, pressure_kpa: float | None = None) -> TwinState:
@@ -492,59 +516,55 @@ class Twin:
         tau = np.asarray(motor_torque, dtype=float)
         if tau.shape != (2,) or not np.all(np.isfinite(tau)):
             raise ValueError(f"motor_torque: value {motor_torque!r} must be 2 finite numbers [N m]")
-        self._motor_port.FixValue(self.context, tau)
-        self.simulator.AdvanceTo(self.context.get_time() + duration_s)
+        self.advance_unchecked(duration_s, tau)
 
     def positions_velocities(self) -> tuple[np.ndarray, np.ndarray]:
         return self.plant.GetPositions(self.plant_context), self.plant.GetVelocities(self.plant_context)
 
-    def _base_kinematics(self, q: np.ndarray, v: np.ndarray):
-        """Pitch-center y axis ŷ_PC, third row of R_WPC, position, angular and linear velocity, in W."""
-        lay = self._layout
-        if lay["base"] == "quaternion":
-            i, j = lay["base_q"], lay["base_v"]
-            qw, qx, qy, qz = q[i : i + 4] / math.sqrt(float(q[i : i + 4] @ q[i : i + 4]))
-            y_W = np.array(quaternion_y_axis(qw, qx, qy, qz))
-            row_z = (2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), 1 - 2 * (qx * qx + qy * qy))
-            return y_W, row_z, q[i + 4 : i + 7].copy(), v[j : j + 3].copy(), v[j + 3 : j + 6].copy()
-        if lay["base"] == "planar":  # coords (y_W, z_W, φ) about world x
-            i, j = lay["base_q"], lay["base_v"]
-            c, s_ = math.cos(q[i + 2]), math.sin(q[i + 2])
-            return (np.array([0.0, c, s_]), (0.0, s_, c), np.array([0.0, q[i], q[i + 1]]),
-                    np.array([v[j + 2], 0.0, 0.0]), np.array([0.0, v[j], v[j + 1]]))
-        return np.array([0.0, 1.0, 0.0]), (0.0, 0.0, 1.0), np.array([0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3)
-
     def state(self) -> TwinState:
-        """Read θ, φ, ω_d, heading, pose and rates from the plant state (DESIGN.md §1 names)."""
-        plant, pc, lay = self.plant, self.plant_context, self._layout
-        q, v = plant.GetPositions(pc), plant.GetVelocities(pc)
-        y_W, row_z, p_W, w_W, v_W = self._base_kinematics(q, v)
-        n_W = self.terrain.normal_at(p_W)
-        drive_angle, drive_rate = float(q[lay["drive_q"]]), float(v[lay["drive_v"]])
-        phi, phi_dot, _ = pipe_angle_expressions(y_W, w_W, n_W)
-        omega_d = float(w_W @ y_W) - drive_rate  # ω_WP·ŷ: the pipe turns at −q̇_d about ŷ vs PC
-        # Heading: horizontal forward direction f = ŷ × ẑ = (y1, −y0, 0); ψ = atan2(f_y, f_x).
+        """Read θ, φ, ω_d, heading, pose and rates from the plant state (DESIGN.md §1 names).
+
+        Plain float math on [q; v] (≈10 µs): R_WPC from the normalized base quaternion, φ and φ̇
+        from :func:`pipe_angle_expressions` (the same definition the injected law uses),
+        ω_d = ω_WPC·ŷ − q̇_d, ψ = atan2(−ŷ_x, ŷ_y), gravity in the pipe frame
+        g_P = −(row z of R_WP)ᵀ with R_WP = R_WPC R_y(−q_d) (the drive axis is −y_PC).
+        """
+        lay = self._layout
+        x = self.plant.GetPositionsAndVelocities(self.plant_context).tolist()
+        nq = lay["nq"]
+        q_d, qd_dot = x[lay["drive_q"]], x[nq + lay["drive_v"]]
+        if lay["base"] == "quaternion":
+            i, j = lay["base_q"], nq + lay["base_v"]
+            qw, qx, qy, qz = x[i : i + 4]
+            k = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+            y_W = (k * (qx * qy - qw * qz), 1.0 - k * (qx * qx + qz * qz), k * (qy * qz + qw * qx))
+            row_z = (k * (qx * qz - qw * qy), k * (qy * qz + qw * qx), 1.0 - k * (qx * qx + qy * qy))
+            p_W, w_W, v_W = x[i + 4 : i + 7], x[j : j + 3], x[j + 3 : j + 6]
+        elif lay["base"] == "planar":  # coords (y_W, z_W, φ) about world x
+            i, j = lay["base_q"], nq + lay["base_v"]
+            c, sn = math.cos(x[i + 2]), math.sin(x[i + 2])
+            y_W, row_z = (0.0, c, sn), (0.0, sn, c)
+            p_W, w_W, v_W = (0.0, x[i], x[i + 1]), (x[j + 2], 0.0, 0.0), (0.0, x[j], x[j + 1])
+        else:  # stand: pitch center welded 1 m above the origin
+            y_W, row_z = (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
+            p_W, w_W, v_W = (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        phi, phi_dot, _ = pipe_angle_expressions(y_W, w_W, self.terrain.normal_at(p_W))
         y_dot = cross3(w_W, y_W)
-        fx, fy, fx_dot, fy_dot = y_W[1], -y_W[0], y_dot[1], -y_dot[0]
-        heading = math.atan2(fy, fx)
-        heading_rate = (fx * fy_dot - fy * fx_dot) / max(fx * fx + fy * fy, 1e-12)
-        # Gravity in the pipe frame: −(third row of R_WP)ᵀ with R_WP = R_WPC R_y(−q_d).
-        c, s_ = math.cos(drive_angle), -math.sin(drive_angle)
-        gravity_in_pipe = -np.array([row_z[0] * c - row_z[2] * s_, row_z[1], row_z[0] * s_ + row_z[2] * c])
+        c, sn = math.cos(q_d), -math.sin(q_d)
         return TwinState(
             time_s=self.context.get_time(),
-            theta=float(q[lay["steer_q"]]),
-            theta_dot=float(v[lay["steer_v"]]),
-            drive_angle=drive_angle,
-            drive_rate=drive_rate,
-            phi=float(phi),
-            phi_dot=float(phi_dot),
-            omega_d=omega_d,
-            heading=heading,
-            heading_rate=float(heading_rate),
-            position_m=p_W,
-            velocity_m_s=v_W,
-            gravity_in_pipe=gravity_in_pipe,
+            theta=x[lay["steer_q"]],
+            theta_dot=x[nq + lay["steer_v"]],
+            drive_angle=q_d,
+            drive_rate=qd_dot,
+            phi=phi,
+            phi_dot=phi_dot,
+            omega_d=w_W[0] * y_W[0] + w_W[1] * y_W[1] + w_W[2] * y_W[2] - qd_dot,
+            heading=math.atan2(-y_W[0], y_W[1]),
+            heading_rate=(y_W[0] * y_dot[1] - y_W[1] * y_dot[0]) / max(y_W[0] ** 2 + y_W[1] ** 2, 1e-12),
+            position_m=np.array(p_W),
+            velocity_m_s=np.array(v_W),
+            gravity_in_pipe=-np.array((row_z[0] * c - row_z[2] * sn, row_z[1], row_z[0] * sn + row_z[2] * c)),
             pressure_kpa=self._pressure_kpa,
         )
 
@@ -566,59 +586,6 @@ class Twin:
     # ==== environment support (issue 3) — appended by the env helper ==============================
     # Fast state readout, payload, ground friction and an unchecked torque path used by
     # sphere_env.envs every control step. Nothing above this line depends on it.
-
-    def fast_state(self) -> TwinState:
-        """:meth:`state` for the ``free`` fixture in plain float math (≈10× cheaper).
-
-        Reads [q; v] once and evaluates the same formulas as :meth:`state` without Drake's
-        kinematics cache: R_WPC from the (normalized) base quaternion, φ = asin(ŷ·n),
-        φ̇ = ((ω×ŷ)·n)/cos φ, ω_d = ω·ŷ − q̇_d, ψ = atan2(−ŷ_x, ŷ_y), and the gravity direction in
-        the pipe frame g_P = Ry(q_d) R_WPCᵀ (0, 0, −1) (the drive joint rotates about −y_PC).
-        Falls back to :meth:`state` for the other fixtures.
-        """
-        lay = self._layout
-        if lay["base"] != "quaternion":
-            return self.state()
-        x = self.plant.GetPositionsAndVelocities(self.plant_context).tolist()
-        bq, bv = lay["base_q"], lay["nq"] + lay["base_v"]
-        qw, qx, qy, qz = x[bq : bq + 4]
-        px, py, pz = x[bq + 4 : bq + 7]
-        wx, wy, wz, vx, vy, vz = x[bv : bv + 6]
-        nq = lay["nq"]
-        theta, q_d = x[lay["steer_q"]], x[lay["drive_q"]]
-        theta_dot, qd_dot = x[nq + lay["steer_v"]], x[nq + lay["drive_v"]]
-        s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-        # ŷ_PC in W (column 1 of R_WPC) and row 2 of R_WPC.
-        yx, yy, yz = s * (qx * qy - qw * qz), 1.0 - s * (qx * qx + qz * qz), s * (qy * qz + qw * qx)
-        r20, r21, r22 = s * (qx * qz - qw * qy), s * (qy * qz + qw * qx), 1.0 - s * (qx * qx + qy * qy)
-        ground = self.__dict__.get("_fast_ground")
-        if ground is None:  # (ramp normal, x where the flat run-out starts)
-            t = self.terrain
-            x_end = math.inf if t.ramp_length_m is None else float(t.ramp_end_W[0])
-            ground = self._fast_ground = (tuple(float(c) for c in t.n_ramp), x_end)
-        nx, ny, nz = ground[0] if px < ground[1] else (0.0, 0.0, 1.0)
-        sphi = min(max(yx * nx + yy * ny + yz * nz, -1.0), 1.0)
-        cphi = max(math.sqrt(1.0 - sphi * sphi), 1e-9)
-        ydx, ydy, ydz = wy * yz - wz * yy, wz * yx - wx * yz, wx * yy - wy * yx  # ω × ŷ
-        hor = max(yx * yx + yy * yy, 1e-12)
-        c, sn = math.cos(q_d), math.sin(q_d)
-        gx, gy, gz = -r20, -r21, -r22  # gravity direction in PC
-        return TwinState(
-            time_s=self.context.get_time(),
-            theta=theta,
-            theta_dot=theta_dot,
-            drive_angle=q_d,
-            drive_rate=qd_dot,
-            phi=math.asin(sphi),
-            phi_dot=(ydx * nx + ydy * ny + ydz * nz) / cphi,
-            omega_d=wx * yx + wy * yy + wz * yz - qd_dot,
-            heading=math.atan2(-yx, yy),
-            heading_rate=(yx * ydy - yy * ydx) / hor,
-            position_m=np.array((px, py, pz)),
-            velocity_m_s=np.array((vx, vy, vz)),
-            gravity_in_pipe=np.array((c * gx + sn * gz, gy, c * gz - sn * gx)),
-            pressure_kpa=self._pressure_kpa,
-        )
 
     def advance_unchecked(self, duration_s: float, motor_torque: np.ndarray) -> None:
         """:meth:`advance` without input validation; ``motor_torque`` must be a finite float64 (2,)."""
@@ -672,34 +639,6 @@ class Twin:
     # Hydroelastic pressure changes re-mesh the compliant shell (≈90 ms). The SceneGraph context's
     # GeometryState for a given pressure is cached and restored (≈2 ms, ≈1.8 MB each, LRU), then
     # the current ground friction re-applied if it differs — bit-identical to a fresh set_pressure.
-    GEOMETRY_CACHE_SIZE = 24
-
-    def set_pressure_cached(self, pressure_kpa: float) -> None:
-        """:meth:`set_pressure`, reusing cached hydroelastic geometry for repeated pressures."""
-        if self.config.shell_model != "hydroelastic":
-            self.set_pressure(pressure_kpa)
-            return
-        from collections import OrderedDict
-
-        p = self.calibration.check_pressure(pressure_kpa, "pressure_kpa")
-        cache = self.__dict__.setdefault("_geometry_cache", OrderedDict())
-        idx = self._geometry_state_index()
-        mu = getattr(self, "_ground_friction", None)
-        entry = cache.get(p)
-        if entry is None:
-            self.set_pressure(p)
-            cache[p] = (self.sg_context.get_abstract_parameter(idx).Clone(), mu)
-            if len(cache) > self.GEOMETRY_CACHE_SIZE:
-                cache.popitem(last=False)
-        else:
-            snap, mu_snap = entry
-            self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
-            cache.move_to_end(p)
-            self._pressure_kpa = p
-            self._apply_gains()
-            if mu_snap != mu:  # the snapshot carries the ground friction of its time: re-apply (≈0.2 ms)
-                self.set_ground_friction(1.0 if mu is None else mu)
-
     def _geometry_state_index(self) -> int:
         idx = self.__dict__.get("_geometry_index")
         if idx is None:
@@ -719,4 +658,4 @@ class Twin:
         """Add a render engine to this twin's SceneGraph context (no rebuild); clears the
         geometry cache (cached states would not contain the renderer)."""
         self.scene_graph.AddRenderer(self.sg_context, name, engine)
-        self.__dict__.get("_geometry_cache", {}).clear()
+        self._geometry_cache.clear()

@@ -41,17 +41,6 @@ def test_zero_torque_ramp_rolls_downhill_like_the_twin(make, shell_model):
     assert info["position_m"][2] < twin.robot.radius_m - 0.1
 
 
-def test_fast_state_matches_state():
-    twin = Twin(TwinConfig(shell_model="injected", incline_deg=16.0, ramp_length_m=1.0))
-    twin.reset(InitialState(theta=0.3, roll=0.2, heading=0.4))
-    rng = np.random.default_rng(0)
-    for _ in range(120):
-        twin.advance(0.02, (rng.uniform(-10, 10), rng.uniform(-15, 15)))
-        a, b = twin.state(), twin.fast_state()
-        for key, val in a.__dict__.items():
-            assert np.allclose(val, getattr(b, key), atol=1e-9), key
-
-
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_baseline_beats_zero_torque(make, env_id):
     env = make(env_id)  # defaults: injected shell, pressure randomized
@@ -219,10 +208,12 @@ def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
 
     cached = Twin(TwinConfig(shell_model="hydroelastic"))
     fresh = Twin(TwinConfig(shell_model="hydroelastic"))
-    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 1.2)):  # last: cache hit with another ground μ
+    # (5, 0.4) again is a cache hit; (5, 1.2) is a miss (the snapshot holds the ground μ too)
+    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 0.4), (5.0, 1.2)):
         cached.set_ground_friction(mu)
-        cached.set_pressure_cached(p)
+        cached.set_pressure(p)
         fresh.set_ground_friction(mu)
+        fresh._geometry_cache.clear()  # force a re-mesh
         fresh.set_pressure(p)
         assert run(cached) == run(fresh)
-    assert len(cached._geometry_cache) == 2
+    assert set(cached._geometry_cache) >= {(5.0, 0.4), (12.0, 0.4), (5.0, 1.2)}

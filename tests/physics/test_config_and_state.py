@@ -87,6 +87,33 @@ def test_full_initial_state_round_trip():
     np.testing.assert_allclose(np.linalg.norm(s.gravity_in_pipe), 1.0)
 
 
+@pytest.mark.parametrize("ramp_length_m", [None, 1.0])
+def test_state_readout_agrees_with_drake_kinematics(ramp_length_m):
+    """state() uses float math on [q; v]; check it against Drake's own body poses and velocities."""
+    twin = Twin(TwinConfig(shell_model="injected", incline_deg=16.0, ramp_length_m=ramp_length_m))
+    twin.reset(InitialState(theta=0.3, roll=0.2, heading=0.4, drive_angle=0.5))
+    rng = np.random.default_rng(0)
+    plant, ctx = twin.plant, twin.plant_context
+    for _ in range(60):
+        twin.advance(0.02, (rng.uniform(-10, 10), rng.uniform(-15, 15)))
+        s = twin.state()
+        R_WPC = plant.EvalBodyPoseInWorld(ctx, twin.pc).rotation().matrix()
+        X_WP = plant.EvalBodyPoseInWorld(ctx, twin.pipe)
+        V_WP = plant.EvalBodySpatialVelocityInWorld(ctx, twin.pipe)
+        V_WPC = plant.EvalBodySpatialVelocityInWorld(ctx, twin.pc)
+        y_W = R_WPC[:, 1]
+        n_W = np.array(twin.terrain.normal_at(X_WP.translation()))
+        np.testing.assert_allclose(s.position_m, X_WP.translation(), atol=1e-12)
+        np.testing.assert_allclose(s.velocity_m_s, V_WP.translational(), atol=1e-12)
+        np.testing.assert_allclose(s.gravity_in_pipe, X_WP.rotation().matrix().T @ [0, 0, -1], atol=1e-12)
+        assert s.omega_d == pytest.approx(V_WP.rotational() @ y_W, abs=1e-9)
+        assert s.phi == pytest.approx(math.asin(y_W @ n_W), abs=1e-9)
+        f = np.cross(y_W, [0, 0, 1.0])
+        assert s.heading == pytest.approx(math.atan2(f[1], f[0]), abs=1e-9)
+        y_dot = np.cross(V_WPC.rotational(), y_W)
+        assert s.phi_dot == pytest.approx((y_dot @ n_W) / math.sqrt(1 - (y_W @ n_W) ** 2), abs=1e-9)
+
+
 def test_rolling_forward_gives_positive_drive_velocity():
     twin = Twin(TwinConfig(shell_model="point", incline_deg=16, steer_friction="none", drive_friction="none"))
     twin.reset()
