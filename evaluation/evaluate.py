@@ -30,13 +30,13 @@ import json
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
+
+from sphere_env.parallel import run_parallel
 
 from evaluation.controllers import check_spec, env_kwargs_of, make_controller, split_label
 from evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
@@ -186,41 +186,7 @@ def _run_job(job: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarr
 def run_jobs(jobs: Sequence[Mapping[str, Any]], workers: int | None = None, ray_address: str | None = None,
              progress: bool = False) -> list[tuple[dict[str, Any], dict[str, np.ndarray]]]:
     """Run cells in job order: in-process (``workers=1``), on a local process pool, or on Ray."""
-    jobs = list(jobs)
-    if ray_address is not None:
-        return _run_ray(jobs, ray_address, workers)
-    n = workers or max(len(os.sched_getaffinity(0)), 1)
-    if n <= 1 or len(jobs) <= 1:
-        return [_run_job(j) for j in jobs]
-    chunk = max(1, math.ceil(len(jobs) / (n * 3)))
-    # forkserver: workers never inherit torch/Drake threads of a training parent process
-    with ProcessPoolExecutor(max_workers=min(n, len(jobs)), mp_context=get_context("forkserver")) as pool:
-        it = pool.map(_run_job, jobs, chunksize=chunk)
-        if progress:
-            from tqdm import tqdm
-
-            it = tqdm(it, total=len(jobs), desc="evaluation cells")
-        return list(it)
-
-
-def _run_ray(jobs: list, address: str, workers: int | None) -> list:
-    try:
-        import ray
-    except ImportError:
-        raise ValueError("ray_address: Ray is not installed; pip install -e '.[ray]'") from None
-    started = False
-    if not ray.is_initialized():
-        if address == "local":
-            ray.init(num_cpus=workers or None, include_dashboard=False, log_to_driver=False)
-        else:
-            ray.init(address=address, log_to_driver=False)
-        started = True
-    try:
-        remote = ray.remote(num_cpus=1)(_run_job)
-        return ray.get([remote.remote(j) for j in jobs])
-    finally:
-        if started:
-            ray.shutdown()
+    return run_parallel(_run_job, jobs, workers=workers, progress=progress, ray_address=ray_address)
 
 
 # ---- outputs -------------------------------------------------------------------------------------------

@@ -1,7 +1,5 @@
-"""A small process-pool executor for sweeps (calibration sensitivity, evaluation grids).
-
-Same semantics as the local pool of ``evaluation.evaluate.run_jobs`` (forkserver workers, job-order
-results, ``workers=1`` in-process), for any module-level job function.
+"""The one executor for sweeps (evaluation grids, calibration sensitivity): in-process, a local
+process pool, or a Ray cluster, with identical results in job order.
 
 Each job is a picklable mapping handed to a module-level function; results come back in job
 order. ``workers=1`` runs in-process (no pool, easy debugging and profiling). Every worker
@@ -26,12 +24,16 @@ def default_workers() -> int:
 
 
 def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[str, Any]],
-                 workers: int | None = None, progress: bool = False) -> list[Any]:
-    """Run ``fn(job)`` for every job, on ``workers`` processes (None: all usable cores).
+                 workers: int | None = None, progress: bool = False, ray_address: str | None = None) -> list[Any]:
+    """Run ``fn(job)`` for every job, on ``workers`` processes (None: all usable cores), or on Ray.
 
     ``fn`` must be importable at module level (pickled by reference). Results keep job order.
+    ``ray_address``: ``"local"`` starts a local Ray instance, anything else is passed to
+    ``ray.init(address=...)`` (``auto``, ``ray://host:10001``); needs ``pip install -e .[ray]``.
     """
     jobs = list(jobs)
+    if ray_address is not None:
+        return _run_ray(fn, jobs, ray_address, workers)
     n = default_workers() if workers is None else int(workers)
     if n < 1:
         raise ValueError(f"workers: value {workers!r} must be >= 1")
@@ -50,3 +52,23 @@ def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[
     finally:
         if n > 1 and len(jobs) > 1:
             pool.shutdown()
+
+
+def _run_ray(fn: Callable[[Mapping[str, Any]], Any], jobs: list, address: str, workers: int | None) -> list:
+    try:
+        import ray
+    except ImportError:
+        raise ValueError("ray_address: Ray is not installed; pip install -e '.[ray]'") from None
+    started = False
+    if not ray.is_initialized():
+        if address == "local":
+            ray.init(num_cpus=workers or None, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(address=address, log_to_driver=False)
+        started = True
+    try:
+        remote = ray.remote(num_cpus=1)(fn)
+        return ray.get([remote.remote(j) for j in jobs])
+    finally:
+        if started:
+            ray.shutdown()

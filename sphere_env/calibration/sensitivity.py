@@ -38,9 +38,8 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
                            drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
                            time_step_s=job.get("time_step_s", 0.005)))
-    twin.calibration = ShellCalibration.from_dict(
-        calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>")
-    twin.set_pressure(p)
+    twin.set_calibration(ShellCalibration.from_dict(
+        calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>"), p)
     twin.reset(InitialState(roll=job.get("phi0_rad", 0.15)))
     dt, n = 0.01, int(job.get("duration_s", 6.0) / 0.01)
     t, phi = np.empty(n + 1), np.empty(n + 1)

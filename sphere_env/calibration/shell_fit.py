@@ -10,8 +10,7 @@ the trials we fit
 Both are expressed through a :class:`ShellCalibration`, never by touching the twin's internals:
 ω_n and ζ move the intercept/scale of the curves (slopes kept), the modulus becomes a contact-
 volume table V(p) = f_n / modulus scaled along the membrane shape, and the dissipation becomes
-k_d = d / C_inject(p₀). A fitted calibration is installed in one twin (``twin.calibration = ...;
-twin.set_pressure(p₀)``), so the Drake diagram is built once per model.
+k_d = d / C_inject(p₀). A fitted calibration is installed in one twin (``twin.set_calibration(cal, p₀)``), so the Drake diagram is built once per model.
 """
 
 from __future__ import annotations
@@ -107,8 +106,7 @@ def steer_plane_twin(model: str, steer_friction: Any, calibration: str | None = 
 
 def install_calibration(twin: Twin, raw: Mapping[str, Any], pressure_kpa: float) -> None:
     """Swap ``twin``'s calibration for ``raw`` and apply it at ``pressure_kpa`` (no rebuild)."""
-    twin.calibration = ShellCalibration.from_dict(dict(raw), source="<fit>")
-    twin.set_pressure(pressure_kpa)
+    twin.set_calibration(ShellCalibration.from_dict(dict(raw), source="<fit>"), pressure_kpa)
 
 
 def trial_rmse(twin: Twin, logs: Sequence[RobotLog]) -> dict[str, dict[str, float]]:

@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-import numpy as np
 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, pme_percent, rmse, simulate_log

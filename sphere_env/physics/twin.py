@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 from pydrake.geometry import (
@@ -42,14 +42,13 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
 
-from sphere_env.models.friction import FrictionModel, resolve_friction
+from sphere_env.models.friction import resolve_friction
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration, check_shell_model
 from sphere_env.physics.forces import (
     build_force_expressions,
     cross3,
     pipe_angle_expressions,
-    quaternion_y_axis,
 )
 
 FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
@@ -261,7 +260,7 @@ class Twin:
 
     # ---- building --------------------------------------------------------------------------------
     def _build(self) -> None:
-        cfg, cal = self.config, self.calibration
+        cfg = self.config
         hydro = cfg.shell_model == "hydroelastic"
         approx = cfg.contact_approximation or _DEFAULT_APPROX[cfg.shell_model]
         builder = DiagramBuilder()
@@ -417,6 +416,14 @@ class Twin:
         self._pressure_kpa = self.calibration.check_pressure(pressure_kpa, "pressure_kpa")
         self._apply_pressure_to_context()
 
+    def set_calibration(self, calibration: ShellCalibration | str | Path, pressure_kpa: float | None = None) -> None:
+        """Use another shell calibration from now on (no rebuild), at ``pressure_kpa`` [kPa] or the
+        current pressure. Validated first: on error nothing changes."""
+        cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
+        p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa, "pressure_kpa")
+        self.calibration, self._pressure_kpa = cal, p
+        self._apply_pressure_to_context()
+
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
         """Scale each joint's friction torque (domain randomization); 1 = nominal."""
         for name, val in (("steer", steer), ("drive", drive)):
@@ -441,14 +448,16 @@ class Twin:
         injected: new K_inject, C_inject gains. hydroelastic: new shell proximity properties
         (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
         for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
-        cached per (pressure, ground friction), LRU, and restored in ≈2 ms when they recur;
-        results are bit-identical.
+        cached per (modulus, dissipation, ground friction), LRU, and restored in ≈2 ms when they
+        recur; results are bit-identical.
         """
         self._apply_gains()
         if self.config.shell_model != "hydroelastic":
             return
         idx = self._geometry_state_index()
-        key = (self._pressure_kpa, self._ground_friction)
+        r = self.robot
+        key = (*self.calibration.hydroelastic(self._pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq),
+               self._ground_friction)
         snap = self._geometry_cache.get(key)
         if snap is not None:
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)

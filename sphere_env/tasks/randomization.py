@@ -36,7 +36,7 @@ Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``random
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 import numpy as np

@@ -216,4 +216,4 @@ def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
         fresh._geometry_cache.clear()  # force a re-mesh
         fresh.set_pressure(p)
         assert run(cached) == run(fresh)
-    assert set(cached._geometry_cache) >= {(5.0, 0.4), (12.0, 0.4), (5.0, 1.2)}
+    assert len(cached._geometry_cache) == 1 + 3  # the built shell + one per distinct (pressure, μ)
