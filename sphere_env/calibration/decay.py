@@ -21,6 +21,7 @@ from scipy.optimize import curve_fit
 from scipy.signal import find_peaks
 
 from sphere_env.models.shell import ShellCalibration
+from sphere_env.plotting import save_figure
 
 
 def damped_sinusoid(t, amplitude, zeta, omega_n, phase, offset):
@@ -269,8 +270,4 @@ def plot_pressure_curves(
     aw.set_ylabel("natural frequency ω_n [rad/s]")
     aw.legend()
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)

@@ -24,6 +24,7 @@ from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, rmse, simulate_log
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel
 from sphere_env.physics.twin import Twin, TwinConfig
+from sphere_env.plotting import save_figure
 
 # Bounds for each law's parameters (units as in sphere_env.models.friction).
 BOUNDS: dict[str, dict[str, tuple[float, float]]] = {
@@ -250,8 +251,4 @@ def plot_stand_overlay(path: str | Path, logs: Sequence[RobotLog], models: Mappi
         ax.legend(fontsize=7, loc="upper right")
     axes[-1, 0].set_xlabel("time [s]")
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)

@@ -20,6 +20,7 @@ from sphere_env.calibration.shell_fit import calibration_at
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.parallel import run_parallel
+from sphere_env.plotting import save_figure
 
 CASES = (("control", 1.0, 1.0), ("modulus -50%", 0.5, 1.0), ("modulus +50%", 1.5, 1.0),
          ("dissipation -50%", 1.0, 0.5), ("dissipation +50%", 1.0, 1.5))
@@ -107,11 +108,7 @@ def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
     ax.set_ylabel("simulated damping ratio ζ [-]")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def match_dissipation(calibration: str | Path | None, pressure_kpa: float, target_zeta: float | None = None,

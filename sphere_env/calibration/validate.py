@@ -17,6 +17,7 @@ from typing import Any, Iterable, Mapping, Sequence
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, pme_percent, rmse, simulate_log
 from sphere_env.physics.twin import Twin, TwinConfig
+from sphere_env.plotting import save_figure
 
 METRICS = ("phi", "theta", "omega_d")
 
@@ -144,8 +145,4 @@ def plot_overlays(path: str | Path, logs: Sequence[RobotLog], rows: Sequence[Val
         ax.legend(fontsize=7, loc="upper right")
     axes[-1, 0].set_xlabel("time [s]")
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)

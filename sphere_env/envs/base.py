@@ -19,6 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
+from sphere_env.checks import finite_number
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.tasks.observation import DEFAULT_NOISE_STD, N_MEASURED, assemble_observation
@@ -54,15 +55,10 @@ _MAX_TWINS = 12
 
 
 def _positive(kwarg: str, value: Any, upper: float | None = None) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{kwarg}: value {value!r} is not a number")
-    try:
-        val = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{kwarg}: value {value!r} is not a number") from None
-    if not math.isfinite(val) or val <= 0 or (upper is not None and val > upper):
-        rng = f"(0, {upper}]" if upper is not None else "> 0"
-        raise ValueError(f"{kwarg}: value {value!r} must be finite and {rng}")
+    rng = f"(0, {upper}]" if upper is not None else "> 0"
+    val = finite_number(kwarg, value, rng)
+    if val <= 0 or (upper is not None and val > upper):
+        raise ValueError(f"{kwarg}: value {value!r} outside allowed {rng}")
     return val
 
 

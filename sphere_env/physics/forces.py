@@ -71,8 +71,19 @@ def pipe_angle_expressions(y_W, w_W, n_W):
     return phi, phi_dot, axis
 
 
+KINEMATICS_NAMES = ("phi", "phi_dot", "axis_x", "axis_y", "axis_z", "y_x", "y_y", "y_z", "omega_d")
+
+
 def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground_normal_fn):
-    """Return (state variables, gain variables, output expressions) for the force system.
+    """Expressions of the force system, in two stages.
+
+    Returns ``(x, g, out, kinematics)``: state variables x = [q; v], gain variables g, the output
+    generalized forces ``out`` (size nv), and for the injected model on a floating base
+    ``kinematics = (k, k_exprs)``: variables k (:data:`KINEMATICS_NAMES`: φ, φ̇, rocking axis,
+    ŷ_PC, ω_d) with their expressions in x. ``out`` is written in terms of x, k and g. Drake's
+    expression evaluation shares no subexpressions, so computing k once in a first system and
+    feeding it to the second evaluates the quaternion/φ tree once per step instead of once per
+    output component.
 
     ``layout`` describes index positions in [q; v] (see ``Twin._layout``); ``*_law`` are
     :class:`~sphere_env.models.friction.FrictionModel`; ``ground_normal_fn(p_W)`` returns the
@@ -84,6 +95,7 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
     q, v = x[:nq], x[nq:]
     K, C, s_steer, s_drive = g
     out = [Expression(0.0) for _ in range(nv)]
+    kinematics = None
 
     if layout["steer_v"] is not None and not layout["steer_locked"]:
         out[layout["steer_v"]] += s_steer * steer_law.torque(v[layout["steer_v"]], m=SYMBOLIC)
@@ -99,15 +111,18 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
         # ω_d: shell angular velocity about the driveshaft, + when rolling toward +x_PC.
         drive_rate = v[layout["drive_v"]] if not layout["drive_locked"] else 0.0
         omega_d = _dot(w_W, y_W) - drive_rate
-        tau_phi = -C * phi_dot - K * phi  # eq. 9, steer direction
-        tau_d = -C * omega_d  # §IV, drive direction (no K_inject)
-        torque_W = [tau_phi * a + tau_d * y for a, y in zip(axis, y_W)]  # a pure couple on the shell
-        for k in range(3):
-            out[wi + k] += torque_W[k]
+        k = np.array([Variable(n) for n in KINEMATICS_NAMES])
+        kinematics = (k, np.array([phi, phi_dot, *axis, *y_W, omega_d], dtype=object))
+        k_phi, k_phi_dot, k_axis, k_y, k_omega_d = k[0], k[1], k[2:5], k[5:8], k[8]
+        tau_phi = -C * k_phi_dot - K * k_phi  # eq. 9, steer direction
+        tau_d = -C * k_omega_d  # §IV, drive direction (no K_inject)
+        torque_W = [tau_phi * a + tau_d * y for a, y in zip(k_axis, k_y)]  # a pure couple on the shell
+        for j in range(3):
+            out[wi + j] += torque_W[j]
         if not layout["drive_locked"]:
             out[layout["drive_v"]] += -tau_d  # the drive joint axis is −ŷ
     elif injected and layout["base"] == "planar":
         # Planar steer-plane fixture: coordinates (y_W, z_W, φ) on flat ground.
         phi, phi_dot = q[layout["base_q"] + 2], v[layout["base_v"] + 2]
         out[layout["base_v"] + 2] += -C * phi_dot - K * phi
-    return x, g, np.array(out, dtype=object)
+    return x, g, np.array(out, dtype=object), kinematics

@@ -42,6 +42,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
 
+from sphere_env.checks import finite_number
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration, check_shell_model
@@ -54,16 +55,6 @@ from sphere_env.physics.forces import (
 FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
 CONTACT_APPROXIMATIONS = ("sap", "lagged", "similar", "tamsi")
 _DEFAULT_APPROX = {"point": "sap", "injected": "sap", "hydroelastic": "lagged"}
-
-
-def _finite(name: str, value, allowed: str = "a finite number") -> float:
-    try:
-        val = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: value {value!r} is not a number; allowed: {allowed}") from None
-    if not math.isfinite(val):
-        raise ValueError(f"{name}: value {value!r} is not finite; allowed: {allowed}")
-    return val
 
 
 @dataclass(frozen=True)
@@ -109,20 +100,20 @@ class TwinConfig:
         if self.fixture not in FIXTURES:
             raise ValueError(f"fixture: unknown value {self.fixture!r}; allowed: {list(FIXTURES)}")
         check_shell_model(self.shell_model)
-        inc = _finite("incline_deg", self.incline_deg, "[0, 45) deg")
+        inc = finite_number("incline_deg", self.incline_deg, "[0, 45) deg")
         if not 0.0 <= inc < 45.0:
             raise ValueError(f"incline_deg: value {self.incline_deg!r} outside allowed [0, 45) deg")
         if self.fixture in ("steer_plane", "stand") and inc != 0.0:
             raise ValueError(f"incline_deg: value {inc} not allowed for fixture {self.fixture!r}; allowed: 0")
-        if self.ramp_length_m is not None and not _finite("ramp_length_m", self.ramp_length_m) > 0:
+        if self.ramp_length_m is not None and not finite_number("ramp_length_m", self.ramp_length_m) > 0:
             raise ValueError(f"ramp_length_m: value {self.ramp_length_m!r} must be > 0 m or None")
-        dt = _finite("time_step_s", self.time_step_s, "(0, 0.05] s")
+        dt = finite_number("time_step_s", self.time_step_s, "(0, 0.05] s")
         if not 0 < dt <= 0.05:
             raise ValueError(f"time_step_s: value {self.time_step_s!r} outside allowed (0, 0.05] s")
-        mu = _finite("ground_friction", self.ground_friction, "(0, 5]")
+        mu = finite_number("ground_friction", self.ground_friction, "(0, 5]")
         if not 0 < mu <= 5:
             raise ValueError(f"ground_friction: value {self.ground_friction!r} outside allowed (0, 5]")
-        if self.resolution_hint_m is not None and not _finite("resolution_hint_m", self.resolution_hint_m) > 0:
+        if self.resolution_hint_m is not None and not finite_number("resolution_hint_m", self.resolution_hint_m) > 0:
             raise ValueError(f"resolution_hint_m: value {self.resolution_hint_m!r} must be > 0 m")
         if self.contact_approximation is not None and self.contact_approximation not in CONTACT_APPROXIMATIONS:
             raise ValueError(
@@ -157,7 +148,7 @@ class InitialState:
 
     def validate(self) -> "InitialState":
         for name in ("theta", "drive_angle", "roll", "pitch", "heading", "theta_dot", "drive_rate"):
-            _finite(f"initial_state.{name}", getattr(self, name))
+            finite_number(f"initial_state.{name}", getattr(self, name))
         for name in ("position_m", "angular_velocity_W", "velocity_W"):
             val = getattr(self, name)
             if val is None:
@@ -327,17 +318,22 @@ class Twin:
         # the applied-generalized-force port unconnected, i.e. zero.
         self._gain_source = None
         if not cfg.bare_plant:
-            x, g, out = build_force_expressions(
+            x, g, out, kinematics = build_force_expressions(
                 self._layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model == "injected",
                 self.terrain.normal_at,
             )
+            k = kinematics[0] if kinematics is not None else np.array([], dtype=object)
             forces = builder.AddNamedSystem(
-                "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, g]), output=out)
+                "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, k, g]), output=out)
             )
             self._gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
-            mux = builder.AddSystem(Multiplexer([nq + nv, len(g)]))
+            mux = builder.AddSystem(Multiplexer([nq + nv, len(k), len(g)] if len(k) else [nq + nv, len(g)]))
             builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
-            builder.Connect(self._gain_source.get_output_port(), mux.get_input_port(1))
+            if len(k):  # stage 1: φ, φ̇, axis, ŷ, ω_d computed once per step
+                kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(input=x, output=kinematics[1]))
+                builder.Connect(plant.get_state_output_port(), kin.get_input_port())
+                builder.Connect(kin.get_output_port(), mux.get_input_port(1))
+            builder.Connect(self._gain_source.get_output_port(), mux.get_input_port(mux.num_input_ports() - 1))
             builder.Connect(mux.get_output_port(), forces.get_input_port())
             builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
 
@@ -427,7 +423,7 @@ class Twin:
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
         """Scale each joint's friction torque (domain randomization); 1 = nominal."""
         for name, val in (("steer", steer), ("drive", drive)):
-            if not _finite(f"{name}_friction_scale", val) >= 0:
+            if not finite_number(f"{name}_friction_scale", val) >= 0:
                 raise ValueError(f"{name}_friction_scale: value {val!r} must be >= 0")
         self._friction_scale = np.array([float(steer), float(drive)])
         self._apply_gains()
@@ -607,7 +603,7 @@ class Twin:
         no rebuild; survives :meth:`reset`."""
         from pydrake.multibody.tree import SpatialInertia, UnitInertia
 
-        m = _finite("payload_mass_kg", mass_kg, "[0, 50] kg")
+        m = finite_number("payload_mass_kg", mass_kg, "[0, 50] kg")
         if not 0.0 <= m <= 50.0:
             raise ValueError(f"payload_mass_kg: value {mass_kg!r} outside allowed [0, 50] kg")
         off = np.asarray(offset_m, dtype=float)
@@ -630,7 +626,7 @@ class Twin:
         solved for: μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s.
         """
         mu_s = float(self.config.ground_friction)
-        mu = _finite("ground_friction", mu, f"(0, {2 * mu_s})")
+        mu = finite_number("ground_friction", mu, f"(0, {2 * mu_s})")
         if not 0.0 < mu < 2.0 * mu_s:
             raise ValueError(f"ground_friction: value {mu!r} outside allowed (0, {2 * mu_s}) (shell μ = {mu_s})")
         mu_g = mu * mu_s / (2.0 * mu_s - mu)

@@ -35,11 +35,12 @@ Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``random
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 import numpy as np
+
+from sphere_env.checks import finite_number
 
 #: name -> (unit, size, (low, high) allowed bounds; pressure bounds come from the calibration)
 PARAMETERS: dict[str, tuple[str, int, tuple[float, float] | None]] = {
@@ -56,24 +57,12 @@ MODES = ("reset", "interval")
 RESET_ONLY = ("incline_deg",)
 
 
-def _num(kwarg: str, value: Any) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{kwarg}: value {value!r} is not a number")
-    try:
-        val = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{kwarg}: value {value!r} is not a number") from None
-    if not math.isfinite(val):
-        raise ValueError(f"{kwarg}: value {value!r} is not finite")
-    return val
-
-
 def _vec(kwarg: str, value: Any, size: int) -> tuple[float, ...] | float:
     if size == 1:
-        return _num(kwarg, value)
+        return finite_number(kwarg, value)
     if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != size:
         raise ValueError(f"{kwarg}: value {value!r} must be {size} numbers")
-    return tuple(_num(kwarg, v) for v in value)
+    return tuple(finite_number(kwarg, v) for v in value)
 
 
 @dataclass(frozen=True)
@@ -201,7 +190,7 @@ class RandomizationSpec:
             if t.mode == "interval":
                 if t.parameter in RESET_ONLY:
                     raise ValueError(f"{where}.mode: 'interval' not allowed for {t.parameter} (changes the terrain); use 'reset'")
-                if t.interval_s is None or not _num(f"{where}.interval_s", t.interval_s) > 0:
+                if t.interval_s is None or not finite_number(f"{where}.interval_s", t.interval_s) > 0:
                     raise ValueError(f"{where}.interval_s: value {t.interval_s!r} must be > 0 s for mode 'interval'")
             if t.parameter == "incline_deg" and not ramp and t.distribution.kind != "fixed":
                 raise ValueError(f"{where}: this environment has no ramp; incline cannot be randomized")
@@ -294,7 +283,7 @@ def _parse_distribution(entry: Any, size: int, where: str) -> tuple[Distribution
     if isinstance(entry, (list, tuple)) and size == 1:
         if len(entry) != 2:
             raise ValueError(f"{where}: value {entry!r} must be a number or [low, high]")
-        return Distribution("uniform", low=_num(where, entry[0]), high=_num(where, entry[1])), "reset", None
+        return Distribution("uniform", low=finite_number(where, entry[0]), high=finite_number(where, entry[1])), "reset", None
     if isinstance(entry, (list, tuple)) and size == 3 and len(entry) == 2 and all(isinstance(x, (list, tuple)) for x in entry):
         return Distribution("uniform", low=_vec(where, entry[0], 3), high=_vec(where, entry[1], 3)), "reset", None
     return Distribution("fixed", value=_vec(where, entry, size)), "reset", None
@@ -314,7 +303,7 @@ def _parse_schedule(entry: Any, where: str) -> PressureSchedule:
         if k not in ("rate_kpa_per_s", "delay_s"):
             raise ValueError(f"{where}: unknown field {k!r}; allowed: ['delay_s', 'rate_kpa_per_s']")
     d, _, _ = _parse_distribution(entry["rate_kpa_per_s"], 1, f"{where}.rate_kpa_per_s")
-    delay = _num(f"{where}.delay_s", entry.get("delay_s", 0.0))
+    delay = finite_number(f"{where}.delay_s", entry.get("delay_s", 0.0))
     if delay < 0:
         raise ValueError(f"{where}.delay_s: value {delay!r} must be >= 0 s")
     return PressureSchedule(d, delay)
