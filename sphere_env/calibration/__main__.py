@@ -98,7 +98,9 @@ def cmd_steer_fit(args) -> int:
         with tempfile.TemporaryDirectory() as tmp:
             path = write_yaml(Path(tmp) / "cal.yaml", raw)
             m = match_dissipation(path, p0)
-        raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"]))
+        # k_d holds at the plant step it was matched at (the twin's default): record it
+        raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"],
+                                          fitted_time_step_s=m.get("time_step_s", 0.005)))
         print(f"hydroelastic k_d = {m['k_d']:.4f} (d = {m['dissipation_s_per_m']:.4f} s/m): locked-steer decay "
               f"ζ = {m['zeta_sim']:.4f} matches ζ(p0) = {m['target_zeta']:.4f}")
     if args.out:

@@ -81,6 +81,7 @@ class ShellCalibration:
     volume_table: tuple[tuple[float, ...], tuple[float, ...]] | None
     k_d: float
     resolution_hint_m: float
+    fitted_time_step_s: float | None
     source: str
     raw: Mapping[str, Any]
 
@@ -157,6 +158,9 @@ class ShellCalibration:
             volume_table=table,
             k_d=_number(hyd, "k_d", "hydroelastic", p),
             resolution_hint_m=_number(hyd, "resolution_hint_m", "hydroelastic", p),
+            fitted_time_step_s=(
+                _number(hyd, "fitted_time_step_s", "hydroelastic", p) if "fitted_time_step_s" in hyd else None
+            ),
             source=p,
             raw=dict(data),
         )

@@ -12,6 +12,7 @@ Sign conventions (see README "Conventions"):
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import OrderedDict
 from dataclasses import dataclass, replace
@@ -51,6 +52,8 @@ from sphere_env.physics.forces import (
     cross3,
     pipe_angle_expressions,
 )
+
+_log = logging.getLogger("sphere_env")
 
 FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
 CONTACT_APPROXIMATIONS = ("sap", "lagged", "similar", "tamsi")
@@ -246,6 +249,14 @@ class Twin:
         p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
         self._pressure_kpa = self.calibration.check_pressure(p0, "pressure_kpa")
         self.terrain = Terrain(config.incline_deg, config.ramp_length_m)
+        fitted = self.calibration.fitted_time_step_s
+        if config.shell_model == "hydroelastic" and fitted is not None and not math.isclose(fitted, config.time_step_s):
+            _log.warning(
+                "time_step_s=%g s differs from the %g s at which the calibration's hydroelastic dissipation "
+                "was fitted; Drake's numerical contact damping depends on the step, so the shell's damping "
+                "ratio will differ (see evaluation/results/timestep_study.md). Refit k_d at this step.",
+                config.time_step_s, fitted,
+            )
         self.meshcat = meshcat
         self._build()
 
