@@ -148,3 +148,21 @@ def test_meshcat_replay_is_self_contained_html(tmp_path):
     assert html.startswith("<!DOCTYPE html>") or "<html" in html[:200]
     assert "animation" in html and len(html) > 10_000
     assert "localhost" not in html.split("<script")[0]  # no live server needed to view it
+
+
+def test_hydroelastic_at_another_step_than_fitted_warns(caplog, tmp_path):
+    import yaml
+
+    from sphere_env.models.shell import DEFAULT_CALIBRATION
+
+    with caplog.at_level("WARNING", logger="sphere_env"):
+        Twin(TwinConfig(shell_model="hydroelastic", time_step_s=0.002))
+    assert "refit k_d" in caplog.text.lower()
+    caplog.clear()
+    data = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
+    del data["hydroelastic"]["fitted_time_step_s"]  # optional: older files have no record
+    path = tmp_path / "cal.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with caplog.at_level("WARNING", logger="sphere_env"):
+        Twin(TwinConfig(shell_model="hydroelastic", time_step_s=0.002, calibration=path))
+    assert "refit" not in caplog.text.lower()
