@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import os
 import platform
-import subprocess
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+
+from sphere_env.provenance import software_versions
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -20,18 +20,9 @@ def machine_info() -> dict:
                 break
     except OSError:
         pass
-    versions = {}
-    for pkg in ("drake", "numpy", "gymnasium", "stable_baselines3", "torch", "sphere_env"):
-        try:
-            versions[pkg] = version(pkg)
-        except PackageNotFoundError:
-            versions[pkg] = "absent"
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=Path(__file__).parent, check=False).stdout.strip()
-    except OSError:
-        commit = ""
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "commit": commit, **versions}
+    sw = software_versions()
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": sw.pop("python"), "commit": sw.pop("git_commit"), **sw}
+
 
 
 def markdown_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:

@@ -24,41 +24,23 @@ import argparse
 import csv
 import json
 import math
-import platform
 import re
-import subprocess
 import sys
 import time
 from datetime import datetime, timezone
 from functools import partial
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 import yaml
 
+from sphere_env.provenance import software_versions
 from training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
 EVAL_SEED_OFFSET = 10_000
-
-
-def versions() -> dict[str, str]:
-    """Versions of the packages a trained model depends on, plus Python and the git commit."""
-    out = {"python": platform.python_version()}
-    for pkg in ("sphere_env", "drake", "torch", "stable_baselines3", "gymnasium", "numpy"):
-        try:
-            out[pkg] = version(pkg)
-        except PackageNotFoundError:
-            out[pkg] = "absent"
-    try:
-        out["git_commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                           cwd=Path(__file__).parent, check=False).stdout.strip()
-    except OSError:
-        out["git_commit"] = ""
-    return out
 
 
 # ---- env factories (module level: picklable for SubprocVecEnv) -------------------------------------
@@ -285,7 +267,7 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     data["randomization_resolved"] = _plain(spec)
     data["seeds"] = {"seed": cfg.seed, "workers": cfg.worker_seeds, "eval": cfg.eval_seed}
     data["monitor_info_keywords"] = list(MONITOR_KEYWORDS)
-    data["versions"] = versions()
+    data["versions"] = software_versions()
     data["command"] = list(command) if command is not None else []
     data["created_utc"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     data.update(extra or {})
