@@ -178,19 +178,13 @@ class SphereEnvBase(gym.Env, EzPickle):
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
         self.observe_pressure = observe_pressure
-        try:
-            noise = float(observation_noise_scale) if not isinstance(observation_noise_scale, bool) else -1.0
-        except (TypeError, ValueError):
-            noise = -1.0
-        if not math.isfinite(noise) or noise < 0:
-            raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be finite and >= 0")
+        noise = finite_number("observation_noise_scale", observation_noise_scale, ">= 0")
+        if noise < 0:
+            raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be >= 0")
         self.observation_noise_scale = noise
         self._noise_std = DEFAULT_NOISE_STD * noise
-        try:
-            inc = float(incline_deg)
-        except (TypeError, ValueError):
-            raise ValueError(f"incline_deg: value {incline_deg!r} is not a number") from None
-        if not (math.isfinite(inc) and 0.0 <= inc <= 30.0):
+        inc = finite_number("incline_deg", incline_deg, "[0, 30] deg")
+        if not 0.0 <= inc <= 30.0:
             raise ValueError(f"incline_deg: value {incline_deg!r} outside allowed [0, 30] deg")
         self.incline_deg = inc
         self.ramp_length_m = None if ramp_length_m is None else _positive("ramp_length_m", ramp_length_m, 100.0)
@@ -207,11 +201,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         if not (16 <= w <= 4096 and 16 <= h <= 4096):
             raise ValueError(f"render_size: value {render_size!r} must be within 16..4096 pixels")
         self.render_size = (w, h)
-        try:
-            step = float(hydroelastic_pressure_step_kpa)
-        except (TypeError, ValueError):
-            raise ValueError(f"hydroelastic_pressure_step_kpa: value {hydroelastic_pressure_step_kpa!r} is not a number") from None
-        if not (math.isfinite(step) and 0.0 <= step <= 5.0):
+        step = finite_number("hydroelastic_pressure_step_kpa", hydroelastic_pressure_step_kpa, "[0, 5] kPa")
+        if not 0.0 <= step <= 5.0:
             raise ValueError(f"hydroelastic_pressure_step_kpa: value {hydroelastic_pressure_step_kpa!r} outside allowed [0, 5] kPa")
         # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
         self._p_step = step if shell_model == "hydroelastic" else 0.0

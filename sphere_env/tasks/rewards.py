@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass, fields
 from typing import Mapping
 
+from sphere_env.checks import finite_number
+
 
 def gaussian_tolerance(error: float, width: float) -> float:
     """exp(−½ (error/width)²) ∈ (0, 1]: 1 at zero error, ≈0.61 at one ``width``."""
@@ -79,12 +81,7 @@ def make_weights(cls, overrides: Mapping[str, float] | None, kwarg: str = "rewar
     for key, val in overrides.items():
         if key not in names:
             raise ValueError(f"{kwarg}: unknown term {key!r}; allowed: {sorted(names)}")
-        try:
-            fval = float(val)
-        except (TypeError, ValueError):
-            raise ValueError(f"{kwarg}: {key}={val!r} is not a number") from None
-        if not math.isfinite(fval):
-            raise ValueError(f"{kwarg}: {key}={val!r} is not finite")
+        fval = finite_number(f"{kwarg}.{key}", val)
         if key.endswith("width") and fval <= 0:
             raise ValueError(f"{kwarg}: {key}={val!r} must be > 0")
         out[key] = fval
