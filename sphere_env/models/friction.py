@@ -115,13 +115,6 @@ class FrictionModel:
         fn, names = FRICTION_LAWS[self.law]
         return fn(v, *(self.params[k] for k in names), m=m)
 
-    def scaled(self, scale: float) -> "FrictionModel":
-        """The same law with every torque-level parameter multiplied by ``scale``."""
-        keep = {"v_tol", "omega_c", "n"}
-        return FrictionModel(
-            self.law, {k: (v if k in keep else v * scale) for k, v in self.params.items()}
-        )
-
 
 def load_friction_presets(path: str | Path | None = None) -> dict[str, FrictionModel]:
     """Load named presets (``"<name>": {law: ..., params: {...}}``) from a YAML file."""
@@ -162,7 +155,3 @@ def resolve_friction(spec: str | FrictionModel | Mapping[str, Any], joint: str) 
     allowed = sorted(set(FRICTION_LAWS) | set(presets))
     raise ValueError(f"friction model for joint {joint!r}: unknown value {spec!r}; allowed: {allowed}")
 
-
-def friction_table(model: FrictionModel, v: np.ndarray) -> np.ndarray:
-    """Convenience for plots: τ(v) on a velocity grid."""
-    return np.asarray(model.torque(np.asarray(v, dtype=float)), dtype=float)

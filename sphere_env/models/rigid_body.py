@@ -37,7 +37,6 @@ class RobotParameters:
 
     links: dict
     radius_m: float
-    steer_limits_rad: tuple[float, float]
     urdf_path: str
 
     @classmethod
@@ -64,9 +63,7 @@ class RobotParameters:
                 radius = float(sphere.get("radius"))
         if radius is None:
             raise ValueError(f"robot URDF {str(path)!r}: no collision sphere (the shell) found")
-        steer = root.find("joint[@name='steer']/limit")
-        limits = (float(steer.get("lower")), float(steer.get("upper")))
-        return cls(links=links, radius_m=radius, steer_limits_rad=limits, urdf_path=str(path))
+        return cls(links=links, radius_m=radius, urdf_path=str(path))
 
     # --- paper symbols ---------------------------------------------------------------------------
     @property
