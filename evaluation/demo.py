@@ -11,7 +11,8 @@
     python -m evaluation.demo [--train-steps 120000] [--out out/demo] [--publish]
 
 ``--publish`` copies the report and plots into ``evaluation/results/demo/`` (what the README shows).
-The uncontrolled-descent table of ``python -m evaluation.scripts.uncontrolled_descent`` is still available on its own.
+The uncontrolled-descent table of ``python -m evaluation.scripts.uncontrolled_descent`` is still
+available on its own.
 """
 
 from __future__ import annotations

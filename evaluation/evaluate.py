@@ -597,8 +597,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
 
 
 if __name__ == "__main__":
-    # Run the package copy (sphere_env.evaluation.evaluate), also under `python -m evaluation.evaluate`, so that
-    # worker processes unpickle this module's functions by a name they can import.
+    # Run the package copy (sphere_env.evaluation.evaluate), also under `python -m evaluation.evaluate`, so
+    # that worker processes unpickle this module's functions by a name they can import.
     from sphere_env.evaluation.evaluate import main as _main
 
     _main()

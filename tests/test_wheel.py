@@ -69,7 +69,8 @@ def _clean_env() -> dict[str, str]:
 def _run(cmd, cwd: Path, timeout: float = 120) -> subprocess.CompletedProcess:
     proc = subprocess.run([str(c) for c in cmd], cwd=cwd, env=_clean_env(), capture_output=True, text=True,
                           timeout=timeout, check=False)
-    assert proc.returncode == 0, f"{cmd} failed ({proc.returncode}):\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
+    assert proc.returncode == 0, (f"{cmd} failed ({proc.returncode}):\n"
+                                  f"{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}")
     return proc
 
 
@@ -110,7 +111,8 @@ def test_wheel_contents_and_metadata(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/", 1)[0] for n in names}
     assert tops == {"sphere_env", f"{wheel.name.split('-')[0]}-{wheel.name.split('-')[1]}.dist-info"}, tops
-    assert not [n for n in names if n.startswith("sphere_env/evaluation/results")], "committed results in the wheel"
+    results = [n for n in names if n.startswith("sphere_env/evaluation/results")]
+    assert not results, f"committed results in the wheel: {results[:3]}"
     # Every package of the repository is in the wheel (pyproject.toml lists them one by one).
     for folder, installed in INSTALLED_AS.items():
         for init in (REPO / folder).rglob("__init__.py"):

@@ -390,7 +390,8 @@ def main(argv: Sequence[str] | None = None) -> Path:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("-v", "--verbose", type=int, default=0)
     args = parser.parse_args(argv)
-    command = [sys.executable, "-m", "sphere_env.training.train", *(argv if argv is not None else sys.argv[1:])]
+    command = [sys.executable, "-m", "sphere_env.training.train",
+               *(argv if argv is not None else sys.argv[1:])]
     try:
         if args.resume is not None:
             cfg = load_config(args.resume)
@@ -424,8 +425,8 @@ def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
 
 
 if __name__ == "__main__":
-    # Run the package copy (sphere_env.training.train), also under `python -m training.train`, so that
-    # worker processes unpickle this module's functions by a name they can import.
+    # Run the package copy (sphere_env.training.train), also under `python -m training.train`, so
+    # that worker processes unpickle this module's functions by a name they can import.
     from sphere_env.training.train import main as _main
 
     _main()

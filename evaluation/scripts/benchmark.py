@@ -77,7 +77,8 @@ def main(argv: list[str] | None = None) -> None:
     md = [
         "# sphere_env benchmark",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.scripts.benchmark` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.benchmark` "
         f"(commit {info['commit']}), single process.",
         f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
         f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.",

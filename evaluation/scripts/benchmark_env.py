@@ -135,7 +135,8 @@ def main(argv: list[str] | None = None) -> None:
     text = "\n".join([
         "# sphere_env environment benchmark",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.scripts.benchmark_env` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.benchmark_env` "
         f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, 1-min load average at start "
         f"{load:.1f}. {args.seconds:g} s of env stepping per case.",
         "",

@@ -158,7 +158,8 @@ def main(argv: list[str] | None = None) -> None:
     md = [
         "# sphere_env robustness",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.scripts.robustness` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.robustness` "
         f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, shared with other jobs.",
         "",
         f"## Fuzzed actions: {fuzz_total} step() calls ({fuzz_advanced} simulated), {unexpected} unexpected exceptions",

@@ -75,7 +75,8 @@ def main(argv: list[str] | None = None) -> None:
     text = "\n".join([
         "# Plant time-step study",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.scripts.timestep_study` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.timestep_study` "
         f"(commit {info['commit']}, drake {info['drake']}). Reference: the {min(args.steps_ms):g} ms run of the same case.",
         "",
         markdown_table(rows, cols),
