@@ -4,16 +4,21 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install demo test test-fast bench chromium clean
+.PHONY: install constraints demo test test-fast bench chromium clean
 
-# torch is pinned and installed first: the CPU wheel of 2.13.0 is small, any other
-# resolution pulls several GB of CUDA packages.
-$(STAMP): pyproject.toml
+# torch is installed first and on its own: the CPU wheel of 2.13.0 is small, any other resolution
+# pulls several GB of CUDA packages. Everything else comes at the tested versions of constraints.txt.
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet torch==2.13.0
-	$(PY) -m pip install --quiet -e ".[test,ray]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[all,test]"
 	touch $(STAMP)
+
+# Re-pin constraints.txt to the versions installed in .venv (after a deliberate upgrade).
+constraints: $(STAMP)
+	{ sed -n '1,2p' constraints.txt; $(PY) -m pip freeze --exclude-editable | grep -iv '^torch==\|^sphere.env'; } > constraints.txt.tmp
+	mv constraints.txt.tmp constraints.txt
 
 # Headless Chromium renders the Meshcat HTML replays in the evaluation tests (Debian package).
 chromium:
@@ -31,7 +36,7 @@ test-fast: $(STAMP) chromium
 	$(PY) -m pytest -n 2 -m "not slow"
 
 bench: $(STAMP)
-	$(PY) -m evaluation.benchmark
+	$(PY) -m evaluation.scripts.benchmark
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -11,7 +11,8 @@
     python -m evaluation.demo [--train-steps 120000] [--out out/demo] [--publish]
 
 ``--publish`` copies the report and plots into ``evaluation/results/demo/`` (what the README shows).
-The uncontrolled-descent table of ``python -m evaluation.ramp_descent`` is still available on its own.
+The uncontrolled-descent table of ``python -m evaluation.scripts.uncontrolled_descent`` is still
+available on its own.
 """
 
 from __future__ import annotations
@@ -40,10 +41,10 @@ def main(argv: list[str] | None = None) -> dict:
 
     t_start = time.perf_counter()
     from sphere_env.models.shell import ShellCalibration
-    from training.config import resolve_config
-    from training.train import train
+    from sphere_env.training.config import resolve_config
+    from sphere_env.training.train import train
 
-    from evaluation.evaluate import SweepSpec, evaluate
+    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
 
     cal = ShellCalibration.load()
     lo, hi = cal.pressure_range_kpa
@@ -72,7 +73,7 @@ def main(argv: list[str] | None = None) -> dict:
     t_eval = time.perf_counter() - t0
     wall = time.perf_counter() - t_start
 
-    from evaluation._report import markdown_table
+    from sphere_env.evaluation._report import markdown_table
 
     agg = {a["controller"]: a for a in res["agg_controller"]}
     cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"), ("return", "mean return", "{:.2f}"),

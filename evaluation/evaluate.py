@@ -13,7 +13,7 @@ process pool (default) or on a Ray cluster (``--ray-address``; ``pip install -e 
 cell is a pure function of its job, so the CSV is identical either way.
 
 Writes into ``--out``: ``episodes.csv`` (one row per episode, metrics of
-:mod:`evaluation.metrics`), ``traces.npz``, ``report.md`` (tables), ``plots/*.png`` (drive
+:mod:`sphere_env.evaluation.metrics`), ``traces.npz``, ``report.md`` (tables), ``plots/*.png`` (drive
 velocity vs time per pressure and model; error bars per pressure and model as in the paper's
 Figs. 13–14; success and tracking error vs pressure; PME) and ``replay_*.html`` (Meshcat).
 
@@ -38,8 +38,8 @@ import numpy as np
 
 from sphere_env.parallel import run_parallel
 
-from evaluation.controllers import check_spec, env_kwargs_of, make_controller, split_label
-from evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
+from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, make_controller, split_label
+from sphere_env.evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 
 SHELL_MODELS = ("point", "injected", "hydroelastic")
 METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
@@ -51,7 +51,7 @@ KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa"
 @dataclass
 class SweepSpec:
     """A grid to evaluate. Pressures in kPa; ``controllers`` are ``label=spec`` strings
-    (:mod:`evaluation.controllers`)."""
+    (:mod:`sphere_env.evaluation.controller_specs`)."""
 
     controllers: list[str]
     env_id: str = "sphere_env/RampDescent-v0"
@@ -432,7 +432,7 @@ def save_replay(job: Mapping[str, Any], path: Path) -> Path:
 # ---- report --------------------------------------------------------------------------------------------
 def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, files: Mapping[str, Path],
                  wall_s: float, executor: str, extra: str = "") -> Path:
-    from evaluation._report import machine_info, markdown_table
+    from sphere_env.evaluation._report import machine_info, markdown_table
 
     info = machine_info()
     lines = [
@@ -597,4 +597,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
 
 
 if __name__ == "__main__":
-    main()
+    # Run the package copy (sphere_env.evaluation.evaluate), also under `python -m evaluation.evaluate`, so
+    # that worker processes unpickle this module's functions by a name they can import.
+    from sphere_env.evaluation.evaluate import main as _main
+
+    _main()

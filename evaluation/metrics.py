@@ -22,7 +22,7 @@ from typing import Mapping
 
 import numpy as np
 
-#: Trace channels recorded per control step by :mod:`evaluation.evaluate`.
+#: Trace channels recorded per control step by :mod:`sphere_env.evaluation.evaluate`.
 TRACE_CHANNELS = ("t_s", "omega_d", "omega_ref", "x_m", "y_m", "z_m", "tau_steer_nm", "tau_drive_nm",
                   "theta_dot", "drive_rate", "on_ramp", "reward")
 

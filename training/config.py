@@ -10,7 +10,7 @@ A hyperparameter file maps env ids to mappings of SB3 constructor arguments plus
 ==================  ==========================================================================
 ``n_envs``          parallel envs (``SubprocVecEnv``, one process each, when > 1)
 ``n_workers``       optional: host the ``n_envs`` envs on this many processes
-                    (:class:`training.vec_env.BatchedSubprocVecEnv`; faster on few cores)
+                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`; faster on few cores)
 ``n_timesteps``     total environment steps (``!!float 3e5`` is fine)
 ``policy``          SB3 policy name (``MlpPolicy``)
 ``normalize``       ``true``/``false`` or a mapping of ``VecNormalize`` arguments
@@ -35,7 +35,8 @@ from typing import Any, Callable, Mapping
 
 import yaml
 
-HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+from sphere_env.resources import hyperparams_path
+
 ALGOS = ("ppo", "sac")
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
 SPECIAL_KEYS = ("n_envs", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "randomization")
@@ -254,7 +255,7 @@ def resolve_config(
     """
     cls = algo_class(algo)
     check_env_id(env_id)
-    path = Path(hyperparams_file) if hyperparams_file else HYPERPARAMS_DIR / f"{algo}.yml"
+    path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
     for key, val in (overrides or {}).items():
         section[key] = copy.deepcopy(val)

@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 
 from sphere_env.provenance import software_versions
-from training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
+from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -82,7 +82,7 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
     if cfg.n_envs == 1:
         venv = DummyVecEnv(fns)
     elif cfg.n_workers is not None and cfg.n_workers < cfg.n_envs:
-        from training.vec_env import BatchedSubprocVecEnv
+        from sphere_env.training.vec_env import BatchedSubprocVecEnv
 
         venv = BatchedSubprocVecEnv(fns, cfg.n_workers)
     else:
@@ -390,7 +390,8 @@ def main(argv: Sequence[str] | None = None) -> Path:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("-v", "--verbose", type=int, default=0)
     args = parser.parse_args(argv)
-    command = [sys.executable, "-m", "training.train", *(argv if argv is not None else sys.argv[1:])]
+    command = [sys.executable, "-m", "sphere_env.training.train",
+               *(argv if argv is not None else sys.argv[1:])]
     try:
         if args.resume is not None:
             cfg = load_config(args.resume)
@@ -424,4 +425,8 @@ def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
 
 
 if __name__ == "__main__":
-    main()
+    # Run the package copy (sphere_env.training.train), also under `python -m training.train`, so
+    # that worker processes unpickle this module's functions by a name they can import.
+    from sphere_env.training.train import main as _main
+
+    _main()

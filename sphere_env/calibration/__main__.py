@@ -20,9 +20,9 @@ import sys
 from pathlib import Path
 
 from sphere_env.calibration.logs import LogError, load_manifest
+from sphere_env.resources import asset_path
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_MANIFEST = REPO / "assets" / "logs" / "roboball.yaml"
+DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
 
 
 def _trials(args, required=()):
@@ -248,7 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("report", help="regenerate the committed validation report")
     p.add_argument("--manifest", default=str(DEFAULT_MANIFEST))
     p.add_argument("--data-root", default=None)
-    p.add_argument("--out", default=str(REPO / "evaluation" / "results" / "validation"))
+    p.add_argument("--out", default=str(Path("evaluation") / "results" / "validation"))
     p.add_argument("--workers", type=int, default=None)
     p.add_argument("--starts", type=int, default=2)
     p.add_argument("--no-sensitivity", action="store_true")

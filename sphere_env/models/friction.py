@@ -16,9 +16,9 @@ import numpy as np
 import yaml
 
 from sphere_env.models.mathbackend import NUMPY
+from sphere_env.resources import asset_path
 
-ASSETS = Path(__file__).resolve().parents[2] / "assets"
-DEFAULT_PRESETS = ASSETS / "friction" / "presets.yaml"
+DEFAULT_PRESETS = asset_path("friction", "presets.yaml")
 
 
 def none_law(v, m=NUMPY):

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-ASSETS = Path(__file__).resolve().parents[2] / "assets"
-DEFAULT_URDF = ASSETS / "robot" / "roboball.urdf"
+from sphere_env.resources import asset_path
+
+DEFAULT_URDF = asset_path("robot", "roboball.urdf")
 GRAVITY_M_S2 = 9.81  # Drake's default |g|
 
 

@@ -15,8 +15,9 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
-ASSETS = Path(__file__).resolve().parents[2] / "assets"
-DEFAULT_CALIBRATION = ASSETS / "calibration" / "default.yaml"
+from sphere_env.resources import asset_path
+
+DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
 
 SHELL_MODELS = ("point", "injected", "hydroelastic")
 

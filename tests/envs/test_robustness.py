@@ -1,8 +1,8 @@
-"""Short versions of evaluation/robustness.py (the full run: 1e5 fuzzed steps, 2e5-step soak)."""
+"""Short versions of evaluation/scripts/robustness.py (the full run: 1e5 fuzzed steps, 2e5-step soak)."""
 
 import pytest
 
-from evaluation.robustness import fuzz, soak
+from sphere_env.evaluation.scripts.robustness import fuzz, soak
 
 
 @pytest.mark.slow

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from evaluation.evaluate import SweepSpec, evaluate
+from sphere_env.evaluation.evaluate import SweepSpec, evaluate
 
 CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
 

@@ -9,9 +9,9 @@ import pytest
 import yaml
 
 import sphere_env  # noqa: F401
-from training import train as train_mod
-from training.config import resolve_config
-from training.train import latest_checkpoint, load_config, main, train
+from sphere_env.training import train as train_mod
+from sphere_env.training.config import resolve_config
+from sphere_env.training.train import latest_checkpoint, load_config, main, train
 
 RAMP = "sphere_env/RampDescent-v0"
 IMPROVE_STEPS = int(__import__("os").environ.get("SPHERE_IMPROVE_STEPS", 16384))
@@ -76,7 +76,7 @@ def _first_obs(env_kwargs, seed=7, n=40):
 @pytest.mark.slow
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_short_run_loads_with_vecnormalize_and_acts_the_same(tmp_path, algo):
-    from evaluation.controllers import PolicyController
+    from sphere_env.evaluation.controller_specs import PolicyController
 
     cfg = resolve_config(RAMP, algo, overrides={**TINY[algo], "n_timesteps": 256}, seed=1, eval_freq=128,
                          eval_episodes=1, checkpoint_freq=128)
@@ -126,7 +126,7 @@ def test_training_improves_evaluation_return(tmp_path):
     """RampDescent, injected shell, fixed seed: after a reduced budget the trained policy beats the
     untrained one (whose deterministic action ≈ 0, i.e. zero torque) on fixed evaluation episodes.
     The command range is narrowed to slow speeds (always brake), so a few updates show the trend."""
-    from evaluation.controllers import PolicyController
+    from sphere_env.evaluation.controller_specs import PolicyController
 
     overrides = {"n_envs": 2, "n_timesteps": IMPROVE_STEPS, "env_kwargs": TASK,
                  "randomization": "off"}

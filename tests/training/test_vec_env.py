@@ -9,8 +9,8 @@ import pytest
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from training.train import make_env
-from training.vec_env import BatchedSubprocVecEnv
+from sphere_env.training.train import make_env
+from sphere_env.training.vec_env import BatchedSubprocVecEnv
 
 
 @pytest.mark.slow

@@ -1,13 +1,13 @@
 """Speed benchmark (single process). Writes ``evaluation/results/benchmark.{md,json}``.
 
-Twin section (issue 2): 10 s of free rolling from rest down the 16° ramp (4 m, then a flat
+Twin section: 10 s of free rolling from rest down the 16° ramp (4 m, then a flat
 run-out), Majd friction on both joints, advanced in 20 ms chunks as an environment would; per
 shell model, plus the same run on the bare plant (no friction system, no injected torques) of the
 same contact model. Real-time factor = simulated seconds / wall seconds; best of ``--repeats``.
-Environment section (issue 3): ``evaluation.benchmark_env.run_env_benchmarks``.
-Training section (issue 4): ``evaluation.benchmark_train.run_train_benchmark`` (PPO, 2 workers).
+Environment section: ``evaluation.scripts.benchmark_env.run_env_benchmarks``.
+Training section: ``evaluation.scripts.benchmark_train.run_train_benchmark`` (PPO, 2 workers).
 
-    python -m evaluation.benchmark [--seconds 10] [--repeats 3] [--skip-env] [--skip-train]
+    python -m evaluation.scripts.benchmark [--seconds 10] [--repeats 3] [--skip-env] [--skip-train]
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from datetime import datetime, timezone
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import Twin, TwinConfig
 
-from evaluation._report import RESULTS, machine_info, markdown_table
+from sphere_env.evaluation._report import RESULTS, machine_info, markdown_table
 
 CHUNK_S = 0.02
 RAMP = dict(incline_deg=16.0, ramp_length_m=4.0)
@@ -77,7 +77,8 @@ def main(argv: list[str] | None = None) -> None:
     md = [
         "# sphere_env benchmark",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.benchmark` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.benchmark` "
         f"(commit {info['commit']}), single process.",
         f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
         f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.",
@@ -91,14 +92,14 @@ def main(argv: list[str] | None = None) -> None:
     ]
     env_rows = []
     if not args.skip_env:
-        from evaluation.benchmark_env import ENV_COLUMNS, run_env_benchmarks
+        from sphere_env.evaluation.scripts.benchmark_env import ENV_COLUMNS, run_env_benchmarks
 
         env_rows = run_env_benchmarks(args.env_seconds)
         md += ["", "## Environments: env steps/s at 50 Hz control, random actions", "",
                markdown_table(env_rows, ENV_COLUMNS)]
     train_rows = []
     if not args.skip_train:
-        from evaluation.benchmark_train import TRAIN_COLUMNS, run_train_benchmark
+        from sphere_env.evaluation.scripts.benchmark_train import TRAIN_COLUMNS, run_train_benchmark
 
         train_rows = run_train_benchmark(args.train_seconds)
         md += ["", "## Training: PPO throughput with 2 worker processes", "", markdown_table(train_rows, TRAIN_COLUMNS)]

@@ -1,6 +1,6 @@
 """The paper's uncontrolled ramp descent (§IV) on the twin: one run per shell model and pressure.
 
-    python -m evaluation.ramp_descent [--pressures 3 4.6 14] [--replay out/ramp.html]
+    python -m evaluation.scripts.uncontrolled_descent [--pressures 3 4.6 14] [--replay out/ramp.html]
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 
-from evaluation._report import markdown_table
+from sphere_env.evaluation._report import markdown_table
 
 CHUNK_S = 0.02
 

@@ -7,7 +7,7 @@ includes rollouts and gradient updates, as a real training run does. The CPU sec
 process and of the workers are reported too, with the throughput they imply on an otherwise idle
 machine (the development machine is shared, so the measured wall-clock rate depends on its load).
 
-    python -m evaluation.benchmark_train [--seconds 30] [--shell-models point injected]
+    python -m evaluation.scripts.benchmark_train [--seconds 30] [--shell-models point injected]
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ def _throughput(shell_model: str, seconds: float, n_envs: int = 2, n_workers: in
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from training.config import algo_class, resolve_config
-    from training.train import make_vec_env, wrap_normalize
+    from sphere_env.training.config import algo_class, resolve_config
+    from sphere_env.training.train import make_vec_env, wrap_normalize
 
     overrides: dict = {"n_envs": n_envs, "env_kwargs": {"shell_model": shell_model}}
     if n_workers is not None:  # same 512-sample rollout per update as the shipped 2 x 256
@@ -115,7 +115,7 @@ def run_train_benchmark(seconds: float = 30.0, shell_models: tuple[str, ...] = (
 
 
 def main(argv: list[str] | None = None) -> None:
-    from evaluation._report import machine_info, markdown_table
+    from sphere_env.evaluation._report import machine_info, markdown_table
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=30.0, help="timed wall seconds per case")

@@ -1,4 +1,4 @@
-"""Robustness of the Gymnasium environments (issue 3): action fuzzing and a memory soak.
+"""Robustness of the Gymnasium environments: action fuzzing and a memory soak.
 
 * **Fuzz**: every env id × shell model, actions drawn from a mixture — uniform in [-1, 1], ±1e6,
   1e6-scale Gaussian, and vectors containing NaN or ±inf. NaN/inf must raise ``ValueError``
@@ -10,7 +10,7 @@
 
 Writes ``evaluation/results/robustness.md`` and ``.json``.
 
-    python -m evaluation.robustness [--fuzz-steps 100000] [--soak-steps 200000]
+    python -m evaluation.scripts.robustness [--fuzz-steps 100000] [--soak-steps 200000]
 """
 
 from __future__ import annotations
@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="total step() calls over all cases (~25%% are NaN/inf and raise; ~1e5 simulated)")
     parser.add_argument("--soak-steps", type=int, default=200_000)
     args = parser.parse_args(argv)
-    from evaluation._report import RESULTS, machine_info, markdown_table
+    from sphere_env.evaluation._report import RESULTS, machine_info, markdown_table
 
     info = machine_info()  # at the start: the commit that is actually run
     s = soak(args.soak_steps)  # first, in a fresh process heap
@@ -158,7 +158,8 @@ def main(argv: list[str] | None = None) -> None:
     md = [
         "# sphere_env robustness",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.robustness` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.robustness` "
         f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, shared with other jobs.",
         "",
         f"## Fuzzed actions: {fuzz_total} step() calls ({fuzz_advanced} simulated), {unexpected} unexpected exceptions",

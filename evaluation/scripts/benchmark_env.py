@@ -1,4 +1,4 @@
-"""Environment speed benchmark (issue 3): env steps/s vs the bare twin, and reset() time.
+"""Environment speed benchmark: env steps/s vs the bare twin, and reset() time.
 
 Per env id × shell model, single process, 50 Hz control (20 ms chunks, 5 ms plant step):
 
@@ -14,7 +14,7 @@ Per env id × shell model, single process, 50 Hz control (20 ms chunks, 5 ms pla
 * **reset ms**: mean wall time of ``env.reset()`` (diagram reused; no rebuild); hydroelastic
   after its per-pressure shell-mesh cache is warm.
 
-    python -m evaluation.benchmark_env [--seconds 5] [--write]
+    python -m evaluation.scripts.benchmark_env [--seconds 5] [--write]
 """
 
 from __future__ import annotations
@@ -123,11 +123,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=float, default=5.0, help="wall seconds of env stepping per case")
     parser.add_argument("--write", action="store_true", help="also write evaluation/results/benchmark_env.md")
     args = parser.parse_args(argv)
-    from evaluation._report import markdown_table
+    from sphere_env.evaluation._report import markdown_table
 
     from datetime import datetime, timezone
 
-    from evaluation._report import RESULTS, machine_info
+    from sphere_env.evaluation._report import RESULTS, machine_info
 
     info = machine_info()
     load = os.getloadavg()[0]
@@ -135,7 +135,8 @@ def main(argv: list[str] | None = None) -> None:
     text = "\n".join([
         "# sphere_env environment benchmark",
         "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `python -m evaluation.benchmark_env` "
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+        f"by `python -m evaluation.scripts.benchmark_env` "
         f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, 1-min load average at start "
         f"{load:.1f}. {args.seconds:g} s of env stepping per case.",
         "",

@@ -90,8 +90,8 @@ class PolicyController:
     """
 
     def __init__(self, run_dir: str | Path, which: str = "model"):
-        from training.config import algo_class
-        from training.train import load_config
+        from sphere_env.training.config import algo_class
+        from sphere_env.training.train import load_config
 
         run_dir = Path(run_dir)
         self.config = load_config(run_dir)
@@ -125,7 +125,7 @@ def env_kwargs_of(spec: str) -> dict[str, Any]:
     rf = run_folder(spec)
     if rf is None:
         return {}
-    from training.train import load_config
+    from sphere_env.training.train import load_config
 
     kw = dict(load_config(rf[0]).env_kwargs)
     for k in ("shell_model", "friction_model", "randomization", "render_mode", "record_replay", "meshcat"):

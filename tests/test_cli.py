@@ -1,0 +1,52 @@
+"""The sphere-env command: dispatch to the modules' own parsers and the missing-extra message."""
+
+from __future__ import annotations
+
+import pytest
+
+from sphere_env import cli
+
+
+@pytest.mark.parametrize("name", sorted(cli.COMMANDS))
+def test_subcommand_help_is_the_module_parser(name, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main([name, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage:")
+    if name != "calibrate":  # the calibration parser names its prog itself
+        assert out.startswith(f"usage: sphere-env {name}")
+
+
+def test_top_level_help_lists_every_subcommand(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for name in ("train", "evaluate", "calibrate", "demo"):
+        assert name in out
+
+
+def test_unknown_subcommand_is_refused(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["fly"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'fly'" in capsys.readouterr().err
+
+
+def test_missing_extra_names_the_install_line(monkeypatch, capsys):
+    needy = cli.Command("sphere_env.evaluation.evaluate", "needs a package that is not installed",
+                        (("sphere_env_no_such_module", "train"), ("matplotlib", "eval")))
+    assert cli.missing_extras(needy) == ["train"]
+    monkeypatch.setitem(cli.COMMANDS, "evaluate", needy)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["evaluate", "--controller", "zero"])
+    assert exc.value.code == 2
+    assert 'pip install "sphere_env[train]"' in capsys.readouterr().err
+
+
+def test_arguments_reach_the_module_parser(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["train", "--algo", "dqn"])
+    assert exc.value.code == 2
+    assert "dqn" in capsys.readouterr().err
