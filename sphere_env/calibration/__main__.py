@@ -97,10 +97,10 @@ def cmd_steer_fit(args) -> int:
 
         with tempfile.TemporaryDirectory() as tmp:
             path = write_yaml(Path(tmp) / "cal.yaml", raw)
-            m = match_dissipation(path, p0)
-        # k_d holds at the plant step it was matched at (the twin's default): record it
+            m = match_dissipation(path, p0, time_step_s=args.time_step_s)
+        # k_d holds at the plant step it was matched at: record that step
         raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"],
-                                          fitted_time_step_s=m.get("time_step_s", 0.005)))
+                                          fitted_time_step_s=m["time_step_s"]))
         print(f"hydroelastic k_d = {m['k_d']:.4f} (d = {m['dissipation_s_per_m']:.4f} s/m): locked-steer decay "
               f"ζ = {m['zeta_sim']:.4f} matches ζ(p0) = {m['target_zeta']:.4f}")
     if args.out:
@@ -208,6 +208,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
     p.add_argument("--match-kd", action="store_true",
                    help="then set hydroelastic k_d so the locked-steer hydroelastic decay has ζ(p0)")
+    p.add_argument("--time-step-s", type=float, default=None,
+                   help="plant step [s] the k_d match runs at and is recorded for (default: the twin's)")
     p.add_argument("--out", help="calibration YAML to write")
     p.set_defaults(func=cmd_steer_fit)
 

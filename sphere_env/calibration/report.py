@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.calibration.friction_fit import evaluate_friction, fit_friction, leave_one_out, plot_stand_overlay
 from sphere_env.calibration.logs import Manifest
 from sphere_env.calibration.sensitivity import markdown_table as sweep_table, plot_sweep, sweep

@@ -15,7 +15,8 @@ from typing import Any, Iterable, Mapping, Sequence
 
 
 from sphere_env.calibration.logs import RobotLog
-from sphere_env.calibration.simulate import SimTrace, pme_percent, rmse, simulate_log
+from sphere_env.analysis.metrics import pme_percent, rmse
+from sphere_env.calibration.simulate import SimTrace, simulate_log
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
 
