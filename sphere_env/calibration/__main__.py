@@ -5,6 +5,7 @@ Commands
   steer-fit    steer-plane logs at one pressure -> injected / hydroelastic parameters -> calibration YAML
   friction     stand-swing logs -> friction law parameters -> preset YAML + overlay plot (+ leave-one-out)
   sensitivity  hydroelastic ±50 % sweep (paper Fig. 11) on a process pool
+  events       free-motion events (release or push, then free decay) in a long log [-> manifest entries]
   validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
   report       regenerate evaluation/results/validation/ from the real logs
 Every command reads a trial manifest (``--manifest``, default ``assets/logs/roboball.yaml``).
@@ -166,6 +167,49 @@ def cmd_validate(args) -> int:
     return 1 if bad else 0
 
 
+def cmd_events(args) -> int:
+    import os
+
+    from sphere_env.calibration.events import events_table, find_events, manifest_entries, write_manifest_entries
+    from sphere_env.calibration.logs import ColumnMapping, TIME_UNITS, load_log
+
+    mapping = ColumnMapping.roboball() if args.mapping is None else ColumnMapping.load(args.mapping)
+    if args.time_unit is not None:
+        if args.time_unit not in TIME_UNITS:
+            raise LogError(f"--time-unit: value {args.time_unit!r}; allowed: {list(TIME_UNITS)}")
+        from dataclasses import replace
+
+        mapping = replace(mapping, time=(mapping.time[0], args.time_unit))
+    if args.duration_s is not None and not args.duration_s > 0:
+        raise LogError(f"--duration-s: value {args.duration_s!r} must be > 0 s")
+    log = load_log(args.log, mapping)
+    events = find_events(log)
+    print(f"{args.log}: {len(log.t)} samples over {log.t[-1]:.2f} s (time unit {mapping.time[1]}); "
+          f"{len(events)} free-motion event(s)")
+    print(events_table(events))
+    if args.json:
+        print(json.dumps([e.as_dict() for e in events], indent=1))
+    if args.write_manifest:
+        out = Path(args.write_manifest).resolve()
+        log_path = Path(args.log).resolve()
+        if out.exists():
+            root = load_manifest(out).data_root.resolve()
+        else:
+            root = log_path.parent
+        try:
+            file = str(log_path.relative_to(root))
+        except ValueError:
+            file = str(log_path)
+        entries = manifest_entries(log, events, file, args.group or log_path.parent.name, args.duration_s)
+        for e in entries:
+            if args.mapping is not None:
+                e["mapping"] = str(Path(args.mapping).resolve())
+            e["time_unit"] = mapping.time[1]
+        write_manifest_entries(out, entries, os.path.relpath(root, out.parent))
+        print(f"wrote {len(entries)} entr{'y' if len(entries) == 1 else 'ies'} into {out}")
+    return 0
+
+
 def cmd_report(args) -> int:
     from sphere_env.calibration.report import build_report
 
@@ -234,6 +278,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration-s", type=float, default=6.0)
     p.add_argument("--plot")
     p.set_defaults(func=cmd_sensitivity)
+
+    p = sub.add_parser("events", help="free-motion events in a long log; optionally write manifest entries")
+    p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")
+    p.add_argument("--mapping", default=None, help="column mapping YAML for other naming")
+    p.add_argument("--time-unit", default=None, help="time column unit, overriding the mapping's (s|ms|us|ns)")
+    p.add_argument("--write-manifest", default=None, metavar="PATH",
+                   help="add one fixture:free entry per event to this manifest (created if missing)")
+    p.add_argument("--group", default=None, help="group of the written entries (default: the log's folder)")
+    p.add_argument("--duration-s", type=float, default=None,
+                   help="cap each written window at this many seconds from its start")
+    p.add_argument("--json", action="store_true", help="also print the events as JSON")
+    p.set_defaults(func=cmd_events)
 
     p = sub.add_parser("validate", help="logs against shell models; exit 1 past a tolerance")
     common(p, None)
