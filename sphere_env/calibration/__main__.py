@@ -151,19 +151,27 @@ def cmd_sensitivity(args) -> int:
 
 
 def cmd_validate(args) -> int:
-    from sphere_env.calibration.validate import markdown_table, parse_tolerances, plot_overlays, tolerance_failures, validate
+    from sphere_env.calibration.validate import (
+        markdown_table, parse_tolerances, plot_overlays, tolerance_failures, validate, write_records,
+    )
 
     tol = parse_tolerances(args.tol)
+    if args.workers is not None and args.workers < 1:
+        raise LogError(f"--workers: value {args.workers!r} must be >= 1")
     _, logs = _trials(args)
     rows = validate(logs, args.models, steer_friction=args.steer_friction, drive_friction=args.drive_friction,
-                    calibration=args.calibration, default_pressure_kpa=args.pressure_kpa)
+                    calibration=args.calibration, default_pressure_kpa=args.pressure_kpa, workers=args.workers)
     print(markdown_table(rows))
+    if args.json:
+        write_records(args.json, rows)
+        print(f"wrote {args.json}")
     if args.plot:
         plot_overlays(args.plot, logs, rows)
         print(f"wrote {args.plot}")
     bad = tolerance_failures(rows, tol, args.tol_models)
     for msg in bad:
-        print(f"TOLERANCE EXCEEDED: {msg}", file=sys.stderr)
+        print(f"TOLERANCE {'NOT CHECKED' if 'not compared' in msg or 'nothing compared' in msg else 'EXCEEDED'}: "
+              f"{msg}", file=sys.stderr)
     return 1 if bad else 0
 
 
@@ -298,8 +306,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pressure-kpa", type=float, default=None, help="pressure for trials without one")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive")
-    p.add_argument("--tol", nargs="*", help="limits like phi=0.1 theta=0.12 omega_d=0.5 pme=15")
+    p.add_argument("--tol", nargs="*", help="limits like phi=0.1 theta=0.12 omega_d=0.5 pendulum_pitch=0.05 "
+                   "pme=15; exit 1 if one is exceeded or could not be checked on a trial")
     p.add_argument("--tol-models", nargs="*", default=None, help="models the tolerance applies to (default all)")
+    p.add_argument("--json", default=None, metavar="PATH",
+                   help="write one record per trial and model (trial, model, rmse_phi_rad, rmse_theta_rad, ...)")
+    p.add_argument("--workers", type=int, default=1, help="processes for the (trial, model) runs (default 1)")
     p.add_argument("--plot")
     p.set_defaults(func=cmd_validate)
 
