@@ -87,3 +87,18 @@ def test_record_keeps_optional_metrics_only_where_computed():
     assert ramp.record()["pme_percent"] == 12.5
     json.dumps([flat.record(), r, ramp.record()])  # plain JSON
     assert np.isfinite(r["rmse_phi_rad"])
+
+
+@pytest.mark.realdata
+def test_free_release_window_validates_to_records(roboball_dir, tmp_path):
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    out = tmp_path / "free.json"
+    assert main(["validate", "--manifest", str(repo / "assets" / "logs" / "roboball.yaml"), "--data-root",
+                 str(roboball_dir), "--trial", "free_release", "--models", "injected", "--json", str(out)]) == 0
+    (rec,) = json.loads(out.read_text())
+    assert rec["trial"] == "free_release" and rec["fixture"] == "free" and rec["window_s"] == [32.81, 35.81]
+    assert "pme_percent" not in rec  # flat ground
+    assert rec["omega_d_derived_from"] == "drive_rate + pendulum_pitch_rate"
+    assert 0.0 < rec["rmse_phi_rad"] < 1.0 and 0.0 < rec["rmse_theta_rad"] < 2.0
