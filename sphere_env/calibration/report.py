@@ -178,7 +178,7 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "## 1. Steer friction on `stand_swing` (paper Fig. 7)",
         "",
         "Fixture `stand` (shell welded), pendulum released from the logged θ and θ̇, no motor torque, "
-        "5 ms plant step, continuous Majd law (DESIGN.md §2). No encoder offset is applied.",
+        "5 ms plant step, continuous Majd law (`docs/design.md`). No encoder offset is applied.",
         "",
         f"Shipped `majd_steer` = {json.dumps({k: round(v, 4) for k, v in steer.items()})}.",
         "",
