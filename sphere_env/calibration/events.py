@@ -16,6 +16,11 @@ shell fit uses):
    the drive turns the motor is driving, and its torque is not logged, so that part cannot be
    replayed). A commanded steer ramp moves θ one way and does not swing; driving turns the drive.
 
+For a release the motion is free from the first moving sample: the hand lets go. A push is a
+hand moving the robot from standstill, so the hand may still touch it while the swing builds up;
+``free_start_s`` is then the first turning point of the moving channel (its rate changes sign),
+by which time the robot swings on its own. Manifest entries start their windows there.
+
 Thresholds are constants of this module, chosen on physical grounds (sensor rest noise ~1e-3
 rad/s, swings of 0.1–1 rad/s), not tuned per log.
 """
@@ -53,6 +58,7 @@ class Event:
     end_s: float
     moved: dict[str, float]
     kind: str  # "release" (held away from rest, then let go) or "push" (from standstill)
+    free_start_s: float  # where free motion surely runs: start_s for a release, first turning point for a push
 
     @property
     def duration_s(self) -> float:
@@ -60,6 +66,7 @@ class Event:
 
     def as_dict(self) -> dict[str, Any]:
         return {"start_s": round(self.start_s, 3), "end_s": round(self.end_s, 3), "kind": self.kind,
+                "free_start_s": round(self.free_start_s, 3),
                 "moved_rad": {k: round(v, 4) for k, v in self.moved.items()}}
 
 
@@ -149,20 +156,31 @@ def _classify(log: RobotLog, rates: dict[str, np.ndarray], s: int, e: int) -> Ev
     start_t = float(log.t[s]) + log.t0_s
     end_t = float(log.t[e]) + log.t0_s
     held = abs(float(log[main][s] - log[main][e])) > 0.5 * moved[main]
-    return Event(start_t, end_t, moved, "release" if held else "push")
+    if held:
+        free_t = start_t
+    else:
+        idx = np.flatnonzero(big)
+        turn = idx[np.flatnonzero(np.diff(signs) != 0)[0] + 1]  # first fast sample after the first sign change
+        # step back to the turning point itself: the last sample before it with the old sign
+        k = int(turn)
+        while k > 0 and np.sign(r[k - 1]) == np.sign(r[turn]):
+            k -= 1
+        free_t = float(log.t[s + k]) + log.t0_s
+    return Event(start_t, end_t, moved, "release" if held else "push", free_t)
 
 
 def manifest_entries(log: RobotLog, events: Sequence[Event], file: str, group: str,
                      duration_s: float | None = None) -> list[dict[str, Any]]:
-    """Manifest entries (``fixture: free``) for ``events``; ``duration_s`` caps each window's length."""
+    """Manifest entries (``fixture: free``) for ``events``, each window from the event's
+    ``free_start_s``; ``duration_s`` caps each window's length."""
     out = []
     stem = Path(file).stem.replace("-", "_")
     for ev in events:
-        end = ev.end_s if duration_s is None else min(ev.end_s, ev.start_s + duration_s)
+        end = ev.end_s if duration_s is None else min(ev.end_s, ev.free_start_s + duration_s)
         out.append({
             "name": f"{stem}_{ev.kind}_{ev.start_s:.2f}s".replace(".", "_"),
             "group": group, "fixture": "free", "file": file, "pressure_kpa": None,
-            "window_s": [round(ev.start_s, 2), round(end, 2)],
+            "window_s": [round(ev.free_start_s, 2), round(end, 2)],
             "notes": f"{ev.kind} found by `events`: moved " + ", ".join(
                 f"{c} {v:.3f} rad" for c, v in ev.moved.items()),
         })
@@ -206,11 +224,12 @@ def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], 
 
 def events_table(events: Sequence[Event]) -> str:
     """A Markdown table of events (times in s from the log's first sample)."""
-    lines = ["| # | kind | start [s] | end [s] | duration [s] | moved (peak to peak, rad) |",
-             "| ---: | --- | ---: | ---: | ---: | --- |"]
+    lines = ["| # | kind | start [s] | free from [s] | end [s] | duration [s] | moved (peak to peak, rad) |",
+             "| ---: | --- | ---: | ---: | ---: | ---: | --- |"]
     for i, ev in enumerate(events):
         mv = ", ".join(f"{c} {v:.3f}" for c, v in ev.moved.items())
-        lines.append(f"| {i} | {ev.kind} | {ev.start_s:.2f} | {ev.end_s:.2f} | {ev.duration_s:.2f} | {mv} |")
+        lines.append(f"| {i} | {ev.kind} | {ev.start_s:.2f} | {ev.free_start_s:.2f} | {ev.end_s:.2f} | "
+                     f"{ev.duration_s:.2f} | {mv} |")
     return "\n".join(lines)
 
 

@@ -95,6 +95,9 @@ def test_events_find_release_and_push_on_a_synthetic_log(tmp_path):
     assert ev[0].start_s == pytest.approx(2.0, abs=0.02) and 3.0 < ev[0].duration_s < 7.0
     assert set(ev[0].moved) == {"theta", "phi"}  # the drive joint did not turn
     assert ev[1].start_s == pytest.approx(11.0, abs=0.02) and set(ev[1].moved) == {"phi"}
+    # A release is free at once; a push from its first turning point, tan(3.5 τ) = 3.5 / (0.2 · 3.6).
+    assert ev[0].free_start_s == ev[0].start_s
+    assert ev[1].free_start_s == pytest.approx(11.0 + np.arctan(3.5 / 0.72) / 3.5, abs=0.02)
 
 
 def test_driven_motion_and_monotonic_ramps_are_not_events(tmp_path):
@@ -118,6 +121,7 @@ def test_events_command_writes_loadable_manifest_atomically(tmp_path):
     first = m.trials[0]
     assert first.window_s[0] == pytest.approx(2.0, abs=0.02) and first.window_s[1] - first.window_s[0] == pytest.approx(3.0)
     assert first.load().t[-1] == pytest.approx(3.0, abs=0.011)
+    assert m.trials[1].window_s[0] == pytest.approx(11.39, abs=0.02)  # the push's window starts free
     before = man.read_text()
     assert main(["events", str(p), "--write-manifest", str(man)]) == 2  # names already there: refused
     assert man.read_text() == before and [f.name for f in tmp_path.iterdir() if f.suffix == ".tmp"] == []
