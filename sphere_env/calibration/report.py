@@ -219,11 +219,11 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
     for fname, evs in res.get("free_robot_events", {}).items():
         L.append(f"`{fname}`:")
         L.append("")
-        L.append("| start [s] | end [s] | kind | moved (peak to peak, rad) |")
-        L.append("| ---: | ---: | --- | --- |")
+        L.append("| start [s] | free from [s] | end [s] | kind | moved (peak to peak, rad) |")
+        L.append("| ---: | ---: | ---: | --- | --- |")
         for e in evs:
             mv = ", ".join(f"{k} {v:.3f}" for k, v in e["moved_rad"].items())
-            L.append(f"| {e['start_s']:.2f} | {e['end_s']:.2f} | {e['kind']} | {mv} |")
+            L.append(f"| {e['start_s']:.2f} | {e['free_start_s']:.2f} | {e['end_s']:.2f} | {e['kind']} | {mv} |")
         L.append("")
     if res.get("free_robot_shipped"):
         L += ["The manifest's free windows (`fixture: free`, zero torque, drive free with `majd_drive`, from the "
