@@ -197,6 +197,9 @@ def cmd_events(args) -> int:
     print(events_table(events))
     if args.json:
         print(json.dumps([e.as_dict() for e in events], indent=1))
+    if args.write_manifest and not events:
+        print(f"no free-motion events in {args.log}: {args.write_manifest} not written", file=sys.stderr)
+        return 1
     if args.write_manifest:
         out = Path(args.write_manifest).resolve()
         log_path = Path(args.log).resolve()

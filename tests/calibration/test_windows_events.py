@@ -110,6 +110,8 @@ def test_driven_motion_and_monotonic_ramps_are_not_events(tmp_path):
     p = write_log_csv(tmp_path / "driven.csv", t, {"phi": swing, "phi_dot": np.gradient(swing, t),
                                                    "drive_angle": 0.3 * t, "drive_rate": np.full_like(t, 0.3)})
     assert find_events(load_log(p)) == []
+    out = tmp_path / "none.yaml"
+    assert main(["events", str(p), "--write-manifest", str(out)]) == 1 and not out.exists()
 
 
 def test_events_command_writes_loadable_manifest_atomically(tmp_path):
