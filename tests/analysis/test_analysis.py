@@ -61,5 +61,7 @@ def test_evaluation_does_not_import_calibration():
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2] / "evaluation"
-    offenders = [str(p) for p in root.rglob("*.py") if "sphere_env.calibration" in p.read_text()]
+    files = list(root.rglob("*.py"))
+    assert files, f"no evaluation code found under {root}"
+    offenders = [str(p) for p in files if "sphere_env.calibration" in p.read_text()]
     assert not offenders
