@@ -11,7 +11,7 @@ Pure numpy. An episode is summarized from its trace (one sample per control step
 ``time_on_ramp_s``          s        time until the run-out was reached (episode time if never)
 ==========================  =======  ==============================================================
 
-The PME itself is :func:`sphere_env.calibration.simulate.pme_percent` (one implementation in the
+The PME itself is :func:`sphere_env.analysis.metrics.pme_percent` (one implementation in the
 package); :func:`pme_between` applies it to two time series on (possibly) different time grids.
 """
 
@@ -62,7 +62,7 @@ def pme_between(t_e: np.ndarray, omega_e: np.ndarray, on_ramp_e: np.ndarray,
     ramp, inside the simulated time span and with |ω_e| > ``min_speed_rad_s`` count. Positive when
     the simulation underestimates.
     """
-    from sphere_env.calibration.simulate import pme_percent
+    from sphere_env.analysis.metrics import pme_percent
 
     t_e, w_e = np.asarray(t_e, float), np.asarray(omega_e, float)
     t_s, w_s = np.asarray(t_s, float), np.asarray(omega_s, float)

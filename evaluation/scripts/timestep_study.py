@@ -16,7 +16,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 

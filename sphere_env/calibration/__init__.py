@@ -1,12 +1,14 @@
-"""Calibration and validation against robot logs (issue 5).
+"""Calibration and validation against robot logs.
 
-``logs`` reads CSV logs and trial manifests into project state names and SI units; ``decay``
-fits free decays and the pressure curves ω_n(p), ζ(p); ``friction_fit`` fits joint friction on
-the ``stand`` fixture; ``shell_fit`` fits the shell models on steer-plane logs; ``sensitivity``
-runs the hydroelastic sweep of paper Fig. 11; ``validate`` scores any log against any model.
-CLI: ``python -m sphere_env.calibration --help``.
+``logs`` reads CSV logs and trial manifests (with time windows) into project state names and SI
+units; ``events`` finds free-motion events in long logs; ``decay`` fits the pressure curves
+ω_n(p), ζ(p) from free decays (the per-trial fit is :mod:`sphere_env.analysis.decay`);
+``friction_fit`` fits joint friction on the ``stand`` fixture; ``shell_fit`` fits the shell
+models; ``sensitivity`` runs the hydroelastic sweep of paper Fig. 11; ``validate`` scores any log
+against any model; ``crossval`` fits on one segment and validates on the others; ``report``
+writes the committed validation report. CLI: ``python -m sphere_env.calibration --help``.
 """
 
-from sphere_env.calibration.logs import ColumnMapping, LogError, Manifest, RobotLog, load_log, load_manifest
+from sphere_env.calibration.logs import ColumnMapping, LogError, LogTrial, Manifest, RobotLog, load_log, load_manifest
 
-__all__ = ["ColumnMapping", "LogError", "Manifest", "RobotLog", "load_log", "load_manifest"]
+__all__ = ["ColumnMapping", "LogError", "LogTrial", "Manifest", "RobotLog", "load_log", "load_manifest"]

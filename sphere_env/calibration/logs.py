@@ -1,17 +1,35 @@
 """Robot log loading: CSV -> project state names and SI units, plus trial manifests.
 
-A log is a CSV with one time column and named channels. The RoboBall channel names of
-``../shared/data/roboball/README.md`` are understood out of the box; any other naming is given
-by a small YAML column mapping::
+A log is a CSV with one time column and named channels. The RoboBall channel names (the real
+robot's logs) are understood out of the box; any other naming is given by a small YAML column
+mapping::
 
     time: {column: t, unit: s}              # s | ms | us | ns
     channels:
       theta: {column: pendulum_deg, unit: deg}   # angles: rad | deg; rates: rad/s | deg/s | rpm
       phi:   {column: tilt, unit: rad}
 
-Project state names (DESIGN.md §1): ``theta`` (θ, steer joint), ``theta_dot``, ``phi`` (φ, pipe
-angle), ``phi_dot``, ``omega_d`` (ω_d, drive velocity), ``drive_angle`` (pitch joint),
-``drive_rate``, ``heading`` (ψ). Everything is converted to rad, rad/s and s from the first sample.
+RoboBall channels -> project state names (signs and frames: ``docs/design.md``):
+
+===========================================  =====================================================
+``timestamp``                                time, **nanoseconds** from an arbitrary origin
+``roll_joint.position`` / ``.velocity``      ``theta``, ``theta_dot``: steer joint θ
+``ball_roll`` / ``pipe_roll``                ``phi``, ``phi_dot``: pipe angle φ against the ground
+``drive_shaft.position`` / ``.velocity``     ``drive_angle``, ``drive_rate``: drive joint q_d, the
+                                             drive motor's encoder (shell against pendulum)
+``pitch_joint.position`` / ``.velocity``     ``pendulum_pitch``, ``pendulum_pitch_rate``: α, the
+                                             pendulum's pitch against gravity (robot IMU)
+``shell_yaw`` / ``ball_yaw``                 ``heading``, ``heading_rate``: ψ
+===========================================  =====================================================
+
+``omega_d`` (ω_d, the shell's angular velocity about the driveshaft) is not a raw RoboBall
+channel. When a log has both ``drive_rate`` and ``pendulum_pitch_rate`` and no ``omega_d`` column,
+it is derived as ω_d = q̇_d + α̇ (shell against world = shell against pendulum + pendulum against
+world) and the log's ``derived`` records it. The relative sign of the two terms is read from the
+data, not a datasheet: while driving, the pendulum leans against the turning direction of the
+encoder (the pendulum is carried ahead of the contact point), which holds only if q_d and α are
+measured about the same axis direction. The overall sign of ω_d against the twin is not
+confirmed by the logs. Everything is converted to rad, rad/s and s from the first sample.
 
 Every problem with an input raises :class:`LogError` (a ``ValueError``) naming the file, the CSV
 line (1 = header) and/or column, and what is wrong. Loading never writes anything.
@@ -21,7 +39,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -31,21 +49,30 @@ import yaml
 
 from sphere_env.physics.twin import FIXTURES
 
-STATE_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate", "heading")
-ANGLE_CHANNELS = ("theta", "phi", "drive_angle", "heading")
+STATE_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate",
+                  "pendulum_pitch", "pendulum_pitch_rate", "heading", "heading_rate")
+ANGLE_CHANNELS = ("theta", "phi", "drive_angle", "pendulum_pitch", "heading")
 
-# RoboBall log names -> project names, first match wins (README of the real logs).
+# RoboBall log names -> project names, first match wins (module docstring).
 ROBOBALL_CHANNELS: dict[str, tuple[str, ...]] = {
     "theta": ("roll_joint.position",),
     "theta_dot": ("roll_joint.velocity",),
     "phi": ("ball_roll.position", "pipe_roll.position", "pipe_roll", "ball_roll"),
     "phi_dot": ("ball_roll.velocity", "pipe_roll.velocity"),
-    "omega_d": ("drive_shaft.velocity",),
-    "drive_angle": ("pitch_joint.position",),
-    "drive_rate": ("pitch_joint.velocity",),
+    "drive_angle": ("drive_shaft.position",),
+    "drive_rate": ("drive_shaft.velocity",),
+    "pendulum_pitch": ("pitch_joint.position",),
+    "pendulum_pitch_rate": ("pitch_joint.velocity",),
     "heading": ("shell_yaw.position", "ball_yaw.position", "shell_yaw", "ball_yaw"),
+    "heading_rate": ("shell_yaw.velocity", "ball_yaw.velocity"),
+    "omega_d": ("omega_d",),
 }
+#: RoboBall timestamps are integer nanoseconds from an arbitrary origin: the free_robot log spans
+#: 4.66e10 units over 4665 rows (46.6 s at a median 9.97 ms, i.e. 100 Hz), the steer_free and
+#: stand_swing logs 2e7 units per row (50 Hz). Any other unit is refused by the sample-period check.
 ROBOBALL_TIME = ("timestamp", "ns")
+#: Project names -> RoboBall CSV columns (for writing synthetic logs).
+ROBOBALL_COLUMNS = {name: cols[0] for name, cols in ROBOBALL_CHANNELS.items()}
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
@@ -125,6 +152,9 @@ class RobotLog:
     """One trial in project units: time ``t`` [s] from the first kept sample, channels by state name.
 
     Angles in rad, rates in rad/s. ``meta`` carries the manifest entry (fixture, pressure_kpa, notes).
+    ``derived`` names the channels computed from others (channel -> formula), e.g. ``omega_d``.
+    ``window_s`` is the manifest window [start, end] in seconds from the file's first sample (None:
+    the whole file); ``t`` then starts at 0 at the first sample inside the window.
     """
 
     name: str
@@ -135,6 +165,9 @@ class RobotLog:
     pressure_kpa: float | None = None
     notes: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
+    derived: dict[str, str] = field(default_factory=dict)
+    window_s: tuple[float, float] | None = None
+    t0_s: float = 0.0  # time of the first kept sample [s from the file's first sample]
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.channels[name]
@@ -150,8 +183,33 @@ class RobotLog:
         t = self.t[keep]
         return RobotLog(
             self.name, self.path, t - t[0], {k: v[keep] for k, v in self.channels.items()},
-            self.fixture, self.pressure_kpa, self.notes, dict(self.meta),
+            self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived), self.window_s,
+            self.t0_s + float(t[0]),
         )
+
+    def window(self, start_s: float, end_s: float, where: str = "window_s") -> "RobotLog":
+        """The samples with ``start_s <= t <= end_s`` [s from this log's first sample]; time restarts at 0.
+
+        Refuses (naming file, ``where`` and the problem) a reversed window, one that starts before
+        the first or ends after the last sample, or one holding fewer than 3 samples.
+        """
+        dur = float(self.t[-1])
+        if not (math.isfinite(start_s) and math.isfinite(end_s)) or start_s >= end_s:
+            raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}]: start must be before end (seconds)")
+        if start_s < 0 or end_s > dur + 1e-9:
+            raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s lies outside the log, which spans "
+                        f"[0, {dur:.3f}] s from its first sample")
+        keep = (self.t >= start_s - 1e-9) & (self.t <= end_s + 1e-9)
+        if keep.sum() < 3:
+            raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s holds {int(keep.sum())} samples; need >= 3")
+        t = self.t[keep]
+        return RobotLog(self.name, self.path, t - t[0], {k: v[keep] for k, v in self.channels.items()},
+                        self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived),
+                        (self.t0_s + float(start_s), self.t0_s + float(end_s)), self.t0_s + float(t[0]))
+
+
+#: The contract's name for a loaded trial.
+LogTrial = RobotLog
 
 
 def _fail(path: str, msg: str) -> LogError:
@@ -245,6 +303,12 @@ def load_log(
                         "the unit cannot be right"
                     )
                 break
+    derived: dict[str, str] = {}
+    if "omega_d" not in channels and "drive_rate" in channels and "pendulum_pitch_rate" in channels:
+        # ω_d = q̇_d + α̇: shell against world = shell against pendulum + pendulum against world
+        # (relative sign read from the data; see the module docstring).
+        channels["omega_d"] = channels["drive_rate"] + channels["pendulum_pitch_rate"]
+        derived["omega_d"] = "drive_rate + pendulum_pitch_rate"
     need = tuple(dict.fromkeys(mapping.required + tuple(required)))
     for chan in need:
         if chan not in channels:
@@ -254,7 +318,7 @@ def load_log(
             )
     if not channels:
         raise _fail(p, f"no known channel columns; found {list(df.columns)} (mapping {mapping.source})")
-    return RobotLog(name or Path(p).stem, p, t, channels)
+    return RobotLog(name or Path(p).stem, p, t, channels, derived=derived)
 
 
 def _fill_nans(path: str, col: str, x: np.ndarray, max_run: int) -> np.ndarray:
@@ -278,9 +342,29 @@ def _fill_nans(path: str, col: str, x: np.ndarray, max_run: int) -> np.ndarray:
 
 
 # ---- manifests -------------------------------------------------------------------------------------
+#: A window must show at least this much motion [rad, peak to peak of φ or θ] to be fitted: the
+#: RoboBall encoders and IMU rest within ~1e-3 rad, a release or push moves φ by 0.1–0.8 rad.
+MIN_MOTION_RAD = 0.02
+MOTION_CHANNELS = ("phi", "theta")
+
+
+def check_motion(log: RobotLog, where: str = "window_s", min_motion_rad: float = MIN_MOTION_RAD) -> None:
+    """Refuse a log (window) in which neither φ nor θ moves by ``min_motion_rad`` peak to peak."""
+    moved = {c: float(np.ptp(log[c])) for c in MOTION_CHANNELS if log.has(c)}
+    if not moved:
+        raise _fail(log.path, f"field {where!r} = {list(log.window_s or ())}: no φ or θ channel to fit")
+    if max(moved.values()) < min_motion_rad:
+        desc = ", ".join(f"{c} {v:.4f} rad" for c, v in moved.items())
+        raise _fail(log.path, f"field {where!r} = {list(log.window_s or ())} s has no free motion to fit: "
+                    f"peak-to-peak {desc}, below {min_motion_rad} rad")
+
+
 @dataclass(frozen=True)
 class TrialSpec:
-    """One manifest entry. ``pressure_kpa`` None = not recorded; ``transient_s`` [s] is dropped."""
+    """One manifest entry. ``pressure_kpa`` None = not recorded; ``transient_s`` [s] is dropped
+    (counted from the window start when ``window_s`` is given). ``window_s`` = [start, end] in
+    seconds from the file's first sample; several entries may cut windows from one file.
+    ``time_unit`` overrides the mapping's time unit (the RoboBall mapping reads ns)."""
 
     name: str
     file: Path
@@ -291,13 +375,23 @@ class TrialSpec:
     notes: str = ""
     mapping: Path | None = None
     ramp_window_s: tuple[float, float] | None = None
+    window_s: tuple[float, float] | None = None
+    time_unit: str | None = None
 
     def load(self, required: tuple[str, ...] = ()) -> RobotLog:
-        log = load_log(self.file, self.mapping, required=required, name=self.name)
+        mapping: ColumnMapping | Path | None = self.mapping
+        if self.time_unit is not None:
+            base = ColumnMapping.roboball() if mapping is None else ColumnMapping.load(mapping)
+            mapping = replace(base, time=(base.time[0], self.time_unit))
+        log = load_log(self.file, mapping, required=required, name=self.name)
+        if self.window_s is not None:
+            log = log.window(*self.window_s, where=f"trial {self.name!r}: window_s")
+            check_motion(log, f"trial {self.name!r}: window_s")
         if self.transient_s > 0:
             log = log.after(self.transient_s)
         log.fixture, log.pressure_kpa, log.notes = self.fixture, self.pressure_kpa, self.notes
-        log.meta = {"group": self.group, "transient_s": self.transient_s, "ramp_window_s": self.ramp_window_s}
+        log.meta = {"group": self.group, "transient_s": self.transient_s, "ramp_window_s": self.ramp_window_s,
+                    "window_s": self.window_s}
         return log
 
 
@@ -333,6 +427,11 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
         trials:
           - {name: stand_1, group: stand_swing, file: stand_swing/a.csv, fixture: stand,
              pressure_kpa: null, transient_s: 0.0, notes: "..."}
+          - {name: push_1, group: free_robot, file: free_robot/run.csv, fixture: free,
+             window_s: [32.80, 35.80], time_unit: ns}   # seconds from the file's first sample
+
+    A window is checked when the trial is loaded: it must lie inside the log, hold at least 3
+    samples and show free motion (φ or θ moving by :data:`MIN_MOTION_RAD` peak to peak).
 
     ``data_root`` given here overrides the file's (e.g. CLI ``--data-root``). Files are not opened
     until a trial is loaded.
@@ -374,6 +473,19 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
         rw = entry.get("ramp_window_s")
         if rw is not None and (not isinstance(rw, list) or len(rw) != 2 or not rw[0] < rw[1]):
             raise LogError(f"{where}: field 'ramp_window_s' = {rw!r} must be [start, end] seconds")
+        win = entry.get("window_s")
+        if win is not None:
+            if (not isinstance(win, (list, tuple)) or len(win) != 2
+                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in win)):
+                raise LogError(f"{where}: field 'window_s' = {win!r} must be [start, end] in seconds from the "
+                               "log's first sample")
+            if win[0] < 0:
+                raise LogError(f"{where}: field 'window_s' = {win!r}: start {win[0]} s is before the log's first sample")
+            if not win[0] < win[1]:
+                raise LogError(f"{where}: field 'window_s' = {win!r} is reversed or empty: start must be before end")
+        tu = entry.get("time_unit")
+        if tu is not None and tu not in TIME_UNITS:
+            raise LogError(f"{where}: field 'time_unit' = {tu!r}; allowed: {list(TIME_UNITS)}")
         f = Path(entry["file"])
         trials.append(
             TrialSpec(
@@ -386,6 +498,8 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
                 notes=str(entry.get("notes", "")),
                 mapping=None if mapping is None else (base / mapping if not Path(mapping).is_absolute() else Path(mapping)),
                 ramp_window_s=None if rw is None else (float(rw[0]), float(rw[1])),
+                window_s=None if win is None else (float(win[0]), float(win[1])),
+                time_unit=tu,
             )
         )
     return Manifest(p, root, tuple(trials))
@@ -395,12 +509,10 @@ def write_log_csv(path: str | Path, t_s: np.ndarray, channels: Mapping[str, np.n
                   t0_ns: int = 1_000_000_000) -> Path:
     """Write channels in the RoboBall CSV format (ns ``timestamp``, ``roll_joint.position`` ...).
 
-    Used to synthesize logs from the twin (tests, examples). Channel names are project names.
+    Used to synthesize logs from the twin (tests, examples). Channel names are project names;
+    ``omega_d`` goes to a column ``omega_d``, which the RoboBall mapping reads as a measured ω_d.
     """
-    names = {"theta": "roll_joint.position", "theta_dot": "roll_joint.velocity", "phi": "ball_roll.position",
-             "phi_dot": "ball_roll.velocity", "omega_d": "drive_shaft.velocity",
-             "drive_angle": "pitch_joint.position", "drive_rate": "pitch_joint.velocity",
-             "heading": "shell_yaw.position"}
+    names = dict(ROBOBALL_COLUMNS, omega_d="omega_d")  # ω_d has no RoboBall column: written under its own name
     df = pd.DataFrame({"timestamp": (t0_ns + np.round(np.asarray(t_s) * 1e9)).astype(np.int64)})
     for k, v in channels.items():
         df[names[k]] = np.asarray(v, float)

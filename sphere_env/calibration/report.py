@@ -3,7 +3,10 @@
 ``python -m sphere_env.calibration report`` regenerates ``evaluation/results/validation/`` from
 the logs of the manifest (``assets/logs/roboball.yaml``), the shipped friction presets and the
 shipped shell calibration. It refits nothing that is shipped; the cross-validation fits it runs
-(leave-one-out friction, steer_free fit-on-one/validate-on-other) are reported, not written.
+(leave-one-out friction; per group of segments — the steer_free trials, the free-robot events —
+fit on one, validate on the others, every shell model) are reported, not written. The free-robot
+section lists the free-motion events found in each free-robot log and validates the manifest's
+free windows with the shipped calibration.
 """
 
 from __future__ import annotations
@@ -14,11 +17,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.analysis.decay import fit_free_decay
+from sphere_env.calibration.crossval import cross_validate, crossval_table, held_out_summary
+from sphere_env.calibration.events import events_table, find_events
 from sphere_env.calibration.friction_fit import evaluate_friction, fit_friction, leave_one_out, plot_stand_overlay
-from sphere_env.calibration.logs import Manifest
+from sphere_env.calibration.logs import Manifest, load_log
 from sphere_env.calibration.sensitivity import markdown_table as sweep_table, plot_sweep, sweep
-from sphere_env.calibration.shell_fit import fit_shell, install_calibration, steer_plane_twin, trial_rmse
 from sphere_env.calibration.validate import markdown_table, plot_overlays, validate
 from sphere_env.models.friction import FrictionModel, load_friction_presets
 from sphere_env.models.shell import ShellCalibration
@@ -68,19 +72,30 @@ def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers:
         except ValueError as err:
             results["steer_free_decay"][log.name] = {"error": str(err)}
 
-    # 3. Cross-validation: fit on one steer_free trial, validate on the other.
-    xval = []
-    for model in ("injected", "hydroelastic"):
-        for i, train in enumerate(sf):
-            fit = fit_shell([train], model, p0, steer_friction=steer, base=cal,
-                            max_nfev=40 if model == "injected" else 25)
-            twin = steer_plane_twin(model, steer, calibration, p0)
-            install_calibration(twin, fit.calibration, p0)
-            per = trial_rmse(twin, sf)
-            xval.append({"model": model, "fit_on": train.name, "params": fit.params, "rmse_rad": per})
-    results["steer_free_cross_validation"] = xval
+    # 3. Free robot: the events in each log, and its free windows with the shipped calibration.
+    free_specs = [t for t in manifest.trials if t.group == "free_robot"]
+    free = [t.load(required=("phi", "theta")) for t in free_specs]
+    results["free_robot_events"] = {}
+    for f in sorted({str(t.file) for t in free_specs}):
+        spec = next(t for t in free_specs if str(t.file) == f)
+        full = load_log(spec.file, spec.mapping)
+        results["free_robot_events"][Path(f).name] = [e.as_dict() for e in find_events(full)]
+    free_rows = validate(free, ("point", "injected", "hydroelastic"), steer_friction=steer, drive_friction="majd_drive",
+                         calibration=calibration, workers=workers) if free else []
+    results["free_robot_shipped"] = [r.record() for r in free_rows]
+    if free:
+        plot_overlays(out / "free_robot_overlay.png", free, free_rows)
 
-    # 4. Hydroelastic sensitivity (paper Fig. 11).
+    # 4. Cross-validation: per group, fit on one segment, validate on the others, every model.
+    groups = {"steer_free": sf}
+    if free:
+        groups["free_robot"] = free
+    results["cross_validation"] = cross_validate(groups, ("point", "injected", "hydroelastic"), calibration,
+                                                 p0, steer, "majd_drive", workers=workers)
+    results["cross_validation_summary"] = {f"{g}/{m}": v for (g, m), v in
+                                           held_out_summary(results["cross_validation"]).items()}
+
+    # 5. Hydroelastic sensitivity (paper Fig. 11).
     if sensitivity:
         lo, hi = cal.pressure_range_kpa
         ps = sorted({round(lo, 2), round(p0, 2), round(0.5 * (lo + hi), 2), round(hi, 2)})
@@ -118,8 +133,9 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
     inj = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "injected"}
     hyd = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "hydroelastic"}
     loo_test = [r["test_rmse_rad"] for r in s["leave_one_out"]]
-    xv = [x for x in res["steer_free_cross_validation"] if x["model"] == "injected"]
-    inj_w = [x["params"]["omega_n"] for x in xv]
+    xv = [x for x in res["cross_validation"]
+          if x["group"] == "steer_free" and x["model"] == "injected" and x["fit_on"] and x["rmse_rad"]]
+    inj_w = [x["params"].get("omega_n", math.nan) for x in xv]
     held_vals = [x["rmse_rad"][other]["phi"] for x in xv for other in x["rmse_rad"] if other != x["fit_on"]]
     held = f"{min(held_vals):.3f}–{max(held_vals):.3f}" if held_vals else "—"
     L += [
@@ -142,7 +158,8 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         f"{_f(inj.get('steer_165825', {}).get('theta'))} / {_f(inj.get('steer_165853', {}).get('theta'))} rad "
         "(165825 / 165853). Below the authors on 165825 (0.098 / 0.108), above them on 165853 (0.035 / 0.057). "
         "Fitted on one trial and validated on the other it reaches "
-        f"{min(x['rmse_rad'][x['fit_on']]['phi'] for x in xv):.3f}–{max(x['rmse_rad'][x['fit_on']]['phi'] for x in xv):.3f}"
+        f"{min((x['rmse_rad'][x['fit_on']]['phi'] for x in xv), default=math.nan):.3f}–"
+        f"{max((x['rmse_rad'][x['fit_on']]['phi'] for x in xv), default=math.nan):.3f}"
         " rad on the fit trial and "
         f"{held} rad (φ) on the held-out one: the two trials want different stiffness (ω_n "
         f"{' vs '.join(f'{w:.2f}' for w in inj_w)} rad/s), which one linear K_inject cannot give both. The logged φ(t) is close to a single damped sinusoid "
@@ -154,14 +171,14 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "about its centre, so with the pendulum free almost nothing pulls the tilted robot back (the same holds "
         "for point contact); fitting modulus and dissipation runs to the softest bound and still misses. The "
         "hydroelastic model is calibrated where it is meaningful: its dissipation (k_d) is set so its "
-        "locked-steer decay reproduces the measured ζ(p₀) (section 3, control row at 4.31 kPa).",
+        "locked-steer decay reproduces the measured ζ(p₀) (section 5, control row at 4.31 kPa).",
         "- **Pressure**: the steer_free pressure was not recorded; 4.31 kPa is an ASSUMED anchor and the "
         "slopes of ω_n(p), ζ(p) are ASSUMED (see `assets/calibration/default.yaml`).",
         "",
         "## 1. Steer friction on `stand_swing` (paper Fig. 7)",
         "",
         "Fixture `stand` (shell welded), pendulum released from the logged θ and θ̇, no motor torque, "
-        "5 ms plant step, continuous Majd law (DESIGN.md §2). No encoder offset is applied.",
+        "5 ms plant step, continuous Majd law (`docs/design.md`). No encoder offset is applied.",
         "",
         f"Shipped `majd_steer` = {json.dumps({k: round(v, 4) for k, v in steer.items()})}.",
         "",
@@ -195,17 +212,45 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         else:
             L.append(f"| {name} | {d['omega_n']:.3f} ({d['omega_n_ci'][0]:.3f}–{d['omega_n_ci'][1]:.3f}) | "
                      f"{d['zeta']:.3f} ({d['zeta_ci'][0]:.3f}–{d['zeta_ci'][1]:.3f}) | {_f(d['logdec_zeta'])} |")
-    L += ["",
-          "### Fit on one trial, validate on the other", "",
-          "| model | fitted on | parameters | RMSE φ 165825 | RMSE θ 165825 | RMSE φ 165853 | RMSE θ 165853 |",
-          "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
-    for x in res["steer_free_cross_validation"]:
-        pr = ", ".join(f"{k}={v:.4g}" for k, v in x["params"].items())
-        a, b = x["rmse_rad"].get("steer_165825", {}), x["rmse_rad"].get("steer_165853", {})
-        L.append(f"| {x['model']} | {x['fit_on']} | {pr} | {_f(a.get('phi'))} | {_f(a.get('theta'))} | "
-                 f"{_f(b.get('phi'))} | {_f(b.get('theta'))} |")
+    L += ["", "## 3. The free robot", "",
+          "Free-motion events found by `python -m sphere_env.calibration events LOG` in each free-robot log "
+          "(times in s from the log's first sample; a release or push followed by free decay, the drive not "
+          "turning):", ""]
+    for fname, evs in res.get("free_robot_events", {}).items():
+        L.append(f"`{fname}`:")
+        L.append("")
+        L.append("| start [s] | free from [s] | end [s] | kind | moved (peak to peak, rad) |")
+        L.append("| ---: | ---: | ---: | --- | --- |")
+        for e in evs:
+            mv = ", ".join(f"{k} {v:.3f}" for k, v in e["moved_rad"].items())
+            L.append(f"| {e['start_s']:.2f} | {e['free_start_s']:.2f} | {e['end_s']:.2f} | {e['kind']} | {mv} |")
+        L.append("")
+    if res.get("free_robot_shipped"):
+        L += ["The manifest's free windows (`fixture: free`, zero torque, drive free with `majd_drive`, from the "
+              "logged state at the window start) with the shipped calibration at its nominal pressure (the "
+              "free robot's pressure was not recorded):", "",
+              "| trial | window [s] | model | RMSE φ [rad] | RMSE θ [rad] | RMSE α [rad] | RMSE ω_d [rad/s] |",
+              "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
+        for r in res["free_robot_shipped"]:
+            w = r.get("window_s") or ["", ""]
+            L.append(f"| {r['trial']} | {w[0]}–{w[1]} | {r['model']} | {_f(r.get('rmse_phi_rad'))} | "
+                     f"{_f(r.get('rmse_theta_rad'))} | {_f(r.get('rmse_pendulum_pitch_rad'))} | "
+                     f"{_f(r.get('rmse_omega_d_rad_s'))} |")
+        L += ["", "ω_d of the free robot is derived from the logs (drive_rate + pendulum_pitch_rate), not measured.",
+              "", "![free robot overlay](free_robot_overlay.png)"]
+    L += ["", "## 4. Cross-validation: fit on one segment, validate on the others", "",
+          "Per group (segments at one unrecorded pressure), every shell model is fitted on each segment in turn "
+          "and validated on every segment of the group. The `fit` row is a fit, not a test; `held out` rows "
+          "are the test. `point` has nothing to fit: it is the rigid baseline with the shipped calibration.", "",
+          crossval_table(res["cross_validation"]), ""]
+    summ = res.get("cross_validation_summary", {})
+    if summ:
+        L += ["| group / model | worst φ on the fit segment [rad] | worst φ held out [rad] |",
+              "| --- | ---: | ---: |"]
+        for k, v in summ.items():
+            L.append(f"| {k} | {_f(v['worst_fit_phi_rad'])} | {_f(v['worst_held_out_phi_rad'])} |")
     if "sensitivity" in res:
-        L += ["", "## 3. Hydroelastic sensitivity (paper Fig. 11)", "",
+        L += ["", "## 5. Hydroelastic sensitivity (paper Fig. 11)", "",
               "`locked_steer`, hydroelastic, released at φ = 0.15 rad, no joint friction; ζ from a damped-sinusoid "
               "fit of φ(t). Modulus and dissipation scaled ±50 % one at a time around the calibration.", "",
               sweep_table(res["sensitivity"]), "", "![sensitivity](hydroelastic_sensitivity.png)"]

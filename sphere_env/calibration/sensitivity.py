@@ -15,7 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.calibration.shell_fit import calibration_at
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
@@ -38,7 +38,7 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     m, d = m0 * job["modulus_scale"], d0 * job["dissipation_scale"]
     twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
                            drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
-                           time_step_s=job.get("time_step_s", 0.005)))
+                           time_step_s=job.get("time_step_s", TwinConfig.time_step_s)))
     twin.set_calibration(ShellCalibration.from_dict(
         calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>"), p)
     twin.reset(InitialState(roll=job.get("phi0_rad", 0.15)))
@@ -55,7 +55,7 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
         omega_n = zeta = float("nan")
     return {"case": job["case"], "pressure_kpa": p, "modulus_pa": m, "dissipation_s_per_m": d,
             "omega_n": omega_n, "zeta": zeta, "zeta_curve": float(base.zeta(p)),
-            "omega_n_curve": float(base.omega_n(p))}
+            "omega_n_curve": float(base.omega_n(p)), "time_step_s": twin.config.time_step_s}
 
 
 def sweep(
@@ -113,12 +113,17 @@ def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
 
 def match_dissipation(calibration: str | Path | None, pressure_kpa: float, target_zeta: float | None = None,
                       scale_bracket: tuple[float, float] = (0.05, 3.0), duration_s: float = 6.0,
-                      phi0_rad: float = 0.15, xtol: float = 0.01) -> dict[str, float]:
+                      phi0_rad: float = 0.15, xtol: float = 0.01,
+                      time_step_s: float | None = None) -> dict[str, float]:
     """Find the Hunt–Crossley dissipation d [s/m] at which the hydroelastic ``locked_steer`` free decay
-    has the damping ratio ``target_zeta`` (default: the calibration's ζ(p)); returns d and k_d = d / C_inject.
+    has the damping ratio ``target_zeta`` (default: the calibration's ζ(p)); returns d, k_d = d / C_inject
+    and ``time_step_s``, the plant step [s] the decays ran at (None: the twin's default step).
 
-    This is the paper's §III.D tuning of k_d, done by root finding on the simulated ζ.
+    This is the paper's §III.D tuning of k_d, done by root finding on the simulated ζ. A discrete
+    plant adds numerical damping that depends on the step, so k_d holds at that step only.
     """
+    from sphere_env.physics.twin import TwinConfig
+
     from scipy.optimize import brentq
 
     base = ShellCalibration.load(calibration)
@@ -127,14 +132,15 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
     target = float(base.zeta(p)) if target_zeta is None else float(target_zeta)
     _, d0 = base.hydroelastic(p, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
     _, c_inject = base.injected_gains(p, robot.M_eq, robot.K_eq)
+    step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
 
     def zeta_at(scale: float) -> float:
         job = {"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
                "modulus_scale": 1.0, "dissipation_scale": scale, "phi0_rad": phi0_rad,
-               "duration_s": duration_s, "case": "match"}
+               "duration_s": duration_s, "time_step_s": step, "case": "match"}
         return decay_case(job)["zeta"] - target
 
     scale = brentq(zeta_at, *scale_bracket, xtol=xtol)
     d = d0 * scale
     return {"pressure_kpa": p, "target_zeta": target, "dissipation_s_per_m": d, "k_d": d / c_inject,
-            "zeta_sim": zeta_at(scale) + target}
+            "zeta_sim": zeta_at(scale) + target, "time_step_s": step}

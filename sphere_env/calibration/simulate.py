@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sphere_env.analysis.metrics import pme_percent, rmse  # noqa: F401  (re-exported for callers)
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.physics.twin import InitialState, Twin
 
@@ -103,24 +104,3 @@ def simulate_log(
                 out[k][i] = out[k][i - 1]
     out["theta"] = out["theta"] + theta_offset_rad
     return SimTrace(log.t.copy(), out, diverged)
-
-
-def rmse(a: np.ndarray, b: np.ndarray) -> float:
-    """Root-mean-square difference [same unit as inputs]."""
-    return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
-
-
-def pme_percent(omega_e: np.ndarray, omega_s: np.ndarray, mask: np.ndarray | None = None,
-                min_speed: float = 1e-3) -> float:
-    """Point Mean Error (paper eq. 12) [%]: mean of (ω_e − ω_s)/ω_e · 100 over on-ramp samples.
-
-    Positive when the simulation underestimates the experiment. Samples with |ω_e| below
-    ``min_speed`` [rad/s] (release instant) are excluded to avoid dividing by ~0.
-    """
-    e, s = np.asarray(omega_e, float), np.asarray(omega_s, float)
-    keep = np.abs(e) > min_speed
-    if mask is not None:
-        keep &= np.asarray(mask, bool)
-    if not keep.any():
-        return float("nan")
-    return float(np.mean((e[keep] - s[keep]) / e[keep]) * 100.0)

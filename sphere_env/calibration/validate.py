@@ -1,30 +1,44 @@
 """Validation: any log against any shell model, with RMSE, PME (eq. 12) and overlay plots.
 
 Each trial is simulated on the fixture its manifest names, from the logged initial state, with
-every requested shell model. Reported per trial and model: RMSE of φ and θ [rad] (and of ω_d
-[rad/s] where logged), and the Point Mean Error of ω_d (paper eq. 12) over the on-ramp samples
-(``ramp_window_s`` in the manifest; the whole log if absent).
+every requested shell model. Reported per trial and model: RMSE of φ and θ [rad]; of ω_d [rad/s]
+where the log has ω_d (measured or derived, see :mod:`sphere_env.calibration.logs`); of the
+pendulum pitch α [rad] on ``free`` windows where both the log and the simulation carry it; and
+the Point Mean Error of ω_d (paper eq. 12) only on ramp trials, i.e. those whose manifest names the
+on-ramp samples (``ramp_window_s``): on flat ground the robot does not roll down anything and a
+PME means nothing.
+
+Trials run on a process pool with ``workers`` > 1 (:func:`sphere_env.parallel.run_parallel`); each
+worker builds its own twins, one per (fixture, model, pressure), and results keep trial order.
 """
 
 from __future__ import annotations
 
+import json
 import math
-from dataclasses import dataclass
+import os
+import tempfile
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-
+from sphere_env.analysis.metrics import pme_percent, rmse
 from sphere_env.calibration.logs import RobotLog
-from sphere_env.calibration.simulate import SimTrace, pme_percent, rmse, simulate_log
+from sphere_env.calibration.simulate import SimTrace, simulate_log
+from sphere_env.parallel import run_parallel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
 
 METRICS = ("phi", "theta", "omega_d")
+TOLERANCE_KEYS = METRICS + ("pendulum_pitch", "pme")
+#: RMSE over fewer samples compares nothing (the first sample is the simulation's initial state).
+MIN_COMPARED_SAMPLES = 3
 
 
 @dataclass
 class ValidationRow:
-    """One trial × model: RMSE per channel [rad or rad/s] (NaN if not logged), PME [%]."""
+    """One trial × model: RMSE per channel [rad or rad/s] (NaN if not compared), PME [%] (NaN if
+    not a ramp trial). ``rmse`` may also hold ``pendulum_pitch`` on free windows."""
 
     trial: str
     model: str
@@ -32,24 +46,76 @@ class ValidationRow:
     rmse: dict[str, float]
     pme_percent: float
     trace: SimTrace | None = None
+    derived: dict[str, str] = field(default_factory=dict)
+    window_s: tuple[float, float] | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {"trial": self.trial, "model": self.model, "fixture": self.fixture,
                 "rmse": self.rmse, "pme_percent": self.pme_percent}
 
+    def record(self) -> dict[str, Any]:
+        """The machine-readable record of ``validate --json``: a metric appears only where it was
+        compared (``rmse_omega_d_rad_s`` where ω_d is logged, ``pme_percent`` on ramp trials,
+        ``rmse_pendulum_pitch_rad`` on free windows); ``rmse_phi_rad``/``rmse_theta_rad`` are
+        always present (null when the log lacks the channel)."""
+        def val(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        out: dict[str, Any] = {"trial": self.trial, "model": self.model, "fixture": self.fixture,
+                               "rmse_phi_rad": val(self.rmse.get("phi", math.nan)),
+                               "rmse_theta_rad": val(self.rmse.get("theta", math.nan))}
+        if math.isfinite(self.rmse.get("omega_d", math.nan)):
+            out["rmse_omega_d_rad_s"] = self.rmse["omega_d"]
+            if "omega_d" in self.derived:
+                out["omega_d_derived_from"] = self.derived["omega_d"]
+        if math.isfinite(self.rmse.get("pendulum_pitch", math.nan)):
+            out["rmse_pendulum_pitch_rad"] = self.rmse["pendulum_pitch"]
+        if math.isfinite(self.pme_percent):
+            out["pme_percent"] = self.pme_percent
+        if self.window_s is not None:
+            out["window_s"] = list(self.window_s)
+        return out
+
 
 def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> ValidationRow:
-    """Simulate ``log`` on ``twin`` (built for the log's fixture) and score it."""
+    """Simulate ``log`` on ``twin`` (built for the log's fixture) and score it.
+
+    A log shorter than :data:`MIN_COMPARED_SAMPLES` is not simulated: every metric is NaN.
+    """
+    enough = len(log.t) >= MIN_COMPARED_SAMPLES
+    if not enough:
+        nan = float("nan")
+        return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture,
+                             {ch: nan for ch in METRICS}, nan, None, dict(log.derived), log.window_s)
+    # A free window starts from the logged state (the log's θ, θ̇, φ, φ̇, α, α̇, q̇_d at the
+    # window start): simulate_log builds it with simulate.initial_state_from_log.
     tr = simulate_log(twin, log, theta_offset_rad, pressure_kpa=log.pressure_kpa)
     out = {}
     for ch in METRICS:
-        out[ch] = rmse(tr[ch], log[ch]) if log.has(ch) else float("nan")
+        out[ch] = rmse(tr[ch], log[ch]) if enough and log.has(ch) else float("nan")
+    if enough and log.fixture == "free" and log.has("pendulum_pitch") and "pendulum_pitch" in tr.channels:
+        out["pendulum_pitch"] = rmse(tr["pendulum_pitch"], log["pendulum_pitch"])
     pme = float("nan")
-    if log.has("omega_d"):
-        win = log.meta.get("ramp_window_s") if log.meta else None
-        mask = None if win is None else (log.t >= win[0]) & (log.t <= win[1])
+    win = log.meta.get("ramp_window_s") if log.meta else None
+    if enough and log.has("omega_d") and win is not None:  # PME only on ramp trials
+        mask = (log.t >= win[0]) & (log.t <= win[1])
         pme = pme_percent(log["omega_d"], tr["omega_d"], mask)
-    return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture, out, pme, tr)
+    return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture, out, pme, tr,
+                         dict(log.derived), log.window_s)
+
+
+_TWINS: dict[tuple, Twin] = {}  # per process: one twin per configuration, reused across jobs
+
+
+def _validate_job(job: Mapping[str, Any]) -> ValidationRow:
+    """One (log, model) validation; module level so process pools can pickle it."""
+    key = tuple(sorted((k, repr(v)) for k, v in job["config"].items()))
+    if key not in _TWINS:
+        _TWINS[key] = Twin(TwinConfig(**job["config"]))
+    row = validate_log(_TWINS[key], job["log"])
+    if not job.get("keep_trace", True):
+        row.trace = None
+    return row
 
 
 def validate(
@@ -58,37 +124,56 @@ def validate(
     steer_friction: Any = "majd",
     drive_friction: Any = "majd",
     calibration: str | Path | None = None,
-    time_step_s: float = 0.005,
+    time_step_s: float | None = None,
     default_pressure_kpa: float | None = None,
+    workers: int | None = 1,
 ) -> list[ValidationRow]:
-    """Validate every log against every shell model; one twin is built per (fixture, model, pressure).
+    """Validate every log against every shell model; one twin per (fixture, model, pressure) and process.
 
     A log without a recorded pressure runs at ``default_pressure_kpa`` (None: the calibration's
-    nominal pressure, which for the shipped calibration is the steer_free anchor).
+    nominal pressure, which for the shipped calibration is the steer_free anchor). ``time_step_s``
+    None is the twin's default step. ``workers`` > 1 spreads the (log, model) jobs over processes.
     """
-    rows = []
-    twins: dict[tuple, Twin] = {}
+    jobs = []
     for model in models:
         for log in logs:
-            fixture = log.fixture or "free"
             p = log.pressure_kpa if log.pressure_kpa is not None else default_pressure_kpa
-            key = (fixture, model, p)
-            if key not in twins:
-                twins[key] = Twin(TwinConfig(fixture=fixture, shell_model=model, steer_friction=steer_friction,
-                                             drive_friction=drive_friction, calibration=calibration,
-                                             pressure_kpa=p, time_step_s=time_step_s))
-            rows.append(validate_log(twins[key], log))
-    return rows
+            config = dict(fixture=log.fixture or "free", shell_model=model, steer_friction=steer_friction,
+                          drive_friction=drive_friction, calibration=calibration, pressure_kpa=p)
+            if time_step_s is not None:
+                config["time_step_s"] = time_step_s
+            jobs.append({"config": config, "log": log})
+    return run_parallel(_validate_job, jobs, workers=workers)
+
+
+def write_records(path: str | Path, rows: Sequence[ValidationRow]) -> Path:
+    """Write ``[row.record() ...]`` as JSON, atomically (temp file in the same folder, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump([r.record() for r in rows], fh, indent=1)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
 
 
 def parse_tolerances(items: Sequence[str] | None) -> dict[str, float]:
-    """``["phi=0.1", "theta=0.12", "pme=10"]`` -> {channel: limit}; RMSE in rad (rad/s), |PME| in %."""
+    """``["phi=0.1", "theta=0.12", "pme=10"]`` -> {channel: limit}; RMSE in rad (rad/s), |PME| in %.
+
+    Keys: φ ``phi``, θ ``theta``, ω_d ``omega_d``, α ``pendulum_pitch`` (RMSE) and ``pme``.
+    """
     out: dict[str, float] = {}
     for item in items or ():
         key, sep, val = item.partition("=")
         key = key.strip()
-        if not sep or key not in METRICS + ("pme",):
-            raise ValueError(f"--tol: value {item!r}; allowed: NAME=LIMIT with NAME in {list(METRICS) + ['pme']}")
+        if not sep or key not in TOLERANCE_KEYS:
+            raise ValueError(f"--tol: value {item!r}; allowed: NAME=LIMIT with NAME in {list(TOLERANCE_KEYS)}")
         try:
             lim = float(val)
         except ValueError:
@@ -101,27 +186,39 @@ def parse_tolerances(items: Sequence[str] | None) -> dict[str, float]:
 
 def tolerance_failures(rows: Sequence[ValidationRow], tol: Mapping[str, float],
                        models: Iterable[str] | None = None) -> list[str]:
-    """Messages for every (trial, model, metric) above its tolerance; only ``models`` if given."""
+    """Messages for every (trial, model, metric) above its tolerance, and for every one the
+    tolerance could not be checked on (channel not logged, too few samples, PME off a ramp);
+    only ``models`` if given. An empty list means every requested limit was checked and met."""
     keep = set(models) if models is not None else None
     bad = []
+    checked = 0
     for r in rows:
         if keep is not None and r.model not in keep:
             continue
         for key, lim in tol.items():
             val = abs(r.pme_percent) if key == "pme" else r.rmse.get(key, float("nan"))
-            if math.isfinite(val) and val > lim:
+            if not math.isfinite(val):
+                why = ("PME is computed on ramp trials only (manifest 'ramp_window_s')" if key == "pme"
+                       else f"the log has no {key!r} channel or fewer than {MIN_COMPARED_SAMPLES} samples")
+                bad.append(f"{r.trial} / {r.model}: {key} not compared ({why})")
+            elif val > lim:
                 bad.append(f"{r.trial} / {r.model}: {key} = {val:.4g} exceeds tolerance {lim:.4g}")
+            else:
+                checked += 1
+    if tol and not bad and checked == 0:
+        bad.append("nothing compared: no trial and model matched the tolerances (check --tol-models)")
     return bad
 
 
 def markdown_table(rows: Sequence[ValidationRow]) -> str:
     """A Markdown table of the rows (RMSE in rad or rad/s, PME in %)."""
-    lines = ["| trial | fixture | model | RMSE φ [rad] | RMSE θ [rad] | RMSE ω_d [rad/s] | PME [%] |",
-             "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
+    lines = ["| trial | fixture | model | RMSE φ [rad] | RMSE θ [rad] | RMSE ω_d [rad/s] | RMSE α [rad] | PME [%] |",
+             "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |"]
     f = lambda x, d=3: "—" if not math.isfinite(x) else f"{x:.{d}f}"  # noqa: E731
     for r in rows:
         lines.append(f"| {r.trial} | {r.fixture} | {r.model} | {f(r.rmse['phi'])} | {f(r.rmse['theta'])} | "
-                     f"{f(r.rmse['omega_d'])} | {f(r.pme_percent, 1)} |")
+                     f"{f(r.rmse['omega_d'])} | {f(r.rmse.get('pendulum_pitch', math.nan))} | "
+                     f"{f(r.pme_percent, 1)} |")
     return "\n".join(lines)
 
 

@@ -42,11 +42,11 @@ class RampDescentEnv(SphereEnvBase):
     ===  =============  ======  ================================================================
     0    theta          rad     steer joint angle θ (roll_joint)
     1    theta_dot      rad/s   θ̇
-    2    drive_angle    rad     drive joint angle (pitch_joint), wrapped to [-π, π)
+    2    drive_angle    rad     drive joint angle (drive_shaft), wrapped to [-π, π)
     3    drive_rate     rad/s   drive joint rate
     4    phi            rad     pipe angle φ against the ground (pipe_roll)
     5    phi_dot        rad/s   φ̇
-    6    omega_d        rad/s   drive velocity ω_d, + forward (drive_shaft.velocity)
+    6    omega_d        rad/s   drive velocity ω_d, + forward (logs: drive_shaft + pitch_joint rates)
     7    yaw_rate       rad/s   ψ̇ (IMU gyro / shell_yaw rate)
     8-10 gravity_xyz    -       unit gravity direction in the pipe frame (IMU)
     11   omega_ref      rad/s   command: target drive velocity

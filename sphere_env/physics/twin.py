@@ -169,7 +169,7 @@ class TwinState:
     time_s: float
     theta: float  # θ, steer joint angle [rad]
     theta_dot: float  # [rad/s]
-    drive_angle: float  # drive joint angle [rad] (log channel pitch_joint)
+    drive_angle: float  # drive joint angle [rad] (log channel drive_shaft)
     drive_rate: float  # [rad/s]
     phi: float  # φ, pipe angle against the ground [rad]
     phi_dot: float  # [rad/s]

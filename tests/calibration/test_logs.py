@@ -121,7 +121,7 @@ def test_shipped_example_mapping_and_manifest_load():
     m = ColumnMapping.load(repo / "assets" / "logs" / "example_mapping.yaml")
     assert m.time == ("t_ms", "ms") and "theta" in m.required
     man = load_manifest(repo / "assets" / "logs" / "roboball.yaml")
-    assert {t.group for t in man.trials} == {"stand_swing", "steer_free"}
+    assert {t.group for t in man.trials} == {"stand_swing", "steer_free", "free_robot"}
     assert man.data_root.name == "roboball" and man.data_root.parent.name == "data"
 
 
