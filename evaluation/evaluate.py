@@ -278,12 +278,9 @@ def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict
 
 # ---- plots ---------------------------------------------------------------------------------------------
 def _plt():
-    import matplotlib
+    from sphere_env.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return pyplot()
 
 
 def plot_drive_velocity(rows, traces, spec: SweepSpec, path: Path) -> Path:

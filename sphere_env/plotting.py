@@ -5,6 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 
 
+def pyplot():
+    """``matplotlib.pyplot`` on the file-only Agg backend (no display is ever needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def save_figure(fig, path: str | Path, dpi: int = 110, **kwargs) -> Path:
     """Write ``fig`` to ``path`` (parents created) and close it; returns the path."""
     import matplotlib.pyplot as plt

@@ -216,10 +216,9 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
         w.writeheader()
         w.writerows(rows)
 
-    import matplotlib
+    from sphere_env.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(7, 4))
     tr = [r for r in rows if r["kind"] == "train"]

@@ -140,10 +140,9 @@ def plot_pressure_curves(
     omega_point_rad_s: float,
 ) -> Path:
     """Paper Fig. 10: ζ and ω_n per trial with CIs, the regressions, and the point-contact line."""
-    import matplotlib
+    from sphere_env.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     p = np.asarray(pressures_kpa, float)
     grid = np.linspace(p.min(), p.max(), 100)

@@ -233,10 +233,9 @@ def write_preset(path: str | Path, name: str, model: FrictionModel, comment: str
 def plot_stand_overlay(path: str | Path, logs: Sequence[RobotLog], models: Mapping[str, tuple[FrictionModel, float]],
                        time_step_s: float = 0.005) -> Path:
     """Paper Fig. 7: measured θ(t) of every stand trial overlaid with each named model's simulation."""
-    import matplotlib
+    from sphere_env.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     n = len(logs)
     fig, axes = plt.subplots(n, 1, figsize=(8, 2.3 * n), sharex=True, squeeze=False)

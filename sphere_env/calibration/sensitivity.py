@@ -93,10 +93,9 @@ def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
 
 def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
     """ζ vs pressure per case, with the calibration curve (paper Fig. 11 layout)."""
-    import matplotlib
+    from sphere_env.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6, 4))
     ps = sorted({r["pressure_kpa"] for r in rows})

@@ -224,10 +224,9 @@ def markdown_table(rows: Sequence[ValidationRow]) -> str:
 
 def plot_overlays(path: str | Path, logs: Sequence[RobotLog], rows: Sequence[ValidationRow]) -> Path:
     """One panel per trial and logged channel: measured vs every model."""
-    import matplotlib
+    from sphere_env.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     panels = [(log, ch) for log in logs for ch in METRICS if log.has(ch)]
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.2 * len(panels)), squeeze=False)
