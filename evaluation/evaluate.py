@@ -37,11 +37,11 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from sphere_env.parallel import run_parallel
+from sphere_env.models.shell import SHELL_MODELS
 
 from evaluation.controllers import check_spec, env_kwargs_of, make_controller, split_label
 from evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
                   "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm", "time_on_ramp_s",
                   "omega_ref_rad_s")

@@ -26,9 +26,9 @@ import gymnasium as gym
 import numpy as np
 
 import sphere_env  # noqa: F401
+from sphere_env.models.shell import SHELL_MODELS
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 SOAK_LIMIT_MB = 50.0
 
 

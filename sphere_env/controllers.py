@@ -14,8 +14,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from sphere_env.envs.base import DEFAULT_DRIVE_TORQUE_LIMIT_NM, DEFAULT_STEER_TORQUE_LIMIT_NM
 from sphere_env.models.rigid_body import RobotParameters
+from sphere_env.params import GRAVITY_M_S2, PARAMETERS
+
+DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
+DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 
 # Observation indices (sphere_env.tasks.observation.MEASURED_COMPONENTS + command).
 THETA, THETA_DOT, DRIVE_ANGLE, DRIVE_RATE, PHI, PHI_DOT, OMEGA_D, YAW_RATE, GX, GY, GZ = range(11)
@@ -80,7 +83,7 @@ class PendulumPDController:
     def __post_init__(self) -> None:
         robot = RobotParameters.from_urdf()
         self._K_eq = robot.K_eq
-        self._K_lean = robot.m_p * 9.81 * robot.r_p
+        self._K_lean = robot.m_p * GRAVITY_M_S2 * robot.r_p
         self.reset()
 
     def reset(self) -> None:

@@ -20,11 +20,13 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from sphere_env.checks import finite_number
+from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
+from sphere_env.params import check as check_param
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.tasks.observation import DEFAULT_NOISE_STD, N_MEASURED, assemble_observation
 from sphere_env.tasks.randomization import (
-    PARAMETERS,
+    PARAMETERS as RANDOMIZED,
     RandomizationSpec,
     clip_parameter,
     schedule_pressure,
@@ -33,43 +35,18 @@ from sphere_env.tasks.termination import physics_failure
 
 logger = logging.getLogger(__name__)
 
-#: Default motor torque limits at the joints [N m]. Gravity caps the useful pendulum torque near
-#: (m_pc r_pc + m_p r_p) g ≈ 21.9 N m (DESIGN.md §1); the steer motor only lifts the pendulum
-#: (m_p r_p g ≈ 20.5 N m). Real limits are unpublished — both are kwargs.
-DEFAULT_STEER_TORQUE_LIMIT_NM = 20.0
-DEFAULT_DRIVE_TORQUE_LIMIT_NM = 22.0
+#: Default motor torque limits at the joints [N m] (the registry's nominal values).
+DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
+DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 #: Distinct inclines get distinct twins (terrain is geometry); inclines are rounded to this.
 INCLINE_RESOLUTION_DEG = 1.0
 #: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
 #: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms (cached inside Twin.set_pressure).
 PRESSURE_RESOLUTION_KPA = 0.01
-_NOMINAL = {
-    "steer_friction_scale": 1.0,
-    "drive_friction_scale": 1.0,
-    "ground_friction": 1.0,
-    "payload_mass_kg": 0.0,
-    "payload_com_offset_m": (0.0, 0.0, 0.0),
-}
+#: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's).
+_NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS if name != "pressure_kpa"}
 _MAX_TWINS = 12
-
-
-def _positive(kwarg: str, value: Any, upper: float | None = None) -> float:
-    rng = f"(0, {upper}]" if upper is not None else "> 0"
-    val = finite_number(kwarg, value, rng)
-    if val <= 0 or (upper is not None and val > upper):
-        raise ValueError(f"{kwarg}: value {value!r} outside allowed {rng}")
-    return val
-
-
-def _range(kwarg: str, value: Any, lo: float, hi: float) -> tuple[float, float]:
-    try:
-        a, b = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{kwarg}: value {value!r} must be a pair (low, high)") from None
-    if not (math.isfinite(a) and math.isfinite(b) and lo <= a <= b <= hi):
-        raise ValueError(f"{kwarg}: value {value!r} must satisfy {lo} <= low <= high <= {hi}")
-    return a, b
 
 
 class SphereEnvBase(gym.Env, EzPickle):
@@ -118,7 +95,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         friction_model: str | Mapping[str, Any] = "majd",
         calibration: str | Path | None = None,
         control_frequency_hz: float = 50.0,
-        time_step_s: float = 0.005,
+        time_step_s: float = DEFAULT_TIME_STEP_S,
         steer_torque_limit_nm: float = DEFAULT_STEER_TORQUE_LIMIT_NM,
         drive_torque_limit_nm: float = DEFAULT_DRIVE_TORQUE_LIMIT_NM,
         randomization: Any = "default",
@@ -161,8 +138,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         except ValueError as err:
             raise ValueError(f"calibration: {err}") from None
         self._calibration_path = calibration
-        f_hz = _positive("control_frequency_hz", control_frequency_hz, 1000.0)
-        dt_plant = _positive("time_step_s", time_step_s, 0.05)
+        f_hz = check_param("control_frequency_hz", control_frequency_hz)
+        dt_plant = check_param("time_step_s", time_step_s)
         ratio = (1.0 / f_hz) / dt_plant
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ValueError(
@@ -171,8 +148,8 @@ class SphereEnvBase(gym.Env, EzPickle):
             )
         self.control_period_s = 1.0 / f_hz
         self.time_step_s = dt_plant
-        self.steer_torque_limit_nm = _positive("steer_torque_limit_nm", steer_torque_limit_nm, 200.0)
-        self.drive_torque_limit_nm = _positive("drive_torque_limit_nm", drive_torque_limit_nm, 200.0)
+        self.steer_torque_limit_nm = check_param("steer_torque_limit_nm", steer_torque_limit_nm)
+        self.drive_torque_limit_nm = check_param("drive_torque_limit_nm", drive_torque_limit_nm)
         spec = RandomizationSpec.parse(randomization, ramp=self._ramp)
         self.randomization = spec.resolved(self.calibration.pressure_range_kpa)
         if not isinstance(observe_pressure, bool):
@@ -183,11 +160,8 @@ class SphereEnvBase(gym.Env, EzPickle):
             raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be >= 0")
         self.observation_noise_scale = noise
         self._noise_std = DEFAULT_NOISE_STD * noise
-        inc = finite_number("incline_deg", incline_deg, "[0, 30] deg")
-        if not 0.0 <= inc <= 30.0:
-            raise ValueError(f"incline_deg: value {incline_deg!r} outside allowed [0, 30] deg")
-        self.incline_deg = inc
-        self.ramp_length_m = None if ramp_length_m is None else _positive("ramp_length_m", ramp_length_m, 100.0)
+        self.incline_deg = check_param("incline_deg", incline_deg)
+        self.ramp_length_m = None if ramp_length_m is None else check_param("ramp_length_m", ramp_length_m)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: value {render_mode!r}; allowed: {self.metadata['render_modes'] + [None]}")
         self.render_mode = render_mode
@@ -251,28 +225,12 @@ class SphereEnvBase(gym.Env, EzPickle):
             time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
         )
         twin = Twin(cfg, meshcat=self.meshcat)
-        twin._env_applied = dict(_NOMINAL)  # parameter values currently in this twin's context
         self._twins[incline_deg] = twin
         if len(self._twins) > _MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
 
     # ---- parameters ----------------------------------------------------------------------------
-    def _apply_params(self, twin, params: Mapping[str, Any]) -> None:
-        """Push changed parameters to the twin's context (cheap: only what changed)."""
-        applied = twin._env_applied
-        fs = (params["steer_friction_scale"], params["drive_friction_scale"])
-        if (applied["steer_friction_scale"], applied["drive_friction_scale"]) != fs:
-            twin.set_friction_scale(*fs)
-            applied["steer_friction_scale"], applied["drive_friction_scale"] = fs
-        if applied["ground_friction"] != params["ground_friction"]:
-            twin.set_ground_friction(params["ground_friction"])
-            applied["ground_friction"] = params["ground_friction"]
-        pay = (params["payload_mass_kg"], tuple(params["payload_com_offset_m"]))
-        if (applied["payload_mass_kg"], applied["payload_com_offset_m"]) != pay:
-            twin.set_payload(*pay)
-            applied["payload_mass_kg"], applied["payload_com_offset_m"] = pay
-
     def _sample_params(self, options: Mapping[str, Any]) -> dict[str, Any]:
         rng_p = self.calibration.pressure_range_kpa
         params: dict[str, Any] = {
@@ -289,7 +247,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(self.np_random, 1))
         # Explicit values from reset(options=...) win (replaying a logged trial).
         for name, val in options.items():
-            if name in PARAMETERS:
+            if name in RANDOMIZED:
                 spec = RandomizationSpec.parse({name: val}, ramp=self._ramp, kwarg="options")
                 spec = spec.resolved(rng_p, kwarg="options")
                 d = spec.terms[0].distribution
@@ -326,7 +284,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         options = dict(options or {})
         from sphere_env.physics.twin import InitialState
 
-        allowed = set(PARAMETERS) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self._command_options)
+        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self._command_options)
         for key in options:
             if key not in allowed:
                 raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
@@ -345,8 +303,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         if twin is not self.twin and self.record_replay and self.twin.visualizer is not None:
             self.twin.visualizer.StopRecording()
         self.twin = twin
-        self._apply_params(twin, params)
-        twin.set_pressure(params["pressure_kpa"])
+        twin.apply(params)
         twin.reset(init)
         self._p0 = self._p_applied = params["pressure_kpa"]
         sched = self.randomization.pressure_schedule
@@ -426,7 +383,7 @@ class SphereEnvBase(gym.Env, EzPickle):
             for t_term in self.randomization.terms:
                 nxt = self._interval_next.get(t_term.parameter)
                 if nxt is not None and t >= nxt - 1e-9:
-                    val = t_term.distribution.sample(self.np_random, PARAMETERS[t_term.parameter][1])
+                    val = t_term.distribution.sample(self.np_random, RANDOMIZED[t_term.parameter].size)
                     val = clip_parameter(t_term.parameter, val, self.calibration.pressure_range_kpa)
                     if t_term.parameter == "pressure_kpa":
                         val = self._quantize_pressure(val)
@@ -437,7 +394,7 @@ class SphereEnvBase(gym.Env, EzPickle):
                         self._p0 = params["pressure_kpa"]
                         self._sched_delay_s = t  # schedule continues from the new value
             if changed:
-                self._apply_params(self.twin, params)
+                self.twin.apply({k: v for k, v in params.items() if k != "pressure_kpa"})
         rate = params["pressure_rate_kpa_per_s"]
         if rate != 0.0:
             p = schedule_pressure(self._p0, rate, self._sched_delay_s, t, self.calibration.pressure_range_kpa)

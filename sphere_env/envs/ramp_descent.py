@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
+from sphere_env.checks import ordered_pair, positive
 from sphere_env.envs.base import SphereEnvBase
 from sphere_env.tasks.observation import wrap_angle
 from sphere_env.tasks.rewards import RampRewardWeights, make_weights, ramp_descent_terms
@@ -107,11 +108,9 @@ class RampDescentEnv(SphereEnvBase):
         )
 
     def _task_init(self, *, lane_half_width_m, omega_ref_range_rad_s, reward_weights, **kwargs) -> None:
-        from sphere_env.envs.base import _positive, _range
-
         super()._task_init(**kwargs)
-        self.lane_half_width_m = _positive("lane_half_width_m", lane_half_width_m, 9.0)
-        self.omega_ref_range_rad_s = _range("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
+        self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
+        self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
         self.reward_weights = make_weights(RampRewardWeights, reward_weights)
 
     def _task_reset(self, state, options: Mapping[str, Any]) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
+from sphere_env.checks import ordered_pair, positive
 from sphere_env.envs.base import SphereEnvBase
 from sphere_env.tasks.observation import wrap_angle
 from sphere_env.tasks.rewards import RollRewardWeights, make_weights, roll_terms
@@ -91,10 +92,8 @@ class RollEnv(SphereEnvBase):
 
     def _task_init(self, *, omega_ref_range_rad_s, heading_range_rad, yaw_rate_range_rad_s, command_mode,
                    command_resample_s, reward_weights, **kwargs) -> None:
-        from sphere_env.envs.base import _positive, _range
-
         super()._task_init(**kwargs)
-        self.omega_ref_range_rad_s = _range("omega_ref_range_rad_s", omega_ref_range_rad_s, -30.0, 30.0)
+        self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, -30.0, 30.0)
         try:
             hr = float(heading_range_rad)
         except (TypeError, ValueError):
@@ -102,9 +101,9 @@ class RollEnv(SphereEnvBase):
         if not (math.isfinite(hr) and 0.0 <= hr <= math.pi):
             raise ValueError(f"heading_range_rad: value {heading_range_rad!r} outside allowed [0, π] rad")
         self.heading_range_rad = hr
-        self.yaw_rate_range_rad_s = _range("yaw_rate_range_rad_s", yaw_rate_range_rad_s, -5.0, 5.0)
+        self.yaw_rate_range_rad_s = ordered_pair("yaw_rate_range_rad_s", yaw_rate_range_rad_s, -5.0, 5.0)
         self.command_mode = command_mode
-        self.command_resample_s = None if command_resample_s is None else _positive("command_resample_s", command_resample_s)
+        self.command_resample_s = None if command_resample_s is None else positive("command_resample_s", command_resample_s)
         self.reward_weights = make_weights(RollRewardWeights, reward_weights)
 
     def _sample_command(self) -> None:

@@ -13,9 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from sphere_env.params import GRAVITY_M_S2
+
 ASSETS = Path(__file__).resolve().parents[2] / "assets"
 DEFAULT_URDF = ASSETS / "robot" / "roboball.urdf"
-GRAVITY_M_S2 = 9.81  # Drake's default |g|
 
 
 @dataclass(frozen=True)

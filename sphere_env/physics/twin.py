@@ -17,7 +17,7 @@ import math
 from collections import OrderedDict
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 from pydrake.geometry import (
@@ -37,13 +37,15 @@ from pydrake.multibody.plant import (
     MultibodyPlantConfig,
 )
 from pydrake.multibody.math import SpatialVelocity
-from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint
+from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, SpatialInertia, UnitInertia
 from pydrake.symbolic import Expression, Variable, if_then_else
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
 
 from sphere_env.checks import finite_number
+from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, SHELL_FRICTION, TWIN_PARAMETERS
+from sphere_env.params import check as check_param
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration, check_shell_model
@@ -74,7 +76,8 @@ class TwinConfig:
     :param ramp_length_m: if set, the incline is a ramp of this length [m] (starting at the origin)
         followed by a flat run-out; if ``None`` the incline is an infinite plane.
     :param time_step_s: plant time step [s] (see ``evaluation/results/timestep_study.md``).
-    :param ground_friction: Coulomb friction coefficient of shell and ground [-].
+    :param ground_friction: effective Coulomb friction coefficient of shell and ground [-]
+        (the shell keeps :data:`~sphere_env.params.SHELL_FRICTION`; the ground's is solved for).
     :param calibration: path of a shell calibration YAML (``None`` = shipped default).
     :param urdf: robot URDF path (``None`` = shipped model).
     :param resolution_hint_m: hydroelastic mesh resolution [m]; ``None`` = calibration's value.
@@ -91,8 +94,8 @@ class TwinConfig:
     pressure_kpa: float | None = None
     incline_deg: float = 0.0
     ramp_length_m: float | None = None
-    time_step_s: float = 0.005
-    ground_friction: float = 1.0
+    time_step_s: float = DEFAULT_TIME_STEP_S
+    ground_friction: float = PARAMETERS["ground_friction"].nominal
     calibration: str | Path | None = None
     urdf: str | Path | None = None
     resolution_hint_m: float | None = None
@@ -103,19 +106,13 @@ class TwinConfig:
         if self.fixture not in FIXTURES:
             raise ValueError(f"fixture: unknown value {self.fixture!r}; allowed: {list(FIXTURES)}")
         check_shell_model(self.shell_model)
-        inc = finite_number("incline_deg", self.incline_deg, "[0, 45) deg")
-        if not 0.0 <= inc < 45.0:
-            raise ValueError(f"incline_deg: value {self.incline_deg!r} outside allowed [0, 45) deg")
+        inc = check_param("incline_deg", self.incline_deg)
         if self.fixture in ("steer_plane", "stand") and inc != 0.0:
             raise ValueError(f"incline_deg: value {inc} not allowed for fixture {self.fixture!r}; allowed: 0")
-        if self.ramp_length_m is not None and not finite_number("ramp_length_m", self.ramp_length_m) > 0:
-            raise ValueError(f"ramp_length_m: value {self.ramp_length_m!r} must be > 0 m or None")
-        dt = finite_number("time_step_s", self.time_step_s, "(0, 0.05] s")
-        if not 0 < dt <= 0.05:
-            raise ValueError(f"time_step_s: value {self.time_step_s!r} outside allowed (0, 0.05] s")
-        mu = finite_number("ground_friction", self.ground_friction, "(0, 5]")
-        if not 0 < mu <= 5:
-            raise ValueError(f"ground_friction: value {self.ground_friction!r} outside allowed (0, 5]")
+        if self.ramp_length_m is not None:
+            check_param("ramp_length_m", self.ramp_length_m)
+        check_param("time_step_s", self.time_step_s)
+        check_param("ground_friction", self.ground_friction)
         if self.resolution_hint_m is not None and not finite_number("resolution_hint_m", self.resolution_hint_m) > 0:
             raise ValueError(f"resolution_hint_m: value {self.resolution_hint_m!r} must be > 0 m")
         if self.contact_approximation is not None and self.contact_approximation not in CONTACT_APPROXIMATIONS:
@@ -233,6 +230,12 @@ class Terrain:
         plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", np.array([0.45, 0.5, 0.55, 1.0]))
 
 
+def _ground_coefficient(mu: float) -> float:
+    """The ground geometry's μ_g giving an effective μ against the shell's μ_s = SHELL_FRICTION:
+    Drake combines 2 μ_s μ_g / (μ_s + μ_g), so μ_g = μ μ_s / (2 μ_s − μ)."""
+    return mu * SHELL_FRICTION / (2.0 * SHELL_FRICTION - mu)
+
+
 class Twin:
     """The robot in Drake, advanced in chunks like an environment would.
 
@@ -295,7 +298,8 @@ class Twin:
 
         # Contact geometry.
         ground_props = ProximityProperties()
-        AddContactMaterial(friction=CoulombFriction(cfg.ground_friction, cfg.ground_friction), properties=ground_props)
+        mu_g = _ground_coefficient(cfg.ground_friction)
+        AddContactMaterial(friction=CoulombFriction(mu_g, mu_g), properties=ground_props)
         if hydro:
             AddRigidHydroelasticProperties(ground_props)
         if cfg.fixture != "stand":
@@ -376,6 +380,8 @@ class Twin:
         self._motor_port.FixValue(self.context, np.zeros(2))
         self._friction_scale = np.array([1.0, 1.0])
         self._ground_friction = float(self.config.ground_friction)
+        self._pendulum_inertia = self.pendulum.default_spatial_inertia()
+        self._payload = (0.0, (0.0, 0.0, 0.0))
         self._geometry_cache: OrderedDict = OrderedDict()
         self._apply_pressure_to_context()
         self.reset()
@@ -387,13 +393,13 @@ class Twin:
             modulus, dissipation = cal.hydroelastic(pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
             AddContactMaterial(
                 dissipation=dissipation,
-                friction=CoulombFriction(cfg.ground_friction, cfg.ground_friction),
+                friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION),
                 properties=props,
             )
             hint = cfg.resolution_hint_m or cal.resolution_hint_m
             AddCompliantHydroelasticProperties(resolution_hint=hint, hydroelastic_modulus=modulus, properties=props)
         else:
-            AddContactMaterial(friction=CoulombFriction(cfg.ground_friction, cfg.ground_friction), properties=props)
+            AddContactMaterial(friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION), properties=props)
         return props
 
     # ---- pressure --------------------------------------------------------------------------------
@@ -433,10 +439,9 @@ class Twin:
 
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
         """Scale each joint's friction torque (domain randomization); 1 = nominal."""
-        for name, val in (("steer", steer), ("drive", drive)):
-            if not finite_number(f"{name}_friction_scale", val) >= 0:
-                raise ValueError(f"{name}_friction_scale: value {val!r} must be >= 0")
-        self._friction_scale = np.array([float(steer), float(drive)])
+        s = check_param("steer_friction_scale", steer)
+        d = check_param("drive_friction_scale", drive)
+        self._friction_scale = np.array([s, d])
         self._apply_gains()
 
     def _apply_gains(self) -> None:
@@ -455,26 +460,29 @@ class Twin:
         injected: new K_inject, C_inject gains. hydroelastic: new shell proximity properties
         (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
         for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
-        cached per (modulus, dissipation, ground friction), LRU, and restored in ≈2 ms when they
-        recur; results are bit-identical.
+        cached per shell (modulus, dissipation), LRU, and restored in ≈2 ms when they recur; the
+        current ground friction is re-applied after a restore. Results are bit-identical to a
+        fresh re-mesh.
         """
         self._apply_gains()
         if self.config.shell_model != "hydroelastic":
             return
         idx = self._geometry_state_index()
         r = self.robot
-        key = (*self.calibration.hydroelastic(self._pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq),
-               self._ground_friction)
-        snap = self._geometry_cache.get(key)
-        if snap is not None:
+        key = tuple(self.calibration.hydroelastic(self._pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq))
+        entry = self._geometry_cache.get(key)
+        if entry is not None:
+            snap, mu = entry
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
             self._geometry_cache.move_to_end(key)
+            if mu != self._ground_friction:  # the snapshot holds the ground μ of its time
+                self._assign_ground_friction(self._ground_friction)
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
             self._shell_properties(self._pressure_kpa), RoleAssign.kReplace,
         )
-        self._geometry_cache[key] = self.sg_context.get_abstract_parameter(idx).Clone()
+        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(), self._ground_friction)
         if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:
             self._geometry_cache.popitem(last=False)
 
@@ -612,20 +620,16 @@ class Twin:
         """Add a point-mass payload to the pendulum, at its nominal COM shifted by ``offset_m``
         (pendulum frame, m). ``mass_kg = 0`` restores the URDF inertia. Context parameters only:
         no rebuild; survives :meth:`reset`."""
-        from pydrake.multibody.tree import SpatialInertia, UnitInertia
+        m = check_param("payload_mass_kg", mass_kg)
+        off = np.asarray(check_param("payload_com_offset_m", offset_m))
+        self._push_payload(m, off)
+        self._payload = (m, tuple(off.tolist()))
 
-        m = finite_number("payload_mass_kg", mass_kg, "[0, 50] kg")
-        if not 0.0 <= m <= 50.0:
-            raise ValueError(f"payload_mass_kg: value {mass_kg!r} outside allowed [0, 50] kg")
-        off = np.asarray(offset_m, dtype=float)
-        if off.shape != (3,) or not np.all(np.isfinite(off)) or np.any(np.abs(off) > 0.3):
-            raise ValueError(f"payload_com_offset_m: value {offset_m!r} must be 3 finite numbers within ±0.3 m")
-        if not hasattr(self, "_pendulum_inertia"):
-            self._pendulum_inertia = self.pendulum.default_spatial_inertia()
+    def _push_payload(self, m: float, off: np.ndarray) -> None:
         M0 = self._pendulum_inertia
         M = SpatialInertia(M0.get_mass(), M0.get_com(), M0.get_unit_inertia())
         if m > 0.0:
-            p = self._pendulum_inertia.get_com() + off
+            p = M0.get_com() + off
             M += SpatialInertia(m, p, UnitInertia.PointMass(p))
         self.pendulum.SetSpatialInertiaInBodyFrame(self.plant_context, M)
 
@@ -633,14 +637,15 @@ class Twin:
         """Set the effective shell–ground Coulomb friction [-] (static = dynamic) in the context.
 
         Drake combines the two geometries' coefficients as 2 μ_s μ_g / (μ_s + μ_g); the shell keeps
-        ``config.ground_friction`` (it is rewritten by :meth:`set_pressure`), so the ground's value is
-        solved for: μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s.
+        μ_s = :data:`~sphere_env.params.SHELL_FRICTION`, so the ground's value is solved for:
+        μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s (the registry's bounds).
         """
-        mu_s = float(self.config.ground_friction)
-        mu = finite_number("ground_friction", mu, f"(0, {2 * mu_s})")
-        if not 0.0 < mu < 2.0 * mu_s:
-            raise ValueError(f"ground_friction: value {mu!r} outside allowed (0, {2 * mu_s}) (shell μ = {mu_s})")
-        mu_g = mu * mu_s / (2.0 * mu_s - mu)
+        mu = check_param("ground_friction", mu)
+        self._assign_ground_friction(mu)
+        self._ground_friction = mu
+
+    def _assign_ground_friction(self, mu: float) -> None:
+        mu_g = _ground_coefficient(mu)
         inspector = self.scene_graph.model_inspector()
         for gid in inspector.GetAllGeometryIds():
             if inspector.GetFrameId(gid) != inspector.world_frame_id():
@@ -650,7 +655,42 @@ class Twin:
             props = ProximityProperties(inspector.GetProximityProperties(gid))
             props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu_g, mu_g))
             self.scene_graph.AssignRole(self.sg_context, self.shell_source_id, gid, props, RoleAssign.kReplace)
-        self._ground_friction = mu
+
+    @property
+    def params(self) -> dict:
+        """The context's current parameter values (the registry's ``TWIN_PARAMETERS``)."""
+        return {
+            "pressure_kpa": self._pressure_kpa,
+            "steer_friction_scale": float(self._friction_scale[0]),
+            "drive_friction_scale": float(self._friction_scale[1]),
+            "ground_friction": self._ground_friction,
+            "payload_mass_kg": self._payload[0],
+            "payload_com_offset_m": self._payload[1],
+        }
+
+    def apply(self, params: Mapping[str, Any]) -> None:
+        """Push parameter values into the context, only those that changed (cheap per step).
+
+        Keys: any of :data:`~sphere_env.params.TWIN_PARAMETERS` (``pressure_kpa``,
+        ``steer_friction_scale``, ``drive_friction_scale``, ``ground_friction``,
+        ``payload_mass_kg``, ``payload_com_offset_m``); other keys are ignored. All values are
+        checked first; on error nothing changes.
+        """
+        cur = self.params
+        new = {k: params[k] for k in TWIN_PARAMETERS if k in params}
+        new = {k: (self.calibration.check_pressure(v, k) if k == "pressure_kpa" else check_param(k, v))
+               for k, v in new.items()}
+        cur.update(new)
+        fs = (cur["steer_friction_scale"], cur["drive_friction_scale"])
+        if fs != (float(self._friction_scale[0]), float(self._friction_scale[1])):
+            self.set_friction_scale(*fs)
+        if cur["ground_friction"] != self._ground_friction:
+            self.set_ground_friction(cur["ground_friction"])
+        pay = (cur["payload_mass_kg"], cur["payload_com_offset_m"])
+        if pay != self._payload:
+            self.set_payload(*pay)
+        if cur["pressure_kpa"] != self._pressure_kpa:
+            self.set_pressure(cur["pressure_kpa"])
 
     # Hydroelastic pressure changes re-mesh the compliant shell (≈90 ms). The SceneGraph context's
     # GeometryState for a given pressure is cached and restored (≈2 ms, ≈1.8 MB each, LRU), then
@@ -669,6 +709,15 @@ class Twin:
                 raise RuntimeError("SceneGraph context: GeometryState parameter not found")
             self._geometry_index = idx
         return idx
+
+    @property
+    def cached_shell_count(self) -> int:
+        """Hydroelastic shells (one per distinct modulus, dissipation) cached in this twin."""
+        return len(self._geometry_cache)
+
+    def clear_shell_cache(self) -> None:
+        """Forget cached hydroelastic shells: the next pressure change re-meshes."""
+        self._geometry_cache.clear()
 
     def add_renderer(self, name: str, engine) -> None:
         """Add a render engine to this twin's SceneGraph context (no rebuild); clears the

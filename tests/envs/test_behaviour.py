@@ -160,7 +160,7 @@ def test_randomized_parameters_reach_the_physics(make):
     twin = env.unwrapped.twin
     assert twin.config.incline_deg == 12.0 and info["params"]["incline_deg"] == 12.0
     assert twin.pendulum.CalcSpatialInertiaInBodyFrame(twin.plant_context).get_mass() == pytest.approx(22.03 + 3.0)
-    assert list(twin._friction_scale) == [1.0, 1.5]
+    assert (twin.params["steer_friction_scale"], twin.params["drive_friction_scale"]) == (1.0, 1.5)
     env.reset(options={"incline_deg": 16.0, "payload_mass_kg": 0.0})
     twin2 = env.unwrapped.twin
     assert twin2.config.incline_deg == 16.0
@@ -208,12 +208,13 @@ def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
 
     cached = Twin(TwinConfig(shell_model="hydroelastic"))
     fresh = Twin(TwinConfig(shell_model="hydroelastic"))
-    # (5, 0.4) again is a cache hit; (5, 1.2) is a miss (the snapshot holds the ground μ too)
-    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 0.4), (5.0, 1.2)):
+    # (5, ·) and (12, ·) again are cache hits, also under another ground μ (re-applied after the
+    # restore): the cache keys on the shell alone.
+    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 0.4), (5.0, 1.2), (12.0, 1.2), (12.0, 0.7)):
         cached.set_ground_friction(mu)
         cached.set_pressure(p)
         fresh.set_ground_friction(mu)
-        fresh._geometry_cache.clear()  # force a re-mesh
+        fresh.clear_shell_cache()  # force a re-mesh
         fresh.set_pressure(p)
         assert run(cached) == run(fresh)
-    assert len(cached._geometry_cache) == 1 + 3  # the built shell + one per distinct (pressure, μ)
+    assert cached.cached_shell_count == 1 + 2  # the built shell + one per distinct pressure
