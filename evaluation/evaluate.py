@@ -145,7 +145,7 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
     if hasattr(controller, "reset"):
         controller.reset()
     obs, info = env.reset(seed=job["seed"], options={"pressure_kpa": job["pressure_kpa"]})
-    ramp_end = getattr(u, "_ramp_end_x", math.inf)
+    ramp_end = getattr(u, "ramp_end_x_m", math.inf)
     ls, ld = u.steer_torque_limit_nm, u.drive_torque_limit_nm
     dt = u.control_period_s
     tr: dict[str, list[float]] = {k: [] for k in TRACE_CHANNELS}

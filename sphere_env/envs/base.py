@@ -56,7 +56,7 @@ class SphereEnvBase(gym.Env, EzPickle):
 
     Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``):
 
-    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (DESIGN.md §3).
+    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (``docs/design.md``).
     :param friction_model: joint friction: a law/preset name for both joints (``"majd"`` default,
         ``"viscous"``, ``"coulomb"``, ``"none"``: the Table I presets) or ``{"steer": ..., "drive": ...}``.
     :param calibration: path of a shell calibration YAML; ``None`` = the shipped one.
@@ -188,10 +188,9 @@ class SphereEnvBase(gym.Env, EzPickle):
         if meshcat is not False and meshcat is not None and not isinstance(meshcat, bool):
             self.meshcat = meshcat
         elif meshcat is True or render_mode == "human" or record_replay:
-            from pydrake.geometry import StartMeshcat
+            from sphere_env.physics import start_meshcat
 
-            self.meshcat = StartMeshcat()
-            logger.info("sphere_env: Meshcat at %s", self.meshcat.web_url())
+            self.meshcat = start_meshcat()
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
@@ -229,6 +228,11 @@ class SphereEnvBase(gym.Env, EzPickle):
         if len(self._twins) > _MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
+
+    @property
+    def cached_twin_count(self) -> int:
+        """Twins built for distinct inclines and kept for reuse."""
+        return len(self._twins)
 
     # ---- parameters ----------------------------------------------------------------------------
     def _sample_params(self, options: Mapping[str, Any]) -> dict[str, Any]:
@@ -300,8 +304,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         elif not isinstance(init, InitialState):
             raise ValueError(f"options: initial_state={init!r} must be an InitialState or a mapping")
         twin = self._get_twin(params["incline_deg"])
-        if twin is not self.twin and self.record_replay and self.twin.visualizer is not None:
-            self.twin.visualizer.StopRecording()
+        if twin is not self.twin and self.record_replay:
+            self.twin.stop_recording()
         self.twin = twin
         twin.apply(params)
         twin.reset(init)
@@ -314,10 +318,9 @@ class SphereEnvBase(gym.Env, EzPickle):
         }
         # Only interval terms and a pressure schedule change parameters within an episode.
         self._episode_updates = bool(self._interval_next) or params["pressure_rate_kpa_per_s"] != 0.0
-        if self.record_replay and twin.visualizer is not None:
-            twin.visualizer.DeleteRecording()
-            twin.visualizer.StartRecording(set_transforms_while_recording=True)
-            twin.visualizer.ForcedPublish(twin.visualizer.GetMyContextFromRoot(twin.context))
+        if self.record_replay and twin.is_visualized:
+            twin.start_recording()
+            twin.publish()
         self._steps = 0
         self._failed = None
         self._needs_reset = False
@@ -353,7 +356,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         tau[1] = -a1 * self.drive_torque_limit_nm
         if self._failed is None:
             if self._episode_updates:
-                self._update_params_in_episode(twin.context.get_time())
+                self._update_params_in_episode(twin.time_s)
             try:
                 twin.advance_unchecked(self.control_period_s, tau)
             except (RuntimeError, ValueError) as err:  # a diverged solve; never propagate
@@ -454,56 +457,17 @@ class SphereEnvBase(gym.Env, EzPickle):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode= to gym.make")
             return None
-        twin = self.twin
         if self.render_mode == "human":
-            if twin.visualizer is not None:
-                twin.visualizer.ForcedPublish(twin.visualizer.GetMyContextFromRoot(twin.context))
+            self.twin.publish()
             return None
-        return self._render_rgb(twin)
-
-    def _render_rgb(self, twin) -> np.ndarray:
-        from pydrake.geometry import (
-            ClippingRange,
-            ColorRenderCamera,
-            MakeRenderEngineVtk,
-            RenderCameraCore,
-            RenderEngineVtkParams,
-        )
-        from pydrake.math import RigidTransform, RotationMatrix
-        from pydrake.systems.sensors import CameraInfo
-
-        if not getattr(twin, "_env_renderer", False):
-            from pydrake.geometry import LightParameter
-
-            params = RenderEngineVtkParams()
-            params.backend = "EGL"  # headless; GLX needs an X display
-            params.lights = [  # sun from above plus a camera headlight (defaults leave the ground dark)
-                LightParameter(type="directional", direction=[0.3, 0.2, -1.0], frame="world", intensity=0.9),
-                LightParameter(type="directional", direction=[0.0, 0.0, 1.0], frame="camera", intensity=0.4),
-            ]
-            twin.add_renderer("sphere_env_vtk", MakeRenderEngineVtk(params))
-            twin._env_renderer = True
-            w, h = self.render_size
-            core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())
-            self._camera = ColorRenderCamera(core, False)
-        c = twin.state().position_m
-        eye = c + np.array([-1.5, -1.5, 0.9])
-        z = c - eye
-        z /= np.linalg.norm(z)
-        x = np.cross(z, [0.0, 0.0, 1.0])
-        x /= np.linalg.norm(x)
-        X_WC = RigidTransform(RotationMatrix(np.column_stack([x, np.cross(z, x), z])), eye)
-        query = twin.scene_graph.get_query_output_port().Eval(twin.sg_context)
-        image = query.RenderColorImage(self._camera, twin.scene_graph.world_frame_id(), X_WC)
-        return np.array(image.data[:, :, :3], dtype=np.uint8)
+        return self.twin.render_rgb(*self.render_size)
 
     def save_replay(self, path: str | Path) -> Path:
         """Write the current (or just finished) episode as a self-contained Meshcat HTML replay.
         Needs ``record_replay=True``."""
-        twin = self.twin
-        if not self.record_replay or twin.visualizer is None:
+        if not self.record_replay or not self.twin.is_visualized:
             raise RuntimeError("save_replay: make the env with record_replay=True")
-        return twin.save_recording(path)
+        return self.twin.save_recording(path)
 
     def close(self) -> None:
         self._twins.clear()

@@ -121,14 +121,13 @@ class RampDescentEnv(SphereEnvBase):
             if not math.isfinite(val):
                 raise ValueError(f"options: omega_ref={options['omega_ref']!r} is not finite")
             self.omega_ref = val
-        end = self.twin.terrain.ramp_end_W
-        self._ramp_end_x = float(end[0])
+        self.ramp_end_x_m = self.twin.ramp_end_x_m
 
     def _task_command(self, state) -> list[float]:
         return [self.omega_ref, wrap_angle(-state.heading)]
 
     def _task_step(self, state, action):
-        reached, off = ramp_status(state.position_m, self._ramp_end_x, self.lane_half_width_m)
+        reached, off = ramp_status(state.position_m, self.ramp_end_x_m, self.lane_half_width_m)
         terms = ramp_descent_terms(
             self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref,
             float(state.position_m[1]), state.heading, action, reached, off,

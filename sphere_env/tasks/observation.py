@@ -1,6 +1,6 @@
 """Observation assembly: plain functions of a :class:`~sphere_env.physics.twin.TwinState`.
 
-Only quantities the real robot measures (its log channels, DESIGN.md §1, plus an IMU-like gravity
+Only quantities the real robot measures (its log channels, ``docs/design.md``, plus an IMU-like gravity
 direction) enter the measured part; the task command and optional privileged pressure follow.
 No Drake Context is touched here.
 """

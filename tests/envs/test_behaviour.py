@@ -188,7 +188,7 @@ def test_episode_replay_html(make, tmp_path):
 def test_human_render_uses_meshcat(make):
     env = make("sphere_env/Roll-v0", shell_model="point", render_mode="human")
     u = env.unwrapped
-    assert u.meshcat is not None and u.twin.visualizer is not None
+    assert u.meshcat is not None and u.twin.is_visualized
     env.reset(seed=0)
     env.step(np.zeros(2, np.float32))
     assert env.render() is None
@@ -196,7 +196,7 @@ def test_human_render_uses_meshcat(make):
 
 def test_no_meshcat_unless_asked(make):
     env = make("sphere_env/Roll-v0", shell_model="point")
-    assert env.unwrapped.meshcat is None and env.unwrapped.twin.visualizer is None
+    assert env.unwrapped.meshcat is None and not env.unwrapped.twin.is_visualized
 
 
 def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
