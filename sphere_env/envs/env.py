@@ -1,9 +1,11 @@
-"""Shared machinery of the sphere_env Gymnasium environments: physics → state → task.
+"""The one sphere_env Gymnasium environment: a twin composed with a task.
 
-The env owns one :class:`~sphere_env.physics.twin.Twin` per distinct (quantized) incline, built
-once and reused by every reset; parameters (pressure, friction scales, ground friction, payload)
-change through the twin's context. Task logic (observation, reward terms, termination,
-randomization sampling) lives in :mod:`sphere_env.tasks` as plain functions.
+:class:`SphereEnv` owns one :class:`~sphere_env.physics.Twin` per distinct (quantized) incline,
+built once and reused by every reset; parameters (pressure, friction scales, ground friction,
+payload) change through :meth:`Twin.apply`. It turns actions into motor torques, samples the
+randomization, assembles observations and steps the physics; a :class:`~sphere_env.tasks.Task`
+supplies the command, reward terms, termination and default initial state. The registered ids
+are built by :mod:`sphere_env.envs.factories`.
 """
 
 from __future__ import annotations
@@ -24,13 +26,15 @@ from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
 from sphere_env.params import check as check_param
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
-from sphere_env.tasks.observation import DEFAULT_NOISE_STD, N_MEASURED, assemble_observation
+from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.tasks.observation import DEFAULT_NOISE_STD, assemble_observation
 from sphere_env.tasks.randomization import (
     PARAMETERS as RANDOMIZED,
     RandomizationSpec,
     clip_parameter,
     schedule_pressure,
 )
+from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
 
 logger = logging.getLogger(__name__)
@@ -49,10 +53,16 @@ _NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS if name !
 _MAX_TWINS = 12
 
 
-class SphereEnvBase(gym.Env, EzPickle):
-    """Base class; see :class:`~sphere_env.envs.RampDescentEnv` and :class:`~sphere_env.envs.RollEnv`.
+class SphereEnv(gym.Env, EzPickle):
+    """A Gymnasium environment composing a twin and a task.
 
-    Subclasses define the command, reward terms and termination via the ``_task_*`` hooks.
+    Action ``Box(-1, 1, (2,), float32)`` = [steer, drive] motor torque / limit (+1 drive =
+    forward; the applied joint torques are in ``info["motor_torque_nm"]``). Observation: the
+    task's :meth:`~sphere_env.tasks.Task.observation_layout` (exported as
+    :attr:`observation_layout`). Per-task documentation: :class:`~sphere_env.tasks.RampDescentTask`
+    (``sphere_env/RampDescent-v0``), :class:`~sphere_env.tasks.RollTask` (``sphere_env/Roll-v0``).
+
+    :param task: the :class:`~sphere_env.tasks.Task` (command, rewards, termination).
 
     Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``):
 
@@ -84,12 +94,10 @@ class SphereEnvBase(gym.Env, EzPickle):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
-    _ramp = False  # whether the terrain is a finite ramp (incline randomizable)
-    _command_names: tuple[str, ...] = ()  # command components in the observation
-    _command_options: tuple[str, ...] = ()  # command values settable through reset(options=...)
 
     def __init__(
         self,
+        task: Task,
         *,
         shell_model: str = "injected",
         friction_model: str | Mapping[str, Any] = "majd",
@@ -108,19 +116,24 @@ class SphereEnvBase(gym.Env, EzPickle):
         record_replay: bool = False,
         render_size: tuple[int, int] = (480, 360),
         hydroelastic_pressure_step_kpa: float = 0.5,
-        **task_kwargs: Any,
+        **unknown: Any,
     ):
         EzPickle.__init__(
-            self, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
+            self, task, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
             control_frequency_hz=control_frequency_hz, time_step_s=time_step_s,
             steer_torque_limit_nm=steer_torque_limit_nm, drive_torque_limit_nm=drive_torque_limit_nm,
             randomization=randomization, observe_pressure=observe_pressure,
             observation_noise_scale=observation_noise_scale, incline_deg=incline_deg,
             ramp_length_m=ramp_length_m, render_mode=render_mode,
             meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
-            render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa, **task_kwargs,
+            render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa,
         )
         # ---- validate kwargs (each error names its kwarg) ----
+        if unknown:
+            raise ValueError(f"{next(iter(unknown))}: unknown keyword argument for {getattr(task, 'name', task)!r}")
+        if not isinstance(task, Task):
+            raise ValueError(f"task: value {task!r} must be a sphere_env.tasks.Task")
+        self.task = task
         if shell_model not in SHELL_MODELS:
             raise ValueError(f"shell_model: unknown value {shell_model!r}; allowed: {list(SHELL_MODELS)}")
         self.shell_model = shell_model
@@ -150,7 +163,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         self.time_step_s = dt_plant
         self.steer_torque_limit_nm = check_param("steer_torque_limit_nm", steer_torque_limit_nm)
         self.drive_torque_limit_nm = check_param("drive_torque_limit_nm", drive_torque_limit_nm)
-        spec = RandomizationSpec.parse(randomization, ramp=self._ramp)
+        spec = RandomizationSpec.parse(randomization, ramp=task.ramp)
         self.randomization = spec.resolved(self.calibration.pressure_range_kpa)
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
@@ -181,7 +194,6 @@ class SphereEnvBase(gym.Env, EzPickle):
         # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
         self._p_step = step if shell_model == "hydroelastic" else 0.0
         self.metadata = {**self.metadata, "render_fps": f_hz}
-        self._task_init(**task_kwargs)  # validates task kwargs; raises on unknown ones
 
         # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
         self.meshcat = None
@@ -194,30 +206,29 @@ class SphereEnvBase(gym.Env, EzPickle):
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        n_obs = N_MEASURED + len(self._command_names) + (1 if observe_pressure else 0)
+        self.observation_layout = task.observation_layout(observe_pressure)
+        n_obs = len(self.observation_layout)
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
         # ---- physics ----
-        self._twins: OrderedDict[float, Any] = OrderedDict()
+        self._twins: OrderedDict[float, Twin] = OrderedDict()
         self.twin = self._get_twin(self.incline_deg)
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
         self._obs = np.zeros(n_obs, dtype=np.float32)
         self._needs_reset = True
         self._episode_updates = False
-        self._reward_keys = {k: f"reward_{k}" for k in self._reward_term_names}
+        self._reward_keys = {k: f"reward_{k}" for k in task.reward_terms}
 
     # ---- twins ---------------------------------------------------------------------------------
     def _quantize_incline(self, incline_deg: float) -> float:
         return round(float(incline_deg) / INCLINE_RESOLUTION_DEG) * INCLINE_RESOLUTION_DEG
 
-    def _get_twin(self, incline_deg: float):
+    def _get_twin(self, incline_deg: float) -> Twin:
         twin = self._twins.get(incline_deg)
         if twin is not None:
             self._twins.move_to_end(incline_deg)
             return twin
-        from sphere_env.physics.twin import Twin, TwinConfig
-
         cfg = TwinConfig(
             fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
             drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
@@ -228,6 +239,11 @@ class SphereEnvBase(gym.Env, EzPickle):
         if len(self._twins) > _MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
+
+    @property
+    def ramp_end_x_m(self) -> float:
+        """x_W where the current episode's ramp ends [m]; ``inf`` on flat ground."""
+        return self.twin.ramp_end_x_m
 
     @property
     def cached_twin_count(self) -> int:
@@ -252,7 +268,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         # Explicit values from reset(options=...) win (replaying a logged trial).
         for name, val in options.items():
             if name in RANDOMIZED:
-                spec = RandomizationSpec.parse({name: val}, ramp=self._ramp, kwarg="options")
+                spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
                 spec = spec.resolved(rng_p, kwarg="options")
                 d = spec.terms[0].distribution
                 if d.kind != "fixed":
@@ -282,20 +298,18 @@ class SphereEnvBase(gym.Env, EzPickle):
           fields (angles rad, rates rad/s, position m, velocities m/s);
         * any randomization parameter (``pressure_kpa`` [kPa], ``ground_friction``, ...), fixed
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
-        * task command values (see the env's docstring).
+        * task command values (the task's ``command_options``).
         """
         super().reset(seed=seed)
         options = dict(options or {})
-        from sphere_env.physics.twin import InitialState
-
-        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self._command_options)
+        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self.task.command_options)
         for key in options:
             if key not in allowed:
                 raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
         params = self._sample_params(options)
         init = options.get("initial_state")
         if init is None:
-            init = self._task_default_initial_state()
+            init = InitialState(**self.task.initial_state())
         elif isinstance(init, Mapping):
             try:
                 init = InitialState(**init)
@@ -325,7 +339,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         self._failed = None
         self._needs_reset = False
         state = twin.state()
-        self._task_reset(state, options)
+        self._tau[:] = 0.0
+        self.task.reset(state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m))
         obs = self._observe(state)
         info = self._info(state, {}, False)
         if self.render_mode == "human":
@@ -368,7 +383,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         if self._failed is not None:
             info = self._failed_info()
             return self._obs.copy(), 0.0, False, True, info
-        terms, terminated, success = self._task_step(state, (a0, a1))
+        terms, terminated, success = self.task.step(state, (a0, a1), self.np_random)
         reward = 0.0
         for v in terms.values():
             reward += v
@@ -415,7 +430,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         if self.observation_noise_scale > 0.0:
             noise = self.np_random.normal(0.0, self._noise_std)
         obs = assemble_observation(
-            state, self._task_command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise
+            state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise
         )
         self._obs = obs
         return obs
@@ -433,20 +448,21 @@ class SphereEnvBase(gym.Env, EzPickle):
         info["position_m"] = state.position_m
         info["time_s"] = state.time_s
         info["is_success"] = success
+        info["motor_torque_nm"] = self._tau.copy()
         info["params"] = params.copy()
-        info.update(self._task_info())
+        info.update(self.task.info())
         return info
 
     def _zero_terms(self) -> dict[str, float]:
-        return {f"reward_{k}": 0.0 for k in self._reward_term_names}
+        return {f"reward_{k}": 0.0 for k in self.task.reward_terms}
 
     def _failed_info(self) -> dict[str, Any]:
         info = self._zero_terms()
         info.update(
             shell_model=self.shell_model, pressure_kpa=self._params["pressure_kpa"], is_success=False,
-            truncation_reason=self._failed, params=dict(self._params),
+            truncation_reason=self._failed, motor_torque_nm=self._tau.copy(), params=dict(self._params),
         )
-        info.update(self._task_info())
+        info.update(self.task.info())
         return info
 
     # ---- rendering / replay -----------------------------------------------------------------------
@@ -472,27 +488,3 @@ class SphereEnvBase(gym.Env, EzPickle):
     def close(self) -> None:
         self._twins.clear()
         self.meshcat = None
-
-    # ---- task hooks (subclasses) ------------------------------------------------------------------
-    _reward_term_names: tuple[str, ...] = ()
-
-    def _task_init(self, **kwargs: Any) -> None:
-        if kwargs:
-            raise ValueError(f"{next(iter(kwargs))}: unknown keyword argument for {type(self).__name__}")
-
-    def _task_default_initial_state(self):
-        from sphere_env.physics.twin import InitialState
-
-        return InitialState()
-
-    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
-        raise NotImplementedError
-
-    def _task_command(self, state) -> list[float]:
-        raise NotImplementedError
-
-    def _task_step(self, state, action: tuple[float, float]) -> tuple[dict[str, float], bool, bool]:
-        raise NotImplementedError
-
-    def _task_info(self) -> dict[str, Any]:
-        return {}
