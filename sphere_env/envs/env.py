@@ -10,7 +10,6 @@ are built by :mod:`sphere_env.envs.factories`.
 
 from __future__ import annotations
 
-import logging
 import math
 from collections import OrderedDict
 from pathlib import Path
@@ -22,10 +21,10 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from sphere_env.checks import finite_number
-from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
-from sphere_env.params import check as check_param
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
+from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
+from sphere_env.params import check as check_param
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.tasks.observation import DEFAULT_NOISE_STD, assemble_observation
 from sphere_env.tasks.randomization import (
@@ -36,8 +35,6 @@ from sphere_env.tasks.randomization import (
 )
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
-
-logger = logging.getLogger(__name__)
 
 #: Default motor torque limits at the joints [N m] (the registry's nominal values).
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
@@ -82,10 +79,12 @@ class SphereEnv(gym.Env, EzPickle):
         ``info["params"]``.
     :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
     :param observation_noise_scale: × default per-component noise σ (0 = off, default).
-    :param incline_deg: ground incline [deg] (ramp tasks).
-    :param ramp_length_m: ramp length along the slope [m]; ``None`` = infinite plane.
+    :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
+    :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
+
+    Bounds and nominal values of the physical kwargs are the records of :mod:`sphere_env.params`.
     :param render_mode: ``None`` | ``"human"`` (Meshcat) | ``"rgb_array"`` (VTK/EGL frames).
-    :param meshcat: ``True`` or a ``pydrake.geometry.Meshcat`` to visualize without
+    :param meshcat: ``True`` or a Meshcat (:func:`sphere_env.physics.start_meshcat`) to visualize without
         ``render_mode="human"``; default False (never created in vector workers unless asked).
     :param record_replay: record every episode for :meth:`save_replay` (creates a Meshcat).
     :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).

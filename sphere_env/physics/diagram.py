@@ -14,7 +14,10 @@ from pydrake.geometry import (
     AddCompliantHydroelasticProperties,
     AddContactMaterial,
     AddRigidHydroelasticProperties,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
     ProximityProperties,
+    Role,
     RoleAssign,
 )
 from pydrake.math import RigidTransform, RotationMatrix
@@ -184,8 +187,6 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     builder.ExportOutput(plant.get_state_output_port(), "state")
 
     if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role
-
         visualizer = MeshcatVisualizer.AddToBuilder(
             builder, scene_graph, meshcat, MeshcatVisualizerParams(role=Role.kIllustration)
         )
