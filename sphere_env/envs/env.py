@@ -293,7 +293,7 @@ class SphereEnv(gym.Env, EzPickle):
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         """Start an episode. ``options`` (all optional):
 
-        * ``initial_state``: :class:`~sphere_env.physics.twin.InitialState` or a mapping of its
+        * ``initial_state``: :class:`~sphere_env.physics.InitialState` or a mapping of its
           fields (angles rad, rates rad/s, position m, velocities m/s);
         * any randomization parameter (``pressure_kpa`` [kPa], ``ground_friction``, ...), fixed
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;

@@ -1,4 +1,4 @@
-"""Observation assembly: plain functions of a :class:`~sphere_env.physics.twin.TwinState`.
+"""Observation assembly: plain functions of a :class:`~sphere_env.physics.TwinState`.
 
 Only quantities the real robot measures (its log channels, ``docs/design.md``, plus an IMU-like gravity
 direction) enter the measured part; the task command and optional privileged pressure follow.

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sphere_env.controllers import controller_for, run_episode
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 from tests.envs.conftest import ENV_IDS, rollout
 
 
