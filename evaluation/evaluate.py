@@ -37,11 +37,11 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from sphere_env.parallel import run_parallel
+from sphere_env.models.shell import SHELL_MODELS
 
 from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, make_controller, split_label
 from sphere_env.evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
                   "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm", "time_on_ramp_s",
                   "omega_ref_rad_s")
@@ -145,8 +145,9 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
     if hasattr(controller, "reset"):
         controller.reset()
     obs, info = env.reset(seed=job["seed"], options={"pressure_kpa": job["pressure_kpa"]})
-    ramp_end = getattr(u, "_ramp_end_x", math.inf)
-    ls, ld = u.steer_torque_limit_nm, u.drive_torque_limit_nm
+    ramp_end = u.ramp_end_x_m
+    lay = u.observation_layout
+    i_wd, i_ref, i_td, i_qd = lay["omega_d"], lay["omega_ref"], lay["theta_dot"], lay["drive_rate"]
     dt = u.control_period_s
     tr: dict[str, list[float]] = {k: [] for k in TRACE_CHANNELS}
     ret, n, terminated, truncated = 0.0, 0, False, False
@@ -157,15 +158,16 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
         n += 1
         pos = info.get("position_m", (math.nan, math.nan, math.nan))
         tr["t_s"].append(n * dt)
-        tr["omega_d"].append(float(obs[6]))
-        tr["omega_ref"].append(float(obs[11]))
+        tr["omega_d"].append(float(obs[i_wd]))
+        tr["omega_ref"].append(float(obs[i_ref]))
         tr["x_m"].append(float(pos[0]))
         tr["y_m"].append(float(pos[1]))
         tr["z_m"].append(float(pos[2]))
-        tr["tau_steer_nm"].append(a[0] * ls)
-        tr["tau_drive_nm"].append(-a[1] * ld)  # joint torque (drive axis is −y): see RampDescentEnv
-        tr["theta_dot"].append(float(obs[1]))
-        tr["drive_rate"].append(float(obs[3]))
+        tau = info["motor_torque_nm"]  # applied joint torques [τ_steer, τ_drive]
+        tr["tau_steer_nm"].append(float(tau[0]))
+        tr["tau_drive_nm"].append(float(tau[1]))
+        tr["theta_dot"].append(float(obs[i_td]))
+        tr["drive_rate"].append(float(obs[i_qd]))
         tr["on_ramp"].append(float(pos[0] < ramp_end))
         tr["reward"].append(float(r))
     trace = {k: np.asarray(v) for k, v in tr.items()}

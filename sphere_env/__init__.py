@@ -12,8 +12,8 @@ __version__ = "0.1.0"
 
 #: id -> (entry point, max_episode_steps at the default 50 Hz control)
 ENV_IDS = {
-    "sphere_env/RampDescent-v0": ("sphere_env.envs.ramp_descent:RampDescentEnv", 400),
-    "sphere_env/Roll-v0": ("sphere_env.envs.roll:RollEnv", 500),
+    "sphere_env/RampDescent-v0": ("sphere_env.envs.factories:make_ramp_descent", 400),
+    "sphere_env/Roll-v0": ("sphere_env.envs.factories:make_roll", 500),
 }
 
 

@@ -1,9 +1,10 @@
 """Hand-written controllers for the sphere_env tasks: a zero-torque reference and a cascaded
 PD baseline (pendulum pitch for speed, pendulum lean for heading), as on the real robot.
 
-A controller is called with an observation (layout: :mod:`sphere_env.tasks.observation` plus the
-task command at indices 11–12) and optionally the env's ``info``; it returns an action in
-[-1, 1]² as float32: [steer, drive], +drive = forward. Stateful controllers have ``reset()``.
+A controller is called with an observation (laid out as the task's
+:class:`~sphere_env.tasks.ObservationLayout`: measured components, then the command [ω_ref,
+heading error or ψ̇_ref]) and optionally the env's ``info``; it returns an action in [-1, 1]² as
+float32: [steer, drive], +drive = forward. Stateful controllers have ``reset()``.
 """
 
 from __future__ import annotations
@@ -14,19 +15,27 @@ from typing import Any, Callable
 
 import numpy as np
 
-from sphere_env.envs.base import DEFAULT_DRIVE_TORQUE_LIMIT_NM, DEFAULT_STEER_TORQUE_LIMIT_NM
 from sphere_env.models.rigid_body import RobotParameters
+from sphere_env.params import GRAVITY_M_S2, PARAMETERS
+from sphere_env.tasks.observation import MEASURED_INDEX, N_MEASURED
 
-# Observation indices (sphere_env.tasks.observation.MEASURED_COMPONENTS + command).
-THETA, THETA_DOT, DRIVE_ANGLE, DRIVE_RATE, PHI, PHI_DOT, OMEGA_D, YAW_RATE, GX, GY, GZ = range(11)
-CMD_SPEED, CMD_HEADING = 11, 12
+DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
+DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
+
+# Observation indices, from the tasks' layout: measured components, then the two command values.
+THETA, THETA_DOT, DRIVE_ANGLE, DRIVE_RATE, OMEGA_D, YAW_RATE, GX, GZ = (
+    MEASURED_INDEX[n] for n in ("theta", "theta_dot", "drive_angle", "drive_rate", "omega_d", "yaw_rate",
+                                "gravity_x", "gravity_z")
+)
+CMD_SPEED, CMD_HEADING = N_MEASURED, N_MEASURED + 1  # ω_ref, then heading error or ψ̇_ref
 
 
 def pendulum_pitch(obs) -> tuple[float, float]:
-    """Pendulum pitch β against the vertical [rad] and its rate β̇ [rad/s], from measured
+    """Pendulum lift β against the vertical [rad] and its rate β̇ [rad/s], from measured
     quantities only. The gravity direction in the pitch-center frame is g_PC = Ry(q_d)ᵀ g_P
     (the drive joint turns about −y_PC); β = atan2(−g_PC,x, −g_PC,z), > 0 when the pendulum is
-    lifted forward (driving forward). β̇ = −(ω_d + q̇_d): the pitch-center rate about ŷ."""
+    lifted forward (driving forward). β̇ = −(ω_d + q̇_d): the pitch-center rate about ŷ. This is
+    −α, the twin's ``TwinState.pendulum_pitch`` (the IMU's pitch_joint sign)."""
     gx, gz, q = float(obs[GX]), float(obs[GZ]), float(obs[DRIVE_ANGLE])
     c, s = math.cos(q), math.sin(q)
     gpx, gpz = c * gx - s * gz, s * gx + c * gz
@@ -80,7 +89,7 @@ class PendulumPDController:
     def __post_init__(self) -> None:
         robot = RobotParameters.from_urdf()
         self._K_eq = robot.K_eq
-        self._K_lean = robot.m_p * 9.81 * robot.r_p
+        self._K_lean = robot.m_p * GRAVITY_M_S2 * robot.r_p
         self.reset()
 
     def reset(self) -> None:
@@ -116,8 +125,8 @@ class PendulumPDController:
 #: robot: the speed error anticipates it (``t_lead_s``) and the lean loop is off (a lean while the
 #: pendulum brakes, pitched far back, turns the robot unpredictably; it rolls straight anyway).
 PD_PRESETS = {
-    "RampDescentEnv": dict(t_lead_s=1.0, beta_max=1.2, k_heading=0.0, k_yaw=0.0),
-    "RollEnv": dict(),
+    "RampDescent": dict(t_lead_s=1.0, beta_max=1.2, k_heading=0.0, k_yaw=0.0),
+    "Roll": dict(),
 }
 
 
@@ -129,9 +138,12 @@ def controller_for(env: Any, name: str = "pd") -> Callable:
     if name != "pd":
         raise ValueError(f"name: unknown controller {name!r}; allowed: ['pd', 'zero']")
     u = env.unwrapped
+    layout = u.observation_layout
+    if layout.command != slice(CMD_SPEED, CMD_HEADING + 1) or layout.command_names[0] != "omega_ref":
+        raise ValueError(f"env: observation layout {layout} has no [omega_ref, heading] command for the PD baseline")
     return PendulumPDController(
-        **PD_PRESETS.get(type(u).__name__, {}),
-        command_mode=getattr(u, "command_mode", "heading"),
+        **PD_PRESETS.get(u.task.name, {}),
+        command_mode=getattr(u.task, "command_mode", "heading"),
         control_period_s=u.control_period_s,
         steer_torque_limit_nm=u.steer_torque_limit_nm,
         drive_torque_limit_nm=u.drive_torque_limit_nm,

@@ -28,9 +28,9 @@ import numpy as np
 
 import sphere_env  # noqa: F401  (registers ids)
 from sphere_env.physics.twin import InitialState, Twin
+from sphere_env.models.shell import SHELL_MODELS
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 #: Speed aims on one core at 50 Hz (env steps/s, env overhead over the bare twin, reset time).
 AIM_STEPS_PER_S = {"point": 1800, "injected": 1600, "hydroelastic": 500}
 AIM_OVERHEAD_PCT = 15.0

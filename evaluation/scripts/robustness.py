@@ -26,9 +26,9 @@ import gymnasium as gym
 import numpy as np
 
 import sphere_env  # noqa: F401
+from sphere_env.models.shell import SHELL_MODELS
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 SOAK_LIMIT_MB = 50.0
 
 
@@ -115,7 +115,7 @@ def soak(steps: int, seed: int = 0, sample_every: int = 10_000) -> dict:
         if i % sample_every == 0:
             samples.append((i, rss_mb()))
     wall = time.perf_counter() - t0
-    twins = len(env.unwrapped._twins)
+    twins = env.unwrapped.cached_twin_count
     env.close()
     warm = samples[0][1]
     return dict(steps=steps, wall_s=wall, episodes=episodes, physics_failures=failures,

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from sphere_env.models.shell import SHELL_MODELS
-from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig, start_meshcat
 
 from sphere_env.evaluation._report import markdown_table
 
@@ -67,9 +67,7 @@ COLUMNS = [("shell_model", "shell model", ""), ("pressure_kpa", "pressure kPa", 
 
 
 def save_replay(path: Path, shell_model: str = "hydroelastic", pressure_kpa: float | None = None) -> Path:
-    from pydrake.geometry import StartMeshcat
-
-    twin = Twin(TwinConfig(shell_model=shell_model, incline_deg=16.0, ramp_length_m=4.0), meshcat=StartMeshcat())
+    twin = Twin(TwinConfig(shell_model=shell_model, incline_deg=16.0, ramp_length_m=4.0), meshcat=start_meshcat())
     twin.reset(InitialState(), pressure_kpa=pressure_kpa)
     twin.start_recording()
     for _ in range(200):

@@ -1,7 +1,7 @@
-"""Gymnasium environments: ``sphere_env/RampDescent-v0`` and ``sphere_env/Roll-v0``."""
+"""Gymnasium environments: one generic :class:`SphereEnv` (twin + task) and the factories of
+``sphere_env/RampDescent-v0`` and ``sphere_env/Roll-v0``."""
 
-from sphere_env.envs.base import SphereEnvBase
-from sphere_env.envs.ramp_descent import RampDescentEnv
-from sphere_env.envs.roll import RollEnv
+from sphere_env.envs.env import SphereEnv
+from sphere_env.envs.factories import make_ramp_descent, make_roll
 
-__all__ = ["SphereEnvBase", "RampDescentEnv", "RollEnv"]
+__all__ = ["SphereEnv", "make_ramp_descent", "make_roll"]

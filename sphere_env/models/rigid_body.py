@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from sphere_env.params import GRAVITY_M_S2
 from sphere_env.resources import asset_path
 
 DEFAULT_URDF = asset_path("robot", "roboball.urdf")
-GRAVITY_M_S2 = 9.81  # Drake's default |g|
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,9 @@
-"""Drake physics: the only subpackage that imports pydrake."""
+"""Drake physics: the only subpackage that imports pydrake.
+
+``Twin`` (:mod:`.twin`) with its config and state types (:mod:`.config`), terrain (:mod:`.terrain`),
+diagram building (:mod:`.diagram`), friction/shell force systems (:mod:`.forces`) and views
+(:mod:`.render`: Meshcat, RGB frames).
+"""
 
 import logging
 
@@ -13,6 +18,8 @@ class _NoDeformableHalfSpaceNote(logging.Filter):
 logging.getLogger("drake").addFilter(_NoDeformableHalfSpaceNote())
 
 
-from sphere_env.physics.twin import FIXTURES, InitialState, Twin, TwinConfig, TwinState
+from sphere_env.physics.config import FIXTURES, InitialState, TwinConfig, TwinState  # noqa: E402
+from sphere_env.physics.render import start_meshcat  # noqa: E402
+from sphere_env.physics.twin import Twin  # noqa: E402
 
-__all__ = ["FIXTURES", "InitialState", "Twin", "TwinConfig", "TwinState"]
+__all__ = ["FIXTURES", "InitialState", "Twin", "TwinConfig", "TwinState", "start_meshcat"]

@@ -1,6 +1,6 @@
-"""Observation assembly: plain functions of a :class:`~sphere_env.physics.twin.TwinState`.
+"""Observation assembly: plain functions of a :class:`~sphere_env.physics.TwinState`.
 
-Only quantities the real robot measures (its log channels, DESIGN.md §1, plus an IMU-like gravity
+Only quantities the real robot measures (its log channels, ``docs/design.md``, plus an IMU-like gravity
 direction) enter the measured part; the task command and optional privileged pressure follow.
 No Drake Context is touched here.
 """
@@ -18,17 +18,55 @@ TWO_PI = 2.0 * math.pi
 MEASURED_COMPONENTS: tuple[tuple[str, str, str], ...] = (
     ("theta", "rad", "steer joint angle θ (roll_joint)"),
     ("theta_dot", "rad/s", "steer joint rate θ̇ (roll_joint.velocity)"),
-    ("drive_angle", "rad", "drive joint angle (shell against pendulum, drive_shaft encoder), wrapped to [-π, π)"),
-    ("drive_rate", "rad/s", "drive joint rate (drive_shaft.velocity)"),
+    ("drive_angle", "rad", "drive joint angle q_d (shell vs pendulum, drive_shaft), wrapped to [-π, π)"),
+    ("drive_rate", "rad/s", "drive joint rate q̇_d (drive_shaft.velocity)"),
     ("phi", "rad", "pipe angle φ against the ground (pipe_roll)"),
     ("phi_dot", "rad/s", "pipe angle rate φ̇"),
-    ("omega_d", "rad/s", "drive velocity ω_d, + rolling forward (logs: drive_shaft + pitch_joint rates)"),
+    ("omega_d", "rad/s", "drive velocity ω_d, + rolling forward (≈ drive_shaft.velocity when rolling steadily)"),
     ("yaw_rate", "rad/s", "heading rate ψ̇ (shell_yaw rate / IMU gyro)"),
     ("gravity_x", "-", "unit gravity direction in the pipe frame, x (IMU)"),
     ("gravity_y", "-", "unit gravity direction in the pipe frame, y (IMU)"),
     ("gravity_z", "-", "unit gravity direction in the pipe frame, z (IMU)"),
 )
 N_MEASURED = len(MEASURED_COMPONENTS)
+#: Observation index of each measured component (the same in every task).
+MEASURED_INDEX: dict[str, int] = {c[0]: i for i, c in enumerate(MEASURED_COMPONENTS)}
+
+
+class ObservationLayout:
+    """Names of the observation components in order, exported by each task so controllers and
+    evaluation index observations by name: ``obs[layout["omega_d"]]``, ``obs[layout.command]``.
+
+    Layout: the measured components (:data:`MEASURED_COMPONENTS`), then the task's command
+    components, then ``pressure_kpa`` if the privileged pressure is observed.
+    """
+
+    def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False):
+        self.command_names = tuple(command_names)
+        self.names: tuple[str, ...] = (
+            tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + (("pressure_kpa",) if observe_pressure else ())
+        )
+        self.index: dict[str, int] = {n: i for i, n in enumerate(self.names)}
+        self.measured = slice(0, N_MEASURED)
+        self.command = slice(N_MEASURED, N_MEASURED + len(self.command_names))
+
+    def __getitem__(self, name: str) -> int:
+        try:
+            return self.index[name]
+        except KeyError:
+            raise KeyError(f"observation: no component {name!r}; components: {list(self.names)}") from None
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.index
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, ObservationLayout) and other.names == self.names
+
+    def __repr__(self) -> str:
+        return f"ObservationLayout({list(self.names)})"
 
 #: Default 1-σ measurement noise per measured component, in the component's unit. Scaled by the
 #: env's ``observation_noise_scale`` (0 = noise off). Assumed encoder/IMU-grade values.

@@ -6,17 +6,11 @@ distribution**; an optional :class:`PressureSchedule` moves the pressure within 
 slow leak or a pump). All sampling takes the env's ``np_random`` generator; nothing touches
 global RNG state. Every sampled value is reported in the env's ``info["params"]``.
 
-Parameters (unit; nominal value when not randomized):
-
-================================  ========  ==============================================
-``pressure_kpa``                  kPa       shell gauge pressure; calibration's nominal (hydroelastic: snapped to the env's ``hydroelastic_pressure_step_kpa`` grid)
-``steer_friction_scale``          -         × steer joint friction torque; 1
-``drive_friction_scale``          -         × drive joint friction torque; 1
-``ground_friction``               -         effective shell–ground Coulomb μ; 1
-``incline_deg``                   deg       ramp incline, reset only, sampled values snap to 1°; env kwarg
-``payload_mass_kg``               kg        point mass on the pendulum; 0
-``payload_com_offset_m``          m (×3)    payload offset from the pendulum COM, pendulum frame; 0
-================================  ========  ==============================================
+Parameters: the ``RANDOMIZABLE`` records of :mod:`sphere_env.params` (unit, nominal value when not
+randomized, bounds): ``pressure_kpa`` (the calibration's nominal and range; hydroelastic: snapped
+to the env's ``hydroelastic_pressure_step_kpa`` grid), ``steer_friction_scale``,
+``drive_friction_scale``, ``ground_friction``, ``incline_deg`` (ramp tasks, reset only, sampled
+values snap to 1°), ``payload_mass_kg``, ``payload_com_offset_m`` (3 components).
 
 Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``randomization``):
 
@@ -41,20 +35,16 @@ from typing import Any, Mapping
 import numpy as np
 
 from sphere_env.checks import finite_number
+from sphere_env.params import PARAMETERS as REGISTRY
+from sphere_env.params import RANDOMIZABLE, Parameter
 
-#: name -> (unit, size, (low, high) allowed bounds; pressure bounds come from the calibration)
-PARAMETERS: dict[str, tuple[str, int, tuple[float, float] | None]] = {
-    "pressure_kpa": ("kPa", 1, None),
-    "steer_friction_scale": ("-", 1, (0.0, 10.0)),
-    "drive_friction_scale": ("-", 1, (0.0, 10.0)),
-    "ground_friction": ("-", 1, (1e-3, 1.99)),
-    "incline_deg": ("deg", 1, (0.0, 30.0)),
-    "payload_mass_kg": ("kg", 1, (0.0, 50.0)),
-    "payload_com_offset_m": ("m", 3, (-0.3, 0.3)),
-}
+#: The randomizable parameters' records (name, unit, nominal, bounds; :mod:`sphere_env.params`).
+#: Pressure bounds come from the shell calibration.
+PARAMETERS: dict[str, Parameter] = {name: REGISTRY[name] for name in RANDOMIZABLE}
 DISTRIBUTIONS = ("fixed", "uniform", "normal", "choice")
 MODES = ("reset", "interval")
-RESET_ONLY = ("incline_deg",)
+#: Parameters that change only between episodes (terrain): no ``interval`` mode.
+RESET_ONLY = tuple(name for name, rec in PARAMETERS.items() if rec.changes == "reset")
 
 
 def _vec(kwarg: str, value: Any, size: int) -> tuple[float, ...] | float:
@@ -194,7 +184,8 @@ class RandomizationSpec:
                     raise ValueError(f"{where}.interval_s: value {t.interval_s!r} must be > 0 s for mode 'interval'")
             if t.parameter == "incline_deg" and not ramp and t.distribution.kind != "fixed":
                 raise ValueError(f"{where}: this environment has no ramp; incline cannot be randomized")
-            d, (_, size, bounds) = t.distribution, PARAMETERS[t.parameter]
+            d, rec = t.distribution, PARAMETERS[t.parameter]
+            size, bounds = rec.size, (None if t.parameter == "pressure_kpa" else rec)
             if d.kind not in DISTRIBUTIONS:
                 raise ValueError(f"{where}.distribution: value {d.kind!r}; allowed: {list(DISTRIBUTIONS)}")
             if d.kind == "fixed":
@@ -242,26 +233,27 @@ class RandomizationSpec:
         out = {}
         for t in self.terms:
             if which is None or t.mode == which:
-                out[t.parameter] = t.distribution.sample(rng, PARAMETERS[t.parameter][1])
+                out[t.parameter] = t.distribution.sample(rng, PARAMETERS[t.parameter].size)
         return out
 
 
 def clip_parameter(name: str, value, pressure_range_kpa: tuple[float, float]):
     """Clip a (normal-)sampled value into the parameter's allowed bounds."""
-    bounds = pressure_range_kpa if name == "pressure_kpa" else PARAMETERS[name][2]
-    lo, hi = bounds
+    if name == "pressure_kpa":
+        lo, hi = pressure_range_kpa
+        return min(max(float(value), lo), hi)
+    rec = PARAMETERS[name]
     if isinstance(value, tuple):
-        return tuple(min(max(v, lo), hi) for v in value)
-    return min(max(float(value), lo), hi)
+        return tuple(rec.clip(v) for v in value)
+    return rec.clip(float(value))
 
 
-def _check_bounds(where: str, value, bounds) -> None:
-    if bounds is None:
+def _check_bounds(where: str, value, record: Parameter | None) -> None:
+    if record is None:
         return
-    lo, hi = bounds
     for v in (value if isinstance(value, tuple) else (value,)):
-        if not lo <= v <= hi:
-            raise ValueError(f"{where}: value {v!r} outside allowed [{lo}, {hi}]")
+        if not record.contains(v):
+            raise ValueError(f"{where}: value {v!r} outside allowed {record.allowed}")
 
 
 def _parse_distribution(entry: Any, size: int, where: str) -> tuple[Distribution, str, float | None]:
@@ -290,7 +282,7 @@ def _parse_distribution(entry: Any, size: int, where: str) -> tuple[Distribution
 
 
 def _parse_term(name: str, entry: Any, where: str) -> Term:
-    d, mode, interval = _parse_distribution(entry, PARAMETERS[name][1], where)
+    d, mode, interval = _parse_distribution(entry, PARAMETERS[name].size, where)
     return Term(name, d, mode, interval)
 
 

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import sphere_env  # noqa: F401  (registers the ids)
+from sphere_env.models.shell import SHELL_MODELS
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 
 
 def rollout(env, n_steps, seed, action_seed=123, actions=None):

@@ -115,6 +115,7 @@ def test_async_vector_env_two_workers():
         venv.close()
 
 
+@pytest.mark.slow  # spawns two worker processes (≈4 s idle, ≈9 s on a loaded machine)
 def test_sb3_subproc_vec_env_two_workers():
     from stable_baselines3.common.vec_env import SubprocVecEnv
 

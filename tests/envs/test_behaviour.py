@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sphere_env.controllers import controller_for, run_episode
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 from tests.envs.conftest import ENV_IDS, rollout
 
 
@@ -160,7 +160,7 @@ def test_randomized_parameters_reach_the_physics(make):
     twin = env.unwrapped.twin
     assert twin.config.incline_deg == 12.0 and info["params"]["incline_deg"] == 12.0
     assert twin.pendulum.CalcSpatialInertiaInBodyFrame(twin.plant_context).get_mass() == pytest.approx(22.03 + 3.0)
-    assert list(twin._friction_scale) == [1.0, 1.5]
+    assert (twin.params["steer_friction_scale"], twin.params["drive_friction_scale"]) == (1.0, 1.5)
     env.reset(options={"incline_deg": 16.0, "payload_mass_kg": 0.0})
     twin2 = env.unwrapped.twin
     assert twin2.config.incline_deg == 16.0
@@ -188,7 +188,7 @@ def test_episode_replay_html(make, tmp_path):
 def test_human_render_uses_meshcat(make):
     env = make("sphere_env/Roll-v0", shell_model="point", render_mode="human")
     u = env.unwrapped
-    assert u.meshcat is not None and u.twin.visualizer is not None
+    assert u.meshcat is not None and u.twin.is_visualized
     env.reset(seed=0)
     env.step(np.zeros(2, np.float32))
     assert env.render() is None
@@ -196,7 +196,7 @@ def test_human_render_uses_meshcat(make):
 
 def test_no_meshcat_unless_asked(make):
     env = make("sphere_env/Roll-v0", shell_model="point")
-    assert env.unwrapped.meshcat is None and env.unwrapped.twin.visualizer is None
+    assert env.unwrapped.meshcat is None and not env.unwrapped.twin.is_visualized
 
 
 def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
@@ -208,12 +208,13 @@ def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
 
     cached = Twin(TwinConfig(shell_model="hydroelastic"))
     fresh = Twin(TwinConfig(shell_model="hydroelastic"))
-    # (5, 0.4) again is a cache hit; (5, 1.2) is a miss (the snapshot holds the ground μ too)
-    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 0.4), (5.0, 1.2)):
+    # (5, ·) and (12, ·) again are cache hits, also under another ground μ (re-applied after the
+    # restore): the cache keys on the shell alone.
+    for p, mu in ((5.0, 0.4), (12.0, 0.4), (5.0, 0.4), (5.0, 1.2), (12.0, 1.2), (12.0, 0.7)):
         cached.set_ground_friction(mu)
         cached.set_pressure(p)
         fresh.set_ground_friction(mu)
-        fresh._geometry_cache.clear()  # force a re-mesh
+        fresh.clear_shell_cache()  # force a re-mesh
         fresh.set_pressure(p)
         assert run(cached) == run(fresh)
-    assert len(cached._geometry_cache) == 1 + 3  # the built shell + one per distinct (pressure, μ)
+    assert cached.cached_shell_count == 1 + 2  # the built shell + one per distinct pressure

@@ -1,4 +1,4 @@
-"""The twin against closed-form mechanics (DESIGN.md §5)."""
+"""The twin against closed-form mechanics (docs/design.md)."""
 
 import math
 

@@ -114,6 +114,52 @@ def test_state_readout_agrees_with_drake_kinematics(ramp_length_m):
         assert s.phi_dot == pytest.approx((y_dot @ n_W) / math.sqrt(1 - (y_W @ n_W) ** 2), abs=1e-9)
 
 
+def test_pendulum_pitch_readout_agrees_with_drake_kinematics():
+    """α = atan2(−ẑ_W·x̂_PC, ẑ_W·ẑ_PC) from Drake's pose; α̇ matches its finite difference; upright,
+    ω_d = α̇ − q̇_d."""
+    twin = Twin(TwinConfig(shell_model="injected"))
+    twin.reset(InitialState(pitch=0.3, roll=0.2))
+    s = twin.state()
+    assert s.pendulum_pitch == pytest.approx(math.atan2(math.sin(0.3), math.cos(0.3) * math.cos(0.2)), abs=1e-12)
+    twin.reset(InitialState(theta=0.2, heading=0.7))
+    rng = np.random.default_rng(1)
+    plant, ctx = twin.plant, twin.plant_context
+    probe = plant.CreateDefaultContext()
+
+    def alpha_at(q):  # α from Drake's pose of the pitch center
+        plant.SetPositions(probe, q)
+        R = plant.EvalBodyPoseInWorld(probe, twin.pc).rotation().matrix()
+        return math.atan2(-R[2, 0], R[2, 2])
+
+    for _ in range(30):
+        twin.advance(0.02, (rng.uniform(-5, 5), rng.uniform(-20, 20)))
+        s = twin.state()
+        q, v = twin.positions_velocities()
+        assert s.pendulum_pitch == pytest.approx(alpha_at(q), abs=1e-12)
+        q_dot, eps = plant.MapVelocityToQDot(ctx, v), 1e-6  # central difference along the motion
+        rate = (alpha_at(q + eps * q_dot) - alpha_at(q - eps * q_dot)) / (2 * eps)
+        assert s.pendulum_pitch_rate == pytest.approx(rate, abs=1e-6)
+    upright = Twin(TwinConfig(shell_model="point", fixture="free"))
+    upright.reset(InitialState(pitch=0.2, drive_rate=1.5, angular_velocity_W=(0.0, 0.8, 0.0)))
+    s = upright.state()
+    assert s.omega_d == pytest.approx(s.pendulum_pitch_rate - s.drive_rate, abs=1e-12)
+
+
+def test_driving_forward_lifts_the_pendulum_forward():
+    """Driving forward on flat ground holds the pendulum lifted toward the motion: α < 0 while
+    ω_d > 0 (the real robot's log shows pitch_joint < 0 while drive_shaft turns > 0)."""
+    twin = Twin(TwinConfig(shell_model="injected"))
+    twin.reset()
+    _, alpha = record(twin, 2.0, field="pendulum_pitch", torque=(0.0, -12.0))  # + drive = −joint torque
+    s = twin.state()
+    assert s.omega_d > 0.5 and np.all(alpha[10:] < -0.05)
+    for fixture in ("stand", "steer_plane"):  # no pitch freedom: α = 0
+        t = Twin(TwinConfig(shell_model="point", fixture=fixture))
+        t.reset(InitialState(theta=0.3))
+        t.advance(0.1)
+        assert (t.state().pendulum_pitch, t.state().pendulum_pitch_rate) == (0.0, 0.0)
+
+
 def test_rolling_forward_gives_positive_drive_velocity():
     twin = Twin(TwinConfig(shell_model="point", incline_deg=16, steer_friction="none", drive_friction="none"))
     twin.reset()
@@ -136,9 +182,9 @@ def test_reset_reuses_diagram_and_is_repeatable():
 
 
 def test_meshcat_replay_is_self_contained_html(tmp_path):
-    from pydrake.geometry import StartMeshcat
+    from sphere_env.physics import start_meshcat
 
-    meshcat = StartMeshcat()
+    meshcat = start_meshcat()
     twin = Twin(TwinConfig(shell_model="point", incline_deg=16), meshcat=meshcat)
     twin.reset()
     twin.start_recording()

@@ -59,19 +59,24 @@ def test_shipped_hydroelastic_mesh_is_converged(make_twin):
 
 
 def test_set_pressure_mid_run_changes_injected_frequency(make_twin):
+    """Pump up in the middle of a free decay (no reset): the rest of the decay rocks at the high
+    pressure's ω_n and ζ; the same run without the change keeps the low pressure's."""
     twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none")
     lo, hi = twin.calibration.pressure_range_kpa
-    twin.set_pressure(lo)
-    twin.reset(InitialState(roll=0.05))
-    record(twin, 1.0)  # run a while at low pressure ...
-    twin.set_pressure(hi)  # ... then pump up mid-run and kick it again
-    s = twin.state()
-    twin.reset(InitialState(roll=0.05))
-    assert twin.pressure_kpa == hi
-    t, phi = record(twin, 6.0)
-    fit = fit_free_decay(t, phi)
-    assert fit.omega_n == pytest.approx(float(twin.calibration.omega_n(hi)), rel=0.05)
-    assert s.pressure_kpa == hi
+    cal = twin.calibration
+    assert abs(cal.omega_n(hi) / cal.omega_n(lo) - 1) > 0.08  # the two pressures are distinguishable
+    for change, p_after in ((True, hi), (False, lo)):
+        twin.set_pressure(lo)
+        twin.reset(InitialState(roll=0.1))
+        record(twin, 0.5)  # rocking at low pressure ...
+        if change:
+            twin.set_pressure(hi)  # ... pumped up mid-episode
+        t, phi = record(twin, 5.0)
+        assert t[0] == pytest.approx(0.52)  # one continuous episode
+        assert twin.state().pressure_kpa == p_after
+        fit = fit_free_decay(t - t[0], phi)
+        assert fit.omega_n == pytest.approx(float(cal.omega_n(p_after)), rel=0.02), change
+        assert fit.zeta == pytest.approx(float(cal.zeta(p_after)), rel=0.1), change
 
 
 def test_set_pressure_mid_run_changes_hydroelastic_sink(make_twin):

@@ -1,14 +1,15 @@
-"""Shared machinery of the sphere_env Gymnasium environments: physics → state → task.
+"""The one sphere_env Gymnasium environment: a twin composed with a task.
 
-The env owns one :class:`~sphere_env.physics.twin.Twin` per distinct (quantized) incline, built
-once and reused by every reset; parameters (pressure, friction scales, ground friction, payload)
-change through the twin's context. Task logic (observation, reward terms, termination,
-randomization sampling) lives in :mod:`sphere_env.tasks` as plain functions.
+:class:`SphereEnv` owns one :class:`~sphere_env.physics.Twin` per distinct (quantized) incline,
+built once and reused by every reset; parameters (pressure, friction scales, ground friction,
+payload) change through :meth:`Twin.apply`. It turns actions into motor torques, samples the
+randomization, assembles observations and steps the physics; a :class:`~sphere_env.tasks.Task`
+supplies the command, reward terms, termination and default initial state. The registered ids
+are built by :mod:`sphere_env.envs.factories`.
 """
 
 from __future__ import annotations
 
-import logging
 import math
 from collections import OrderedDict
 from pathlib import Path
@@ -22,64 +23,47 @@ from gymnasium.utils import EzPickle
 from sphere_env.checks import finite_number
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
-from sphere_env.tasks.observation import DEFAULT_NOISE_STD, N_MEASURED, assemble_observation
+from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
+from sphere_env.params import check as check_param
+from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.tasks.observation import DEFAULT_NOISE_STD, assemble_observation
 from sphere_env.tasks.randomization import (
-    PARAMETERS,
+    PARAMETERS as RANDOMIZED,
     RandomizationSpec,
     clip_parameter,
     schedule_pressure,
 )
+from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
 
-logger = logging.getLogger(__name__)
-
-#: Default motor torque limits at the joints [N m]. Gravity caps the useful pendulum torque near
-#: (m_pc r_pc + m_p r_p) g ≈ 21.9 N m (DESIGN.md §1); the steer motor only lifts the pendulum
-#: (m_p r_p g ≈ 20.5 N m). Real limits are unpublished — both are kwargs.
-DEFAULT_STEER_TORQUE_LIMIT_NM = 20.0
-DEFAULT_DRIVE_TORQUE_LIMIT_NM = 22.0
+#: Default motor torque limits at the joints [N m] (the registry's nominal values).
+DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
+DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 #: Distinct inclines get distinct twins (terrain is geometry); inclines are rounded to this.
 INCLINE_RESOLUTION_DEG = 1.0
 #: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
 #: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms (cached inside Twin.set_pressure).
 PRESSURE_RESOLUTION_KPA = 0.01
-_NOMINAL = {
-    "steer_friction_scale": 1.0,
-    "drive_friction_scale": 1.0,
-    "ground_friction": 1.0,
-    "payload_mass_kg": 0.0,
-    "payload_com_offset_m": (0.0, 0.0, 0.0),
-}
+#: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's).
+_NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS if name != "pressure_kpa"}
 _MAX_TWINS = 12
 
 
-def _positive(kwarg: str, value: Any, upper: float | None = None) -> float:
-    rng = f"(0, {upper}]" if upper is not None else "> 0"
-    val = finite_number(kwarg, value, rng)
-    if val <= 0 or (upper is not None and val > upper):
-        raise ValueError(f"{kwarg}: value {value!r} outside allowed {rng}")
-    return val
+class SphereEnv(gym.Env, EzPickle):
+    """A Gymnasium environment composing a twin and a task.
 
+    Action ``Box(-1, 1, (2,), float32)`` = [steer, drive] motor torque / limit (+1 drive =
+    forward; the applied joint torques are in ``info["motor_torque_nm"]``). Observation: the
+    task's :meth:`~sphere_env.tasks.Task.observation_layout` (exported as
+    :attr:`observation_layout`). Per-task documentation: :class:`~sphere_env.tasks.RampDescentTask`
+    (``sphere_env/RampDescent-v0``), :class:`~sphere_env.tasks.RollTask` (``sphere_env/Roll-v0``).
 
-def _range(kwarg: str, value: Any, lo: float, hi: float) -> tuple[float, float]:
-    try:
-        a, b = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{kwarg}: value {value!r} must be a pair (low, high)") from None
-    if not (math.isfinite(a) and math.isfinite(b) and lo <= a <= b <= hi):
-        raise ValueError(f"{kwarg}: value {value!r} must satisfy {lo} <= low <= high <= {hi}")
-    return a, b
-
-
-class SphereEnvBase(gym.Env, EzPickle):
-    """Base class; see :class:`~sphere_env.envs.RampDescentEnv` and :class:`~sphere_env.envs.RollEnv`.
-
-    Subclasses define the command, reward terms and termination via the ``_task_*`` hooks.
+    :param task: the :class:`~sphere_env.tasks.Task` (command, rewards, termination).
 
     Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``):
 
-    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (DESIGN.md §3).
+    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (``docs/design.md``).
     :param friction_model: joint friction: a law/preset name for both joints (``"majd"`` default,
         ``"viscous"``, ``"coulomb"``, ``"none"``: the Table I presets) or ``{"steer": ..., "drive": ...}``.
     :param calibration: path of a shell calibration YAML; ``None`` = the shipped one.
@@ -95,10 +79,12 @@ class SphereEnvBase(gym.Env, EzPickle):
         ``info["params"]``.
     :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
     :param observation_noise_scale: × default per-component noise σ (0 = off, default).
-    :param incline_deg: ground incline [deg] (ramp tasks).
-    :param ramp_length_m: ramp length along the slope [m]; ``None`` = infinite plane.
+    :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
+    :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
+
+    Bounds and nominal values of the physical kwargs are the records of :mod:`sphere_env.params`.
     :param render_mode: ``None`` | ``"human"`` (Meshcat) | ``"rgb_array"`` (VTK/EGL frames).
-    :param meshcat: ``True`` or a ``pydrake.geometry.Meshcat`` to visualize without
+    :param meshcat: ``True`` or a Meshcat (:func:`sphere_env.physics.start_meshcat`) to visualize without
         ``render_mode="human"``; default False (never created in vector workers unless asked).
     :param record_replay: record every episode for :meth:`save_replay` (creates a Meshcat).
     :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).
@@ -107,18 +93,16 @@ class SphereEnvBase(gym.Env, EzPickle):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
-    _ramp = False  # whether the terrain is a finite ramp (incline randomizable)
-    _command_names: tuple[str, ...] = ()  # command components in the observation
-    _command_options: tuple[str, ...] = ()  # command values settable through reset(options=...)
 
     def __init__(
         self,
+        task: Task,
         *,
         shell_model: str = "injected",
         friction_model: str | Mapping[str, Any] = "majd",
         calibration: str | Path | None = None,
         control_frequency_hz: float = 50.0,
-        time_step_s: float = 0.005,
+        time_step_s: float = DEFAULT_TIME_STEP_S,
         steer_torque_limit_nm: float = DEFAULT_STEER_TORQUE_LIMIT_NM,
         drive_torque_limit_nm: float = DEFAULT_DRIVE_TORQUE_LIMIT_NM,
         randomization: Any = "default",
@@ -131,19 +115,24 @@ class SphereEnvBase(gym.Env, EzPickle):
         record_replay: bool = False,
         render_size: tuple[int, int] = (480, 360),
         hydroelastic_pressure_step_kpa: float = 0.5,
-        **task_kwargs: Any,
+        **unknown: Any,
     ):
         EzPickle.__init__(
-            self, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
+            self, task, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
             control_frequency_hz=control_frequency_hz, time_step_s=time_step_s,
             steer_torque_limit_nm=steer_torque_limit_nm, drive_torque_limit_nm=drive_torque_limit_nm,
             randomization=randomization, observe_pressure=observe_pressure,
             observation_noise_scale=observation_noise_scale, incline_deg=incline_deg,
             ramp_length_m=ramp_length_m, render_mode=render_mode,
             meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
-            render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa, **task_kwargs,
+            render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa,
         )
         # ---- validate kwargs (each error names its kwarg) ----
+        if unknown:
+            raise ValueError(f"{next(iter(unknown))}: unknown keyword argument for {getattr(task, 'name', task)!r}")
+        if not isinstance(task, Task):
+            raise ValueError(f"task: value {task!r} must be a sphere_env.tasks.Task")
+        self.task = task
         if shell_model not in SHELL_MODELS:
             raise ValueError(f"shell_model: unknown value {shell_model!r}; allowed: {list(SHELL_MODELS)}")
         self.shell_model = shell_model
@@ -161,8 +150,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         except ValueError as err:
             raise ValueError(f"calibration: {err}") from None
         self._calibration_path = calibration
-        f_hz = _positive("control_frequency_hz", control_frequency_hz, 1000.0)
-        dt_plant = _positive("time_step_s", time_step_s, 0.05)
+        f_hz = check_param("control_frequency_hz", control_frequency_hz)
+        dt_plant = check_param("time_step_s", time_step_s)
         ratio = (1.0 / f_hz) / dt_plant
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ValueError(
@@ -171,9 +160,9 @@ class SphereEnvBase(gym.Env, EzPickle):
             )
         self.control_period_s = 1.0 / f_hz
         self.time_step_s = dt_plant
-        self.steer_torque_limit_nm = _positive("steer_torque_limit_nm", steer_torque_limit_nm, 200.0)
-        self.drive_torque_limit_nm = _positive("drive_torque_limit_nm", drive_torque_limit_nm, 200.0)
-        spec = RandomizationSpec.parse(randomization, ramp=self._ramp)
+        self.steer_torque_limit_nm = check_param("steer_torque_limit_nm", steer_torque_limit_nm)
+        self.drive_torque_limit_nm = check_param("drive_torque_limit_nm", drive_torque_limit_nm)
+        spec = RandomizationSpec.parse(randomization, ramp=task.ramp)
         self.randomization = spec.resolved(self.calibration.pressure_range_kpa)
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
@@ -183,11 +172,8 @@ class SphereEnvBase(gym.Env, EzPickle):
             raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be >= 0")
         self.observation_noise_scale = noise
         self._noise_std = DEFAULT_NOISE_STD * noise
-        inc = finite_number("incline_deg", incline_deg, "[0, 30] deg")
-        if not 0.0 <= inc <= 30.0:
-            raise ValueError(f"incline_deg: value {incline_deg!r} outside allowed [0, 30] deg")
-        self.incline_deg = inc
-        self.ramp_length_m = None if ramp_length_m is None else _positive("ramp_length_m", ramp_length_m, 100.0)
+        self.incline_deg = check_param("incline_deg", incline_deg)
+        self.ramp_length_m = None if ramp_length_m is None else check_param("ramp_length_m", ramp_length_m)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: value {render_mode!r}; allowed: {self.metadata['render_modes'] + [None]}")
         self.render_mode = render_mode
@@ -207,72 +193,63 @@ class SphereEnvBase(gym.Env, EzPickle):
         # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
         self._p_step = step if shell_model == "hydroelastic" else 0.0
         self.metadata = {**self.metadata, "render_fps": f_hz}
-        self._task_init(**task_kwargs)  # validates task kwargs; raises on unknown ones
 
         # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
         self.meshcat = None
         if meshcat is not False and meshcat is not None and not isinstance(meshcat, bool):
             self.meshcat = meshcat
         elif meshcat is True or render_mode == "human" or record_replay:
-            from pydrake.geometry import StartMeshcat
+            from sphere_env.physics import start_meshcat
 
-            self.meshcat = StartMeshcat()
-            logger.info("sphere_env: Meshcat at %s", self.meshcat.web_url())
+            self.meshcat = start_meshcat()
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        n_obs = N_MEASURED + len(self._command_names) + (1 if observe_pressure else 0)
+        self.observation_layout = task.observation_layout(observe_pressure)
+        n_obs = len(self.observation_layout)
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
         # ---- physics ----
-        self._twins: OrderedDict[float, Any] = OrderedDict()
+        self._twins: OrderedDict[float, Twin] = OrderedDict()
         self.twin = self._get_twin(self.incline_deg)
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
         self._obs = np.zeros(n_obs, dtype=np.float32)
         self._needs_reset = True
         self._episode_updates = False
-        self._reward_keys = {k: f"reward_{k}" for k in self._reward_term_names}
+        self._reward_keys = {k: f"reward_{k}" for k in task.reward_terms}
 
     # ---- twins ---------------------------------------------------------------------------------
     def _quantize_incline(self, incline_deg: float) -> float:
         return round(float(incline_deg) / INCLINE_RESOLUTION_DEG) * INCLINE_RESOLUTION_DEG
 
-    def _get_twin(self, incline_deg: float):
+    def _get_twin(self, incline_deg: float) -> Twin:
         twin = self._twins.get(incline_deg)
         if twin is not None:
             self._twins.move_to_end(incline_deg)
             return twin
-        from sphere_env.physics.twin import Twin, TwinConfig
-
         cfg = TwinConfig(
             fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
             drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
             time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
         )
         twin = Twin(cfg, meshcat=self.meshcat)
-        twin._env_applied = dict(_NOMINAL)  # parameter values currently in this twin's context
         self._twins[incline_deg] = twin
         if len(self._twins) > _MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
 
-    # ---- parameters ----------------------------------------------------------------------------
-    def _apply_params(self, twin, params: Mapping[str, Any]) -> None:
-        """Push changed parameters to the twin's context (cheap: only what changed)."""
-        applied = twin._env_applied
-        fs = (params["steer_friction_scale"], params["drive_friction_scale"])
-        if (applied["steer_friction_scale"], applied["drive_friction_scale"]) != fs:
-            twin.set_friction_scale(*fs)
-            applied["steer_friction_scale"], applied["drive_friction_scale"] = fs
-        if applied["ground_friction"] != params["ground_friction"]:
-            twin.set_ground_friction(params["ground_friction"])
-            applied["ground_friction"] = params["ground_friction"]
-        pay = (params["payload_mass_kg"], tuple(params["payload_com_offset_m"]))
-        if (applied["payload_mass_kg"], applied["payload_com_offset_m"]) != pay:
-            twin.set_payload(*pay)
-            applied["payload_mass_kg"], applied["payload_com_offset_m"] = pay
+    @property
+    def ramp_end_x_m(self) -> float:
+        """x_W where the current episode's ramp ends [m]; ``inf`` on flat ground."""
+        return self.twin.ramp_end_x_m
 
+    @property
+    def cached_twin_count(self) -> int:
+        """Twins built for distinct inclines and kept for reuse."""
+        return len(self._twins)
+
+    # ---- parameters ----------------------------------------------------------------------------
     def _sample_params(self, options: Mapping[str, Any]) -> dict[str, Any]:
         rng_p = self.calibration.pressure_range_kpa
         params: dict[str, Any] = {
@@ -289,8 +266,8 @@ class SphereEnvBase(gym.Env, EzPickle):
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(self.np_random, 1))
         # Explicit values from reset(options=...) win (replaying a logged trial).
         for name, val in options.items():
-            if name in PARAMETERS:
-                spec = RandomizationSpec.parse({name: val}, ramp=self._ramp, kwarg="options")
+            if name in RANDOMIZED:
+                spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
                 spec = spec.resolved(rng_p, kwarg="options")
                 d = spec.terms[0].distribution
                 if d.kind != "fixed":
@@ -316,24 +293,22 @@ class SphereEnvBase(gym.Env, EzPickle):
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         """Start an episode. ``options`` (all optional):
 
-        * ``initial_state``: :class:`~sphere_env.physics.twin.InitialState` or a mapping of its
+        * ``initial_state``: :class:`~sphere_env.physics.InitialState` or a mapping of its
           fields (angles rad, rates rad/s, position m, velocities m/s);
         * any randomization parameter (``pressure_kpa`` [kPa], ``ground_friction``, ...), fixed
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
-        * task command values (see the env's docstring).
+        * task command values (the task's ``command_options``).
         """
         super().reset(seed=seed)
         options = dict(options or {})
-        from sphere_env.physics.twin import InitialState
-
-        allowed = set(PARAMETERS) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self._command_options)
+        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self.task.command_options)
         for key in options:
             if key not in allowed:
                 raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
         params = self._sample_params(options)
         init = options.get("initial_state")
         if init is None:
-            init = self._task_default_initial_state()
+            init = InitialState(**self.task.initial_state())
         elif isinstance(init, Mapping):
             try:
                 init = InitialState(**init)
@@ -342,11 +317,10 @@ class SphereEnvBase(gym.Env, EzPickle):
         elif not isinstance(init, InitialState):
             raise ValueError(f"options: initial_state={init!r} must be an InitialState or a mapping")
         twin = self._get_twin(params["incline_deg"])
-        if twin is not self.twin and self.record_replay and self.twin.visualizer is not None:
-            self.twin.visualizer.StopRecording()
+        if twin is not self.twin and self.record_replay:
+            self.twin.stop_recording()
         self.twin = twin
-        self._apply_params(twin, params)
-        twin.set_pressure(params["pressure_kpa"])
+        twin.apply(params)
         twin.reset(init)
         self._p0 = self._p_applied = params["pressure_kpa"]
         sched = self.randomization.pressure_schedule
@@ -357,15 +331,15 @@ class SphereEnvBase(gym.Env, EzPickle):
         }
         # Only interval terms and a pressure schedule change parameters within an episode.
         self._episode_updates = bool(self._interval_next) or params["pressure_rate_kpa_per_s"] != 0.0
-        if self.record_replay and twin.visualizer is not None:
-            twin.visualizer.DeleteRecording()
-            twin.visualizer.StartRecording(set_transforms_while_recording=True)
-            twin.visualizer.ForcedPublish(twin.visualizer.GetMyContextFromRoot(twin.context))
+        if self.record_replay and twin.is_visualized:
+            twin.start_recording()
+            twin.publish()
         self._steps = 0
         self._failed = None
         self._needs_reset = False
         state = twin.state()
-        self._task_reset(state, options)
+        self._tau[:] = 0.0
+        self.task.reset(state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m))
         obs = self._observe(state)
         info = self._info(state, {}, False)
         if self.render_mode == "human":
@@ -396,7 +370,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         tau[1] = -a1 * self.drive_torque_limit_nm
         if self._failed is None:
             if self._episode_updates:
-                self._update_params_in_episode(twin.context.get_time())
+                self._update_params_in_episode(twin.time_s)
             try:
                 twin.advance_unchecked(self.control_period_s, tau)
             except (RuntimeError, ValueError) as err:  # a diverged solve; never propagate
@@ -408,7 +382,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         if self._failed is not None:
             info = self._failed_info()
             return self._obs.copy(), 0.0, False, True, info
-        terms, terminated, success = self._task_step(state, (a0, a1))
+        terms, terminated, success = self.task.step(state, (a0, a1), self.np_random)
         reward = 0.0
         for v in terms.values():
             reward += v
@@ -426,7 +400,7 @@ class SphereEnvBase(gym.Env, EzPickle):
             for t_term in self.randomization.terms:
                 nxt = self._interval_next.get(t_term.parameter)
                 if nxt is not None and t >= nxt - 1e-9:
-                    val = t_term.distribution.sample(self.np_random, PARAMETERS[t_term.parameter][1])
+                    val = t_term.distribution.sample(self.np_random, RANDOMIZED[t_term.parameter].size)
                     val = clip_parameter(t_term.parameter, val, self.calibration.pressure_range_kpa)
                     if t_term.parameter == "pressure_kpa":
                         val = self._quantize_pressure(val)
@@ -437,7 +411,7 @@ class SphereEnvBase(gym.Env, EzPickle):
                         self._p0 = params["pressure_kpa"]
                         self._sched_delay_s = t  # schedule continues from the new value
             if changed:
-                self._apply_params(self.twin, params)
+                self.twin.apply({k: v for k, v in params.items() if k != "pressure_kpa"})
         rate = params["pressure_rate_kpa_per_s"]
         if rate != 0.0:
             p = schedule_pressure(self._p0, rate, self._sched_delay_s, t, self.calibration.pressure_range_kpa)
@@ -455,7 +429,7 @@ class SphereEnvBase(gym.Env, EzPickle):
         if self.observation_noise_scale > 0.0:
             noise = self.np_random.normal(0.0, self._noise_std)
         obs = assemble_observation(
-            state, self._task_command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise
+            state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise
         )
         self._obs = obs
         return obs
@@ -473,20 +447,21 @@ class SphereEnvBase(gym.Env, EzPickle):
         info["position_m"] = state.position_m
         info["time_s"] = state.time_s
         info["is_success"] = success
+        info["motor_torque_nm"] = self._tau.copy()
         info["params"] = params.copy()
-        info.update(self._task_info())
+        info.update(self.task.info())
         return info
 
     def _zero_terms(self) -> dict[str, float]:
-        return {f"reward_{k}": 0.0 for k in self._reward_term_names}
+        return {f"reward_{k}": 0.0 for k in self.task.reward_terms}
 
     def _failed_info(self) -> dict[str, Any]:
         info = self._zero_terms()
         info.update(
             shell_model=self.shell_model, pressure_kpa=self._params["pressure_kpa"], is_success=False,
-            truncation_reason=self._failed, params=dict(self._params),
+            truncation_reason=self._failed, motor_torque_nm=self._tau.copy(), params=dict(self._params),
         )
-        info.update(self._task_info())
+        info.update(self.task.info())
         return info
 
     # ---- rendering / replay -----------------------------------------------------------------------
@@ -497,81 +472,18 @@ class SphereEnvBase(gym.Env, EzPickle):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode= to gym.make")
             return None
-        twin = self.twin
         if self.render_mode == "human":
-            if twin.visualizer is not None:
-                twin.visualizer.ForcedPublish(twin.visualizer.GetMyContextFromRoot(twin.context))
+            self.twin.publish()
             return None
-        return self._render_rgb(twin)
-
-    def _render_rgb(self, twin) -> np.ndarray:
-        from pydrake.geometry import (
-            ClippingRange,
-            ColorRenderCamera,
-            MakeRenderEngineVtk,
-            RenderCameraCore,
-            RenderEngineVtkParams,
-        )
-        from pydrake.math import RigidTransform, RotationMatrix
-        from pydrake.systems.sensors import CameraInfo
-
-        if not getattr(twin, "_env_renderer", False):
-            from pydrake.geometry import LightParameter
-
-            params = RenderEngineVtkParams()
-            params.backend = "EGL"  # headless; GLX needs an X display
-            params.lights = [  # sun from above plus a camera headlight (defaults leave the ground dark)
-                LightParameter(type="directional", direction=[0.3, 0.2, -1.0], frame="world", intensity=0.9),
-                LightParameter(type="directional", direction=[0.0, 0.0, 1.0], frame="camera", intensity=0.4),
-            ]
-            twin.add_renderer("sphere_env_vtk", MakeRenderEngineVtk(params))
-            twin._env_renderer = True
-            w, h = self.render_size
-            core = RenderCameraCore("sphere_env_vtk", CameraInfo(w, h, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform())
-            self._camera = ColorRenderCamera(core, False)
-        c = twin.state().position_m
-        eye = c + np.array([-1.5, -1.5, 0.9])
-        z = c - eye
-        z /= np.linalg.norm(z)
-        x = np.cross(z, [0.0, 0.0, 1.0])
-        x /= np.linalg.norm(x)
-        X_WC = RigidTransform(RotationMatrix(np.column_stack([x, np.cross(z, x), z])), eye)
-        query = twin.scene_graph.get_query_output_port().Eval(twin.sg_context)
-        image = query.RenderColorImage(self._camera, twin.scene_graph.world_frame_id(), X_WC)
-        return np.array(image.data[:, :, :3], dtype=np.uint8)
+        return self.twin.render_rgb(*self.render_size)
 
     def save_replay(self, path: str | Path) -> Path:
         """Write the current (or just finished) episode as a self-contained Meshcat HTML replay.
         Needs ``record_replay=True``."""
-        twin = self.twin
-        if not self.record_replay or twin.visualizer is None:
+        if not self.record_replay or not self.twin.is_visualized:
             raise RuntimeError("save_replay: make the env with record_replay=True")
-        return twin.save_recording(path)
+        return self.twin.save_recording(path)
 
     def close(self) -> None:
         self._twins.clear()
         self.meshcat = None
-
-    # ---- task hooks (subclasses) ------------------------------------------------------------------
-    _reward_term_names: tuple[str, ...] = ()
-
-    def _task_init(self, **kwargs: Any) -> None:
-        if kwargs:
-            raise ValueError(f"{next(iter(kwargs))}: unknown keyword argument for {type(self).__name__}")
-
-    def _task_default_initial_state(self):
-        from sphere_env.physics.twin import InitialState
-
-        return InitialState()
-
-    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
-        raise NotImplementedError
-
-    def _task_command(self, state) -> list[float]:
-        raise NotImplementedError
-
-    def _task_step(self, state, action: tuple[float, float]) -> tuple[dict[str, float], bool, bool]:
-        raise NotImplementedError
-
-    def _task_info(self) -> dict[str, Any]:
-        return {}

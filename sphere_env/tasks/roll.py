@@ -1,18 +1,21 @@
-"""``sphere_env/Roll-v0``: rolling control on flat ground (speed and heading tracking)."""
+"""``Roll``: rolling control on flat ground (speed and heading tracking)."""
 
 from __future__ import annotations
 
 import math
 from typing import Any, Mapping
 
-from sphere_env.envs.base import SphereEnvBase
+import numpy as np
+
+from sphere_env.checks import ordered_pair, positive
 from sphere_env.tasks.observation import wrap_angle
 from sphere_env.tasks.rewards import RollRewardWeights, make_weights, roll_terms
+from sphere_env.tasks.task import Scene, Task, finite_option
 
 COMMAND_MODES = ("heading", "yaw_rate")
 
 
-class RollEnv(SphereEnvBase):
+class RollTask(Task):
     """Roll on flat ground at a commanded forward drive speed and heading (or yaw rate).
 
     Steering comes from leaning the pendulum on the steer joint, as on the real robot: the lean
@@ -24,7 +27,7 @@ class RollEnv(SphereEnvBase):
     1 = drive torque / ``drive_torque_limit_nm`` (22 N m; **+1 drives forward**).
 
     **Observation space** ``Box(-inf, inf, (13,), float32)`` (14 with ``observe_pressure``):
-    indices 0–10 as in :class:`~sphere_env.envs.RampDescentEnv` (θ [rad], θ̇ [rad/s], drive
+    indices 0–10 as in :class:`~sphere_env.tasks.RampDescentTask` (θ [rad], θ̇ [rad/s], drive
     angle [rad, wrapped], drive rate [rad/s], φ [rad], φ̇ [rad/s], ω_d [rad/s], ψ̇ [rad/s],
     gravity direction in the pipe frame [-] ×3), then
 
@@ -58,43 +61,30 @@ class RollEnv(SphereEnvBase):
     :param reward_weights: mapping overriding :class:`RollRewardWeights` fields.
 
     ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] and ``heading_ref`` [rad] or
-    ``yaw_rate_ref`` [rad/s]. Base kwargs as in :class:`~sphere_env.envs.RampDescentEnv`.
+    ``yaw_rate_ref`` [rad/s]. ``gym.make("sphere_env/Roll-v0", ...)`` takes these kwargs and those
+    of :class:`~sphere_env.envs.SphereEnv` (flat ground: ``ramp_length_m`` must stay None).
 
     **Version history.** v0: initial release.
     """
 
-    _ramp = False
-    _reward_term_names = ("speed", "heading", "ctrl")
+    name = "Roll"
+    ramp = False
+    reward_terms = ("speed", "heading", "ctrl")
 
     def __init__(
         self,
-        *,
         omega_ref_range_rad_s: tuple[float, float] = (0.5, 2.5),
         heading_range_rad: float = math.pi / 2,
         yaw_rate_range_rad_s: tuple[float, float] = (-0.5, 0.5),
         command_mode: str = "heading",
         command_resample_s: float | None = None,
         reward_weights: Mapping[str, float] | None = None,
-        **kwargs: Any,
     ):
-        if kwargs.get("ramp_length_m") is not None:
-            raise ValueError("ramp_length_m: not used by Roll (flat ground); leave it None")
         if command_mode not in COMMAND_MODES:
             raise ValueError(f"command_mode: unknown value {command_mode!r}; allowed: {list(COMMAND_MODES)}")
-        self._command_names = ("omega_ref", "heading_error" if command_mode == "heading" else "yaw_rate_ref")
-        self._command_options = ("omega_ref", "heading_ref" if command_mode == "heading" else "yaw_rate_ref")
-        super().__init__(
-            omega_ref_range_rad_s=omega_ref_range_rad_s, heading_range_rad=heading_range_rad,
-            yaw_rate_range_rad_s=yaw_rate_range_rad_s, command_mode=command_mode,
-            command_resample_s=command_resample_s, reward_weights=reward_weights, **kwargs,
-        )
-
-    def _task_init(self, *, omega_ref_range_rad_s, heading_range_rad, yaw_rate_range_rad_s, command_mode,
-                   command_resample_s, reward_weights, **kwargs) -> None:
-        from sphere_env.envs.base import _positive, _range
-
-        super()._task_init(**kwargs)
-        self.omega_ref_range_rad_s = _range("omega_ref_range_rad_s", omega_ref_range_rad_s, -30.0, 30.0)
+        self.command_names = ("omega_ref", "heading_error" if command_mode == "heading" else "yaw_rate_ref")
+        self.command_options = ("omega_ref", "heading_ref" if command_mode == "heading" else "yaw_rate_ref")
+        self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, -30.0, 30.0)
         try:
             hr = float(heading_range_rad)
         except (TypeError, ValueError):
@@ -102,39 +92,40 @@ class RollEnv(SphereEnvBase):
         if not (math.isfinite(hr) and 0.0 <= hr <= math.pi):
             raise ValueError(f"heading_range_rad: value {heading_range_rad!r} outside allowed [0, π] rad")
         self.heading_range_rad = hr
-        self.yaw_rate_range_rad_s = _range("yaw_rate_range_rad_s", yaw_rate_range_rad_s, -5.0, 5.0)
+        self.yaw_rate_range_rad_s = ordered_pair("yaw_rate_range_rad_s", yaw_rate_range_rad_s, -5.0, 5.0)
         self.command_mode = command_mode
-        self.command_resample_s = None if command_resample_s is None else _positive("command_resample_s", command_resample_s)
+        self.command_resample_s = None if command_resample_s is None else positive("command_resample_s", command_resample_s)
         self.reward_weights = make_weights(RollRewardWeights, reward_weights)
+        self.omega_ref = self.heading_ref = self.yaw_rate_ref = 0.0
+        self.control_period_s = 0.0
+        self._heading0 = 0.0
+        self._next_resample: float | None = None
 
-    def _sample_command(self) -> None:
-        rng = self.np_random
+    def _sample_command(self, rng: np.random.Generator) -> None:
         self.omega_ref = float(rng.uniform(*self.omega_ref_range_rad_s))
         if self.command_mode == "heading":
             self.heading_ref = float(rng.uniform(-self.heading_range_rad, self.heading_range_rad)) + self._heading0
         else:
             self.yaw_rate_ref = float(rng.uniform(*self.yaw_rate_range_rad_s))
 
-    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
+    def reset(self, state: Any, rng: np.random.Generator, options: Mapping[str, Any], scene: Scene) -> None:
+        self.control_period_s = scene.control_period_s
         self._heading0 = state.heading
         self.heading_ref = self.yaw_rate_ref = 0.0
-        self._sample_command()
+        self._sample_command(rng)
         for key in ("omega_ref", "heading_ref", "yaw_rate_ref"):
             if key in options:
-                val = float(options[key])
-                if not math.isfinite(val):
-                    raise ValueError(f"options: {key}={options[key]!r} is not finite")
-                setattr(self, key, val)
+                setattr(self, key, finite_option(options, key))
         self._next_resample = self.command_resample_s
 
-    def _task_command(self, state) -> list[float]:
+    def command(self, state: Any) -> list[float]:
         if self.command_mode == "heading":
             return [self.omega_ref, wrap_angle(self.heading_ref - state.heading)]
         return [self.omega_ref, self.yaw_rate_ref]
 
-    def _task_step(self, state, action):
+    def step(self, state: Any, action: tuple[float, float], rng: np.random.Generator):
         if self._next_resample is not None and state.time_s >= self._next_resample - 1e-9:
-            self._sample_command()
+            self._sample_command(rng)
             self._next_resample += self.command_resample_s
         if self.command_mode == "heading":
             err, yaw_mode = wrap_angle(self.heading_ref - state.heading), False
@@ -147,7 +138,7 @@ class RollEnv(SphereEnvBase):
         )
         return terms, False, tracking
 
-    def _task_info(self) -> dict[str, Any]:
+    def info(self) -> dict[str, Any]:
         if self.command_mode == "heading":
             return {"omega_ref": self.omega_ref, "heading_ref": self.heading_ref}
         return {"omega_ref": self.omega_ref, "yaw_rate_ref": self.yaw_rate_ref}

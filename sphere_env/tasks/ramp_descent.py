@@ -1,17 +1,19 @@
-"""``sphere_env/RampDescent-v0``: the paper's ramp experiment (§IV) as a control task."""
+"""``RampDescent``: the paper's ramp experiment (§IV) as a control task."""
 
 from __future__ import annotations
 
-import math
 from typing import Any, Mapping
 
-from sphere_env.envs.base import SphereEnvBase
+import numpy as np
+
+from sphere_env.checks import ordered_pair, positive
 from sphere_env.tasks.observation import wrap_angle
 from sphere_env.tasks.rewards import RampRewardWeights, make_weights, ramp_descent_terms
+from sphere_env.tasks.task import Scene, Task, finite_option
 from sphere_env.tasks.termination import ramp_status
 
 
-class RampDescentEnv(SphereEnvBase):
+class RampDescentTask(Task):
     """Descend a ramp along the fall line while tracking a commanded drive speed ω_ref.
 
     The robot starts at rest at the top of a ramp (16° by default, as in the paper) heading
@@ -42,11 +44,11 @@ class RampDescentEnv(SphereEnvBase):
     ===  =============  ======  ================================================================
     0    theta          rad     steer joint angle θ (roll_joint)
     1    theta_dot      rad/s   θ̇
-    2    drive_angle    rad     drive joint angle (drive_shaft), wrapped to [-π, π)
+    2    drive_angle    rad     drive joint angle q_d (drive_shaft), wrapped to [-π, π)
     3    drive_rate     rad/s   drive joint rate
     4    phi            rad     pipe angle φ against the ground (pipe_roll)
     5    phi_dot        rad/s   φ̇
-    6    omega_d        rad/s   drive velocity ω_d, + forward (logs: drive_shaft + pitch_joint rates)
+    6    omega_d        rad/s   drive velocity ω_d, + forward (≈ drive_shaft.velocity rolling)
     7    yaw_rate       rad/s   ψ̇ (IMU gyro / shell_yaw rate)
     8-10 gravity_xyz    -       unit gravity direction in the pipe frame (IMU)
     11   omega_ref      rad/s   command: target drive velocity
@@ -66,15 +68,16 @@ class RampDescentEnv(SphereEnvBase):
     **Episode end.** ``terminated`` on reaching the run-out (``is_success=True``) or leaving the
     lane |y| > ``lane_half_width_m``. ``truncated`` by the registration's time limit (400 steps =
     8 s at 50 Hz) or a physics failure (``info["truncation_reason"]``).
+    ``info["motor_torque_nm"]`` holds the applied [τ_steer, τ_drive] at the joints [N m].
 
-    **kwargs** (plus those of :class:`~sphere_env.envs.base.SphereEnvBase`, listed in the README
-    table: ``shell_model``, ``friction_model``, ``calibration``, ``control_frequency_hz`` [Hz],
-    ``time_step_s`` [s], ``steer_torque_limit_nm``/``drive_torque_limit_nm`` [N m],
-    ``randomization``, ``observe_pressure``, ``observation_noise_scale``, ``render_mode``,
-    ``meshcat``, ``record_replay``, ``render_size`` [px]):
+    **kwargs** of ``gym.make("sphere_env/RampDescent-v0", ...)``: those of
+    :class:`~sphere_env.envs.SphereEnv` (``shell_model``, ``friction_model``, ``calibration``,
+    ``control_frequency_hz`` [Hz], ``time_step_s`` [s], ``steer_torque_limit_nm``/
+    ``drive_torque_limit_nm`` [N m], ``randomization``, ``observe_pressure``,
+    ``observation_noise_scale``, ``render_mode``, ``meshcat``, ``record_replay``, ``render_size``
+    [px]) with ``incline_deg`` [deg] default 16 (paper) and ``ramp_length_m`` [m] default 4, plus
+    this task's:
 
-    :param incline_deg: ramp incline [deg], default 16 (paper).
-    :param ramp_length_m: ramp length along the slope [m], default 4.
     :param lane_half_width_m: lateral half-width of the ramp lane [m], default 1.
     :param omega_ref_range_rad_s: (low, high) of the per-episode ω_ref [rad/s].
     :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
@@ -84,57 +87,43 @@ class RampDescentEnv(SphereEnvBase):
     **Version history.** v0: initial release.
     """
 
-    _ramp = True
-    _command_names = ("omega_ref", "heading_error")
-    _command_options = ("omega_ref",)
-    _reward_term_names = ("speed", "lateral", "heading", "ctrl", "success", "off_ramp")
+    name = "RampDescent"
+    ramp = True
+    reward_terms = ("speed", "lateral", "heading", "ctrl", "success", "off_ramp")
+    command_names = ("omega_ref", "heading_error")
+    command_options = ("omega_ref",)
 
     def __init__(
         self,
-        *,
-        incline_deg: float = 16.0,
-        ramp_length_m: float = 4.0,
         lane_half_width_m: float = 1.0,
         omega_ref_range_rad_s: tuple[float, float] = (4.0, 8.0),
         reward_weights: Mapping[str, float] | None = None,
-        **kwargs: Any,
     ):
-        if ramp_length_m is None:
-            raise ValueError("ramp_length_m: value None not allowed for RampDescent; give a length in m")
-        super().__init__(
-            incline_deg=incline_deg, ramp_length_m=ramp_length_m, lane_half_width_m=lane_half_width_m,
-            omega_ref_range_rad_s=omega_ref_range_rad_s, reward_weights=reward_weights, **kwargs,
-        )
-
-    def _task_init(self, *, lane_half_width_m, omega_ref_range_rad_s, reward_weights, **kwargs) -> None:
-        from sphere_env.envs.base import _positive, _range
-
-        super()._task_init(**kwargs)
-        self.lane_half_width_m = _positive("lane_half_width_m", lane_half_width_m, 9.0)
-        self.omega_ref_range_rad_s = _range("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
+        self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
+        self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
         self.reward_weights = make_weights(RampRewardWeights, reward_weights)
+        self.omega_ref = 0.0
+        self.ramp_end_x_m = float("inf")
+        self.control_period_s = 0.0
 
-    def _task_reset(self, state, options: Mapping[str, Any]) -> None:
+    def reset(self, state: Any, rng: np.random.Generator, options: Mapping[str, Any], scene: Scene) -> None:
         lo, hi = self.omega_ref_range_rad_s
-        self.omega_ref = float(self.np_random.uniform(lo, hi))
+        self.omega_ref = float(rng.uniform(lo, hi))
         if "omega_ref" in options:
-            val = float(options["omega_ref"])
-            if not math.isfinite(val):
-                raise ValueError(f"options: omega_ref={options['omega_ref']!r} is not finite")
-            self.omega_ref = val
-        end = self.twin.terrain.ramp_end_W
-        self._ramp_end_x = float(end[0])
+            self.omega_ref = finite_option(options, "omega_ref")
+        self.ramp_end_x_m = scene.ramp_end_x_m
+        self.control_period_s = scene.control_period_s
 
-    def _task_command(self, state) -> list[float]:
+    def command(self, state: Any) -> list[float]:
         return [self.omega_ref, wrap_angle(-state.heading)]
 
-    def _task_step(self, state, action):
-        reached, off = ramp_status(state.position_m, self._ramp_end_x, self.lane_half_width_m)
+    def step(self, state: Any, action: tuple[float, float], rng: np.random.Generator):
+        reached, off = ramp_status(state.position_m, self.ramp_end_x_m, self.lane_half_width_m)
         terms = ramp_descent_terms(
             self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref,
             float(state.position_m[1]), state.heading, action, reached, off,
         )
         return terms, reached or off, reached
 
-    def _task_info(self) -> dict[str, Any]:
+    def info(self) -> dict[str, Any]:
         return {"omega_ref": self.omega_ref}

@@ -1,0 +1,147 @@
+"""The parameter registry: one record per physical or randomizable parameter.
+
+Every layer reads its facts from here: the twin's config checks and setters, the environment's
+kwargs and nominal values, and the randomization spec's bounds. A record states the name (with
+its unit), the unit, the nominal value, the allowed bounds and when the parameter may change:
+
+* ``step``: at any control step, through the twin's context (no rebuild);
+* ``reset``: only between episodes (``incline_deg`` is terrain geometry: another twin);
+* ``build``: fixed when the twin or the environment is built.
+
+Pure Python (no Drake), so tasks and randomization specs can be checked without a simulator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sphere_env.checks import finite_number
+
+#: |g| [m/s²], Drake's default gravity; every model and controller uses this one value.
+GRAVITY_M_S2 = 9.81
+#: Plant time step [s] of the twin and the environments (see ``evaluation/results/timestep_study.md``).
+DEFAULT_TIME_STEP_S = 0.005
+#: Coulomb friction coefficient the shell's contact geometry keeps [-]. Drake combines shell and
+#: ground coefficients as 2 μ_s μ_g / (μ_s + μ_g), so any effective μ in (0, 2 μ_s) is reachable
+#: by changing only the ground's coefficient; that is the ground-friction bound below.
+SHELL_FRICTION = 1.0
+
+CHANGES = ("step", "reset", "build")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter: name (with unit), unit, nominal value, bounds and when it may change.
+
+    ``low``/``high`` are ``None`` where the bound comes from elsewhere (the pressure range from
+    the shell calibration) or does not exist; ``low_open``/``high_open`` exclude the bound.
+    ``size`` > 1 for vector parameters (each component within the bounds).
+    """
+
+    name: str
+    unit: str
+    nominal: Any
+    low: float | None
+    high: float | None
+    changes: str
+    doc: str
+    size: int = 1
+    low_open: bool = False
+    high_open: bool = False
+
+    @property
+    def allowed(self) -> str:
+        """The bounds as text, e.g. ``(0, 0.05] s``."""
+        lo = "-inf" if self.low is None else f"{self.low:g}"
+        hi = "inf" if self.high is None else f"{self.high:g}"
+        unit = "" if self.unit == "-" else f" {self.unit}"
+        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high_open or self.high is None else ']'}{unit}"
+
+    def contains(self, value: float) -> bool:
+        lo, hi = self.low, self.high
+        if lo is not None and (value < lo or (self.low_open and value == lo)):
+            return False
+        if hi is not None and (value > hi or (self.high_open and value == hi)):
+            return False
+        return True
+
+    def check(self, value: Any, field: str | None = None):
+        """``value`` as a float (or a tuple of ``size`` floats) within the bounds; ``ValueError``
+        naming ``field`` (default: the parameter's name), the value and the allowed range."""
+        field = field or self.name
+        if self.size == 1:
+            val = finite_number(field, value, self.allowed)
+            if not self.contains(val):
+                raise ValueError(f"{field}: value {value!r} outside allowed {self.allowed}")
+            return val
+        arr = np.asarray(value, dtype=float) if isinstance(value, (list, tuple, np.ndarray)) else None
+        if arr is None or arr.shape != (self.size,) or not np.all(np.isfinite(arr)):
+            raise ValueError(f"{field}: value {value!r} must be {self.size} finite numbers within {self.allowed}")
+        if not all(self.contains(float(v)) for v in arr):
+            raise ValueError(f"{field}: value {value!r} must be {self.size} finite numbers within {self.allowed}")
+        return tuple(float(v) for v in arr)
+
+    def clip(self, value: float) -> float:
+        """Clip into the bounds (an open bound clips to the nearest allowed float)."""
+        lo, hi = self.low, self.high
+        if lo is not None and value <= lo:
+            return math.nextafter(lo, math.inf) if self.low_open else lo
+        if hi is not None and value >= hi:
+            return math.nextafter(hi, -math.inf) if self.high_open else hi
+        return value
+
+
+def _p(name, unit, nominal, low, high, changes, doc, **kw) -> tuple[str, Parameter]:
+    return name, Parameter(name, unit, nominal, low, high, changes, doc, **kw)
+
+
+#: Every physical or randomizable parameter, by name.
+PARAMETERS: dict[str, Parameter] = dict([
+    # ---- may change within an episode (context parameters of the twin) ----
+    _p("pressure_kpa", "kPa", None, None, None, "step",
+       "shell gauge pressure; nominal and bounds are the shell calibration's"),
+    _p("steer_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× steer joint friction torque"),
+    _p("drive_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× drive joint friction torque"),
+    _p("ground_friction", "-", SHELL_FRICTION, 0.0, 2.0 * SHELL_FRICTION, "step",
+       "effective shell–ground Coulomb μ (static = dynamic); < 2 μ_shell, see SHELL_FRICTION",
+       low_open=True, high_open=True),
+    _p("payload_mass_kg", "kg", 0.0, 0.0, 50.0, "step", "point mass on the pendulum"),
+    _p("payload_com_offset_m", "m", (0.0, 0.0, 0.0), -0.3, 0.3, "step",
+       "payload offset from the pendulum COM, pendulum frame", size=3),
+    _p("pressure_rate_kpa_per_s", "kPa/s", 0.0, None, None, "reset",
+       "pressure schedule rate (< 0: a leak), sampled per episode"),
+    # ---- terrain: a new twin, so only between episodes ----
+    _p("incline_deg", "deg", 0.0, 0.0, 30.0, "reset",
+       "ground incline, downhill along +x_W; the contact models were checked up to 30°"),
+    # ---- fixed when built ----
+    _p("time_step_s", "s", DEFAULT_TIME_STEP_S, 0.0, 0.05, "build", "plant time step", low_open=True),
+    _p("ramp_length_m", "m", None, 0.0, 100.0, "build", "ramp length along the slope; None = infinite plane",
+       low_open=True),
+    _p("control_frequency_hz", "Hz", 50.0, 0.0, 1000.0, "build", "policy rate", low_open=True),
+    # Gravity caps the useful pendulum torque near (m_pc r_pc + m_p r_p) g ≈ 21.9 N m; the steer
+    # motor only lifts the pendulum (m_p r_p g ≈ 20.5 N m). Real limits are unpublished.
+    _p("steer_torque_limit_nm", "N m", 20.0, 0.0, 200.0, "build", "steer motor torque at action ±1",
+       low_open=True),
+    _p("drive_torque_limit_nm", "N m", 22.0, 0.0, 200.0, "build", "drive motor torque at action ±1",
+       low_open=True),
+])
+
+#: Parameters the twin's context takes within an episode (:meth:`Twin.apply`), nominal values.
+TWIN_PARAMETERS = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
+                   "payload_mass_kg", "payload_com_offset_m")
+#: Parameters a randomization spec may sample.
+RANDOMIZABLE = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
+                "incline_deg", "payload_mass_kg", "payload_com_offset_m")
+
+
+def nominal(name: str) -> Any:
+    return PARAMETERS[name].nominal
+
+
+def check(name: str, value: Any, field: str | None = None):
+    """Check ``value`` against the record ``name`` (see :meth:`Parameter.check`)."""
+    return PARAMETERS[name].check(value, field)

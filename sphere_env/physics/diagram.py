@@ -1,0 +1,211 @@
+"""Building the twin's Drake diagram: plant, contact geometry, force systems, ports.
+
+One function, :func:`build_diagram`, returns the built pieces as a :class:`TwinDiagram`;
+:class:`~sphere_env.physics.twin.Twin` owns and drives them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pydrake.geometry import (
+    AddCompliantHydroelasticProperties,
+    AddContactMaterial,
+    AddRigidHydroelasticProperties,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    ProximityProperties,
+    Role,
+    RoleAssign,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
+from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
+
+from sphere_env.models.rigid_body import RobotParameters
+from sphere_env.models.shell import ShellCalibration
+from sphere_env.params import SHELL_FRICTION
+from sphere_env.physics.config import DEFAULT_CONTACT_APPROXIMATION, TwinConfig
+from sphere_env.physics.forces import build_force_expressions
+from sphere_env.physics.terrain import Terrain
+
+
+@dataclass
+class TwinDiagram:
+    """The built diagram and the handles the twin needs (Drake objects)."""
+
+    diagram: Any
+    simulator: Any
+    context: Any
+    plant: Any
+    scene_graph: Any
+    plant_context: Any
+    sg_context: Any
+    model_instance: Any
+    pc: Any  # pitch-center body (floating root)
+    pipe: Any  # pipe-assembly body (shell)
+    pendulum: Any
+    planar: Any  # steer_plane fixture's planar joint, else None
+    steer: Any
+    drive: Any
+    shell_geometry: Any
+    shell_source_id: Any
+    layout: dict  # state indices: nq, nv, base kind, base/steer/drive q and v starts, locks
+    gain_source: Any  # [K_inject, C_inject, steer scale, drive scale] source; None for a bare plant
+    gain_context: Any
+    motor_port: Any  # [τ_steer, τ_drive] N m
+    visualizer: Any  # MeshcatVisualizer or None
+
+
+def ground_coefficient(mu: float) -> float:
+    """The ground geometry's μ_g giving an effective μ against the shell's μ_s = SHELL_FRICTION:
+    Drake combines 2 μ_s μ_g / (μ_s + μ_g), so μ_g = μ μ_s / (2 μ_s − μ)."""
+    return mu * SHELL_FRICTION / (2.0 * SHELL_FRICTION - mu)
+
+
+def shell_properties(config: TwinConfig, calibration: ShellCalibration, robot: RobotParameters,
+                     pressure_kpa: float) -> ProximityProperties:
+    """The shell's proximity properties at a pressure: friction μ_s and, for ``hydroelastic``, the
+    compliant-hydroelastic modulus and Hunt–Crossley dissipation of the calibration."""
+    cfg, cal, r = config, calibration, robot
+    props = ProximityProperties()
+    if cfg.shell_model == "hydroelastic":
+        modulus, dissipation = cal.hydroelastic(pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
+        AddContactMaterial(
+            dissipation=dissipation,
+            friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION),
+            properties=props,
+        )
+        hint = cfg.resolution_hint_m or cal.resolution_hint_m
+        AddCompliantHydroelasticProperties(resolution_hint=hint, hydroelastic_modulus=modulus, properties=props)
+    else:
+        AddContactMaterial(friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION), properties=props)
+    return props
+
+
+def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, shell_props: ProximityProperties,
+                  meshcat=None) -> TwinDiagram:
+    """Build plant + scene graph (+ friction/injected-shell systems, + Meshcat visualizer)."""
+    cfg = config
+    hydro = cfg.shell_model == "hydroelastic"
+    approx = cfg.contact_approximation or DEFAULT_CONTACT_APPROXIMATION[cfg.shell_model]
+    builder = DiagramBuilder()
+    plant_config = MultibodyPlantConfig(
+        time_step=cfg.time_step_s,
+        discrete_contact_approximation=approx,
+        contact_model="hydroelastic_with_fallback" if hydro else "point",
+    )
+    plant, scene_graph = AddMultibodyPlant(plant_config, builder)
+    (model_instance,) = Parser(plant).AddModels(str(robot.urdf_path))
+    body = plant.GetBodyByName
+    pc, pipe, pendulum = body("pitch_center"), body("pipe_assembly"), body("pendulum")
+    planar = None
+    world = plant.world_frame()
+
+    if cfg.fixture == "stand":
+        # Shell held by the stand: pitch center welded high above the floor (no contact).
+        plant.WeldFrames(world, pc.body_frame(), RigidTransform([0.0, 0.0, 1.0]))
+    elif cfg.fixture == "steer_plane":
+        # Planar joint in the world y–z plane, rotating about world x: frame F has
+        # x_F = y_W, y_F = z_W, z_F = x_W, so planar coords are (y_W, z_W, φ).
+        R_WF = RotationMatrix(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]))
+        F = plant.AddFrame(
+            FixedOffsetFrame("steer_plane_F", world, RigidTransform(R_WF))
+        )
+        M = plant.AddFrame(
+            FixedOffsetFrame("steer_plane_M", pc.body_frame(), RigidTransform(R_WF))
+        )
+        planar = plant.AddJoint(PlanarJoint("steer_plane", F, M, damping=np.zeros(3)))
+
+    # Contact geometry.
+    ground_props = ProximityProperties()
+    mu_g = ground_coefficient(cfg.ground_friction)
+    AddContactMaterial(friction=CoulombFriction(mu_g, mu_g), properties=ground_props)
+    if hydro:
+        AddRigidHydroelasticProperties(ground_props)
+    if cfg.fixture != "stand":
+        terrain.register(plant, ground_props)
+    (shell_geometry,) = plant.GetCollisionGeometriesForBody(body("bedliner"))
+    shell_source_id = plant.get_source_id()
+    scene_graph.AssignRole(
+        shell_source_id, shell_geometry, shell_props, RoleAssign.kReplace
+    )
+    plant.Finalize()
+
+    # Joint bookkeeping.
+    steer, drive = plant.GetJointByName("steer"), plant.GetJointByName("drive")
+    nq, nv = plant.num_positions(), plant.num_velocities()
+    base = None
+    if cfg.fixture in ("free", "locked_steer"):
+        base, bq, bv = "quaternion", pc.floating_positions_start(), pc.floating_velocities_start_in_v()
+    elif cfg.fixture == "steer_plane":
+        base, bq, bv = "planar", planar.position_start(), planar.velocity_start()
+    else:
+        bq = bv = None
+    layout = dict(
+        nq=nq, nv=nv, base=base, base_q=bq, base_v=bv,
+        steer_q=steer.position_start(), steer_v=steer.velocity_start(),
+        drive_q=drive.position_start(), drive_v=drive.velocity_start(),
+        steer_locked=cfg.fixture == "locked_steer",
+        drive_locked=cfg.fixture in ("steer_plane", "stand"),
+    )
+
+    # Friction + injected shell forces, evaluated in C++. A bare plant (benchmark floor) leaves
+    # the applied-generalized-force port unconnected, i.e. zero.
+    gain_source = None
+    if not cfg.bare_plant:
+        x, g, out, kinematics = build_force_expressions(
+            layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model == "injected",
+            terrain.normal_at,
+        )
+        k = kinematics[0] if kinematics is not None else np.array([], dtype=object)
+        forces = builder.AddNamedSystem(
+            "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, k, g]), output=out)
+        )
+        gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
+        mux = builder.AddSystem(Multiplexer([nq + nv, len(k), len(g)] if len(k) else [nq + nv, len(g)]))
+        builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
+        if len(k):  # stage 1: φ, φ̇, axis, ŷ, ω_d computed once per step
+            kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(input=x, output=kinematics[1]))
+            builder.Connect(plant.get_state_output_port(), kin.get_input_port())
+            builder.Connect(kin.get_output_port(), mux.get_input_port(1))
+        builder.Connect(gain_source.get_output_port(), mux.get_input_port(mux.num_input_ports() - 1))
+        builder.Connect(mux.get_output_port(), forces.get_input_port())
+        builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
+
+    # Motor torques [τ_steer, τ_drive] at the joints, N m.
+    order = [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()]
+    if order != ["steer", "drive"]:
+        raise RuntimeError(f"robot URDF: expected actuators on [steer, drive], found {order}")
+    builder.ExportInput(plant.get_actuation_input_port(), "motor_torque")
+    builder.ExportOutput(plant.get_state_output_port(), "state")
+
+    if meshcat is not None:
+        visualizer = MeshcatVisualizer.AddToBuilder(
+            builder, scene_graph, meshcat, MeshcatVisualizerParams(role=Role.kIllustration)
+        )
+    else:
+        visualizer = None
+
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    sg_context = scene_graph.GetMyMutableContextFromRoot(context)
+    gain_context = (
+        None if gain_source is None else gain_source.GetMyMutableContextFromRoot(context)
+    )
+    motor_port = diagram.get_input_port(0)
+    return TwinDiagram(
+        diagram=diagram, simulator=simulator, context=context, plant=plant, scene_graph=scene_graph,
+        plant_context=plant_context, sg_context=sg_context, model_instance=model_instance, pc=pc, pipe=pipe,
+        pendulum=pendulum, planar=planar, steer=steer, drive=drive, shell_geometry=shell_geometry,
+        shell_source_id=shell_source_id, layout=layout, gain_source=gain_source, gain_context=gain_context,
+        motor_port=motor_port, visualizer=visualizer,
+    )

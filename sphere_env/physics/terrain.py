@@ -1,0 +1,64 @@
+"""Ground geometry of the twin: an inclined plane, or a finite ramp with a flat run-out."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.geometry import Box, HalfSpace, ProximityProperties
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.symbolic import Expression, Variable, if_then_else
+
+
+class Terrain:
+    """Ground geometry: an inclined plane, or a ramp of finite length with a flat run-out."""
+
+    def __init__(self, incline_deg: float, ramp_length_m: float | None):
+        self.alpha = math.radians(incline_deg)
+        self.ramp_length_m = ramp_length_m
+        self.R_WG = RotationMatrix.MakeYRotation(self.alpha)  # x_G down the fall line
+        self.n_ramp = self.R_WG.col(2)
+        self.t_ramp = self.R_WG.col(0)
+        self._n_ramp = tuple(float(c) for c in self.n_ramp)
+        # x_W where the flat run-out starts (inf: the incline never ends)
+        self._x_runout = math.inf if ramp_length_m is None or self.alpha == 0.0 else float(self.ramp_end_W[0])
+
+    @property
+    def ramp_end_W(self) -> np.ndarray | None:
+        """Bottom end of the ramp in W [m] (``None`` for an infinite plane)."""
+        return None if self.ramp_length_m is None else self.t_ramp * self.ramp_length_m
+
+    @property
+    def ramp_end_x_m(self) -> float:
+        """x_W of the ramp's bottom end [m]; ``inf`` for an infinite plane."""
+        return math.inf if self.ramp_length_m is None else float(self.ramp_end_W[0])
+
+    def normal_at(self, p_W):
+        """Ground normal n_W under a point, as a 3-tuple (numeric or symbolic in p_W)."""
+        if math.isinf(self._x_runout):
+            return self._n_ramp
+        if isinstance(p_W[0], (Expression, Variable)):  # symbolic state variables are Variables
+            return tuple(if_then_else(p_W[0] < self._x_runout, nr, nz) for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
+        return self._n_ramp if p_W[0] < self._x_runout else (0.0, 0.0, 1.0)
+
+    def register(self, plant, props: ProximityProperties) -> None:
+        world = plant.world_body()
+        if self.ramp_length_m is None:
+            X = RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3)))
+            plant.RegisterCollisionGeometry(world, X, HalfSpace(), "ground", props)
+            plant.RegisterVisualGeometry(
+                world, RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1), "ground_vis",
+                np.array([0.55, 0.5, 0.45, 1.0]),
+            )
+            return
+        # Ramp + flat run-out = union of two half-spaces: the terrain height is the max of the two
+        # planes, so each half-space lies below the other's surface where that one is active.
+        # (Half-spaces are much cheaper than boxes for hydroelastic contact.)
+        end = self.ramp_end_W
+        plant.RegisterCollisionGeometry(world, RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), "ramp", props)
+        plant.RegisterCollisionGeometry(world, RigidTransform(end), HalfSpace(), "runout", props)
+        L, thick, margin = self.ramp_length_m, 0.1, 2.0
+        X_ramp = RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2)
+        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 6, thick), "ramp_vis", np.array([0.55, 0.5, 0.45, 1.0]))
+        X_run = RigidTransform(end + np.array([15.0, 0.0, -thick / 2]))
+        plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", np.array([0.45, 0.5, 0.55, 1.0]))

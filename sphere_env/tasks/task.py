@@ -1,0 +1,87 @@
+"""The task interface (dm_control ``Task`` spirit): what an episode asks of the robot.
+
+A :class:`Task` owns its command, its observation layout, its reward terms, its termination and
+its default initial state. It sees only :class:`~sphere_env.physics.TwinState` snapshots (or
+anything with the same attributes), plain numbers and the env's random generator; it never
+touches Drake. :class:`~sphere_env.envs.SphereEnv` composes a twin and a task into a Gymnasium
+environment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from sphere_env.tasks.observation import ObservationLayout
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What a task may know about the world it runs in (plain numbers).
+
+    :param control_period_s: policy period [s]; per-step reward terms scale with it.
+    :param incline_deg: ground incline of this episode [deg].
+    :param ramp_end_x_m: x_W where the ramp ends and the flat run-out starts [m]; ``inf`` without one.
+    """
+
+    control_period_s: float
+    incline_deg: float
+    ramp_end_x_m: float
+
+
+class Task:
+    """Base class. Subclasses set the class attributes and implement the methods.
+
+    :cvar name: task name (``"RampDescent"``, ``"Roll"``).
+    :cvar ramp: whether the task runs on a finite ramp (then the incline may be randomized).
+    :cvar reward_terms: names of the reward terms (reported as ``info["reward_<term>"]``).
+    :cvar command_names: command components appended to the measured observation.
+    :cvar command_options: command values settable through ``reset(options=...)``.
+    """
+
+    name: str = "Task"
+    ramp: bool = False
+    reward_terms: tuple[str, ...] = ()
+    command_names: tuple[str, ...] = ()
+    command_options: tuple[str, ...] = ()
+
+    # ---- layout ---------------------------------------------------------------------------------
+    def observation_layout(self, observe_pressure: bool = False) -> ObservationLayout:
+        """The observation's components in order: measured, then this task's command, then the
+        privileged pressure if observed."""
+        return ObservationLayout(self.command_names, observe_pressure)
+
+    # ---- episode --------------------------------------------------------------------------------
+    def initial_state(self) -> dict[str, Any]:
+        """Default initial state of an episode, as :class:`~sphere_env.physics.InitialState` fields
+        (``{}``: at rest at the origin)."""
+        return {}
+
+    def reset(self, state: Any, rng: np.random.Generator, options: Mapping[str, Any], scene: Scene) -> None:
+        """Start an episode from ``state``: draw the command (``options`` may fix it)."""
+        raise NotImplementedError
+
+    def command(self, state: Any) -> list[float]:
+        """The command part of the observation for ``state``."""
+        raise NotImplementedError
+
+    def step(self, state: Any, action: tuple[float, float],
+             rng: np.random.Generator) -> tuple[dict[str, float], bool, bool]:
+        """After a control step: (reward terms, terminated, success)."""
+        raise NotImplementedError
+
+    def info(self) -> dict[str, Any]:
+        """Task values for ``info`` (e.g. the current command)."""
+        return {}
+
+
+def finite_option(options: Mapping[str, Any], key: str) -> float:
+    """``options[key]`` as a finite float, or ``ValueError`` naming it."""
+    import math
+
+    val = float(options[key])
+    if not math.isfinite(val):
+        raise ValueError(f"options: {key}={options[key]!r} is not finite")
+    return val
