@@ -10,7 +10,7 @@ from sphere_env.models.shell import DEFAULT_CALIBRATION, ShellCalibration, membr
 
 def test_equivalents_match_design_figures():
     r = RobotParameters.from_urdf()
-    # DESIGN.md §1/§3 figures (computed there from Table II; we compute from the URDF).
+    # docs/design.md §1/§5 figures (computed there from Table II; we compute from the URDF).
     assert r.m_total == pytest.approx(41.35, abs=0.01)
     assert r.weight_n == pytest.approx(405.6, abs=0.1)
     assert r.K_eq == pytest.approx(21.9, abs=0.05)
