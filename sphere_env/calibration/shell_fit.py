@@ -75,7 +75,7 @@ def calibration_at(
                                  "volume_m3": [float(v) for v in v_base * factor]}
     if dissipation_s_per_m is not None:
         cal = ShellCalibration.from_dict(raw, source="<fit>")
-        _, c_inject = cal.injected_gains(p0, r.M_eq, r.K_eq)
+        _, c_inject = cal.bind(r).injected_gains(p0)
         raw["hydroelastic"] = dict(raw["hydroelastic"], k_d=float(dissipation_s_per_m / c_inject))
     return raw
 
@@ -153,7 +153,7 @@ def fit_shell(
         x0 = [float((start or {}).get("omega_n", base.omega_n(p0))), float((start or {}).get("zeta", base.zeta(p0)))]
         lo, hi = [0.5, 0.0], [8.0, 0.95]
     else:
-        m0, d0 = base.hydroelastic(p0, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
+        m0, d0 = base.bind(robot).hydroelastic(p0)
         names = ["log10_modulus_pa", "dissipation_s_per_m"]
         x0 = [math.log10((start or {}).get("modulus_pa", m0)), float((start or {}).get("dissipation_s_per_m", d0))]
         lo, hi = [4.0, 0.0], [7.0, 20.0]
@@ -188,7 +188,7 @@ def fit_shell(
     ci = {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(names, res.x, std)}
     if model == "injected":
         params = {"omega_n": float(res.x[0]), "zeta": float(res.x[1])}
-        K, C = ShellCalibration.from_dict(raw).injected_gains(p0, robot.M_eq, robot.K_eq)
+        K, C = ShellCalibration.from_dict(raw).bind(robot).injected_gains(p0)
         params.update(K_inject=K, C_inject=C)
     else:
         params = {"modulus_pa": float(10 ** res.x[0]), "dissipation_s_per_m": float(res.x[1]),

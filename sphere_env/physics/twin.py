@@ -246,6 +246,7 @@ class Twin:
         self.config = config
         self.calibration = ShellCalibration.load(config.calibration)
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
+        self.shell = self.calibration.bind(self.robot)
         p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
         self._pressure_kpa = self.calibration.check_pressure(p0, "pressure_kpa")
         self.terrain = Terrain(config.incline_deg, config.ramp_length_m)
@@ -330,7 +331,7 @@ class Twin:
         self._gain_source = None
         if not cfg.bare_plant:
             x, g, out, kinematics = build_force_expressions(
-                self._layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model == "injected",
+                self._layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model in ("injected", "hydroelastic"),
                 self.terrain.normal_at,
             )
             k = kinematics[0] if kinematics is not None else np.array([], dtype=object)
@@ -381,10 +382,10 @@ class Twin:
         self.reset()
 
     def _shell_properties(self, pressure_kpa: float) -> ProximityProperties:
-        cfg, cal, r = self.config, self.calibration, self.robot
+        cfg, cal = self.config, self.calibration
         props = ProximityProperties()
         if cfg.shell_model == "hydroelastic":
-            modulus, dissipation = cal.hydroelastic(pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
+            modulus, dissipation = self.shell.hydroelastic(pressure_kpa)
             AddContactMaterial(
                 dissipation=dissipation,
                 friction=CoulombFriction(cfg.ground_friction, cfg.ground_friction),
@@ -405,14 +406,7 @@ class Twin:
     def shell_parameters(self, pressure_kpa: float | None = None) -> dict:
         """The shell model's parameters at a pressure (current by default), with units in the keys."""
         p = self._pressure_kpa if pressure_kpa is None else pressure_kpa
-        r, cal = self.robot, self.calibration
-        K, C = cal.injected_gains(p, r.M_eq, r.K_eq)
-        out = {"pressure_kpa": p, "omega_n_rad_s": float(cal.omega_n(p)), "zeta": float(cal.zeta(p)),
-               "K_inject_Nm_per_rad": K, "C_inject_Nms_per_rad": C}
-        if self.config.shell_model == "hydroelastic":
-            m, d = cal.hydroelastic(p, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
-            out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d)
-        return out
+        return self.shell.parameters(self.config.shell_model, p)
 
     def set_pressure(self, pressure_kpa: float) -> None:
         """Change the inflation pressure [kPa gauge] now; takes effect on the next step.
@@ -428,7 +422,8 @@ class Twin:
         current pressure. Validated first: on error nothing changes."""
         cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
         p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa, "pressure_kpa")
-        self.calibration, self._pressure_kpa = cal, p
+        shell = cal.bind(self.robot)
+        self.calibration, self.shell, self._pressure_kpa = cal, shell, p
         self._apply_pressure_to_context()
 
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
@@ -442,11 +437,9 @@ class Twin:
     def _apply_gains(self) -> None:
         if self._gain_source is None:  # bare plant
             return
-        K, C = 0.0, 0.0
-        if self.config.shell_model == "injected":
-            K, C = self.calibration.injected_gains(self._pressure_kpa, self.robot.M_eq, self.robot.K_eq)
+        law = self.shell.law_gains(self.config.shell_model, self._pressure_kpa)
         self._gain_source.get_mutable_source_value(self._gain_context).SetFromVector(
-            np.array([K, C, *self._friction_scale])
+            np.concatenate([law, self._friction_scale])
         )
 
     def _apply_pressure_to_context(self) -> None:
@@ -462,9 +455,7 @@ class Twin:
         if self.config.shell_model != "hydroelastic":
             return
         idx = self._geometry_state_index()
-        r = self.robot
-        key = (*self.calibration.hydroelastic(self._pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq),
-               self._ground_friction)
+        key = (*self.shell.hydroelastic(self._pressure_kpa), self._ground_friction)
         snap = self._geometry_cache.get(key)
         if snap is not None:
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
