@@ -177,6 +177,7 @@ class ShellCalibration:
     steer_law: SteerLaw = SteerLaw()
     couple_stiffness_factor: float = 0.0
     couple_damping_factor: float = 0.0
+    stand_still_checked: bool = True
 
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
@@ -266,6 +267,7 @@ class ShellCalibration:
             source=p,
             raw=dict(data),
             steer_law=law,
+            stand_still_checked=check_stand_still,
             **factors,
         )
         for q in (lo, hi):
@@ -348,8 +350,10 @@ class ShellCalibration:
                 )
 
     def bind(self, robot) -> "BoundShell":
-        """This calibration evaluated for one robot (:class:`BoundShell`); checks it can stand still."""
-        self.check_stand_still(robot)
+        """This calibration evaluated for one robot (:class:`BoundShell`); checks it can stand still
+        (unless it was built with ``check_stand_still=False``: a fitter's trial candidate)."""
+        if self.stand_still_checked:
+            self.check_stand_still(robot)
         return BoundShell(self, robot)
 
 
