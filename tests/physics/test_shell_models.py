@@ -15,8 +15,23 @@ def _decay(twin, roll=0.05, seconds=6.0):
     return fit_free_decay(t, phi)
 
 
-def test_injected_free_decay_follows_calibration_curves(make_twin):
-    twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none")
+def _linear_law_calibration(tmp_path):
+    """The shipped calibration with its steer law made linear about φ = 0: then ω_n(p), ζ(p) are
+    exactly the locked-steer decay's frequency and damping (eqs. 7–8)."""
+    import yaml
+
+    from sphere_env.models.shell import DEFAULT_CALIBRATION
+
+    data = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
+    data["steer_law"] = {"form": "linear", "rest_angle_rad": 0.0}
+    path = tmp_path / "linear.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_injected_free_decay_follows_calibration_curves(make_twin, tmp_path):
+    twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none",
+                     calibration=_linear_law_calibration(tmp_path))
     lo, hi = twin.calibration.pressure_range_kpa
     for p in np.linspace(lo, hi, 3):
         twin.set_pressure(p)
@@ -58,8 +73,9 @@ def test_shipped_hydroelastic_mesh_is_converged(make_twin):
     assert abs(w[0.2] / w[shipped / 2.5] - 1) > 0.05, w  # the test can tell a bad mesh
 
 
-def test_set_pressure_mid_run_changes_injected_frequency(make_twin):
-    twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none")
+def test_set_pressure_mid_run_changes_injected_frequency(make_twin, tmp_path):
+    twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none",
+                     calibration=_linear_law_calibration(tmp_path))
     lo, hi = twin.calibration.pressure_range_kpa
     twin.set_pressure(lo)
     twin.reset(InitialState(roll=0.05))
