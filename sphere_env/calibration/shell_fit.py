@@ -27,6 +27,7 @@ form is chosen by held-out error (:func:`cross_validate`), never by training err
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -362,10 +363,8 @@ def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None)
     if keep.sum() < 3:
         raise FitError(f"log {log.path!r}: window [{start_s}, {end_s}] s of {log.name!r} has fewer than 3 samples")
     t = log.t[keep]
-    out = RobotLog(name or f"{log.name}[{start_s:g}:{end_s:g}]", log.path, t - t[0],
-                   {k: v[keep] for k, v in log.channels.items()}, log.fixture, log.pressure_kpa, log.notes,
-                   dict(log.meta))
-    return out
+    return dataclasses.replace(log, name=name or f"{log.name}[{start_s:g}:{end_s:g}]", t=t - t[0],
+                               channels={k: v[keep] for k, v in log.channels.items()}, meta=dict(log.meta))
 
 
 def cross_validate(

@@ -108,3 +108,34 @@ def test_a_fit_that_does_not_converge_is_refused(truth_path):
     start = ShellCalibration.from_dict(calibration_with(ShellCalibration.from_dict(TRUTH), P, {"omega_n": 2.5}))
     with pytest.raises(FitError, match="did not converge after 2 evaluations"):
         fit_shell([log], "injected", P, base=start, form="linear", twin=twin, max_nfev=2)
+
+
+@pytest.mark.slow
+def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_path, truth_path):
+    from sphere_env.calibration.__main__ import main
+    from sphere_env.calibration.logs import write_log_csv
+
+    twin = free_twin(truth_path)
+    log = record_free(twin, InitialState(theta=0.7, roll=-0.3), 2.0, dt_s=0.02)
+    write_log_csv(tmp_path / "push.csv", log.t, {k: log[k] for k in ("theta", "theta_dot", "phi", "phi_dot")})
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({"data_root": ".", "trials": [
+        {"name": "push", "group": "pushes", "file": "push.csv", "fixture": "free"}]}))
+    out = tmp_path / "fitted.yaml"
+    start = tmp_path / "start.yaml"
+    start.write_text(yaml.safe_dump(calibration_with(ShellCalibration.from_dict(TRUTH), P,
+                                                     {"omega_n": 2.7, "rest_angle_rad": 0.0}, form="linear")))
+    rc = main(["steer-fit", "--manifest", str(tmp_path / "m.yaml"), "--group", "pushes", "--fit-on", "push",
+               "--models", "injected", "--forms", "linear", "--pressure-kpa", str(P), "--base", str(start),
+               "--out", str(out)])
+    assert rc == 0
+    cal = ShellCalibration.load(out)
+    assert float(cal.omega_n(P)) == pytest.approx(float(ShellCalibration.from_dict(TRUTH).omega_n(P)), rel=0.05)
+    assert cal.steer_law.rest_angle_rad == pytest.approx(0.03, abs=0.005)
+    lo, hi = cal.raw["steer_fit"]["models"]["injected"]["ci95"]["omega_n"]
+    assert lo <= float(cal.omega_n(P)) <= hi
+    # a refused fit writes nothing
+    out2 = tmp_path / "refused.yaml"
+    rc = main(["steer-fit", "--manifest", str(tmp_path / "m.yaml"), "--group", "pushes", "--models", "injected",
+               "--forms", "linear", "--pressure-kpa", str(P), "--base", str(start), "--max-nfev", "2",
+               "--out", str(out2)])
+    assert rc == 2 and not out2.exists()
