@@ -229,6 +229,22 @@ def calibration_with(base: ShellCalibration, p0: float, values: Mapping[str, flo
     return raw
 
 
+def omega_n_floor(base: ShellCalibration, p0: float, robot: RobotParameters, margin: float = 0.9) -> float:
+    """The least ω_n(p₀) [rad/s] whose linear stiffness stays stable at the reach of φ at every pressure.
+
+    Every form's extra stiffness vanishes (saturating) or may be negative (softening quadratic) at
+    large |φ|, so the linear part alone must keep K_inject(p) + K_g cos φ_max > 0 over the range, with
+    K_g the free-pendulum gravity stiffness; ``margin`` < 1 keeps a little positive stiffness there.
+    The slope of ω_n(p) carries p₀ to the weakest end of the range.
+    """
+    from sphere_env.models.shell import PHI_REACH_RAD, gravity_stiffness_free_pendulum
+
+    k_min = -margin * gravity_stiffness_free_pendulum(robot) * math.cos(PHI_REACH_RAD)
+    w_min = math.sqrt(max(robot.K_eq + k_min, 0.0) / robot.M_eq)
+    lo, hi = base.pressure_range_kpa
+    return w_min + max(base.omega_n_slope * (p0 - lo), base.omega_n_slope * (p0 - hi), 0.0)
+
+
 def _moving(log: RobotLog, min_swing_rad: float = 0.02) -> bool:
     return float(np.ptp(log["phi"])) >= min_swing_rad or float(np.ptp(log["theta"])) >= min_swing_rad
 
@@ -291,6 +307,9 @@ def fit_shell(
     fixed = dict(fixed_injected or {}) if model == "hydroelastic" else {}
     lo = np.array([_BOUNDS[n][0] for n in names])
     hi = np.array([_BOUNDS[n][1] for n in names])
+    if "omega_n" in names:  # keep the search where the robot can stand (see omega_n_floor)
+        i = names.index("omega_n")
+        lo[i] = max(lo[i], omega_n_floor(base, p0, robot))
     x0 = np.clip([float((start or {}).get(n, _start(n, base, p0, robot))) for n in names], lo, hi)
     if pool is None:
         pool = TwinPool(model, steer_friction, time_step_s, drive_friction)
