@@ -394,12 +394,15 @@ def cross_validate(
     steer_friction: FrictionModel | str = "majd_steer",
     max_nfev: int = 40,
     pool: TwinPool | None = None,
+    blocks: int = 3,
 ) -> list[dict[str, Any]]:
     """Held-out φ/θ RMSE [rad] of each steer-law form for the ``injected`` model.
 
-    Two or more segments: leave one segment out, fit on the others, test on it. One segment: split
-    it at its midpoint, fit on the first half and test on the second, replayed from the logged
-    state at the split. Returns one row per (form, fold) with the held-out RMSE and the fit; a fold
+    Two or more segments: leave one segment out, fit on the others, test on it. One segment: cut it
+    into ``blocks`` consecutive blocks, each replayed from the logged state at its start; leave one
+    block out, fit on the others, test on it (blocked cross-validation: every amplitude of the decay
+    is once held out, and no form is judged only on extrapolation from large swings to small ones).
+    Returns one row per (form, fold) with the held-out RMSE and the fit; a fold
     whose fit is refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the
     reason under ``refused``, so that form is never chosen.
     """
@@ -409,8 +412,9 @@ def cross_validate(
         folds = [([lg for j, lg in enumerate(logs) if j != i], [logs[i]]) for i in range(len(logs))]
     else:
         (lg,) = logs
-        mid = 0.5 * float(lg.t[-1])
-        folds = [([window(lg, 0.0, mid, f"{lg.name}[first half]")], [window(lg, mid, float(lg.t[-1]), f"{lg.name}[second half]")])]
+        edges = np.linspace(0.0, float(lg.t[-1]), blocks + 1)
+        parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
+        folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
     rows = []
     for form in forms:
         for train, test in folds:

@@ -53,3 +53,15 @@ def test_hydroelastic_first_swing_on_steer_free_goes_the_way_of_the_log(roboball
         tr = simulate_log(twin, log)
         real, sim = first_swing(log.t, log["phi"], 1.5), first_swing(tr.t, tr["phi"], 1.5)
         assert np.sign(sim) == np.sign(real) and abs(sim) > 0.6 * abs(real), (spec.name, real, sim)
+
+
+@pytest.mark.parametrize("model", ["injected", pytest.param("hydroelastic", marks=pytest.mark.slow)])
+def test_committed_free_robot_calibration_reproduces_its_fit(roboball_dir, model):
+    """assets/calibration/free_robot_release.yaml was fitted on the release (a fit, not a test)."""
+    calibration = Path(__file__).resolve().parents[2] / "assets" / "calibration" / "free_robot_release.yaml"
+    log = free_release(roboball_dir, seconds=3.0)
+    twin = fixture_twin("free", model, calibration=calibration)
+    tr = simulate_log(twin, log)
+    err = float(np.sqrt(np.mean((tr["phi"] - log["phi"]) ** 2)))
+    print(f"{model}: free_release phi RMSE {err:.4f} rad")
+    assert err <= 0.06
