@@ -139,3 +139,20 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
                "--forms", "linear", "--pressure-kpa", str(P), "--base", str(start), "--max-nfev", "2",
                "--out", str(out2)])
     assert rc == 2 and not out2.exists()
+
+
+def test_form_choice_uses_held_out_error_and_skips_refused_forms():
+    from sphere_env.calibration.shell_fit import choose_form
+
+    rows = [
+        {"form": "linear", "rmse_phi_rad": 0.05}, {"form": "linear", "rmse_phi_rad": 0.07},
+        {"form": "saturating", "rmse_phi_rad": 0.04}, {"form": "saturating", "rmse_phi_rad": 0.06},
+        {"form": "quadratic", "rmse_phi_rad": 0.01}, {"form": "quadratic", "rmse_phi_rad": math.inf,
+                                                      "refused": "cannot stand still"},
+    ]
+    form, mean = choose_form(rows)
+    assert form == "saturating" and mean["linear"] == pytest.approx(0.06) and math.isinf(mean["quadratic"])
+    # a tie at 0.1 mrad goes to the form with fewer parameters
+    assert choose_form([{"form": "linear", "rmse_phi_rad": 0.05}, {"form": "saturating", "rmse_phi_rad": 0.04996}])[0] == "linear"
+    with pytest.raises(FitError, match="no steer-law form could be fitted"):
+        choose_form([{"form": "quadratic", "rmse_phi_rad": math.inf, "refused": "x"}])
