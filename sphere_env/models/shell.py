@@ -1,8 +1,21 @@
-"""Shell contact laws and the pressure calibration they read (paper §III, DESIGN.md §3).
+"""Shell contact laws and the pressure calibration they read (paper §III; docs/design.md).
 
-A :class:`ShellCalibration` holds the measured/assumed pressure curves ω_n(p), ζ(p), V(p) and the
-valid pressure range, loaded from one YAML file (``assets/calibration/default.yaml`` by default,
+A :class:`ShellCalibration` holds the measured/assumed pressure curves ω_n(p), ζ(p), V(p), the
+valid pressure range, the steer-direction law (form, rest angle φ_0, amplitude term) and the
+hydroelastic settings, loaded from one YAML file (``assets/calibration/default.yaml`` by default,
 or a user's own). Pressures are gauge pressures in **kPa** at this user-facing boundary.
+
+The laws are written once, here, against a math backend (``m``: numpy by default, Drake symbolic
+in :mod:`sphere_env.physics.forces`), as the friction laws are. :meth:`ShellCalibration.bind`
+evaluates a calibration for one robot (:class:`BoundShell`): injected gains, hydroelastic modulus
+and dissipation, and the gain vector of the shell couple.
+
+Calibration file, steer-law section (optional; absent = linear about φ = 0, the paper's eq. 9)::
+
+    steer_law: {form: linear | saturating | quadratic, rest_angle_rad: φ_0,
+                amplitude_stiffness_nm_per_rad: K_a, amplitude_scale_rad: φ_a,   # saturating only
+                quadratic_stiffness_nm_per_rad2: K_2}                           # quadratic only
+    hydroelastic: {..., couple_stiffness_factor: f_K, couple_damping_factor: f_C}  # default 0, 0
 """
 
 from __future__ import annotations
