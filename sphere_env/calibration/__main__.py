@@ -239,7 +239,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pressure the fit is stated at (default: the base calibration's nominal; the segments' "
                         "own pressure may be unknown)")
     p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation)")
-    p.add_argument("--max-nfev", type=int, default=40, help="simulations allowed per fit (refused if not converged)")
+    p.add_argument("--max-nfev", type=int, default=60, help="simulations allowed per fit (refused if not converged)")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
     p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
