@@ -57,11 +57,12 @@ def test_default_calibration_loads_and_gains_follow_eq_7_8():
     cal = ShellCalibration.load()
     r = RobotParameters.from_urdf()
     p = cal.nominal_pressure_kpa
-    K, C = cal.injected_gains(p, r.M_eq, r.K_eq)
+    shell = cal.bind(r)
+    K, C = shell.injected_gains(p)
     wn, z = float(cal.omega_n(p)), float(cal.zeta(p))
     assert K == pytest.approx(wn**2 * r.M_eq - r.K_eq)
     assert C == pytest.approx(2 * r.M_eq * wn * z)
-    modulus, d = cal.hydroelastic(p, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
+    modulus, d = shell.hydroelastic(p)
     assert modulus == pytest.approx(r.weight_n / membrane_contact_volume_m3(p, r.weight_n, r.radius_m)) or cal.volume_model == "table"
     assert d == pytest.approx(cal.k_d * C)
 
