@@ -8,6 +8,7 @@ mapping::
     channels:
       theta: {column: pendulum_deg, unit: deg}   # angles: rad | deg; rates: rad/s | deg/s | rpm
       phi:   {column: tilt, unit: rad}
+      drive_rate: {column: motor_vel, unit: rad/s, sign: -1}   # sign: -1 for a reversed encoder
 
 RoboBall channels -> project state names (signs and frames: ``docs/design.md``):
 
@@ -16,20 +17,25 @@ RoboBall channels -> project state names (signs and frames: ``docs/design.md``):
 ``roll_joint.position`` / ``.velocity``      ``theta``, ``theta_dot``: steer joint θ
 ``ball_roll`` / ``pipe_roll``                ``phi``, ``phi_dot``: pipe angle φ against the ground
 ``drive_shaft.position`` / ``.velocity``     ``drive_angle``, ``drive_rate``: drive joint q_d, the
-                                             drive motor's encoder (shell against pendulum)
+                                             drive motor's encoder (shell against pendulum),
+                                             **negated**: the encoder counts the other way round
 ``pitch_joint.position`` / ``.velocity``     ``pendulum_pitch``, ``pendulum_pitch_rate``: α, the
                                              pendulum's pitch against gravity (robot IMU)
 ``shell_yaw`` / ``ball_yaw``                 ``heading``, ``heading_rate``: ψ
 ===========================================  =====================================================
 
+The drive encoder counts opposite to the twin's drive joint (whose axis is −ŷ_PC): in steady
+rolling ``drive_shaft.velocity`` ≈ +ω_d (the data's own documentation) while the twin's q̇_d ≈ −ω_d.
+The loader negates ``drive_shaft`` so that ``drive_angle`` and ``drive_rate`` mean exactly the
+twin's q_d and q̇_d (``ROBOBALL_SIGNS``); a user mapping says the same with ``sign: -1``.
+
 ``omega_d`` (ω_d, the shell's angular velocity about the driveshaft) is not a raw RoboBall
 channel. When a log has both ``drive_rate`` and ``pendulum_pitch_rate`` and no ``omega_d`` column,
-it is derived as ω_d = q̇_d + α̇ (shell against world = shell against pendulum + pendulum against
-world) and the log's ``derived`` records it. The relative sign of the two terms is read from the
-data, not a datasheet: while driving, the pendulum leans against the turning direction of the
-encoder (the pendulum is carried ahead of the contact point), which holds only if q_d and α are
-measured about the same axis direction. The overall sign of ω_d against the twin is not
-confirmed by the logs. Everything is converted to rad, rad/s and s from the first sample.
+it is derived as in the twin, ω_d = α̇ − q̇_d (shell against world = pendulum against world + shell
+against pendulum, the drive axis being −ŷ_PC), and the log's ``derived`` records it. The data
+agree with these signs: while driving, the pendulum leans against the drive (the pendulum is carried
+ahead of the contact point: α and q̇_d share their sign in 90 % of the driving samples of
+``free_robot``, as in the twin). Everything is converted to rad, rad/s and s from the first sample.
 
 Every problem with an input raises :class:`LogError` (a ``ValueError``) naming the file, the CSV
 line (1 = header) and/or column, and what is wrong. Loading never writes anything.
@@ -71,6 +77,9 @@ ROBOBALL_CHANNELS: dict[str, tuple[str, ...]] = {
 #: 4.66e10 units over 4665 rows (46.6 s at a median 9.97 ms, i.e. 100 Hz), the steer_free and
 #: stand_swing logs 2e7 units per row (50 Hz). Any other unit is refused by the sample-period check.
 ROBOBALL_TIME = ("timestamp", "ns")
+#: Sign of each project channel against its RoboBall column (module docstring): the drive encoder
+#: counts opposite to the twin's drive joint.
+ROBOBALL_SIGNS = {"drive_angle": -1.0, "drive_rate": -1.0}
 #: Project names -> RoboBall CSV columns (for writing synthetic logs).
 ROBOBALL_COLUMNS = {name: cols[0] for name, cols in ROBOBALL_CHANNELS.items()}
 
@@ -95,12 +104,14 @@ class ColumnMapping:
     :param channels: project channel name -> list of candidate (column, unit); the first column
         present in the file is used.
     :param required: channels that must be present (else :class:`LogError`).
+    :param signs: project channel -> ±1, the sign of the channel against its column.
     """
 
     time: tuple[str, str]
     channels: Mapping[str, tuple[tuple[str, str], ...]]
     required: tuple[str, ...] = ()
     source: str = "<roboball>"
+    signs: Mapping[str, float] = field(default_factory=dict)
 
     @classmethod
     def roboball(cls, required: tuple[str, ...] = ()) -> "ColumnMapping":
@@ -109,7 +120,7 @@ class ColumnMapping:
             name: tuple((col, "rad/s" if name not in ANGLE_CHANNELS else "rad") for col in cols)
             for name, cols in ROBOBALL_CHANNELS.items()
         }
-        return cls(time=ROBOBALL_TIME, channels=chans, required=required)
+        return cls(time=ROBOBALL_TIME, channels=chans, required=required, signs=dict(ROBOBALL_SIGNS))
 
     @classmethod
     def load(cls, path: str | Path) -> "ColumnMapping":
@@ -128,6 +139,7 @@ class ColumnMapping:
         if tunit not in TIME_UNITS:
             raise LogError(f"column mapping {p!r}: field 'time.unit' = {tunit!r}; allowed: {list(TIME_UNITS)}")
         chans: dict[str, tuple[tuple[str, str], ...]] = {}
+        signs: dict[str, float] = {}
         if not isinstance(data["channels"], Mapping) or not data["channels"]:
             raise LogError(f"column mapping {p!r}: field 'channels' must be a non-empty mapping")
         for name, spec in data["channels"].items():
@@ -143,8 +155,12 @@ class ColumnMapping:
                 raise LogError(
                     f"column mapping {p!r}: field 'channels.{name}.unit' = {unit!r}; allowed: {list(allowed)}"
                 )
+            sign = spec.get("sign", 1)
+            if isinstance(sign, bool) or sign not in (1, -1):
+                raise LogError(f"column mapping {p!r}: field 'channels.{name}.sign' = {sign!r}; allowed: [1, -1]")
             chans[name] = ((str(spec["column"]), unit),)
-        return cls(time=(str(t["column"]), tunit), channels=chans, required=tuple(chans), source=p)
+            signs[name] = float(sign)
+        return cls(time=(str(t["column"]), tunit), channels=chans, required=tuple(chans), source=p, signs=signs)
 
 
 @dataclass
@@ -292,7 +308,7 @@ def load_log(
             if col in df.columns:
                 x = numeric(col)
                 scale = ANGLE_UNITS[unit] if chan in ANGLE_CHANNELS else RATE_UNITS[unit]
-                channels[chan] = _fill_nans(p, col, x, max_nan_run) * scale
+                channels[chan] = _fill_nans(p, col, x, max_nan_run) * (scale * mapping.signs.get(chan, 1.0))
                 limit = MAX_ANGLE_RAD if chan in ANGLE_CHANNELS else MAX_RATE_RAD_S
                 big = np.abs(channels[chan]) > limit
                 if big.any():
@@ -305,10 +321,9 @@ def load_log(
                 break
     derived: dict[str, str] = {}
     if "omega_d" not in channels and "drive_rate" in channels and "pendulum_pitch_rate" in channels:
-        # ω_d = q̇_d + α̇: shell against world = shell against pendulum + pendulum against world
-        # (relative sign read from the data; see the module docstring).
-        channels["omega_d"] = channels["drive_rate"] + channels["pendulum_pitch_rate"]
-        derived["omega_d"] = "drive_rate + pendulum_pitch_rate"
+        # ω_d = α̇ − q̇_d, as the twin reads it (module docstring).
+        channels["omega_d"] = channels["pendulum_pitch_rate"] - channels["drive_rate"]
+        derived["omega_d"] = "pendulum_pitch_rate - drive_rate"
     need = tuple(dict.fromkeys(mapping.required + tuple(required)))
     for chan in need:
         if chan not in channels:
@@ -515,7 +530,7 @@ def write_log_csv(path: str | Path, t_s: np.ndarray, channels: Mapping[str, np.n
     names = dict(ROBOBALL_COLUMNS, omega_d="omega_d")  # ω_d has no RoboBall column: written under its own name
     df = pd.DataFrame({"timestamp": (t0_ns + np.round(np.asarray(t_s) * 1e9)).astype(np.int64)})
     for k, v in channels.items():
-        df[names[k]] = np.asarray(v, float)
+        df[names[k]] = ROBOBALL_SIGNS.get(k, 1.0) * np.asarray(v, float)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(path, index=False)

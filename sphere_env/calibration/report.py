@@ -236,7 +236,7 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
             L.append(f"| {r['trial']} | {w[0]}–{w[1]} | {r['model']} | {_f(r.get('rmse_phi_rad'))} | "
                      f"{_f(r.get('rmse_theta_rad'))} | {_f(r.get('rmse_pendulum_pitch_rad'))} | "
                      f"{_f(r.get('rmse_omega_d_rad_s'))} |")
-        L += ["", "ω_d of the free robot is derived from the logs (drive_rate + pendulum_pitch_rate), not measured.",
+        L += ["", "ω_d of the free robot is derived from the logs (pendulum_pitch_rate - drive_rate), not measured.",
               "", "![free robot overlay](free_robot_overlay.png)"]
     L += ["", "## 4. Cross-validation: fit on one segment, validate on the others", "",
           "Per group (segments at one unrecorded pressure), every shell model is fitted on each segment in turn "

@@ -37,7 +37,7 @@ def record(twin: Twin, initial: InitialState, duration_s: float, dt_s: float = 0
         if i:
             # Absolute targets just short of each sample time, as the replay does: summing 0.02 s
             # increments lands some samples 1 ulp past a 5 ms plant-step boundary, others 1 ulp short.
-            twin.advance(max(i * dt_s - twin.context.get_time() - 1e-9, 0.0))
+            twin.advance(max(i * dt_s - twin.time_s - 1e-9, 0.0))
         s = twin.state()
         for c in channels:
             data[c][i] = getattr(s, c)

@@ -8,7 +8,7 @@ import yaml
 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import FitError, calibration_with, fit_shell, window
-from sphere_env.calibration.simulate import initial_state_from_log, pendulum_pitch, rmse, simulate_log
+from sphere_env.calibration.simulate import initial_state_from_log, rmse, simulate_log
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
@@ -29,15 +29,15 @@ def record_free(twin, initial, duration_s, dt_s=0.01, torque_until_s=0.0, torque
     twin.reset(initial)
     n = int(round(duration_s / dt_s))
     t = np.arange(n + 1) * dt_s
-    data = {c: np.empty(n + 1) for c in FREE_CHANNELS + ("pendulum_pitch", "pendulum_pitch_rate")}
+    channels = FREE_CHANNELS + ("pendulum_pitch", "pendulum_pitch_rate")
+    data = {c: np.empty(n + 1) for c in channels}
     for i in range(n + 1):
         if i:
             tau = torque if t[i] <= torque_until_s + 1e-9 else (0.0, 0.0)
-            twin.advance(max(t[i] - twin.context.get_time() - 1e-9, 0.0), tau)
+            twin.advance(max(t[i] - twin.time_s - 1e-9, 0.0), tau)
         s = twin.state()
-        for c in FREE_CHANNELS:
+        for c in channels:
             data[c][i] = getattr(s, c)
-        data["pendulum_pitch"][i], data["pendulum_pitch_rate"][i] = pendulum_pitch(twin)
     return RobotLog(name, f"<{name}>", t, data, fixture="free")
 
 
@@ -59,8 +59,9 @@ def test_initial_state_from_a_free_window_reproduces_the_twin_state(truth_path):
     s0 = twin.reset(init)
     assert s0.phi == pytest.approx(win["phi"][0], abs=1e-9)
     assert s0.phi_dot == pytest.approx(win["phi_dot"][0], abs=1e-6)
-    assert pendulum_pitch(twin)[0] == pytest.approx(win["pendulum_pitch"][0], abs=1e-9)
-    assert pendulum_pitch(twin)[1] == pytest.approx(win["pendulum_pitch_rate"][0], abs=1e-6)
+    assert s0.pendulum_pitch == pytest.approx(win["pendulum_pitch"][0], abs=1e-9)
+    assert s0.pendulum_pitch_rate == pytest.approx(win["pendulum_pitch_rate"][0], abs=1e-6)
+    assert s0.drive_rate == pytest.approx(win["drive_rate"][0], abs=1e-9)
     assert s0.omega_d == pytest.approx(win["omega_d"][0] if win.has("omega_d") else s0.omega_d)
     tr = simulate_log(twin, win)
     for ch in ("phi", "theta", "pendulum_pitch"):

@@ -80,10 +80,10 @@ def test_record_keeps_optional_metrics_only_where_computed():
     assert set(flat.record()) == {"trial", "model", "fixture", "rmse_phi_rad", "rmse_theta_rad"}
     free = ValidationRow("b", "hydroelastic", "free", {"phi": 0.1, "theta": 0.2, "omega_d": 0.3,
                                                        "pendulum_pitch": 0.01}, nan,
-                         derived={"omega_d": "drive_rate + pendulum_pitch_rate"}, window_s=(32.81, 35.81))
+                         derived={"omega_d": "pendulum_pitch_rate - drive_rate"}, window_s=(32.81, 35.81))
     r = free.record()
     assert r["rmse_pendulum_pitch_rad"] == 0.01 and r["rmse_omega_d_rad_s"] == 0.3 and "pme_percent" not in r
-    assert r["omega_d_derived_from"] == "drive_rate + pendulum_pitch_rate" and r["window_s"] == [32.81, 35.81]
+    assert r["omega_d_derived_from"] == "pendulum_pitch_rate - drive_rate" and r["window_s"] == [32.81, 35.81]
     ramp = ValidationRow("c", "point", "free", {"phi": 0.1, "theta": 0.2, "omega_d": 0.3}, 12.5)
     assert ramp.record()["pme_percent"] == 12.5
     json.dumps([flat.record(), r, ramp.record()])  # plain JSON
@@ -101,5 +101,5 @@ def test_free_release_window_validates_to_records(roboball_dir, tmp_path):
     (rec,) = json.loads(out.read_text())
     assert rec["trial"] == "free_release" and rec["fixture"] == "free" and rec["window_s"] == [32.81, 35.81]
     assert "pme_percent" not in rec  # flat ground
-    assert rec["omega_d_derived_from"] == "drive_rate + pendulum_pitch_rate"
+    assert rec["omega_d_derived_from"] == "pendulum_pitch_rate - drive_rate"
     assert 0.0 < rec["rmse_phi_rad"] < 1.0 and 0.0 < rec["rmse_theta_rad"] < 2.0

@@ -144,11 +144,12 @@ def test_free_robot_timestamps_are_nanoseconds_at_100_hz(free_robot):
 @pytest.mark.realdata
 def test_free_robot_channel_mapping(free_robot):
     t, q, alpha = free_robot.t, free_robot["drive_angle"], free_robot["pendulum_pitch"]
-    # drive_shaft (drive joint, motor encoder) accumulates while driving: ≈ 4.7 rad in the first drive.
+    # drive_shaft (drive joint, motor encoder, negated into the twin's q_d) accumulates while
+    # driving: ≈ 4.7 rad in the first drive ...
     drive = (t > 6.8) & (t < 17.7)
-    assert q[drive].max() - q[t < 3.0].mean() == pytest.approx(4.74, abs=0.1)
+    assert q[t < 3.0].mean() - q[drive].min() == pytest.approx(4.74, abs=0.1)
     # ... and keeps a net turn afterwards: the encoder counts shell against pendulum.
-    assert q[t > 40].mean() - q[t < 3].mean() == pytest.approx(0.86, abs=0.05)
+    assert q[t < 3].mean() - q[t > 40].mean() == pytest.approx(0.86, abs=0.05)
     # pitch_joint (pendulum pitch against gravity) swings while driving and returns to a small
     # negative rest value (−0.076 before, −0.017 after): it does not accumulate.
     assert alpha[drive].min() < -0.4
@@ -159,10 +160,11 @@ def test_free_robot_channel_mapping(free_robot):
         g = np.gradient(free_robot[ang], t)
         assert np.corrcoef(g, free_robot[rate])[0, 1] > 0.6
     # ω_d is derived (no raw channel) and flagged as such.
-    assert free_robot.derived == {"omega_d": "drive_rate + pendulum_pitch_rate"}
-    # The relative sign of ω_d = q̇_d + α̇: while driving the pendulum leans against q̇_d.
+    assert free_robot.derived == {"omega_d": "pendulum_pitch_rate - drive_rate"}
+    # The signs of ω_d = α̇ − q̇_d: while driving the pendulum leans ahead, so α and the twin's q̇_d
+    # share their sign (forward: α < 0, q̇_d < 0, ω_d > 0), as in the twin.
     moving = np.abs(free_robot["drive_rate"]) > 0.2
-    assert np.mean(np.sign(alpha[moving]) == -np.sign(free_robot["drive_rate"][moving])) > 0.85
+    assert np.mean(np.sign(alpha[moving]) == np.sign(free_robot["drive_rate"][moving])) > 0.85
 
 
 @pytest.mark.realdata
