@@ -18,8 +18,8 @@ TWO_PI = 2.0 * math.pi
 MEASURED_COMPONENTS: tuple[tuple[str, str, str], ...] = (
     ("theta", "rad", "steer joint angle θ (roll_joint)"),
     ("theta_dot", "rad/s", "steer joint rate θ̇ (roll_joint.velocity)"),
-    ("drive_angle", "rad", "drive joint angle q_d (shell vs pendulum, drive_shaft), wrapped to [-π, π)"),
-    ("drive_rate", "rad/s", "drive joint rate q̇_d (drive_shaft.velocity)"),
+    ("drive_angle", "rad", "drive joint angle q_d (shell vs pendulum; −drive_shaft), wrapped to [-π, π)"),
+    ("drive_rate", "rad/s", "drive joint rate q̇_d (−drive_shaft.velocity)"),
     ("phi", "rad", "pipe angle φ against the ground (pipe_roll)"),
     ("phi_dot", "rad/s", "pipe angle rate φ̇"),
     ("omega_d", "rad/s", "drive velocity ω_d, + rolling forward (≈ drive_shaft.velocity when rolling steadily)"),

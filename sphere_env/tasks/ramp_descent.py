@@ -44,7 +44,7 @@ class RampDescentTask(Task):
     ===  =============  ======  ================================================================
     0    theta          rad     steer joint angle θ (roll_joint)
     1    theta_dot      rad/s   θ̇
-    2    drive_angle    rad     drive joint angle q_d (drive_shaft), wrapped to [-π, π)
+    2    drive_angle    rad     drive joint angle q_d (−drive_shaft), wrapped to [-π, π)
     3    drive_rate     rad/s   drive joint rate
     4    phi            rad     pipe angle φ against the ground (pipe_roll)
     5    phi_dot        rad/s   φ̇
