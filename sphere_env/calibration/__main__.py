@@ -66,9 +66,7 @@ def cmd_shell(args) -> int:
 
 def cmd_steer_fit(args) -> int:
     from sphere_env.calibration.decay import write_yaml
-    from sphere_env.calibration.shell_fit import (
-        TwinPool, choose_form, cross_validate, fit_shell, trial_rmse,
-    )
+    from sphere_env.calibration.shell_fit import steer_fit, trial_rmse
     from sphere_env.models.shell import ShellCalibration
 
     man, logs = _trials(args, required=("phi", "theta"))
@@ -81,35 +79,14 @@ def cmd_steer_fit(args) -> int:
         if missing:
             raise LogError(f"--fit-on {missing}: no such trial in {names} (manifest {args.manifest})")
     fit_logs = [log for log in logs if not args.fit_on or log.name in args.fit_on]
-    raw = dict(base.raw)
-    record: dict = {"fit_on": [log.name for log in fit_logs], "pressure_kpa": p0, "models": {}}
-    form = args.forms[0]
-    if "injected" in args.models and len(args.forms) > 1:
-        rows = cross_validate(fit_logs, args.forms, p0, base=base, steer_friction=args.steer_friction,
-                              max_nfev=args.max_nfev)
-        form, mean = choose_form(rows)
-        print("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
-        for r in rows:
-            print(f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: {r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}")
-        print(f"  mean held-out phi: {json.dumps({k: round(v, 4) for k, v in mean.items()})} -> form {form!r}")
-        record["form_cross_validation"] = [
-            {k: r[k] for k in ("form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad")} for r in rows]
-    for model in args.models:
-        cur = ShellCalibration.from_dict(raw, source=str(args.base or "default"))
-        pool = TwinPool(model, args.steer_friction, drive_friction=args.drive_friction)
-        fit = fit_shell(fit_logs, model, p0, steer_friction=args.steer_friction, base=cur, pool=pool,
-                        form=form if model == "injected" else None, max_nfev=args.max_nfev,
-                        drive_friction=args.drive_friction)
-        raw = fit.calibration
-        per = trial_rmse(pool, logs)
-        print(f"{model} (form {fit.form!r}) at {p0} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:")
-        for k, v in fit.params.items():
-            ci = fit.ci95.get(k)
-            print(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else ""))
+    raw, record = steer_fit(fit_logs, args.models, p0, base, forms=args.forms, steer_friction=args.steer_friction,
+                            drive_friction=args.drive_friction, max_nfev=args.max_nfev, log_to=print)
+    for model, fit in record["models"].items():
+        per = trial_rmse(fit.pop("pool"), logs)
         for name, r in per.items():
             tag = "fit" if name in record["fit_on"] else "held out"
-            print(f"  {name} ({tag}): RMSE phi {r['phi']:.4f} rad, theta {r['theta']:.4f} rad")
-        record["models"][model] = dict(fit.as_dict(), rmse_rad=per)
+            print(f"  {model} {name} ({tag}): RMSE phi {r['phi']:.4f} rad, theta {r['theta']:.4f} rad")
+        fit["rmse_rad"] = per
     if args.match_kd:
         import tempfile
 

@@ -29,12 +29,22 @@ FitFn = Callable[[Sequence[RobotLog], str, float, ShellCalibration, Any], "tuple
 
 
 def fit_calibration(train: Sequence[RobotLog], model: str, pressure_kpa: float, base: ShellCalibration,
-                    steer_friction: Any, max_nfev: int = 40) -> tuple[dict[str, float], dict[str, Any]]:
-    """Fit ``model`` on ``train`` with the shell fit of ``steer-fit``; returns (params, calibration)."""
-    from sphere_env.calibration.shell_fit import fit_shell
+                    steer_friction: Any, max_nfev: int = 60,
+                    forms: Sequence[str] | None = None) -> tuple[dict[str, float], dict[str, Any]]:
+    """Fit ``model`` on ``train`` exactly as ``steer-fit --fit-on`` does (:func:`steer_fit`: the
+    steer-law form chosen by held-out error within ``train``; ``hydroelastic`` fitted on top of an
+    ``injected`` fit of the same segments, so nothing of a held-out segment leaks in through the
+    base calibration); returns (params, calibration)."""
+    from sphere_env.calibration.shell_fit import steer_fit
+    from sphere_env.models.shell import STEER_LAW_FORMS
 
-    fit = fit_shell(list(train), model, pressure_kpa, steer_friction=steer_friction, base=base, max_nfev=max_nfev)
-    return dict(fit.params), dict(fit.calibration)
+    models = ("injected",) if model == "injected" else ("injected", model)
+    raw, record = steer_fit(list(train), models, pressure_kpa, base, forms=forms or STEER_LAW_FORMS,
+                            steer_friction=steer_friction, max_nfev=max_nfev)
+    params: dict[str, float] = {}
+    for m in models:
+        params.update({f"{m}.{k}" if m != model else k: v for k, v in record["models"][m]["params"].items()})
+    return params, raw
 
 
 def cross_validate(

@@ -443,3 +443,50 @@ def choose_form(rows: Sequence[Mapping[str, Any]]) -> tuple[str, dict[str, float
     if not math.isfinite(mean[best]):
         raise FitError(f"no steer-law form could be fitted: {[r.get('refused') for r in rows]}")
     return best, mean
+
+
+def steer_fit(
+    logs: Sequence[RobotLog],
+    models: Sequence[str],
+    pressure_kpa: float,
+    base: ShellCalibration,
+    forms: Sequence[str] = STEER_LAW_FORMS,
+    steer_friction: FrictionModel | str = "majd_steer",
+    drive_friction: FrictionModel | str = "majd_drive",
+    max_nfev: int = 60,
+    log_to=None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """What ``steer-fit`` does: fit each shell model in ``models`` on ``logs``, in order, each on top of
+    the previous one's calibration (``hydroelastic`` after ``injected`` keeps the injected ω_n, ζ and
+    steer law just fitted). With several ``forms`` and ``injected`` among the models, the steer-law
+    form is the one with the least held-out φ RMSE (:func:`cross_validate`, :func:`choose_form`) —
+    never the training error. Returns (calibration mapping, record of the fit); ``log_to`` (e.g.
+    ``print``) receives a readable account.
+    """
+    say = log_to or (lambda *_: None)
+    record: dict[str, Any] = {"fit_on": [log.name for log in logs], "pressure_kpa": pressure_kpa, "models": {}}
+    form = forms[0]
+    if "injected" in models and len(forms) > 1:
+        rows = cross_validate(logs, forms, pressure_kpa, base=base, steer_friction=steer_friction, max_nfev=max_nfev)
+        form, mean = choose_form(rows)
+        say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
+        for r in rows:
+            say(f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}")
+        say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> form {form!r}")
+        record["form_cross_validation"] = [
+            {k: r[k] for k in ("form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad")} for r in rows]
+    raw = dict(base.raw)
+    for model in models:
+        cur = ShellCalibration.from_dict(raw, source=base.source)
+        pool = TwinPool(model, steer_friction, drive_friction=drive_friction)
+        fit = fit_shell(logs, model, pressure_kpa, steer_friction=steer_friction, base=cur, pool=pool,
+                        form=form if model == "injected" else None, max_nfev=max_nfev,
+                        drive_friction=drive_friction)
+        raw = fit.calibration
+        say(f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:")
+        for k, v in fit.params.items():
+            ci = fit.ci95.get(k)
+            say(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else ""))
+        record["models"][model] = dict(fit.as_dict(), pool=pool)
+    return raw, record

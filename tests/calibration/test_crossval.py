@@ -25,7 +25,8 @@ def group(tmp_path_factory):
 
 def test_fit_on_one_validate_on_the_other(group):
     res = cross_validate({"g": group}, ("point", "injected"), steer_friction="majd_steer", drive_friction="none",
-                         fit=lambda tr, m, p, b, sf: fit_calibration(tr, m, p, b, sf, max_nfev=3))
+                         fit=lambda tr, m, p, b, sf: fit_calibration(tr, m, p, b, sf, max_nfev=3,
+                                                                  forms=(b.steer_law.form,)))
     # point: one baseline run; injected: one fit per segment, each validated on both.
     assert [(x["model"], x["fit_on"]) for x in res] == [("point", None), ("injected", "a"), ("injected", "b")]
     for x in res[1:]:
