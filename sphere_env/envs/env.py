@@ -149,6 +149,8 @@ class SphereEnv(gym.Env, EzPickle):
             self._drive_friction = resolve_friction(drive_f, "drive")
         except (ValueError, TypeError) as err:
             raise ValueError(f"friction_model: {err}") from None
+        if calibration is not None and not isinstance(calibration, (str, Path)):
+            raise ValueError(f"calibration: value {calibration!r} must be the path of a shell calibration YAML, or None")
         try:
             self.calibration = ShellCalibration.load(calibration)
         except ValueError as err:
