@@ -94,6 +94,19 @@ class SphereEnv(gym.Env, EzPickle):
     :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).
     :param hydroelastic_pressure_step_kpa: hydroelastic pressures snap to this grid [kPa], default
         0.5, so re-meshed shells (≈90 ms each) are cached (≈2 ms); 0 = exact pressures.
+
+    **Refused at construction** (``ValueError`` naming the kwarg): joint friction and injected shell
+    torques are explicit, so a friction law whose damping slope (× the largest friction scale the
+    randomization can draw), or an injected calibration whose ω_n, would diverge at
+    ``time_step_s`` (:meth:`~sphere_env.physics.Twin.explicit_stability_problem`; at 5 ms: viscous
+    steer c ≲ 215, drive c ≲ 185 N m s/rad, ω_n ≤ 200 rad/s).
+
+    **Episode protocol.** ``step()`` before a successful ``reset()``, or after an episode ended
+    (``terminated``, or ``truncated`` by a physics failure), raises ``RuntimeError``: call
+    ``reset()`` (Gymnasium convention). A ``reset()`` that raises changes nothing. ``copy.deepcopy``
+    and ``pickle`` rebuild the environment from its constructor arguments: the copy does not carry
+    the running episode (Drake's simulator state), and its ``step()`` raises ``RuntimeError`` until
+    it is reset; after ``reset(seed=s)`` it behaves exactly like the original reset with ``s``.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
