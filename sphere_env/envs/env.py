@@ -587,8 +587,10 @@ class SphereEnv(gym.Env, EzPickle):
 
     # ---- copies ------------------------------------------------------------------------------------
     # copy.deepcopy and pickle rebuild the environment from its constructor arguments (EzPickle):
-    # the copy has no episode (Drake's simulator state is not copied). A copy made mid-episode
-    # remembers that, so its step() says why it needs a reset.
+    # the copy has no episode. Drake's state is not only [q; v]: the plant keeps an abstract
+    # (C++-only) step memory, e.g. the previous step's contact impulses that the "lagged" contact
+    # approximation uses, which cannot be pickled, so a copy could not continue the episode
+    # faithfully. A copy made mid-episode remembers that, so its step() says why it needs a reset.
     def __getstate__(self):
         state = EzPickle.__getstate__(self)
         state["_mid_episode"] = not self.__dict__.get("_needs_reset", True)
