@@ -34,6 +34,7 @@ import numpy as np
 
 import sphere_env  # noqa: F401
 from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.physics import Twin
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
 SOAK_LIMIT_MB = 50.0
@@ -283,6 +284,8 @@ def _option_cases(env_id: str) -> list[tuple[Any, str]]:
         ({**p, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
         ({**p, "initial_state": {"position_m": (0.0, 0.0)}}, "initial_state.position_m"),
         ({**p, "initial_state": {"velocity_W": "fast"}}, "initial_state.velocity_W"),
+        ({**p, "initial_state": {"angular_velocity_W": (0.0, 5e3, 0.0)}}, "initial_state.angular_velocity_W"),
+        ({**p, "initial_state": {"theta_dot": 1e300}}, "initial_state.theta_dot"),
         ({**p, "omega_ref": "abc"}, "omega_ref"), ({**p, "omega_ref": [1.0, 2.0]}, "omega_ref"),
         ({**p, "omega_ref": 1e9}, "omega_ref"), ({**p, "omega_ref": NAN}, "omega_ref"), ({**p, "omega_ref": None}, "omega_ref"),
     ]
@@ -352,32 +355,54 @@ def fuzz_env_inputs(env_id: str, shell_model: str, tally: Tally) -> None:
         e.close()
 
 
+def _run_to_failure(env, action, max_steps: int, options=None) -> dict:
+    env.reset(seed=0, options=options)
+    a = np.asarray(action, np.float32)
+    for i in range(1, max_steps + 1):
+        obs, r, term, trunc, info = env.step(a)
+        if term or trunc:
+            return dict(steps=i, truncated=bool(trunc), terminated=bool(term),
+                        reason=info.get("truncation_reason", ""), obs_finite=bool(np.all(np.isfinite(obs))))
+    return dict(steps=max_steps, truncated=False, terminated=False, reason="(ran without failure)",
+                obs_finite=bool(np.all(np.isfinite(obs))))
+
+
 def fuzz_ended_and_copied(env_id: str, tally: Tally) -> list[dict]:
     """Drive real physics failures through the truncation path, then check that step() after the
     end of an episode, and on a copy made mid-episode, raises ``RuntimeError`` asking for a reset.
-    Returns one row per physics failure driven."""
+    Returns one row per failure attempt.
+
+    Two routes: a robot launched at the largest accepted initial spin (499 rad/s per axis), and on
+    flat ground an accepted drive friction just under the explicit-stability limit (viscous
+    c = 120 N m s/rad at 5 ms, limit ≈123) run at full torque, where the explicit update can still
+    diverge after tens of steps."""
     rows = []
+    short = env_id.split("/")[1]
     for shell_model in SHELL_MODELS:
         env = gym.make(env_id, shell_model=shell_model, disable_env_checker=True)
-        # Launched states the contact solver cannot follow: the detection must truncate at once.
-        for label, init in (("spin 5e3 rad/s", {"angular_velocity_W": (0.0, 5e3, 0.0)}),
-                            ("throw 1e3 m/s", {"velocity_W": (1e3, 0.0, -1e3)})):
-            env.reset(seed=0, options={"initial_state": init})
-            obs, r, term, trunc, info = env.step(np.zeros(2, np.float32))
-            rows.append(dict(env=env_id.split("/")[1], shell_model=shell_model, launched=label, truncated=bool(trunc),
-                             terminated=bool(term), reason=info.get("truncation_reason", ""),
-                             obs_finite=bool(np.all(np.isfinite(obs)))))
-            tally.expect("ended / copied episodes", f"{shell_model} step after {label}",
+        row = _run_to_failure(env, (0.0, 0.0), 5, {"initial_state": {"angular_velocity_W": (499.0, 499.0, 499.0)}})
+        rows.append(dict(env=short, shell_model=shell_model, route="initial spin 499 rad/s per axis", **row))
+        if row["truncated"] or row["terminated"]:
+            tally.expect("ended / copied episodes", f"{short}/{shell_model} step after the launched episode ended",
                          lambda: env.step(np.zeros(2, np.float32)), "call reset()", exc=(RuntimeError,))
         env.reset(seed=0)
         for _ in range(3):
             env.step(np.zeros(2, np.float32))
         for label, copier in (("deepcopy", copy.deepcopy), ("pickle", lambda e: pickle.loads(pickle.dumps(e)))):
             dup = copier(env)
-            tally.expect("ended / copied episodes", f"{shell_model} step on a {label} made mid-episode",
+            tally.expect("ended / copied episodes", f"{short}/{shell_model} step on a {label} made mid-episode",
                          lambda: dup.step(np.zeros(2, np.float32)), "call reset()", exc=(RuntimeError,))
             dup.close()
         env.close()
+        if env_id.endswith("Roll-v0"):
+            env = gym.make(env_id, shell_model=shell_model, randomization="off", disable_env_checker=True,
+                           friction_model={"drive": {"law": "viscous", "params": {"c": 120.0}}})
+            row = _run_to_failure(env, (-1.0, 1.0), 150 if shell_model == "hydroelastic" else 300)
+            rows.append(dict(env=short, shell_model=shell_model, route="drive viscous c=120, full torque", **row))
+            if row["truncated"]:
+                tally.expect("ended / copied episodes", f"{short}/{shell_model} step after the diverged episode",
+                             lambda: env.step(np.zeros(2, np.float32)), "call reset()", exc=(RuntimeError,))
+            env.close()
     return rows
 
 
@@ -432,7 +457,7 @@ def _hostile_markdown(tally: Tally, failures: list[dict]) -> list[str]:
     cols = [("group", "inputs", ""), ("tried", "tried", "{}"), ("clear_error", "clear error", "{}"),
             ("other_exception", "other exception", "{}"), ("silent_acceptance", "silent acceptance", "{}"),
             ("half_written", "half-written", "{}")]
-    fcols = [("env", "env", ""), ("shell_model", "shell", ""), ("launched", "launched", ""),
+    fcols = [("env", "env", ""), ("shell_model", "shell", ""), ("route", "route", ""), ("steps", "steps", "{}"),
              ("truncated", "truncated", "{}"), ("reason", "info[\"truncation_reason\"]", ""),
              ("obs_finite", "obs finite", "{}")]
     md = [
@@ -457,8 +482,10 @@ def _hostile_markdown(tally: Tally, failures: list[dict]) -> list[str]:
     md += [
         "### Physics failures through the truncation path",
         "",
-        "Launched initial states the contact solver cannot follow; the step must return `truncated=True` with the "
-        "reason in `info`, a finite observation, and the next step() must ask for a reset (counted above).",
+        "Two routes: the largest accepted initial spin (499 rad/s about each axis), and on flat ground an accepted "
+        "drive friction just under the explicit-stability limit (viscous c = 120 N m s/rad, limit ≈123 at 5 ms) at "
+        "full torque, where the explicit friction update can still diverge. A failure must return `truncated=True` "
+        "with the reason in `info` and a finite observation, and the next step() must ask for a reset (counted above).",
         "",
         markdown_table(failures, fcols),
         "",
@@ -482,6 +509,9 @@ def main(argv: list[str] | None = None) -> None:
         n = args.soak_steps // 4 if sm == "hydroelastic" else args.soak_steps
         soaks.append(soak(n, sample_every=max(n // 8, 1), shell_model=sm))
         print({k: v for k, v in soaks[-1].items() if k != "samples"}, flush=True)
+    # Roll: one flat-ground twin, so the hydroelastic shell cache of a single twin alone.
+    n = args.soak_steps // 4
+    soaks.append(soak(n, sample_every=max(n // 8, 1), shell_model="hydroelastic", env_id="sphere_env/Roll-v0"))
     tally, failures = hostile_inputs()
     print(tally.rows()[-1], flush=True)
     # Hydroelastic is ~5x slower per step: give it a third of the point/injected share.
@@ -503,7 +533,7 @@ def main(argv: list[str] | None = None) -> None:
             ("nan_inf_raised", "…raised ValueError", "{}"), ("episodes", "episodes", "{}"),
             ("physics_failures", "physics-failure truncations", "{}"), ("non_finite_outputs", "non-finite obs/reward", "{}"),
             ("unexpected", "unexpected exceptions", "{}")]
-    scols = [("shell_model", "shell", ""), ("steps", "steps", "{}"), ("wall_s", "wall s", "{:.0f}"),
+    scols = [("env", "env", ""), ("shell_model", "shell", ""), ("steps", "steps", "{}"), ("wall_s", "wall s", "{:.0f}"),
              ("episodes", "episodes", "{}"), ("physics_failures", "physics failures", "{}"),
              ("twins_cached", "twins", "{}"), ("shells_cached", "hydroelastic shells cached", "{}"),
              ("rss_after_build_mb", "RSS built MB", "{:.1f}"), ("rss_first_sample_mb", "RSS 1st sample MB", "{:.1f}"),
@@ -529,10 +559,13 @@ def main(argv: list[str] | None = None) -> None:
         "",
         "## Soak: every shell model, one process",
         "",
-        f"RampDescent-v0, `randomization=\"full\"` (every reset resamples pressure, friction, ground μ, payload, "
-        f"incline, leak), random actions. RSS = resident memory of this process; the soaks run one after another, "
+        f"`randomization=\"full\"` (every reset resamples pressure, friction, ground μ, payload, incline on the "
+        f"ramp, leak), random actions. RSS = resident memory of this process; the soaks run one after another, "
         f"so later rows start from the heap the earlier ones left. Median reset over the second half of the resets "
-        f"(caches warm). Limit {SOAK_LIMIT_MB:.0f} MB growth after build.",
+        f"(caches warm). Limit {SOAK_LIMIT_MB:.0f} MB growth after build. A hydroelastic twin keeps up to "
+        f"{Twin.GEOMETRY_CACHE_SIZE} re-meshed shells (one per 0.5 kPa grid pressure, ≈1.8 MB each) and the env one "
+        f"twin per 1° incline (≈8 MB each; RampDescent's full randomization draws 12–20°: 9 twins), so hydroelastic "
+        f"growth is bounded by twins × cache, ≈0.4 GB on RampDescent and ≈45 MB on Roll (one twin).",
         "",
         markdown_table(soaks, scols),
         "",

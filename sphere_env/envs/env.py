@@ -37,7 +37,7 @@ from sphere_env.tasks.randomization import (
     schedule_pressure,
 )
 from sphere_env.tasks.task import Scene, Task
-from sphere_env.tasks.termination import physics_failure
+from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_failure
 
 #: Default motor torque limits at the joints [N m] (the registry's nominal values).
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
@@ -99,7 +99,7 @@ class SphereEnv(gym.Env, EzPickle):
     torques are explicit, so a friction law whose damping slope (× the largest friction scale the
     randomization can draw), or an injected calibration whose ω_n, would diverge at
     ``time_step_s`` (:meth:`~sphere_env.physics.Twin.explicit_stability_problem`; at 5 ms: viscous
-    steer c ≲ 215, drive c ≲ 185 N m s/rad, ω_n ≤ 200 rad/s).
+    steer c ≲ 144, drive c ≲ 123 N m s/rad, ω_n ≤ 200 rad/s).
 
     **Episode protocol.** ``step()`` before a successful ``reset()``, or after an episode ended
     (``terminated``, or ``truncated`` by a physics failure), raises ``RuntimeError``: call
@@ -345,6 +345,7 @@ class SphereEnv(gym.Env, EzPickle):
             elif not isinstance(init, InitialState):
                 raise ValueError(f"options.initial_state: value {init!r} must be an InitialState or a mapping of its fields")
             init.validate()
+            _check_initial_rates(init)
         return options, fixed, init
 
     def _check_above_ground(self, init: InitialState, incline_deg: float) -> None:
@@ -369,7 +370,8 @@ class SphereEnv(gym.Env, EzPickle):
 
         * ``initial_state``: :class:`~sphere_env.physics.InitialState` or a mapping of its
           fields (angles rad, rates rad/s, position m, velocities m/s); the sphere centre may sit
-          at most :data:`MAX_INITIAL_PENETRATION_M` inside the ground;
+          at most :data:`MAX_INITIAL_PENETRATION_M` inside the ground, speeds and rates within the
+          physics-failure limits (50 m/s, 500 rad/s per component);
         * any randomization parameter (``pressure_kpa`` [kPa], ``ground_friction``, ...), fixed
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
         * task command values (the task's ``command_options``, within the task's bounds).
@@ -600,6 +602,17 @@ class SphereEnv(gym.Env, EzPickle):
         mid = state.pop("_mid_episode", False)
         EzPickle.__setstate__(self, state)
         self._copied_mid_episode = mid
+
+
+def _check_initial_rates(init: InitialState) -> None:
+    """Refuse initial speeds and rates beyond the physics-failure limits: such an episode would end
+    at its first step (and rates far beyond overflow the float32 observation)."""
+    for name, limit, unit in (("velocity_W", MAX_SPEED_M_S, "m/s"), ("angular_velocity_W", MAX_RATE_RAD_S, "rad/s"),
+                              ("theta_dot", MAX_RATE_RAD_S, "rad/s"), ("drive_rate", MAX_RATE_RAD_S, "rad/s")):
+        val = getattr(init, name)
+        if np.max(np.abs(np.asarray(val, dtype=float))) > limit:
+            raise ValueError(f"options.initial_state.{name}: value {val!r} outside allowed [-{limit:g}, {limit:g}] {unit} "
+                             f"(beyond, the state counts as a physics failure)")
 
 
 def _max_of(spec: RandomizationSpec, name: str) -> float:
