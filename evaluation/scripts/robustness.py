@@ -1,32 +1,40 @@
-"""Robustness of the Gymnasium environments: action fuzzing and a memory soak.
+"""Robustness of the Gymnasium environments: hostile inputs, action fuzzing and memory soaks.
 
-* **Fuzz**: every env id × shell model, actions drawn from a mixture — uniform in [-1, 1], ±1e6,
-  1e6-scale Gaussian, and vectors containing NaN or ±inf. NaN/inf must raise ``ValueError``
-  (documented); everything else must step. No other exception may escape, observations must
-  stay finite, and episodes end only by termination, time limit or a reported physics failure.
-* **Soak**: one process, one env (RampDescent-v0, injected shell, ``randomization="full"``: every
-  reset resamples pressure, friction, ground μ, payload, incline, leak), random actions;
-  resident memory (RSS) is sampled along the way.
+* **Hostile inputs** (:func:`hostile_inputs`): every env id × shell model gets hostile ``gym.make``
+  kwargs, randomization specs, ``reset`` options and seeds on a running episode, and actions of
+  the wrong shape or type; step() after an episode ended and on a mid-episode copy; configurations
+  whose explicit torques diverge at the plant step. Real physics failures (launched states) are
+  driven through the truncation path. Each input is counted as a clear error, another exception, a
+  silent acceptance or a half-written env (the error came, but the env changed).
+* **Action fuzz** (:func:`fuzz`): actions from a mixture — uniform in [-1, 1], ±1e6, 1e6-scale
+  Gaussian, vectors containing NaN or ±inf. NaN/inf must raise ``ValueError`` (documented);
+  everything else is clipped and stepped; observations must stay finite.
+* **Soak** (:func:`soak`): one env per shell model (RampDescent-v0, ``randomization="full"``),
+  random actions; resident memory (RSS) sampled along the way, resets timed.
 
-Writes ``evaluation/results/robustness.md`` and ``.json``.
+Writes ``evaluation/results/robustness.md`` and ``.json`` (temp name, then renamed).
 
-    python -m evaluation.scripts.robustness [--fuzz-steps 100000] [--soak-steps 200000]
+    python -m evaluation.scripts.robustness [--fuzz-steps 60000] [--soak-steps 40000]
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import os
+import pickle
 import time
 from collections import Counter
 from datetime import datetime, timezone
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 import sphere_env  # noqa: F401
 from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.physics import Twin
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
 SOAK_LIMIT_MB = 50.0
@@ -97,13 +105,18 @@ def fuzz(env_id: str, shell_model: str, steps: int, seed: int = 0) -> dict:
                 non_finite_outputs=bad_obs, unexpected=len(unexpected), unexpected_examples=unexpected[:5])
 
 
-def soak(steps: int, seed: int = 0, sample_every: int = 10_000) -> dict:
+def soak(steps: int, seed: int = 0, sample_every: int = 10_000, shell_model: str = "injected",
+         env_id: str = "sphere_env/RampDescent-v0") -> dict:
+    """Run one env for ``steps`` random-action steps under ``randomization="full"``; sample RSS
+    every ``sample_every`` steps and time every reset. Median reset is over the second half of
+    the resets (caches warm)."""
     rss0 = rss_mb()
-    env = gym.make("sphere_env/RampDescent-v0", shell_model="injected", randomization="full")
+    env = gym.make(env_id, shell_model=shell_model, randomization="full")
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
     rss_built = rss_mb()
     samples = []
+    reset_s: list[float] = []
     episodes = failures = 0
     t0 = time.perf_counter()
     for i in range(1, steps + 1):
@@ -111,32 +124,396 @@ def soak(steps: int, seed: int = 0, sample_every: int = 10_000) -> dict:
         if term or trunc:
             episodes += 1
             failures += "truncation_reason" in info
+            t_r = time.perf_counter()
             env.reset()
+            reset_s.append(time.perf_counter() - t_r)
         if i % sample_every == 0:
             samples.append((i, rss_mb()))
     wall = time.perf_counter() - t0
     twins = env.unwrapped.cached_twin_count
+    shells = sum(t.cached_shell_count for t in env.unwrapped._twins.values())
     env.close()
     warm = samples[0][1]
-    return dict(steps=steps, wall_s=wall, episodes=episodes, physics_failures=failures,
-                twins_cached=twins,
+    late = sorted(reset_s[len(reset_s) // 2:]) or [float("nan")]
+    return dict(env=env_id.split("/")[1], shell_model=shell_model, steps=steps, wall_s=wall,
+                steps_per_s=steps / wall, episodes=episodes, physics_failures=failures,
+                twins_cached=twins, shells_cached=shells,
                 rss_start_mb=rss0, rss_after_build_mb=rss_built, rss_first_sample_mb=warm,
                 rss_end_mb=samples[-1][1], growth_from_build_mb=samples[-1][1] - rss_built,
                 growth_after_first_sample_mb=samples[-1][1] - warm, samples=samples,
+                median_reset_ms=1e3 * float(np.median(late)), max_reset_ms=1e3 * max(reset_s, default=float("nan")),
                 ok=samples[-1][1] - rss_built <= SOAK_LIMIT_MB)
+
+
+# ---- hostile inputs at the environment boundary --------------------------------------------------
+# Each case is an input the environment must refuse. Outcomes: ``clear_error`` (the documented
+# exception type, its message naming the field), ``other_exception`` (another type, or a message
+# that names nothing), ``silent_acceptance`` (no error), ``half_written`` (the error came, but the
+# environment changed: its next steps differ from an identical twin environment's that never saw
+# the input). Everything but ``clear_error`` is a bug.
+OUTCOMES = ("clear_error", "other_exception", "silent_acceptance", "half_written")
+NAN = float("nan")
+
+
+class Tally:
+    """Counts of outcomes per group of cases, with a few examples of each failure."""
+
+    def __init__(self):
+        self.counts: dict[str, Counter] = {}
+        self.examples: list[str] = []
+
+    def add(self, group: str, case: str, outcome: str, detail: str = "") -> None:
+        self.counts.setdefault(group, Counter())[outcome] += 1
+        if outcome != "clear_error" and len(self.examples) < 40:
+            self.examples.append(f"{group}: {case}: {outcome} {detail}"[:300])
+
+    def expect(self, group: str, case: str, fn, field: str, exc=(ValueError,)) -> bool:
+        """Run ``fn``; True if it raised ``exc`` naming ``field``."""
+        try:
+            out = fn()
+        except exc as err:
+            if field in str(err):
+                self.add(group, case, "clear_error")
+                return True
+            self.add(group, case, "other_exception", f"{type(err).__name__}: {err}")
+            return False
+        except Exception as err:  # noqa: BLE001 - classifying is the point
+            self.add(group, case, "other_exception", f"{type(err).__name__}: {err}")
+            return False
+        if hasattr(out, "close"):
+            out.close()
+        self.add(group, case, "silent_acceptance")
+        return False
+
+    def rows(self) -> list[dict]:
+        rows = [dict(group=g, tried=sum(c.values()), **{o: c[o] for o in OUTCOMES}) for g, c in self.counts.items()]
+        rows.append(dict(group="total", tried=sum(r["tried"] for r in rows),
+                         **{o: sum(r[o] for r in rows) for o in OUTCOMES}))
+        return rows
+
+
+def _kwarg_cases(env_id: str) -> list[tuple[dict, str]]:
+    """(kwargs, field the error must name) for gym.make."""
+    cases = [
+        (dict(shell_model="rubber"), "shell_model"), (dict(shell_model=None), "shell_model"),
+        (dict(friction_model="sticky"), "friction_model"), (dict(friction_model=3), "friction_model"),
+        (dict(friction_model={"law": "viscous", "params": {"c": -1.0}}), "friction_model"),
+        (dict(friction_model={"law": "viscous", "params": {"c": 300.0}}), "friction_model"),
+        (dict(friction_model={"drive": {"law": "viscous", "params": {"c": 1e4}}}), "friction_model"),
+        (dict(calibration="/nonexistent/cal.yaml"), "calibration"), (dict(calibration=123), "calibration"),
+        (dict(control_frequency_hz=0), "control_frequency_hz"), (dict(control_frequency_hz=NAN), "control_frequency_hz"),
+        (dict(control_frequency_hz="fast"), "control_frequency_hz"), (dict(control_frequency_hz=33.0), "control_frequency_hz"),
+        (dict(control_frequency_hz=1e9), "control_frequency_hz"),
+        (dict(time_step_s=0.0), "time_step_s"), (dict(time_step_s=1.0), "time_step_s"), (dict(time_step_s="x"), "time_step_s"),
+        (dict(steer_torque_limit_nm=0.0), "steer_torque_limit_nm"), (dict(steer_torque_limit_nm=1e9), "steer_torque_limit_nm"),
+        (dict(drive_torque_limit_nm=-1.0), "drive_torque_limit_nm"), (dict(drive_torque_limit_nm=NAN), "drive_torque_limit_nm"),
+        (dict(observe_pressure="yes"), "observe_pressure"), (dict(observe_pressure=1), "observe_pressure"),
+        (dict(observation_noise_scale=-1.0), "observation_noise_scale"),
+        (dict(observation_noise_scale=1e40), "observation_noise_scale"),
+        (dict(observation_noise_scale=NAN), "observation_noise_scale"),
+        (dict(observation_noise_scale="x"), "observation_noise_scale"),
+        (dict(incline_deg=45.0), "incline_deg"), (dict(incline_deg=-1.0), "incline_deg"), (dict(incline_deg=NAN), "incline_deg"),
+        (dict(render_mode="x"), "render_mode"), (dict(record_replay="yes"), "record_replay"),
+        (dict(render_size=(1, 1)), "render_size"), (dict(render_size="big"), "render_size"),
+        (dict(render_size=(10**9, 10)), "render_size"),
+        (dict(hydroelastic_pressure_step_kpa=-1.0), "hydroelastic_pressure_step_kpa"),
+        (dict(hydroelastic_pressure_step_kpa=10.0), "hydroelastic_pressure_step_kpa"),
+        (dict(bogus=1), "bogus"),
+        (dict(omega_ref_range_rad_s=(8.0, 4.0)), "omega_ref_range_rad_s"),
+        (dict(omega_ref_range_rad_s=(0.0, 1e9)), "omega_ref_range_rad_s"),
+        (dict(omega_ref_range_rad_s="fast"), "omega_ref_range_rad_s"),
+        (dict(reward_weights={"bogus": 1.0}), "reward_weights"), (dict(reward_weights={"speed": NAN}), "speed"),
+        (dict(reward_weights="x"), "reward_weights"),
+    ]
+    if env_id.endswith("RampDescent-v0"):
+        cases += [(dict(ramp_length_m=0.0), "ramp_length_m"), (dict(ramp_length_m=1e9), "ramp_length_m"),
+                  (dict(ramp_length_m=None), "ramp_length_m"), (dict(lane_half_width_m=0.0), "lane_half_width_m"),
+                  (dict(lane_half_width_m=100.0), "lane_half_width_m")]
+    else:
+        cases += [(dict(ramp_length_m=4.0), "ramp_length_m"), (dict(heading_range_rad=4.0), "heading_range_rad"),
+                  (dict(heading_range_rad="x"), "heading_range_rad"), (dict(command_mode="x"), "command_mode"),
+                  (dict(command_resample_s=0.0), "command_resample_s"), (dict(command_resample_s=-1.0), "command_resample_s"),
+                  (dict(yaw_rate_range_rad_s=(1.0, -1.0)), "yaw_rate_range_rad_s")]
+    return cases
+
+
+def _randomization_cases(env_id: str) -> list:
+    """Randomization specs gym.make must refuse (the error names ``randomization``)."""
+    sched = lambda rate, **kw: {"pressure_schedule": {"rate_kpa_per_s": rate, **kw}}  # noqa: E731
+    cases = [
+        "fully", 3, [1, 2], {"bogus": 1.0}, {"base": 3}, {"base": "fully"},
+        {"pressure_kpa": 99.0}, {"pressure_kpa": [14.0, 3.0]}, {"pressure_kpa": NAN}, {"pressure_kpa": "high"},
+        {"ground_friction": [0.5, 5.0]}, {"ground_friction": 0.0},
+        {"ground_friction": {"distribution": "normal", "mean": 1.0, "std": -1.0}},
+        {"ground_friction": {"distribution": "weird"}}, {"ground_friction": {"value": 1.0, "extra": 2}},
+        {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "interval"}},
+        {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "interval", "interval_s": -1.0}},
+        {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "sometimes"}},
+        {"payload_mass_kg": {"distribution": "choice", "values": []}},
+        {"payload_mass_kg": {"distribution": "choice", "values": 3}},
+        {"payload_mass_kg": {"distribution": "uniform"}}, {"payload_mass_kg": [0.0, 1e6]},
+        {"payload_com_offset_m": [1.0, 2.0]}, {"payload_com_offset_m": [[0, 0, 0], [1, 1, 1]]},
+        {"steer_friction_scale": [1.0, 100.0]}, {"steer_friction_scale": {"distribution": "fixed", "value": NAN}},
+        sched([0.1, -0.1]), sched({"distribution": "normal", "mean": 0.0, "std": -1.0}),
+        sched({"distribution": "uniform"}), sched({"distribution": "choice", "values": []}), sched("fast"),
+        sched(0.0, delay_s=-1.0), sched(NAN), {"pressure_schedule": {"rate": 1.0}}, {"pressure_schedule": 5},
+    ]
+    if env_id.endswith("Roll-v0"):
+        cases.append({"incline_deg": [10.0, 20.0]})
+    else:
+        cases += [{"incline_deg": {"low": 10.0, "high": 20.0, "mode": "interval", "interval_s": 1.0}},
+                  {"incline_deg": [10.0, 45.0]}]
+    return cases
+
+
+def _option_cases(env_id: str) -> list[tuple[Any, str]]:
+    """(options, field) for reset on a running episode. The first entry of a mapping is a valid
+    change (pressure), so a reset that applied it before failing would be caught."""
+    p = {"pressure_kpa": 12.0}
+    cases = [
+        ([("pressure_kpa", 12.0)], "options"), ("pressure_kpa=12", "options"), (3, "options"),
+        ({**p, "bogus": 1}, "bogus"), ({"pressure_kpa": 99.0}, "pressure_kpa"), ({"pressure_kpa": NAN}, "pressure_kpa"),
+        ({"pressure_kpa": "x"}, "pressure_kpa"), ({"pressure_kpa": [4.0, 8.0]}, "pressure_kpa"),
+        ({**p, "ground_friction": 5.0}, "ground_friction"), ({**p, "payload_com_offset_m": [1.0]}, "payload_com_offset_m"),
+        ({**p, "incline_deg": 45.0}, "incline_deg"), ({**p, "steer_friction_scale": 11.0}, "steer_friction_scale"),
+        ({**p, "pressure_rate_kpa_per_s": "x"}, "pressure_rate_kpa_per_s"),
+        ({**p, "pressure_rate_kpa_per_s": NAN}, "pressure_rate_kpa_per_s"),
+        ({**p, "pressure_rate_kpa_per_s": [1.0]}, "pressure_rate_kpa_per_s"),
+        ({**p, "initial_state": "upright"}, "initial_state"), ({**p, "initial_state": {"spin": 1.0}}, "initial_state"),
+        ({**p, "initial_state": {"roll": NAN}}, "initial_state.roll"),
+        ({**p, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
+        ({**p, "initial_state": {"position_m": (0.0, 0.0)}}, "initial_state.position_m"),
+        ({**p, "initial_state": {"velocity_W": "fast"}}, "initial_state.velocity_W"),
+        ({**p, "initial_state": {"angular_velocity_W": (0.0, 5e3, 0.0)}}, "initial_state.angular_velocity_W"),
+        ({**p, "initial_state": {"theta_dot": 1e300}}, "initial_state.theta_dot"),
+        ({**p, "omega_ref": "abc"}, "omega_ref"), ({**p, "omega_ref": [1.0, 2.0]}, "omega_ref"),
+        ({**p, "omega_ref": 1e9}, "omega_ref"), ({**p, "omega_ref": NAN}, "omega_ref"), ({**p, "omega_ref": None}, "omega_ref"),
+    ]
+    if env_id.endswith("Roll-v0"):
+        cases += [({**p, "heading_ref": "x"}, "heading_ref"), ({**p, "heading_ref": 1e9}, "heading_ref"),
+                  ({**p, "yaw_rate_ref": 1.0}, "yaw_rate_ref")]  # heading mode: yaw_rate_ref is not an option
+    else:
+        cases.append(({**p, "omega_ref": -1.0}, "omega_ref"))
+    return cases
+
+
+BAD_ACTIONS = [
+    ("shape (3,)", np.zeros(3, np.float32)), ("shape (1,)", [0.1]), ("shape (2, 1)", np.zeros((2, 1))),
+    ("scalar", 0.5), ("nested list", [[0.1, 0.2]]), ("str", "ab"), ("str list", ["0.1", "0.2"]),
+    ("str array", np.array(["1", "0"])), ("complex", np.array([0.1 + 1j, 0.0])), ("None", None),
+    ("None inside", [None, 0.1]), ("dict", {"steer": 0.1}), ("bool", [True, False]),
+    ("object array", np.array([0.1, "x"], dtype=object)), ("NaN", np.array([NAN, 0.0], np.float32)),
+    ("inf", [0.0, float("inf")]), ("float16 NaN", np.array([np.nan, 0], np.float16)),
+]
+
+
+def _lockstep(env, ref, n: int = 3) -> bool:
+    """Step both with the same actions; True if everything returned is identical."""
+    rng = np.random.default_rng(0)
+    for _ in range(n):
+        a = rng.uniform(-1, 1, 2).astype(np.float32)
+        o1, r1, te1, tr1, i1 = env.step(a)
+        o2, r2, te2, tr2, i2 = ref.step(a)
+        if not (np.array_equal(o1, o2) and r1 == r2 and i1["params"] == i2["params"] and i1.get("omega_ref") == i2.get("omega_ref")):
+            return False
+        if te1 or tr1:
+            env.reset(seed=1)
+            ref.reset(seed=1)
+    return True
+
+
+def fuzz_env_inputs(env_id: str, shell_model: str, tally: Tally) -> None:
+    """Hostile kwargs, randomization specs, reset options, seeds and actions for one env × shell."""
+    name = f"{env_id.split('/')[1]}/{shell_model}"
+    for kw, field in _kwarg_cases(env_id):
+        tally.expect("make kwargs", f"{name} {kw}", lambda: gym.make(env_id, **{"shell_model": shell_model, **kw}), field)
+    for spec in _randomization_cases(env_id):
+        tally.expect("randomization specs", f"{name} {spec}",
+                     lambda: gym.make(env_id, shell_model=shell_model, randomization=spec), "randomization")
+    env = gym.make(env_id, shell_model=shell_model, randomization="full", disable_env_checker=True)
+    ref = gym.make(env_id, shell_model=shell_model, randomization="full", disable_env_checker=True)
+    for e in (env, ref):
+        e.reset(seed=0)
+
+    def guarded(group, case, fn, field, exc=(ValueError,)):
+        if not tally.expect(group, case, fn, field, exc):
+            for e in (env, ref):  # resynchronize after a bug so the next case is judged alone
+                e.reset(seed=0)
+        elif not _lockstep(env, ref):
+            tally.counts[group]["clear_error"] -= 1
+            tally.add(group, case, "half_written", "the episode changed")
+            for e in (env, ref):
+                e.reset(seed=0)
+
+    for options, field in _option_cases(env_id):
+        guarded("reset options", f"{name} {options!r}", lambda: env.reset(options=options), field)
+    for seed in (-1, 1.5, "7", True, [1, 2]):
+        guarded("reset options", f"{name} seed={seed!r}", lambda: env.reset(seed=seed), "seed")
+    for label, action in BAD_ACTIONS:
+        guarded("action shapes/types", f"{name} {label}", lambda: env.step(action), "action")
+    for e in (env, ref):
+        e.close()
+
+
+def _run_to_failure(env, action, max_steps: int, options=None) -> dict:
+    env.reset(seed=0, options=options)
+    a = np.asarray(action, np.float32)
+    for i in range(1, max_steps + 1):
+        obs, r, term, trunc, info = env.step(a)
+        if term or trunc:
+            return dict(steps=i, truncated=bool(trunc), terminated=bool(term),
+                        reason=info.get("truncation_reason", ""), obs_finite=bool(np.all(np.isfinite(obs))))
+    return dict(steps=max_steps, truncated=False, terminated=False, reason="(ran without failure)",
+                obs_finite=bool(np.all(np.isfinite(obs))))
+
+
+def fuzz_ended_and_copied(env_id: str, tally: Tally) -> list[dict]:
+    """Drive real physics failures through the truncation path, then check that step() after the
+    end of an episode, and on a copy made mid-episode, raises ``RuntimeError`` asking for a reset.
+    Returns one row per failure attempt.
+
+    Two routes: a robot launched at the largest accepted initial spin (499 rad/s per axis), and on
+    flat ground an accepted drive friction just under the explicit-stability limit (viscous
+    c = 120 N m s/rad at 5 ms, limit ≈123) run at full torque, where the explicit update can still
+    diverge after tens of steps."""
+    rows = []
+    short = env_id.split("/")[1]
+    for shell_model in SHELL_MODELS:
+        env = gym.make(env_id, shell_model=shell_model, disable_env_checker=True)
+        row = _run_to_failure(env, (0.0, 0.0), 5, {"initial_state": {"angular_velocity_W": (499.0, 499.0, 499.0)}})
+        rows.append(dict(env=short, shell_model=shell_model, route="initial spin 499 rad/s per axis", **row))
+        if row["truncated"] or row["terminated"]:
+            tally.expect("ended / copied episodes", f"{short}/{shell_model} step after the launched episode ended",
+                         lambda: env.step(np.zeros(2, np.float32)), "call reset()", exc=(RuntimeError,))
+        env.reset(seed=0)
+        for _ in range(3):
+            env.step(np.zeros(2, np.float32))
+        for label, copier in (("deepcopy", copy.deepcopy), ("pickle", lambda e: pickle.loads(pickle.dumps(e)))):
+            dup = copier(env)
+            tally.expect("ended / copied episodes", f"{short}/{shell_model} step on a {label} made mid-episode",
+                         lambda: dup.step(np.zeros(2, np.float32)), "call reset()", exc=(RuntimeError,))
+            dup.close()
+        env.close()
+        if env_id.endswith("Roll-v0"):
+            env = gym.make(env_id, shell_model=shell_model, randomization="off", disable_env_checker=True,
+                           friction_model={"drive": {"law": "viscous", "params": {"c": 120.0}}})
+            row = _run_to_failure(env, (-1.0, 1.0), 150 if shell_model == "hydroelastic" else 300)
+            rows.append(dict(env=short, shell_model=shell_model, route="drive viscous c=120, full torque", **row))
+            if row["truncated"]:
+                tally.expect("ended / copied episodes", f"{short}/{shell_model} step after the diverged episode",
+                             lambda: env.step(np.zeros(2, np.float32)), "call reset()", exc=(RuntimeError,))
+            env.close()
+    return rows
+
+
+def fuzz_physics_limits(tally: Tally) -> None:
+    """Configurations whose explicit torques diverge at the plant step, refused at gym.make."""
+    import tempfile
+
+    import yaml
+
+    from sphere_env.resources import asset_path
+
+    data = yaml.safe_load(asset_path("calibration", "default.yaml").read_text())
+    with tempfile.TemporaryDirectory() as tmp:
+        for wn in (250.0, 300.0, 1e4):
+            data["omega_n"] = {**data["omega_n"], "intercept_rad_s": wn, "slope_rad_s_per_kpa": 0.0}
+            path = os.path.join(tmp, f"omega_{wn:g}.yaml")
+            with open(path, "w") as f:
+                yaml.safe_dump(data, f)
+            tally.expect("physics limits", f"injected omega_n={wn:g}",
+                         lambda: gym.make("sphere_env/Roll-v0", shell_model="injected", calibration=path), "omega_n")
+    tally.expect("physics limits", "coulomb friction with steer_friction_scale up to 10",
+                 lambda: gym.make("sphere_env/Roll-v0", friction_model="coulomb", randomization={"steer_friction_scale": [1.0, 10.0]}),
+                 "steer_friction_scale")
+    env = gym.make("sphere_env/Roll-v0", friction_model="coulomb", disable_env_checker=True)
+    env.reset(seed=0)
+    tally.expect("physics limits", "coulomb friction, reset with steer_friction_scale=10",
+                 lambda: env.reset(options={"steer_friction_scale": 10.0}), "steer_friction_scale")
+    env.close()
+    for c in (300.0, 1e3, 1e6):
+        for joint in ("steer", "drive"):
+            tally.expect("physics limits", f"viscous {joint} c={c:g}",
+                         lambda: gym.make("sphere_env/Roll-v0", friction_model={joint: {"law": "viscous", "params": {"c": c}}}),
+                         "friction_model")
+
+
+def hostile_inputs() -> tuple[Tally, list[dict]]:
+    tally = Tally()
+    failures = []
+    for env_id in ENV_IDS:
+        for sm in SHELL_MODELS:
+            fuzz_env_inputs(env_id, sm, tally)
+        failures += fuzz_ended_and_copied(env_id, tally)
+    fuzz_physics_limits(tally)
+    return tally, failures
+
+
+def _hostile_markdown(tally: Tally, failures: list[dict]) -> list[str]:
+    from sphere_env.evaluation._report import markdown_table
+
+    rows = tally.rows()
+    total = rows[-1]
+    cols = [("group", "inputs", ""), ("tried", "tried", "{}"), ("clear_error", "clear error", "{}"),
+            ("other_exception", "other exception", "{}"), ("silent_acceptance", "silent acceptance", "{}"),
+            ("half_written", "half-written", "{}")]
+    fcols = [("env", "env", ""), ("shell_model", "shell", ""), ("route", "route", ""), ("steps", "steps", "{}"),
+             ("truncated", "truncated", "{}"), ("reason", "info[\"truncation_reason\"]", ""),
+             ("obs_finite", "obs finite", "{}")]
+    md = [
+        f"## Hostile inputs at the environment boundary: {total['tried']} tried, {total['clear_error']} clear errors, "
+        f"{total['other_exception']} other exceptions, {total['silent_acceptance']} silently accepted, "
+        f"{total['half_written']} half-written",
+        "",
+        "Every env id × shell model gets hostile `gym.make` kwargs, randomization specs (including pressure-schedule "
+        "distributions), `reset` options and seeds on a running episode, and actions of wrong shape or type; plus "
+        "step() after an episode ended and on a copy (deepcopy, pickle) made mid-episode, and configurations whose "
+        "explicit torques diverge at the plant step. *Clear error*: the documented exception "
+        "(`ValueError`; `RuntimeError` for step() without a valid episode) with a message naming the field. "
+        "*Half-written*: the error came but the environment changed — after each refused reset or action the "
+        "env and an identical twin env that never saw the input step on together and must return identical "
+        "observations, rewards and parameters.",
+        "",
+        markdown_table(rows, cols),
+        "",
+    ]
+    if tally.examples:
+        md += ["Failures (first 40):", "", *[f"- `{e}`" for e in tally.examples], ""]
+    md += [
+        "### Physics failures through the truncation path",
+        "",
+        "Two routes: the largest accepted initial spin (499 rad/s about each axis), and on flat ground an accepted "
+        "drive friction just under the explicit-stability limit (viscous c = 120 N m s/rad, limit ≈123 at 5 ms) at "
+        "full torque, where the explicit friction update can still diverge. A failure must return `truncated=True` "
+        "with the reason in `info` and a finite observation, and the next step() must ask for a reset (counted above).",
+        "",
+        markdown_table(failures, fcols),
+        "",
+    ]
+    return md
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--fuzz-steps", type=int, default=135_000,
-                        help="total step() calls over all cases (~25%% are NaN/inf and raise; ~1e5 simulated)")
-    parser.add_argument("--soak-steps", type=int, default=200_000)
+    parser.add_argument("--fuzz-steps", type=int, default=60_000,
+                        help="total fuzzed step() calls over all cases (~25%% are NaN/inf and raise)")
+    parser.add_argument("--soak-steps", type=int, default=40_000,
+                        help="soak steps per shell model (hydroelastic, ~5x slower per step: a quarter)")
     args = parser.parse_args(argv)
     from sphere_env.evaluation._report import RESULTS, machine_info, markdown_table
 
     info = machine_info()  # at the start: the commit that is actually run
-    s = soak(args.soak_steps)  # first, in a fresh process heap
-    print({k: v for k, v in s.items() if k != "samples"}, flush=True)
+    load0 = os.getloadavg()
+    soaks = []
+    for sm in SHELL_MODELS:  # first, in fresh process heaps as far as possible
+        n = args.soak_steps // 4 if sm == "hydroelastic" else args.soak_steps
+        soaks.append(soak(n, sample_every=max(n // 8, 1), shell_model=sm))
+        print({k: v for k, v in soaks[-1].items() if k != "samples"}, flush=True)
+    # Roll: one flat-ground twin, so the hydroelastic shell cache of a single twin alone.
+    n = args.soak_steps // 4
+    soaks.append(soak(n, sample_every=max(n // 8, 1), shell_model="hydroelastic", env_id="sphere_env/Roll-v0"))
+    tally, failures = hostile_inputs()
+    print(tally.rows()[-1], flush=True)
     # Hydroelastic is ~5x slower per step: give it a third of the point/injected share.
     weights = {"point": 3, "injected": 3, "hydroelastic": 1}
     total_w = sum(weights.values()) * len(ENV_IDS)
@@ -146,6 +523,7 @@ def main(argv: list[str] | None = None) -> None:
             n = int(np.ceil(args.fuzz_steps * weights[sm] / total_w))
             rows.append(fuzz(env_id, sm, n))
             print(rows[-1], flush=True)
+    load1 = os.getloadavg()
     fuzz_total = sum(r["steps"] for r in rows)
     fuzz_advanced = sum(r["advanced"] for r in rows)
     unexpected = sum(r["unexpected"] for r in rows)
@@ -155,37 +533,53 @@ def main(argv: list[str] | None = None) -> None:
             ("nan_inf_raised", "…raised ValueError", "{}"), ("episodes", "episodes", "{}"),
             ("physics_failures", "physics-failure truncations", "{}"), ("non_finite_outputs", "non-finite obs/reward", "{}"),
             ("unexpected", "unexpected exceptions", "{}")]
+    scols = [("env", "env", ""), ("shell_model", "shell", ""), ("steps", "steps", "{}"), ("wall_s", "wall s", "{:.0f}"),
+             ("episodes", "episodes", "{}"), ("physics_failures", "physics failures", "{}"),
+             ("twins_cached", "twins", "{}"), ("shells_cached", "hydroelastic shells cached", "{}"),
+             ("rss_after_build_mb", "RSS built MB", "{:.1f}"), ("rss_first_sample_mb", "RSS 1st sample MB", "{:.1f}"),
+             ("rss_end_mb", "RSS end MB", "{:.1f}"), ("growth_from_build_mb", "growth MB", "{:+.1f}"),
+             ("growth_after_first_sample_mb", "growth after 1st sample MB", "{:+.1f}"),
+             ("median_reset_ms", "median reset ms (warm)", "{:.2f}"), ("max_reset_ms", "max reset ms", "{:.0f}")]
     md = [
         "# sphere_env robustness",
         "",
         f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.scripts.robustness` "
-        f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, shared with other jobs.",
+        f"by `python -m evaluation.scripts.robustness --fuzz-steps {args.fuzz_steps} --soak-steps {args.soak_steps}` "
+        f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, shared with other jobs "
+        f"(load average {load0[0]:.1f} at the start, {load1[0]:.1f} at the end).",
         "",
+        *_hostile_markdown(tally, failures),
         f"## Fuzzed actions: {fuzz_total} step() calls ({fuzz_advanced} simulated), {unexpected} unexpected exceptions",
         "",
         "Actions: 40% uniform [-1, 1], 20% ±1e6, 15% N(0, 1e6²), 12.5% with a NaN, 12.5% with ±inf; "
         "`randomization=\"full\"`. NaN/inf must raise `ValueError` naming the action (and the env stays usable); "
-        "everything else is clipped and stepped.",
+        "everything else is clipped and stepped (so these never reach the truncation path: see above).",
         "",
         markdown_table(rows, cols),
         "",
-        f"## Soak: {s['steps']} steps in one process",
+        "## Soak: every shell model, one process",
         "",
-        f"RampDescent-v0, injected shell, `randomization=\"full\"`, random actions: {s['episodes']} episodes, "
-        f"{s['physics_failures']} physics-failure truncations, {s['twins_cached']} twins cached (one per "
-        f"1° incline), {s['wall_s']:.0f} s wall.",
+        f"`randomization=\"full\"` (every reset resamples pressure, friction, ground μ, payload, incline on the "
+        f"ramp, leak), random actions. RSS = resident memory of this process; the soaks run one after another, "
+        f"so later rows start from the heap the earlier ones left. Median reset over the second half of the resets "
+        f"(caches warm). Limit {SOAK_LIMIT_MB:.0f} MB growth after build. A hydroelastic twin keeps up to "
+        f"{Twin.GEOMETRY_CACHE_SIZE} re-meshed shells (one per 0.5 kPa grid pressure, ≈1.8 MB each) and the env one "
+        f"twin per 1° incline (≈8 MB each; RampDescent's full randomization draws 12–20°: 9 twins), so hydroelastic "
+        f"growth is bounded by twins × cache, ≈0.4 GB on RampDescent and ≈45 MB on Roll (one twin).",
         "",
-        f"- RSS after building the env: {s['rss_after_build_mb']:.1f} MB; after {s['samples'][0][0]} steps: "
-        f"{s['rss_first_sample_mb']:.1f} MB; at the end: {s['rss_end_mb']:.1f} MB.",
-        f"- **Growth over the soak: {s['growth_from_build_mb']:+.1f} MB** (limit {SOAK_LIMIT_MB:.0f} MB: "
-        f"{'met' if s['ok'] else 'NOT met'}); after the first {s['samples'][0][0]} steps (twin cache for the "
-        f"sampled inclines warm): {s['growth_after_first_sample_mb']:+.1f} MB.",
-        f"- RSS samples (step, MB): {', '.join(f'({i}, {m:.1f})' for i, m in s['samples'])}",
+        markdown_table(soaks, scols),
+        "",
+        *[f"- {s['shell_model']} RSS samples (step, MB): {', '.join(f'({i}, {m:.1f})' for i, m in s['samples'])}"
+          for s in soaks],
     ]
+    out = {"machine": info, "load_average": [load0, load1], "hostile_inputs": tally.rows(),
+           "hostile_examples": tally.examples, "physics_failures": failures, "fuzz": rows, "soak": soaks}
     RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "robustness.md").write_text("\n".join(md) + "\n")
-    (RESULTS / "robustness.json").write_text(json.dumps({"machine": info, "fuzz": rows, "soak": s}, indent=2))
+    # Temp names then rename: an interrupted run leaves the previous results whole.
+    for name, text in (("robustness.md", "\n".join(md) + "\n"), ("robustness.json", json.dumps(out, indent=2))):
+        tmp = RESULTS / (name + ".tmp")
+        tmp.write_text(text)
+        tmp.replace(RESULTS / name)
     print("\n".join(md))
 
 

@@ -10,6 +10,7 @@ are built by :mod:`sphere_env.envs.factories`.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import OrderedDict
 from pathlib import Path
@@ -18,7 +19,7 @@ from typing import Any, Mapping
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import EzPickle
+from gymnasium.utils import EzPickle, seeding
 
 from sphere_env.checks import finite_number
 from sphere_env.models.friction import resolve_friction
@@ -26,7 +27,9 @@ from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
 from sphere_env.params import check as check_param
 from sphere_env.physics import InitialState, Twin, TwinConfig
-from sphere_env.tasks.observation import DEFAULT_NOISE_STD, assemble_observation
+from sphere_env.physics.terrain import Terrain
+from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
+from sphere_env.tasks.observation import DEFAULT_NOISE_STD, MAX_NOISE_SCALE, assemble_observation
 from sphere_env.tasks.randomization import (
     PARAMETERS as RANDOMIZED,
     RandomizationSpec,
@@ -34,7 +37,7 @@ from sphere_env.tasks.randomization import (
     schedule_pressure,
 )
 from sphere_env.tasks.task import Scene, Task
-from sphere_env.tasks.termination import physics_failure
+from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_failure
 
 #: Default motor torque limits at the joints [N m] (the registry's nominal values).
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
@@ -78,7 +81,8 @@ class SphereEnv(gym.Env, EzPickle):
         ``"full"``, a mapping, or a :class:`RandomizationSpec`. Sampled values are in
         ``info["params"]``.
     :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
-    :param observation_noise_scale: × default per-component noise σ (0 = off, default).
+    :param observation_noise_scale: × default per-component noise σ, within [0, 100] (0 = off,
+        default; 100× already buries every measured signal, larger values overflow float32).
     :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
     :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
 
@@ -90,6 +94,19 @@ class SphereEnv(gym.Env, EzPickle):
     :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).
     :param hydroelastic_pressure_step_kpa: hydroelastic pressures snap to this grid [kPa], default
         0.5, so re-meshed shells (≈90 ms each) are cached (≈2 ms); 0 = exact pressures.
+
+    **Refused at construction** (``ValueError`` naming the kwarg): joint friction and injected shell
+    torques are explicit, so a friction law whose damping slope (× the largest friction scale the
+    randomization can draw), or an injected calibration whose ω_n, would diverge at
+    ``time_step_s`` (:meth:`~sphere_env.physics.Twin.explicit_stability_problem`; at 5 ms: viscous
+    steer c ≲ 144, drive c ≲ 123 N m s/rad, ω_n ≤ 200 rad/s).
+
+    **Episode protocol.** ``step()`` before a successful ``reset()``, or after an episode ended
+    (``terminated``, or ``truncated`` by a physics failure), raises ``RuntimeError``: call
+    ``reset()`` (Gymnasium convention). A ``reset()`` that raises changes nothing. ``copy.deepcopy``
+    and ``pickle`` rebuild the environment from its constructor arguments: the copy does not carry
+    the running episode (Drake's simulator state), and its ``step()`` raises ``RuntimeError`` until
+    it is reset; after ``reset(seed=s)`` it behaves exactly like the original reset with ``s``.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
@@ -145,6 +162,8 @@ class SphereEnv(gym.Env, EzPickle):
             self._drive_friction = resolve_friction(drive_f, "drive")
         except (ValueError, TypeError) as err:
             raise ValueError(f"friction_model: {err}") from None
+        if calibration is not None and not isinstance(calibration, (str, Path)):
+            raise ValueError(f"calibration: value {calibration!r} must be the path of a shell calibration YAML, or None")
         try:
             self.calibration = ShellCalibration.load(calibration)
         except ValueError as err:
@@ -167,9 +186,9 @@ class SphereEnv(gym.Env, EzPickle):
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
         self.observe_pressure = observe_pressure
-        noise = finite_number("observation_noise_scale", observation_noise_scale, ">= 0")
-        if noise < 0:
-            raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} must be >= 0")
+        noise = finite_number("observation_noise_scale", observation_noise_scale, f"[0, {MAX_NOISE_SCALE:g}]")
+        if not 0.0 <= noise <= MAX_NOISE_SCALE:
+            raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} outside allowed [0, {MAX_NOISE_SCALE:g}]")
         self.observation_noise_scale = noise
         self._noise_std = DEFAULT_NOISE_STD * noise
         self.incline_deg = check_param("incline_deg", incline_deg)
@@ -212,10 +231,18 @@ class SphereEnv(gym.Env, EzPickle):
         # ---- physics ----
         self._twins: OrderedDict[float, Twin] = OrderedDict()
         self.twin = self._get_twin(self.incline_deg)
+        # Friction and injected shell torques are explicit: refuse gains that diverge at this step
+        # (at the largest friction scales the randomization can draw).
+        problem = self.twin.explicit_stability_problem(
+            _max_of(self.randomization, "steer_friction_scale"), _max_of(self.randomization, "drive_friction_scale"))
+        if problem:
+            raise ValueError(problem)
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
         self._obs = np.zeros(n_obs, dtype=np.float32)
         self._needs_reset = True
+        self._ended: str | None = None
+        self._copied_mid_episode = False
         self._episode_updates = False
         self._reward_keys = {k: f"reward_{k}" for k in task.reward_terms}
 
@@ -250,34 +277,23 @@ class SphereEnv(gym.Env, EzPickle):
         return len(self._twins)
 
     # ---- parameters ----------------------------------------------------------------------------
-    def _sample_params(self, options: Mapping[str, Any]) -> dict[str, Any]:
+    def _sample_params(self, fixed: Mapping[str, Any], rng: np.random.Generator) -> dict[str, Any]:
+        """Sample this episode's parameters from ``rng``; ``fixed`` (checked option values) win."""
         rng_p = self.calibration.pressure_range_kpa
         params: dict[str, Any] = {
             "pressure_kpa": self.calibration.nominal_pressure_kpa,
             **_NOMINAL,
             "incline_deg": self.incline_deg,
         }
-        for name, val in self.randomization.sample(self.np_random).items():
+        for name, val in self.randomization.sample(rng).items():
             params[name] = clip_parameter(name, val, rng_p)
         if "incline_deg" in params and params["incline_deg"] != self.incline_deg:
             # Sampled inclines snap to a 1° grid: each distinct incline is its own twin (terrain).
             params["incline_deg"] = self._quantize_incline(params["incline_deg"])
         sched = self.randomization.pressure_schedule
-        params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(self.np_random, 1))
+        params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(rng, 1))
         # Explicit values from reset(options=...) win (replaying a logged trial).
-        for name, val in options.items():
-            if name in RANDOMIZED:
-                spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
-                spec = spec.resolved(rng_p, kwarg="options")
-                d = spec.terms[0].distribution
-                if d.kind != "fixed":
-                    raise ValueError(f"options: {name} must be a fixed value, got {val!r}")
-                params[name] = d.value
-            elif name == "pressure_rate_kpa_per_s":
-                r = float(val)
-                if not math.isfinite(r):
-                    raise ValueError(f"options: pressure_rate_kpa_per_s={val!r} is not finite")
-                params[name] = r
+        params.update(fixed)
         params["pressure_kpa"] = self._quantize_pressure(params["pressure_kpa"])
         return params
 
@@ -289,34 +305,100 @@ class SphereEnv(gym.Env, EzPickle):
         q = lo + round((p - lo) / self._p_step) * self._p_step
         return min(max(round(q, 9), lo), hi)
 
+    def _check_options(self, options: Any) -> tuple[dict[str, Any], dict[str, Any], InitialState | None]:
+        """Check every ``reset`` option; returns (all options, fixed parameter values, initial
+        state or None). Pure: raises ``ValueError`` naming the option before anything changes."""
+        if options is None:
+            return {}, {}, None
+        if not isinstance(options, Mapping):
+            raise ValueError(f"options: value {options!r} must be a mapping (dict) of option names to values, or None")
+        options = dict(options)
+        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self.task.command_options)
+        for key in options:
+            if key not in allowed:
+                raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
+        fixed: dict[str, Any] = {}
+        rng_p = self.calibration.pressure_range_kpa
+        for name, val in options.items():
+            if name in RANDOMIZED:
+                spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
+                spec = spec.resolved(rng_p, kwarg="options")
+                d = spec.terms[0].distribution
+                if d.kind != "fixed":
+                    raise ValueError(f"options.{name}: value {val!r} must be a fixed value, not a distribution")
+                fixed[name] = d.value
+            elif name == "pressure_rate_kpa_per_s":
+                fixed[name] = finite_number("options.pressure_rate_kpa_per_s", val, "a finite number [kPa/s]")
+        if "steer_friction_scale" in fixed or "drive_friction_scale" in fixed:
+            problem = self.twin.explicit_stability_problem(
+                fixed.get("steer_friction_scale", 1.0), fixed.get("drive_friction_scale", 1.0))
+            if problem:
+                raise ValueError(f"options: {problem}")
+        options.update(self.task.check_options(options))
+        init = options.get("initial_state")
+        if init is not None:
+            if isinstance(init, Mapping):
+                try:
+                    init = InitialState(**init)
+                except TypeError as err:
+                    raise ValueError(f"options.initial_state: {err}; allowed fields: {list(InitialState.__dataclass_fields__)}") from None
+            elif not isinstance(init, InitialState):
+                raise ValueError(f"options.initial_state: value {init!r} must be an InitialState or a mapping of its fields")
+            init.validate()
+            _check_initial_rates(init)
+        return options, fixed, init
+
+    def _check_above_ground(self, init: InitialState, incline_deg: float) -> None:
+        """Refuse an initial sphere centre more than MAX_INITIAL_PENETRATION_M inside the ground."""
+        if init.position_m is None:
+            return
+        twin = self._twins.get(incline_deg)
+        terrain = twin.terrain if twin is not None else Terrain(incline_deg, self.ramp_length_m)
+        clearance = ground_clearance_m(terrain, init.position_m)
+        radius = self.twin.robot.radius_m
+        if clearance < radius - MAX_INITIAL_PENETRATION_M:
+            raise ValueError(
+                f"options.initial_state.position_m: value {tuple(init.position_m)!r} puts the sphere centre "
+                f"{clearance:.3g} m from the ground (incline {incline_deg:g}°); allowed: at least "
+                f"{radius - MAX_INITIAL_PENETRATION_M:.3g} m (shell radius {radius:.3g} m minus "
+                f"{MAX_INITIAL_PENETRATION_M} m of penetration)"
+            )
+
     # ---- gym API -------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         """Start an episode. ``options`` (all optional):
 
         * ``initial_state``: :class:`~sphere_env.physics.InitialState` or a mapping of its
-          fields (angles rad, rates rad/s, position m, velocities m/s);
+          fields (angles rad, rates rad/s, position m, velocities m/s); the sphere centre may sit
+          at most :data:`MAX_INITIAL_PENETRATION_M` inside the ground, speeds and rates within the
+          physics-failure limits (50 m/s, 500 rad/s per component);
         * any randomization parameter (``pressure_kpa`` [kPa], ``ground_friction``, ...), fixed
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
-        * task command values (the task's ``command_options``).
+        * task command values (the task's ``command_options``, within the task's bounds).
+
+        Everything (seed, options, initial state, command values) is checked before anything
+        changes: a reset that raises ``ValueError`` leaves the environment as it was (the running
+        episode, if any, carries on; a fresh env still needs a successful reset).
         """
-        super().reset(seed=seed)
-        options = dict(options or {})
-        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self.task.command_options)
-        for key in options:
-            if key not in allowed:
-                raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
-        params = self._sample_params(options)
-        init = options.get("initial_state")
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+            raise ValueError(f"seed: value {seed!r} must be a non-negative Python int or None")
+        options, fixed, init = self._check_options(options)
+        # Sample on a copy of the generator; it becomes the env's only once everything passed.
+        if seed is not None:
+            rng, seed = seeding.np_random(seed)
+        else:
+            rng = copy.deepcopy(self.np_random)
+        params = self._sample_params(fixed, rng)
         if init is None:
             init = InitialState(**self.task.initial_state())
-        elif isinstance(init, Mapping):
-            try:
-                init = InitialState(**init)
-            except TypeError as err:
-                raise ValueError(f"options: initial_state: {err}") from None
-        elif not isinstance(init, InitialState):
-            raise ValueError(f"options: initial_state={init!r} must be an InitialState or a mapping")
+        else:
+            self._check_above_ground(init, params["incline_deg"])
         twin = self._get_twin(params["incline_deg"])
+        # ---- checked: from here on the environment changes ----
+        if seed is not None:
+            self._np_random, self._np_random_seed = rng, seed
+        else:
+            self._np_random = rng
         if twin is not self.twin and self.record_replay:
             self.twin.stop_recording()
         self.twin = twin
@@ -336,7 +418,9 @@ class SphereEnv(gym.Env, EzPickle):
             twin.publish()
         self._steps = 0
         self._failed = None
+        self._ended = None
         self._needs_reset = False
+        self._copied_mid_episode = False
         state = twin.state()
         self._tau[:] = 0.0
         self.task.reset(state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m))
@@ -351,16 +435,28 @@ class SphereEnv(gym.Env, EzPickle):
             a0, a1 = action.tolist()  # fast path: the usual float32 array
         else:
             try:
-                a = np.asarray(action, dtype=np.float64)
+                a = np.asarray(action)
             except (TypeError, ValueError):
-                raise ValueError(f"action: value {action!r} is not numeric; expected shape (2,) in [-1, 1]") from None
+                a = np.asarray(None)
+            if a.dtype.kind not in "iuf":  # refuses str, bool, complex, object (None, mixed)
+                raise ValueError(
+                    f"action: value {action!r} (dtype {a.dtype}) is not real numbers; expected [steer, drive] floats in [-1, 1]"
+                )
+            a = a.astype(np.float64)
             if a.shape != (2,):
                 raise ValueError(f"action: shape {a.shape} invalid; expected (2,) = [steer, drive] in [-1, 1]")
             a0, a1 = a.tolist()
         if not (math.isfinite(a0) and math.isfinite(a1)):
             raise ValueError(f"action: value {action!r} is not finite (NaN or inf); expected [steer, drive] in [-1, 1]")
         if self._needs_reset:
-            raise RuntimeError("step: call reset() before step()")
+            if self._copied_mid_episode:
+                raise RuntimeError(
+                    "step: this environment is a copy (copy.deepcopy or pickle) made during an episode; copies "
+                    "do not carry the simulator state, call reset() before step()"
+                )
+            raise RuntimeError("step: call reset() before step() (no episode has started, or the last reset failed)")
+        if self._ended is not None:
+            raise RuntimeError(f"step: the episode has ended ({self._ended}); call reset() before step()")
         # Clip to the box; +1 drive = forward (the drive joint axis is −y, so τ_joint = −a·limit).
         a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
         a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
@@ -380,6 +476,7 @@ class SphereEnv(gym.Env, EzPickle):
             state = twin.state()
             self._failed = physics_failure(state)
         if self._failed is not None:
+            self._ended = "truncated: " + self._failed
             info = self._failed_info()
             return self._obs.copy(), 0.0, False, True, info
         terms, terminated, success = self.task.step(state, (a0, a1), self.np_random)
@@ -388,6 +485,8 @@ class SphereEnv(gym.Env, EzPickle):
             reward += v
         obs = self._observe(state)
         info = self._info(state, terms, success)
+        if terminated:
+            self._ended = "terminated"
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
@@ -487,3 +586,46 @@ class SphereEnv(gym.Env, EzPickle):
     def close(self) -> None:
         self._twins.clear()
         self.meshcat = None
+
+    # ---- copies ------------------------------------------------------------------------------------
+    # copy.deepcopy and pickle rebuild the environment from its constructor arguments (EzPickle):
+    # the copy has no episode. Drake's state is not only [q; v]: the plant keeps an abstract
+    # (C++-only) step memory, e.g. the previous step's contact impulses that the "lagged" contact
+    # approximation uses, which cannot be pickled, so a copy could not continue the episode
+    # faithfully. A copy made mid-episode remembers that, so its step() says why it needs a reset.
+    def __getstate__(self):
+        state = EzPickle.__getstate__(self)
+        state["_mid_episode"] = not self.__dict__.get("_needs_reset", True)
+        return state
+
+    def __setstate__(self, state):
+        mid = state.pop("_mid_episode", False)
+        EzPickle.__setstate__(self, state)
+        self._copied_mid_episode = mid
+
+
+def _check_initial_rates(init: InitialState) -> None:
+    """Refuse initial speeds and rates beyond the physics-failure limits: such an episode would end
+    at its first step (and rates far beyond overflow the float32 observation)."""
+    for name, limit, unit in (("velocity_W", MAX_SPEED_M_S, "m/s"), ("angular_velocity_W", MAX_RATE_RAD_S, "rad/s"),
+                              ("theta_dot", MAX_RATE_RAD_S, "rad/s"), ("drive_rate", MAX_RATE_RAD_S, "rad/s")):
+        val = getattr(init, name)
+        if np.max(np.abs(np.asarray(val, dtype=float))) > limit:
+            raise ValueError(f"options.initial_state.{name}: value {val!r} outside allowed [-{limit:g}, {limit:g}] {unit} "
+                             f"(beyond, the state counts as a physics failure)")
+
+
+def _max_of(spec: RandomizationSpec, name: str) -> float:
+    """The largest value a spec can give ``name`` (nominal 1 when not randomized; a normal
+    distribution is clipped to the registry bound)."""
+    for t in spec.terms:
+        if t.parameter == name:
+            d = t.distribution
+            if d.kind == "fixed":
+                return float(d.value)
+            if d.kind == "uniform":
+                return float(d.high)
+            if d.kind == "choice":
+                return max(float(v) for v in d.values)
+            return float(PARAMETERS[name].high)
+    return float(PARAMETERS[name].nominal)

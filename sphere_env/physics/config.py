@@ -122,8 +122,11 @@ class InitialState:
             val = getattr(self, name)
             if val is None:
                 continue
-            arr = np.asarray(val, dtype=float)
-            if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+            try:
+                arr = np.asarray(val, dtype=float)
+            except (TypeError, ValueError):
+                arr = None
+            if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
                 raise ValueError(f"initial_state.{name}: value {val!r} must be 3 finite numbers")
         return self
 

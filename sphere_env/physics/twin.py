@@ -35,6 +35,43 @@ __all__ = ["FIXTURES", "InitialState", "Twin", "TwinConfig", "TwinState"]
 
 _log = logging.getLogger("sphere_env")
 
+#: An initial sphere centre may sit at most this far inside the ground [m] (a settled shell
+#: deflects by a few cm); deeper, the contact pushes the robot out violently on the first step.
+MAX_INITIAL_PENETRATION_M = 0.05
+#: Joint friction and the injected shell torques are evaluated explicitly, from the state at the
+#: start of each plant step. An explicit damper of slope c [N m s/rad] on a joint of inverse
+#: inertia m⁻¹ (diagonal of the free-body M⁻¹) is unstable for c·dt·m⁻¹ ≥ 2 whenever the robot is
+#: off the ground; such gains are refused. Ground contact stiffens the joints, so below the limit
+#: most runs are fine, but near it long full-torque runs can still diverge (at dt = 5 ms: drive
+#: c = 120 N m s/rad under point contact after 52–92 steps; hydroelastic drive c = 150 within 5
+#: steps, steer c = 180 within 11); the physics-failure truncation reports those.
+EXPLICIT_DAMPING_LIMIT = 2.0
+#: The injected shell stiffness is explicit too: refused for ω_n·dt above this (at dt = 5 ms,
+#: ω_n = 250 rad/s diverged within 16 steps at full torque, 200 rad/s ran; the measured shell
+#: ω_n is ≈3 rad/s).
+INJECTED_OMEGA_DT_LIMIT = 1.0
+
+
+def ground_clearance_m(terrain: Terrain, position_m) -> float:
+    """Signed distance of a point from the ground surface [m] (< 0 inside the ground).
+
+    The ground is the plane through the origin with normal ``terrain.n_ramp``, or for a finite ramp
+    the union of that half-space and the run-out's (horizontal plane through the ramp's end).
+    """
+    p = np.asarray(position_m, dtype=float)
+    d = float(np.dot(terrain.n_ramp, p))
+    end = terrain.ramp_end_W
+    if end is not None:
+        d = min(d, float(p[2] - end[2]))
+    return d
+
+
+def friction_peak_slope(model) -> float:
+    """The largest damping slope −dτ/dv of a friction law over |v| ≤ 50 rad/s [N m s/rad]."""
+    v = np.linspace(-50.0, 50.0, 200_001)
+    tau = np.asarray(model.torque(v), dtype=float)
+    return float(max(np.max(-np.gradient(tau, v)), 0.0))
+
 
 class Twin:
     """The robot in Drake, advanced in chunks like an environment would.
@@ -268,6 +305,52 @@ class Twin:
     def clear_shell_cache(self) -> None:
         """Forget cached hydroelastic shells: the next pressure change re-meshes."""
         self._geometry_cache.clear()
+
+    # ---- numerical admissibility ------------------------------------------------------------------
+    def explicit_stability_problem(self, steer_friction_scale: float = 1.0, drive_friction_scale: float = 1.0) -> str | None:
+        """Why this twin's explicit torques would diverge at its time step, or ``None``.
+
+        Checks the joint friction slopes (× the given scales) against :data:`EXPLICIT_DAMPING_LIMIT`
+        and, for the injected shell, ω_n·dt over the calibration's pressure range against
+        :data:`INJECTED_OMEGA_DT_LIMIT` and the drive-direction damping C_inject (which acts on the
+        drive joint) together with the drive friction.
+        """
+        cache = self.__dict__.get("_stability_cache")
+        if cache is None:
+            ctx = self.plant.CreateDefaultContext()
+            minv = np.diag(np.linalg.inv(self.plant.CalcMassMatrix(ctx)))
+            lay = self._layout
+            cache = {
+                "steer": (friction_peak_slope(self.config.steer_friction), lay["steer_v"]),
+                "drive": (friction_peak_slope(self.config.drive_friction), lay["drive_v"]),
+                "minv": minv,
+            }
+            if self.config.shell_model == "injected":
+                lo, hi = self.calibration.pressure_range_kpa
+                ps = np.linspace(lo, hi, 23)
+                cache["omega_n"] = float(np.max(self.calibration.omega_n(ps)))
+                cache["C"] = max(self.calibration.injected_gains(float(p), self.robot.M_eq, self.robot.K_eq)[1] for p in ps)
+            self._stability_cache = cache
+        dt = self.config.time_step_s
+        if "omega_n" in cache and cache["omega_n"] * dt > INJECTED_OMEGA_DT_LIMIT:
+            lo, hi = self.calibration.pressure_range_kpa
+            return (f"calibration: omega_n reaches {cache['omega_n']:.4g} rad/s over [{lo:g}, {hi:g}] kPa; the injected "
+                    f"shell torques are explicit and diverge for omega_n·time_step_s > {INJECTED_OMEGA_DT_LIMIT:g}; "
+                    f"allowed at time_step_s={dt:g} s: omega_n <= {INJECTED_OMEGA_DT_LIMIT / dt:.4g} rad/s")
+        for joint, scale in (("steer", steer_friction_scale), ("drive", drive_friction_scale)):
+            slope, idx = cache[joint]
+            if idx is None:
+                continue
+            damping = slope * scale + (cache.get("C", 0.0) if joint == "drive" else 0.0)
+            ratio = damping * dt * cache["minv"][idx]
+            if ratio > EXPLICIT_DAMPING_LIMIT:
+                allowed = EXPLICIT_DAMPING_LIMIT / (dt * cache["minv"][idx])
+                extra = f" + injected C_inject {cache['C']:.4g}" if joint == "drive" and "C" in cache else ""
+                return (f"friction_model: {joint} joint damping {damping:.4g} N m s/rad (friction law "
+                        f"{getattr(self.config, joint + '_friction').law!r} peak slope {slope:.4g} × "
+                        f"{joint}_friction_scale {scale:g}{extra}) diverges at time_step_s={dt:g} s: explicit "
+                        f"torques need damping·dt/inertia <= {EXPLICIT_DAMPING_LIMIT:g}; allowed: <= {allowed:.4g} N m s/rad")
+        return None
 
     # ---- state -----------------------------------------------------------------------------------
     def reset(self, initial: InitialState | None = None, pressure_kpa: float | None = None) -> TwinState:

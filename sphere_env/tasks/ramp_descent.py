@@ -82,7 +82,7 @@ class RampDescentTask(Task):
     :param omega_ref_range_rad_s: (low, high) of the per-episode ω_ref [rad/s].
     :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
 
-    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s].
+    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] within [0, 30].
 
     **Version history.** v0: initial release.
     """
@@ -92,6 +92,7 @@ class RampDescentTask(Task):
     reward_terms = ("speed", "lateral", "heading", "ctrl", "success", "off_ramp")
     command_names = ("omega_ref", "heading_error")
     command_options = ("omega_ref",)
+    command_option_bounds = {"omega_ref": (0.0, 30.0)}  # the bounds of omega_ref_range_rad_s
 
     def __init__(
         self,

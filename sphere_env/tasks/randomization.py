@@ -184,30 +184,17 @@ class RandomizationSpec:
                     raise ValueError(f"{where}.interval_s: value {t.interval_s!r} must be > 0 s for mode 'interval'")
             if t.parameter == "incline_deg" and not ramp and t.distribution.kind != "fixed":
                 raise ValueError(f"{where}: this environment has no ramp; incline cannot be randomized")
-            d, rec = t.distribution, PARAMETERS[t.parameter]
-            size, bounds = rec.size, (None if t.parameter == "pressure_kpa" else rec)
-            if d.kind not in DISTRIBUTIONS:
-                raise ValueError(f"{where}.distribution: value {d.kind!r}; allowed: {list(DISTRIBUTIONS)}")
-            if d.kind == "fixed":
-                _check_bounds(where, _vec(where, d.value, size), bounds)
-            elif d.kind == "uniform":
-                if (d.low is None) != (d.high is None) or (d.low is None and t.parameter != "pressure_kpa"):
-                    raise ValueError(f"{where}: uniform needs both 'low' and 'high'")
-                if d.low is not None:
-                    lo, hi = _vec(where, d.low, size), _vec(where, d.high, size)
-                    if np.any(np.asarray(lo) > np.asarray(hi)):
-                        raise ValueError(f"{where}: low {d.low!r} > high {d.high!r}")
-                    _check_bounds(where, lo, bounds)
-                    _check_bounds(where, hi, bounds)
-            elif d.kind == "normal":
-                _vec(where, d.mean, size)
-                if np.any(np.asarray(_vec(where, d.std, size)) < 0):
-                    raise ValueError(f"{where}: std {d.std!r} must be >= 0")
-            else:
-                if not d.values:
-                    raise ValueError(f"{where}: choice needs a non-empty 'values' list")
-                for v in d.values:
-                    _check_bounds(where, _vec(where, v, size), bounds)
+            rec = PARAMETERS[t.parameter]
+            bounds = None if t.parameter == "pressure_kpa" else rec
+            _check_distribution(where, t.distribution, rec.size, bounds, natural_range=t.parameter == "pressure_kpa")
+        if self.pressure_schedule is not None:
+            where = f"{kwarg}.pressure_schedule"
+            sched = self.pressure_schedule
+            if not isinstance(sched, PressureSchedule) or not isinstance(sched.rate_kpa_per_s, Distribution):
+                raise ValueError(f"{where}: value {sched!r} must be a PressureSchedule of a rate Distribution")
+            _check_distribution(f"{where}.rate_kpa_per_s", sched.rate_kpa_per_s, 1, None, natural_range=False)
+            if not finite_number(f"{where}.delay_s", sched.delay_s, ">= 0 s") >= 0:
+                raise ValueError(f"{where}.delay_s: value {sched.delay_s!r} must be >= 0 s")
 
     def resolved(self, pressure_range_kpa: tuple[float, float], kwarg: str = "randomization") -> "RandomizationSpec":
         """Fill pressure bounds from the calibration and check pressures lie in its range."""
@@ -248,6 +235,34 @@ def clip_parameter(name: str, value, pressure_range_kpa: tuple[float, float]):
     return rec.clip(float(value))
 
 
+def _check_distribution(where: str, d: Distribution, size: int, bounds: Parameter | None, natural_range: bool) -> None:
+    """Refuse a distribution numpy could not sample or that leaves ``bounds``: unknown kind,
+    non-finite numbers, uniform without both bounds (unless ``natural_range``: pressure's is the
+    calibration's) or with low > high, normal with std < 0, empty choice."""
+    if d.kind not in DISTRIBUTIONS:
+        raise ValueError(f"{where}.distribution: value {d.kind!r}; allowed: {list(DISTRIBUTIONS)}")
+    if d.kind == "fixed":
+        _check_bounds(where, _vec(where, d.value, size), bounds)
+    elif d.kind == "uniform":
+        if (d.low is None) != (d.high is None) or (d.low is None and not natural_range):
+            raise ValueError(f"{where}: uniform needs both 'low' and 'high' (got low={d.low!r}, high={d.high!r})")
+        if d.low is not None:
+            lo, hi = _vec(f"{where}.low", d.low, size), _vec(f"{where}.high", d.high, size)
+            if np.any(np.asarray(lo) > np.asarray(hi)):
+                raise ValueError(f"{where}: uniform low {d.low!r} > high {d.high!r}; allowed: low <= high")
+            _check_bounds(where, lo, bounds)
+            _check_bounds(where, hi, bounds)
+    elif d.kind == "normal":
+        _vec(f"{where}.mean", d.mean, size)
+        if np.any(np.asarray(_vec(f"{where}.std", d.std, size)) < 0):
+            raise ValueError(f"{where}.std: value {d.std!r} must be >= 0")
+    else:
+        if not isinstance(d.values, (tuple, list)) or not d.values:
+            raise ValueError(f"{where}.values: value {d.values!r}; choice needs a non-empty list of values")
+        for v in d.values:
+            _check_bounds(where, _vec(f"{where}.values", v, size), bounds)
+
+
 def _check_bounds(where: str, value, record: Parameter | None) -> None:
     if record is None:
         return
@@ -267,6 +282,8 @@ def _parse_distribution(entry: Any, size: int, where: str) -> tuple[Distribution
             if k not in allowed:
                 raise ValueError(f"{where}: unknown field {k!r}; allowed: {sorted(allowed | {'distribution', 'mode', 'interval_s'})}")
         vals = e.get("values", ())
+        if not isinstance(vals, (list, tuple)):
+            raise ValueError(f"{where}.values: value {vals!r} must be a list of values")
         d = Distribution(kind, e.get("value"), e.get("low"), e.get("high"), e.get("mean"), e.get("std"),
                          tuple(tuple(v) if isinstance(v, list) else v for v in vals))
         if kind == "fixed":

@@ -60,8 +60,8 @@ class RollTask(Task):
     :param command_resample_s: resample the command every this many seconds [s]; None = never.
     :param reward_weights: mapping overriding :class:`RollRewardWeights` fields.
 
-    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] and ``heading_ref`` [rad] or
-    ``yaw_rate_ref`` [rad/s]. ``gym.make("sphere_env/Roll-v0", ...)`` takes these kwargs and those
+    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] within [−30, 30] and ``heading_ref``
+    [rad] within [−2π, 2π] or ``yaw_rate_ref`` [rad/s] within [−5, 5]. ``gym.make("sphere_env/Roll-v0", ...)`` takes these kwargs and those
     of :class:`~sphere_env.envs.SphereEnv` (flat ground: ``ramp_length_m`` must stay None).
 
     **Version history.** v0: initial release.
@@ -70,6 +70,10 @@ class RollTask(Task):
     name = "Roll"
     ramp = False
     reward_terms = ("speed", "heading", "ctrl")
+    #: ω_ref and ψ̇_ref within the bounds of their ranges; ψ_ref within ±2π (a sampled ψ_ref is
+    #: the start heading in (−π, π] plus at most ±π).
+    command_option_bounds = {"omega_ref": (-30.0, 30.0), "heading_ref": (-2 * math.pi, 2 * math.pi),
+                             "yaw_rate_ref": (-5.0, 5.0)}
 
     def __init__(
         self,

@@ -9,11 +9,13 @@ environment.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
+from sphere_env.checks import finite_number
 from sphere_env.tasks.observation import ObservationLayout
 
 
@@ -39,6 +41,7 @@ class Task:
     :cvar reward_terms: names of the reward terms (reported as ``info["reward_<term>"]``).
     :cvar command_names: command components appended to the measured observation.
     :cvar command_options: command values settable through ``reset(options=...)``.
+    :cvar command_option_bounds: allowed [low, high] of each command option (unit in its docs).
     """
 
     name: str = "Task"
@@ -46,6 +49,7 @@ class Task:
     reward_terms: tuple[str, ...] = ()
     command_names: tuple[str, ...] = ()
     command_options: tuple[str, ...] = ()
+    command_option_bounds: Mapping[str, tuple[float, float]] = {}
 
     # ---- layout ---------------------------------------------------------------------------------
     def observation_layout(self, observe_pressure: bool = False) -> ObservationLayout:
@@ -58,6 +62,20 @@ class Task:
         """Default initial state of an episode, as :class:`~sphere_env.physics.InitialState` fields
         (``{}``: at rest at the origin)."""
         return {}
+
+    def check_options(self, options: Mapping[str, Any]) -> dict[str, float]:
+        """The command values among ``options`` as finite floats within
+        :attr:`command_option_bounds`; ``ValueError`` naming the option otherwise. Pure."""
+        out = {}
+        for key in self.command_options:
+            if key in options:
+                lo, hi = self.command_option_bounds.get(key, (-math.inf, math.inf))
+                allowed = f"[{lo:g}, {hi:g}]"
+                val = finite_number(f"options.{key}", options[key], allowed)
+                if not lo <= val <= hi:
+                    raise ValueError(f"options.{key}: value {options[key]!r} outside allowed {allowed}")
+                out[key] = val
+        return out
 
     def reset(self, state: Any, rng: np.random.Generator, options: Mapping[str, Any], scene: Scene) -> None:
         """Start an episode from ``state``: draw the command (``options`` may fix it)."""
@@ -79,9 +97,4 @@ class Task:
 
 def finite_option(options: Mapping[str, Any], key: str) -> float:
     """``options[key]`` as a finite float, or ``ValueError`` naming it."""
-    import math
-
-    val = float(options[key])
-    if not math.isfinite(val):
-        raise ValueError(f"options: {key}={options[key]!r} is not finite")
-    return val
+    return finite_number(f"options.{key}", options[key])

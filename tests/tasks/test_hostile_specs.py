@@ -1,0 +1,60 @@
+"""Randomization specs and command options that numpy could not sample or that lie outside the
+allowed ranges are refused with an error naming the field (pure Python, no Drake)."""
+
+import math
+
+import pytest
+
+from sphere_env.tasks import RampDescentTask, RollTask
+from sphere_env.tasks.randomization import Distribution, PressureSchedule, RandomizationSpec
+
+
+@pytest.mark.parametrize("rate, field", [
+    ([0.1, -0.1], "low"),  # inverted uniform range
+    ({"distribution": "normal", "mean": 0.0, "std": -1.0}, "std"),
+    ({"distribution": "uniform"}, "uniform needs both"),
+    ({"distribution": "uniform", "low": -0.1}, "uniform needs both"),
+    ({"distribution": "choice", "values": []}, "values"),
+    ({"distribution": "choice", "values": 3}, "values"),
+    ({"distribution": "fixed", "value": float("nan")}, "not finite"),
+    ({"distribution": "poisson"}, "distribution"),
+])
+def test_bad_pressure_schedule_distributions_are_refused(rate, field):
+    with pytest.raises(ValueError, match="pressure_schedule.rate_kpa_per_s") as err:
+        RandomizationSpec.parse({"pressure_schedule": {"rate_kpa_per_s": rate}})
+    assert field in str(err.value)
+
+
+def test_schedule_objects_are_validated_too():
+    bad = RandomizationSpec(pressure_schedule=PressureSchedule(Distribution("uniform", low=0.2, high=-0.2)))
+    with pytest.raises(ValueError, match="pressure_schedule.rate_kpa_per_s: uniform low"):
+        RandomizationSpec.parse(bad)
+    with pytest.raises(ValueError, match="delay_s"):
+        RandomizationSpec.parse(RandomizationSpec(pressure_schedule=PressureSchedule(Distribution("fixed", value=0.0), -1.0)))
+
+
+def test_valid_schedules_still_parse():
+    spec = RandomizationSpec.parse({"pressure_schedule": {"rate_kpa_per_s": [-0.2, 0.0], "delay_s": 1.0}})
+    assert spec.pressure_schedule.rate_kpa_per_s == Distribution("uniform", low=-0.2, high=0.0)
+    assert RandomizationSpec.parse("full").pressure_schedule is not None
+
+
+@pytest.mark.parametrize("task, options, field", [
+    (RollTask(), {"omega_ref": "abc"}, "options.omega_ref"),
+    (RollTask(), {"omega_ref": [1.0, 2.0]}, "options.omega_ref"),
+    (RollTask(), {"omega_ref": 1e9}, "options.omega_ref: value 1000000000.0 outside allowed [-30, 30]"),
+    (RollTask(), {"heading_ref": "x"}, "options.heading_ref"),
+    (RollTask(), {"heading_ref": 10.0}, "options.heading_ref"),
+    (RollTask(command_mode="yaw_rate"), {"yaw_rate_ref": 9.0}, "options.yaw_rate_ref"),
+    (RampDescentTask(), {"omega_ref": -1.0}, "options.omega_ref: value -1.0 outside allowed [0, 30]"),
+    (RampDescentTask(), {"omega_ref": float("nan")}, "options.omega_ref"),
+])
+def test_command_options_are_checked_with_their_range(task, options, field):
+    with pytest.raises(ValueError) as err:
+        task.check_options(options)
+    assert field in str(err.value)
+
+
+def test_command_options_in_range_pass_unchanged():
+    assert RollTask().check_options({"omega_ref": 2, "heading_ref": -math.pi}) == {"omega_ref": 2.0, "heading_ref": -math.pi}
+    assert RampDescentTask().check_options({"omega_ref": 6.0, "pressure_kpa": 5.0}) == {"omega_ref": 6.0}
