@@ -36,7 +36,11 @@ def register_envs() -> None:
         if env_id not in registry:
             if "calibration" in kwargs:  # a shipped calibration file, by name
                 kwargs = {**kwargs, "calibration": str(asset_path("calibration", kwargs["calibration"]))}
-            register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=kwargs)
+            # Gymnasium's passive checker wrapper breaks on the first step() after a reset that
+            # raised (it keeps nothing of the failed reset); the env validates its own inputs and
+            # the test suite runs gymnasium's and SB3's full checkers on every id instead.
+            register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=kwargs,
+                     disable_env_checker=True)
 
 
 register_envs()

@@ -329,7 +329,7 @@ class Twin:
                 lo, hi = self.calibration.pressure_range_kpa
                 ps = np.linspace(lo, hi, 23)
                 cache["omega_n"] = float(np.max(self.calibration.omega_n(ps)))
-                cache["C"] = max(self.calibration.injected_gains(float(p), self.robot.M_eq, self.robot.K_eq)[1] for p in ps)
+                cache["C"] = max(self.shell.injected_gains(float(p))[1] for p in ps)
             self._stability_cache = cache
         dt = self.config.time_step_s
         if "omega_n" in cache and cache["omega_n"] * dt > INJECTED_OMEGA_DT_LIMIT:
