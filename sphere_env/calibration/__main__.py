@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -143,6 +144,10 @@ def cmd_sensitivity(args) -> int:
     ps = args.pressures_kpa or [cal.pressure_range_kpa[0], cal.nominal_pressure_kpa, cal.pressure_range_kpa[1]]
     for p in ps:
         cal.check_pressure(p, "--pressures-kpa")
+    if not (math.isfinite(args.duration_s) and 0 < args.duration_s <= 600):
+        raise ValueError(f"--duration-s: value {args.duration_s!r} must be a simulated time in (0, 600] s")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers: value {args.workers!r} must be >= 1")
     rows = sweep(ps, args.calibration, workers=args.workers, duration_s=args.duration_s)
     print(markdown_table(rows))
     if args.plot:

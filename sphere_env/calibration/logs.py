@@ -294,11 +294,11 @@ def load_log(
     dt = np.diff(t_raw)
     if (dt == 0).any():
         i = int(np.flatnonzero(dt == 0)[0]) + 1
-        raise _fail(p, f"line {i + 2}, column {tcol!r}: duplicate time {t_raw[i]!r} (same as line {i + 1})")
+        raise _fail(p, f"line {i + 2}, column {tcol!r}: duplicate time {float(t_raw[i])} (same as line {i + 1})")
     if (dt < 0).any():
         i = int(np.flatnonzero(dt < 0)[0]) + 1
         raise _fail(
-            p, f"line {i + 2}, column {tcol!r}: time {t_raw[i]!r} is before line {i + 1} ({t_raw[i - 1]!r}); "
+            p, f"line {i + 2}, column {tcol!r}: time {float(t_raw[i])} is before line {i + 1} ({float(t_raw[i - 1])}); "
             "time must increase"
         )
     t = (t_raw - t_raw[0]) * TIME_UNITS[tunit]
