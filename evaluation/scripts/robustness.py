@@ -205,7 +205,11 @@ _DELETE = object()
 def _interface_cases(work) -> list[dict]:
     """Every hostile case: category, name, a callable running it in-process, the field the error
     must name and the folder that must stay empty."""
-    from sphere_env.calibration.__main__ import main as calibrate
+    from sphere_env.cli import main as sphere_env_cli
+
+    def calibrate(argv):  # through the public `sphere-env calibrate` entry point
+        return sphere_env_cli(["calibrate", *argv])
+
     from sphere_env.evaluation.evaluate import main as evaluate
     from sphere_env.training.train import main as train
 
