@@ -116,6 +116,9 @@ class SweepSpec:
                 raise ValueError(f"pressures: {p} kPa outside the calibrated range [{lo}, {hi}] kPa")
         if not self.seeds:
             raise ValueError("seeds: give at least one seed")
+        for sd in self.seeds:
+            if isinstance(sd, bool) or not isinstance(sd, (int, np.integer)) or sd < 0:
+                raise ValueError(f"seeds: value {sd!r} must be an integer >= 0")
         try:
             env = gym.make(self.env_id, shell_model="point", randomization="off", **self.env_kwargs)  # checks kwargs
         except TypeError as err:
@@ -542,8 +545,17 @@ def parse_replay(text: str, spec: SweepSpec) -> dict[str, Any]:
     model = parts[1] if len(parts) > 1 and parts[1] else spec.shell_models[0]
     if model not in SHELL_MODELS:
         raise ValueError(f"replay: shell model {model!r} not in {list(SHELL_MODELS)}")
-    p = float(parts[2]) if len(parts) > 2 and parts[2] else spec.pressures_kpa[len(spec.pressures_kpa) // 2]
-    seed = int(parts[3]) if len(parts) > 3 and parts[3] else spec.seeds[0]
+    try:
+        p = float(parts[2]) if len(parts) > 2 and parts[2] else spec.pressures_kpa[len(spec.pressures_kpa) // 2]
+        seed = int(parts[3]) if len(parts) > 3 and parts[3] else spec.seeds[0]
+    except ValueError:
+        raise ValueError(f"replay: {text!r} must be controller,shell_model,pressure_kpa,seed (numbers for the "
+                         "last two)") from None
+    from sphere_env.models.shell import ShellCalibration
+
+    ShellCalibration.load(spec.env_kwargs.get("calibration")).check_pressure(p, "replay: pressure_kpa")
+    if seed < 0:
+        raise ValueError(f"replay: seed {seed} must be >= 0")
     cspec = dict(split_label(c) for c in spec.controllers)[ctrl]
     return dict(controller=ctrl, spec=cspec, env_id=spec.env_id, shell_model=model, friction=spec.frictions[0],
                 pressure_kpa=p, seed=seed, env_kwargs={**env_kwargs_of(cspec), **spec.env_kwargs})
@@ -560,6 +572,8 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
     out = Path(out)
     check_out_dir(out)
     spec.validate()
+    if pme_reference not in (*SHELL_MODELS, "log"):
+        raise ValueError(f"pme_reference: value {pme_reference!r}; allowed: {[*SHELL_MODELS, 'log']}")
     replay_jobs = [parse_replay(r, spec) for r in replays]
     log = load_user_log(pme_log) if pme_log else None
     with _staging(out) as work:

@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 
 from sphere_env.provenance import software_versions
-from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
+from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -300,9 +300,17 @@ def load_config(run_dir: str | Path) -> TrainConfig:
     path = run_dir / "config.yaml"
     if not path.exists():
         raise ValueError(f"run: {str(run_dir)!r} has no config.yaml (not a training run folder)")
-    data = yaml.safe_load(path.read_text())
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as err:
+        raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
     fields = TrainConfig.__dataclass_fields__
-    return TrainConfig(**{k: v for k, v in data.items() if k in fields})
+    if not isinstance(data, Mapping) or not {"env_id", "algo"} <= set(data):
+        raise ValueError(f"run: {str(path)!r} is not a training config (needs env_id and algo)")
+    try:
+        return TrainConfig(**{k: v for k, v in data.items() if k in fields})
+    except TypeError as err:
+        raise ValueError(f"run: {str(path)!r} is not a training config: {err}") from None
 
 
 #: What a run writes into its folder (cleared when an interrupted run is restarted from scratch).
@@ -418,7 +426,11 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
     if resume:
         if not (run_dir / "config.yaml").exists():
             raise ValueError(f"resume: {str(run_dir)!r} has no config.yaml (not a training run folder)")
-        previous = yaml.safe_load((run_dir / "config.yaml").read_text()) or {}
+        try:
+            previous = yaml.safe_load((run_dir / "config.yaml").read_text()) or {}
+        except yaml.YAMLError as err:
+            raise ValueError(f"resume: {str(run_dir / 'config.yaml')!r} cannot be read: "
+                             + " ".join(str(err).split())) from None
         ckpt, skipped = usable_checkpoint(cls, cfg, run_dir)
         if ckpt is None and skipped:
             raise ValueError(f"resume: no usable checkpoint in {str(run_dir / 'checkpoints')!r}: "
@@ -538,7 +550,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
         if args.resume is not None:
             cfg = load_config(args.resume)
             if args.n_timesteps is not None:
-                cfg.n_timesteps = int(args.n_timesteps)
+                cfg.n_timesteps = _int("n_timesteps", args.n_timesteps)
             cfg = resolve_config(cfg.env_id, cfg.algo, cfg.hyperparams_file or None, overrides=_stored_overrides(cfg),
                                  seed=cfg.seed, eval_freq=cfg.eval_freq, eval_episodes=cfg.eval_episodes,
                                  eval_randomization=cfg.eval_randomization, checkpoint_freq=cfg.checkpoint_freq,

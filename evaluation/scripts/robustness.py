@@ -242,6 +242,7 @@ def _interface_cases(work) -> list[dict]:
         (["--n-timesteps", "nan"], "n_timesteps"), (["--eval-episodes", "0"], "eval_episodes"),
         (["--checkpoint-freq", "0"], "checkpoint_freq"), (["--torch-threads", "0"], "torch_threads"),
         (["--seed", "-1"], "seed"),
+        (["--resume", str(inputs / "broken_config_run"), "--n-timesteps", "nan"], "n_timesteps"),
         (["--algo", "sac", "--params", "ent_coef:auto_-1"], "hyperparams.ent_coef"),
         (["--algo", "sac", "--params", "train_freq:[1, hour]"], "hyperparams.train_freq"),
         (["--algo", "sac", "--params", "tau:0"], "hyperparams.tau"),
@@ -256,6 +257,10 @@ def _interface_cases(work) -> list[dict]:
 
     for argv, expect in train_bad:
         add("train CLI", " ".join(argv), lambda d, argv=argv: train(train_argv(argv, d)), expect)
+    _write(inputs / "broken_config_run" / "config.yaml", "env_id: sphere_env/RampDescent-v0\nalgo: ppo\n")
+    add("train CLI", "--resume with an unreadable config.yaml",
+        lambda d: train(["--resume", str(_write(inputs / "bad_yaml_run" / "config.yaml", "a: [1\n").parent),
+                         "--no-progress"]), "config.yaml")
     add("train CLI", "--resume of a folder without config.yaml",
         lambda d: train(["--resume", str(inputs / "not_a_run"), "--no-progress"]), "config.yaml")
 
@@ -288,6 +293,10 @@ def _interface_cases(work) -> list[dict]:
         (["--controller", "zero", "--friction", "bogus"], "friction"),
         (["--controller", "zero", "--pme-log", str(inputs / "missing.csv")], "pme_log"),
         (["--controller", "zero", "--pme-log", str(one_row)], "pme_log"),
+        (["--controller", "zero", "--seeds", "-1"], "seeds"),
+        (["--controller", "zero", "--replay", "zero,point,99"], "replay"),
+        (["--controller", "zero", "--pme-reference", "jelly"], "pme_reference"),
+        (["--controller", "zero", "--workers", "0"], "workers"),
     ]
     for argv, expect in eval_bad:
         add("evaluate CLI", " ".join(argv).replace(str(work), "…"),
@@ -390,7 +399,7 @@ def fuzz_interfaces(work=None) -> dict:
                     case["fn"](d)
                 outcome = "silent acceptance"
             except SystemExit as exc:
-                message = err_buf.getvalue().strip().splitlines()[-1] if err_buf.getvalue().strip() else ""
+                message = " ".join(err_buf.getvalue().split())
                 outcome = "clear error" if exc.code not in (0, None) and case["expect"].lower() in message.lower() \
                     else ("silent acceptance" if exc.code in (0, None) else "other exception")
             except ValueError as exc:
@@ -402,7 +411,7 @@ def fuzz_interfaces(work=None) -> dict:
             left = sorted(str(p.relative_to(d)) for p in d.rglob("*"))
             half = bool(left) and outcome != "silent acceptance"
             rows.append(dict(category=case["category"], case=case["name"], outcome=outcome,
-                             half_written=half, left_behind=left[:5], message=message[:300]))
+                             half_written=half, left_behind=left[:5], message=message[-300:]))
     finally:
         if own:
             shutil.rmtree(work, ignore_errors=True)

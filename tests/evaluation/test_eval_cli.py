@@ -63,6 +63,18 @@ def test_bad_env_kwargs_refused(tmp_path, capsys, text, needle):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("argv, needle", [
+    (["--seeds", "-1"], "seeds"),
+    (["--replay", "zero,point,99"], "replay: pressure_kpa"),
+    (["--replay", "zero,point,x"], "replay"),
+    (["--pme-reference", "jelly"], "pme_reference"),
+    (["--workers", "0"], "workers"),
+])
+def test_bad_sweep_arguments_refused_before_the_sweep(tmp_path, capsys, argv, needle):
+    _refused(capsys, ["--controller", "zero", "--out", str(tmp_path / "o"), *GRID, *argv], needle)
+    assert not (tmp_path / "o").exists()
+
+
 def test_parse_env_kwargs_accepts_a_mapping():
     assert parse_env_kwargs("{observation_noise_scale: 0.5}") == {"observation_noise_scale": 0.5}
     assert parse_env_kwargs("") == {}
