@@ -323,6 +323,9 @@ def _interface_cases(work) -> list[dict]:
         (["validate", "--manifest", str(manifest("good", good_log)), "--models", "jelly"], "jelly"),
         (["shell", "--manifest", str(manifest("good", good_log)), "--group", ""], "pressure_kpa"),
         (["sensitivity", "--duration-s", "-1"], "duration"),
+        (["validate", "--manifest", str(manifest("good", good_log)), *vbase, "--json",
+          str(inputs / "a_file.txt" / "v.json")], "--json"),
+        (["shell", "--manifest", str(manifest("good", good_log)), "--group", "", "--out", str(inputs)], "--out"),
         (["events", str(inputs / "missing.csv")], "not found"),
     ]
     for argv, expect in cal_bad:

@@ -80,3 +80,15 @@ def test_constant_signal_has_no_decay_to_fit():
     fit = fit_free_decay(T, THETA)  # a real decay still fits
     assert fit.omega_n == pytest.approx(np.hypot(3.0, 0.4), rel=0.02)
     assert fit.omega_n_ci[0] < fit.omega_n < fit.omega_n_ci[1]
+
+
+def test_output_paths_checked_before_any_fit(tmp_path, capsys):
+    f = tmp_path / "a_file"
+    f.write_text("x")
+    man = write_manifest(tmp_path / "m.yaml", [{"name": "ok", "file": "ok.csv", "fixture": "steer_plane"}])
+    _log(tmp_path, "ok", theta=THETA, phi=-THETA)
+    assert main(["validate", "--manifest", str(man), "--models", "point", "--json", str(f / "v.json")]) == 2
+    assert "--json" in capsys.readouterr().err
+    assert main(["shell", "--manifest", str(man), "--group", "", "--out", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "m.yaml", "ok.csv"]
