@@ -30,7 +30,7 @@ demo: $(STAMP)
 	$(PY) -m evaluation.demo
 
 test: $(STAMP) chromium
-	$(PY) -m pytest -n 2 --dist loadgroup
+	$(PY) -m pytest -n 2
 
 test-fast: $(STAMP) chromium
 	$(PY) -m pytest -n 2 -m "not slow"

@@ -1,7 +1,8 @@
 """sphere_env: a calibrated Drake digital twin and Gymnasium environments for soft,
 pendulum-driven spherical robots (RoboBall).
 
-Importing the package registers the Gymnasium environments (``sphere_env/...-v0``).
+Importing the package registers the Gymnasium environments (``sphere_env/RampDescent-v1``,
+``sphere_env/Roll-v1`` and their superseded ``-v0`` versions).
 Gymnasium 1.x no longer loads the ``gymnasium.envs`` entry-point group by itself; without an
 import, ``gym.make("sphere_env:sphere_env/RampDescent-v0")`` imports this module first. The
 entry point (``sphere_env:register_envs``) stays declared for tools and older Gymnasium (0.26–0.29)
@@ -10,10 +11,18 @@ that do load plugins.
 
 __version__ = "0.1.0"
 
-#: id -> (entry point, max_episode_steps at the default 50 Hz control)
+#: id -> (entry point, max_episode_steps at the default 50 Hz control, default kwargs; a
+#: ``calibration`` here names a file in ``assets/calibration``).
+#: Version history (the same for both tasks):
+#:   v1  the shipped shell calibration: the fitted steer-direction law (rest angle, amplitude term)
+#:       on the injected shell, and the same restoring couple on the hydroelastic shell.
+#:   v0  superseded: the linear steer law about φ = 0 and a hydroelastic shell without the couple
+#:       (``assets/calibration/v0_linear.yaml``); kept so earlier results and policies reproduce.
 ENV_IDS = {
-    "sphere_env/RampDescent-v0": ("sphere_env.envs.factories:make_ramp_descent", 400),
-    "sphere_env/Roll-v0": ("sphere_env.envs.factories:make_roll", 500),
+    "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, {}),
+    "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, {}),
+    "sphere_env/RampDescent-v0": ("sphere_env.envs.factories:make_ramp_descent", 400, {"calibration": "v0_linear.yaml"}),
+    "sphere_env/Roll-v0": ("sphere_env.envs.factories:make_roll", 500, {"calibration": "v0_linear.yaml"}),
 }
 
 
@@ -21,9 +30,13 @@ def register_envs() -> None:
     """Register the environments with Gymnasium (idempotent)."""
     from gymnasium.envs.registration import register, registry
 
-    for env_id, (entry_point, steps) in ENV_IDS.items():
+    from sphere_env.resources import asset_path
+
+    for env_id, (entry_point, steps, kwargs) in ENV_IDS.items():
         if env_id not in registry:
-            register(id=env_id, entry_point=entry_point, max_episode_steps=steps)
+            if "calibration" in kwargs:  # a shipped calibration file, by name
+                kwargs = {**kwargs, "calibration": str(asset_path("calibration", kwargs["calibration"]))}
+            register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=kwargs)
 
 
 register_envs()

@@ -67,31 +67,50 @@ def cmd_shell(args) -> int:
 
 def cmd_steer_fit(args) -> int:
     from sphere_env.calibration.decay import write_yaml
-    from sphere_env.calibration.shell_fit import fit_shell, install_calibration, steer_plane_twin, trial_rmse
+    from sphere_env.calibration.shell_fit import (
+        TwinPool, choose_form, cross_validate, fit_shell, trial_rmse,
+    )
     from sphere_env.models.shell import ShellCalibration
 
     man, logs = _trials(args, required=("phi", "theta"))
     base = ShellCalibration.load(args.base)
-    p0 = args.pressure_kpa if args.pressure_kpa is not None else base.nominal_pressure_kpa
+    p0 = base.check_pressure(args.pressure_kpa if args.pressure_kpa is not None else base.nominal_pressure_kpa,
+                             "--pressure-kpa")
+    names = [log.name for log in logs]
+    if args.fit_on:
+        missing = [n for n in args.fit_on if n not in names]
+        if missing:
+            raise LogError(f"--fit-on {missing}: no such trial in {names} (manifest {args.manifest})")
     fit_logs = [log for log in logs if not args.fit_on or log.name in args.fit_on]
-    if not fit_logs:
-        raise LogError(f"--fit-on {args.fit_on}: no such trial in {[log.name for log in logs]}")
     raw = dict(base.raw)
+    record: dict = {"fit_on": [log.name for log in fit_logs], "pressure_kpa": p0, "models": {}}
+    form = args.forms[0]
+    if "injected" in args.models and len(args.forms) > 1:
+        rows = cross_validate(fit_logs, args.forms, p0, base=base, steer_friction=args.steer_friction,
+                              max_nfev=args.max_nfev)
+        form, mean = choose_form(rows)
+        print("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
+        for r in rows:
+            print(f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: {r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}")
+        print(f"  mean held-out phi: {json.dumps({k: round(v, 4) for k, v in mean.items()})} -> form {form!r}")
+        record["form_cross_validation"] = [
+            {k: r[k] for k in ("form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad")} for r in rows]
     for model in args.models:
-        fixed = None
-        if model == "hydroelastic":
-            fixed = {"omega_n": float(ShellCalibration.from_dict(raw).omega_n(p0)),
-                     "zeta": float(ShellCalibration.from_dict(raw).zeta(p0))}
-        fit = fit_shell(fit_logs, model, p0, steer_friction=args.steer_friction,
-                        base=ShellCalibration.from_dict(raw, source=str(args.base or "default")),
-                        fixed_injected=fixed)
+        cur = ShellCalibration.from_dict(raw, source=str(args.base or "default"))
+        pool = TwinPool(model, args.steer_friction, drive_friction=args.drive_friction)
+        fit = fit_shell(fit_logs, model, p0, steer_friction=args.steer_friction, base=cur, pool=pool,
+                        form=form if model == "injected" else None, max_nfev=args.max_nfev,
+                        drive_friction=args.drive_friction)
         raw = fit.calibration
-        twin = steer_plane_twin(model, args.steer_friction, None, p0)
-        install_calibration(twin, raw, p0)
-        per = trial_rmse(twin, logs)
-        print(f"{model} at {p0} kPa fitted on {[log.name for log in fit_logs]}: {json.dumps(fit.params)}")
+        per = trial_rmse(pool, logs)
+        print(f"{model} (form {fit.form!r}) at {p0} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:")
+        for k, v in fit.params.items():
+            ci = fit.ci95.get(k)
+            print(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else ""))
         for name, r in per.items():
-            print(f"  {name}: RMSE φ {r['phi']:.4f} rad, θ {r['theta']:.4f} rad")
+            tag = "fit" if name in record["fit_on"] else "held out"
+            print(f"  {name} ({tag}): RMSE phi {r['phi']:.4f} rad, theta {r['theta']:.4f} rad")
+        record["models"][model] = dict(fit.as_dict(), rmse_rad=per)
     if args.match_kd:
         import tempfile
 
@@ -104,11 +123,22 @@ def cmd_steer_fit(args) -> int:
         raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"],
                                           fitted_time_step_s=m["time_step_s"]))
         print(f"hydroelastic k_d = {m['k_d']:.4f} (d = {m['dissipation_s_per_m']:.4f} s/m): locked-steer decay "
-              f"ζ = {m['zeta_sim']:.4f} matches ζ(p0) = {m['target_zeta']:.4f}")
+              f"zeta = {m['zeta_sim']:.4f} matches zeta(p0) = {m['target_zeta']:.4f}")
     if args.out:
+        ShellCalibration.from_dict(raw, source=str(args.out))  # validated (incl. stand-still) before writing
+        raw = dict(raw, steer_fit=_jsonable(record))
+        raw["steer_fit"]["how"] = (
+            f"python -m sphere_env.calibration {' '.join(shlex.quote(a) for a in sys.argv[1:])}; "
+            f"the segments' pressure is unknown: the fitted law is stated at nominal_pressure_kpa = {p0} "
+            "and the slopes of omega_n(p), zeta(p) are kept from the base calibration")
         write_yaml(args.out, raw, "# Written by python -m sphere_env.calibration steer-fit")
         print(f"wrote {args.out}")
     return 0
+
+
+def _jsonable(x):
+    """Plain floats/lists/dicts for YAML (numpy scalars and tuples converted)."""
+    return json.loads(json.dumps(x, default=float))
 
 
 def cmd_friction(args) -> int:
@@ -259,12 +289,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", help="PNG of data, fits and the point-contact line")
     p.set_defaults(func=cmd_shell)
 
-    p = sub.add_parser("steer-fit", help="steer-plane logs at one pressure -> shell parameters")
+    p = sub.add_parser("steer-fit", help="free-motion segments (steer_plane trials, free windows) -> shell law")
     common(p, "steer_free")
     p.add_argument("--models", nargs="+", default=["injected", "hydroelastic"], choices=["injected", "hydroelastic"])
-    p.add_argument("--pressure-kpa", type=float, default=None, help="pressure of the trials (default: nominal)")
+    p.add_argument("--forms", nargs="+", default=["linear", "saturating", "quadratic"],
+                   choices=["linear", "saturating", "quadratic"],
+                   help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted")
+    p.add_argument("--pressure-kpa", type=float, default=None,
+                   help="pressure the fit is stated at (default: the base calibration's nominal; the segments' "
+                        "own pressure may be unknown)")
     p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation)")
+    p.add_argument("--max-nfev", type=int, default=60, help="simulations allowed per fit (refused if not converged)")
     p.add_argument("--steer-friction", default="majd_steer")
+    p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
     p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
     p.add_argument("--match-kd", action="store_true",
                    help="then set hydroelastic k_d so the locked-steer hydroelastic decay has ζ(p0)")

@@ -34,7 +34,7 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     base = ShellCalibration.load(job.get("calibration"))
     robot = RobotParameters.from_urdf()
     p = float(job["pressure_kpa"])
-    m0, d0 = base.hydroelastic(p, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
+    m0, d0 = base.bind(robot).hydroelastic(p)
     m, d = m0 * job["modulus_scale"], d0 * job["dissipation_scale"]
     twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
                            drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
@@ -129,8 +129,9 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
     robot = RobotParameters.from_urdf()
     p = base.check_pressure(pressure_kpa)
     target = float(base.zeta(p)) if target_zeta is None else float(target_zeta)
-    _, d0 = base.hydroelastic(p, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
-    _, c_inject = base.injected_gains(p, robot.M_eq, robot.K_eq)
+    shell = base.bind(robot)
+    _, d0 = shell.hydroelastic(p)
+    _, c_inject = shell.injected_gains(p)
     step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
 
     def zeta_at(scale: float) -> float:

@@ -1,21 +1,33 @@
-"""Shell calibration on ``steer_free``-type logs: robot on flat ground, confined to the steer plane.
+"""Shell calibration from free-motion segments: robot on flat ground, pendulum free, no torque.
 
-The pendulum swings freely (steer friction from a preset), the drive joint is locked, and the
-shell model alone decides how the body rocks. At the (single, possibly unrecorded) pressure p₀ of
-the trials we fit
+Segments are ``steer_plane`` trials (robot confined to the steer plane, drive locked) and ``free``
+windows of a long log (whole robot free, e.g. a release or a push followed by free rocking). The
+pressure of the segments is unknown; the fit is expressed at one pressure p₀ (by default the
+calibration's nominal pressure): whatever the true pressure was, the file then says "at p₀ the
+shell behaves like this", and the slopes of ω_n(p), ζ(p) carry it to other pressures.
 
-* ``injected``: ω_n(p₀) [rad/s] and ζ(p₀) [-], i.e. K_inject, C_inject of eqs. 7–8;
-* ``hydroelastic``: the modulus [Pa] and the Hunt–Crossley dissipation [s/m].
+* ``injected``: ω_n(p₀) [rad/s], ζ(p₀) [-] (K_inject, C_inject of eqs. 7–8) and the steer law's
+  numbers for the chosen form (:data:`~sphere_env.models.shell.STEER_LAW_FORMS`): the rest angle
+  φ_0 and the amplitude term.
+* ``hydroelastic``: the factors on the steer couple it carries on top of Drake's hydroelastic
+  contact (``couple_stiffness_factor``, ``couple_damping_factor``; law form and φ_0 from the
+  injected fit), or the contact's modulus [Pa] and Hunt–Crossley dissipation [s/m].
 
-Both are expressed through a :class:`ShellCalibration`, never by touching the twin's internals:
-ω_n and ζ move the intercept/scale of the curves (slopes kept), the modulus becomes a contact-
-volume table V(p) = f_n / modulus scaled along the membrane shape, and the dissipation becomes
-k_d = d / C_inject(p₀). A fitted calibration is installed in one twin (``twin.set_calibration(cal, p₀)``), so the Drake diagram is built once per model.
+Everything is expressed through a :class:`ShellCalibration`, never by touching the twin's
+internals: ω_n and ζ move the intercept/scale of the curves (slopes kept), the modulus becomes a
+contact-volume table V(p) = f_n / modulus scaled along the membrane shape, the dissipation becomes
+k_d = d / C_inject(p₀). A candidate calibration is installed in one twin per fixture
+(``twin.set_calibration(cal, p₀)``), so the Drake diagram is built once per model and fixture.
+
+Fitted values carry 95 % confidence intervals from the Jacobian at the optimum (residual variance
+× (JᵀJ)⁻¹; the residuals of one decay are correlated, so these intervals are optimistic). The law's
+form is chosen by held-out error (:func:`cross_validate`), never by training error.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -27,7 +39,7 @@ from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import rmse, simulate_log
 from sphere_env.models.friction import FrictionModel
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import ShellCalibration, membrane_contact_volume_m3
+from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration, membrane_contact_volume_m3
 from sphere_env.physics.twin import Twin, TwinConfig
 
 AUTHORS_MODULUS_PA = 1.55e5  # the authors' tuned single-pressure modulus (DESIGN.md §3)
@@ -74,15 +86,19 @@ def calibration_at(
         raw["contact_volume"] = {"model": "table", "pressure_kpa": [float(x) for x in grid],
                                  "volume_m3": [float(v) for v in v_base * factor]}
     if dissipation_s_per_m is not None:
-        cal = ShellCalibration.from_dict(raw, source="<fit>")
-        _, c_inject = cal.injected_gains(p0, r.M_eq, r.K_eq)
+        cal = ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
+        _, c_inject = cal.bind(r).injected_gains(p0)
         raw["hydroelastic"] = dict(raw["hydroelastic"], k_d=float(dissipation_s_per_m / c_inject))
     return raw
 
 
+class FitError(ValueError):
+    """A shell fit that cannot be used (no free motion, no convergence, a robot that cannot stand)."""
+
+
 @dataclass
 class ShellFit:
-    """Fitted shell parameters at p₀ and per-trial RMSE [rad] of φ and θ on the fit trials."""
+    """Fitted shell parameters at p₀, their 95 % CIs, and per-trial RMSE [rad] of φ and θ on the fit trials."""
 
     model: str
     pressure_kpa: float
@@ -90,18 +106,53 @@ class ShellFit:
     rmse: dict[str, dict[str, float]]
     calibration: dict[str, Any]
     ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
+    form: str = "linear"
+    nfev: int = 0
 
     def as_dict(self) -> dict[str, Any]:
-        return {"model": self.model, "pressure_kpa": self.pressure_kpa, "params": self.params,
-                "rmse_rad": self.rmse, "ci95": {k: list(v) for k, v in self.ci95.items()}}
+        return {"model": self.model, "form": self.form, "pressure_kpa": self.pressure_kpa, "params": self.params,
+                "rmse_rad": self.rmse, "ci95": {k: list(v) for k, v in self.ci95.items()}, "nfev": self.nfev}
 
 
 def steer_plane_twin(model: str, steer_friction: Any, calibration: str | None = None,
                      pressure_kpa: float | None = None, time_step_s: float = 0.005) -> Twin:
     """A ``steer_plane`` twin (drive locked, pendulum free) for one shell model."""
-    return Twin(TwinConfig(fixture="steer_plane", shell_model=model, steer_friction=steer_friction,
-                           drive_friction="none", calibration=calibration, pressure_kpa=pressure_kpa,
-                           time_step_s=time_step_s))
+    return fixture_twin("steer_plane", model, steer_friction, calibration, pressure_kpa, time_step_s)
+
+
+def fixture_twin(fixture: str, model: str, steer_friction: Any = "majd_steer", calibration: Any = None,
+                 pressure_kpa: float | None = None, time_step_s: float = 0.005,
+                 drive_friction: Any = "majd_drive") -> Twin:
+    """A twin for replaying free-motion segments of ``fixture`` (the drive has no friction when locked)."""
+    return Twin(TwinConfig(fixture=fixture, shell_model=model, steer_friction=steer_friction,
+                           drive_friction="none" if fixture in ("steer_plane", "stand") else drive_friction,
+                           calibration=calibration, pressure_kpa=pressure_kpa, time_step_s=time_step_s))
+
+
+class TwinPool:
+    """One twin per fixture for one shell model, built on first use and re-calibrated in place."""
+
+    def __init__(self, model: str, steer_friction: Any = "majd_steer", time_step_s: float = 0.005,
+                 drive_friction: Any = "majd_drive"):
+        self.model, self.steer_friction, self.time_step_s, self.drive_friction = (
+            model, steer_friction, time_step_s, drive_friction)
+        self.twins: dict[str, Twin] = {}
+        self._cal: tuple[ShellCalibration, float] | None = None
+
+    def install(self, cal: ShellCalibration, pressure_kpa: float) -> None:
+        self._cal = (cal, pressure_kpa)
+        for twin in self.twins.values():
+            twin.set_calibration(cal, pressure_kpa)
+
+    def get(self, fixture: str) -> Twin:
+        twin = self.twins.get(fixture)
+        if twin is None:
+            twin = fixture_twin(fixture, self.model, self.steer_friction, None, None, self.time_step_s,
+                                self.drive_friction)
+            self.twins[fixture] = twin
+            if self._cal is not None:
+                twin.set_calibration(*self._cal)
+        return twin
 
 
 def install_calibration(twin: Twin, raw: Mapping[str, Any], pressure_kpa: float) -> None:
@@ -109,13 +160,93 @@ def install_calibration(twin: Twin, raw: Mapping[str, Any], pressure_kpa: float)
     twin.set_calibration(ShellCalibration.from_dict(dict(raw), source="<fit>"), pressure_kpa)
 
 
-def trial_rmse(twin: Twin, logs: Sequence[RobotLog]) -> dict[str, dict[str, float]]:
-    """φ and θ RMSE [rad] per log for the twin as currently calibrated."""
+def trial_rmse(twin: Twin | TwinPool, logs: Sequence[RobotLog]) -> dict[str, dict[str, float]]:
+    """φ and θ RMSE [rad] per log for the twin (or pool of twins) as currently calibrated."""
     out = {}
     for log in logs:
-        tr = simulate_log(twin, log)
+        tw = twin.get(log.fixture) if isinstance(twin, TwinPool) else twin
+        tr = simulate_log(tw, log)
         out[log.name] = {"phi": rmse(tr["phi"], log["phi"]), "theta": rmse(tr["theta"], log["theta"])}
     return out
+
+
+# ---- parameters of each model and form --------------------------------------------------------------
+# name -> (lower bound, upper bound); ω_n, ζ at p₀; the amplitude terms in the file's units.
+_BOUNDS = {
+    "omega_n": (0.5, 8.0), "zeta": (0.0, 0.95), "rest_angle_rad": (-0.2, 0.2),
+    "amplitude_stiffness_nm_per_rad": (-60.0, 400.0), "amplitude_scale_rad": (0.03, 1.5),
+    "quadratic_stiffness_nm_per_rad2": (-40.0, 120.0),
+    "couple_stiffness_factor": (0.0, 3.0), "couple_damping_factor": (0.0, 3.0),
+    "log10_modulus_pa": (4.0, 7.0), "dissipation_s_per_m": (0.0, 20.0),
+}
+HYDRO_PARAMS = ("couple_stiffness_factor", "couple_damping_factor")
+
+
+def law_params(form: str) -> tuple[str, ...]:
+    """The injected model's fitted parameters for a steer-law form."""
+    if form not in STEER_LAW_FORMS:
+        raise ValueError(f"form: unknown value {form!r}; allowed: {list(STEER_LAW_FORMS)}")
+    return ("omega_n", "zeta", "rest_angle_rad", *STEER_LAW_FORMS[form])
+
+
+def _start(name: str, base: ShellCalibration, p0: float, robot: RobotParameters) -> float:
+    law = base.steer_law
+    if name == "omega_n":
+        return float(base.omega_n(p0))
+    if name == "zeta":
+        return float(base.zeta(p0))
+    if name == "log10_modulus_pa":
+        return math.log10(base.bind(robot).hydroelastic(p0)[0])
+    if name == "dissipation_s_per_m":
+        return base.bind(robot).hydroelastic(p0)[1]
+    if name in HYDRO_PARAMS:
+        return getattr(base, name) or 1.0
+    defaults = {"amplitude_stiffness_nm_per_rad": 0.0, "amplitude_scale_rad": 0.2, "quadratic_stiffness_nm_per_rad2": 0.0}
+    return float(getattr(law, name)) if law.form != "linear" or name == "rest_angle_rad" else defaults[name]
+
+
+def calibration_with(base: ShellCalibration, p0: float, values: Mapping[str, float], form: str | None = None,
+                     robot: RobotParameters | None = None) -> dict[str, Any]:
+    """``base`` as a mapping with the named fitted values set at p₀ (see :func:`fit_shell` for names)."""
+    raw = calibration_at(base, p0, omega_n=values.get("omega_n"), zeta=values.get("zeta"),
+                         modulus_pa=10 ** values["log10_modulus_pa"] if "log10_modulus_pa" in values else None,
+                         dissipation_s_per_m=values.get("dissipation_s_per_m"), robot=robot)
+    raw["nominal_pressure_kpa"] = float(p0)
+    if form is not None or any(k in values for k in ("rest_angle_rad", *sum(STEER_LAW_FORMS.values(), ()))):
+        law = dict(base.steer_law.as_dict())
+        if form is not None and form != law["form"]:
+            law = {"form": form, "rest_angle_rad": law["rest_angle_rad"]}
+        for k in ("rest_angle_rad", *STEER_LAW_FORMS[law["form"]]):
+            if k in values:
+                law[k] = float(values[k])
+            law.setdefault(k, _start(k, base, p0, robot or RobotParameters.from_urdf()))
+        raw["steer_law"] = law
+    hyd = dict(raw["hydroelastic"])
+    for k in HYDRO_PARAMS:
+        if k in values:
+            hyd[k] = float(values[k])
+    raw["hydroelastic"] = hyd
+    return raw
+
+
+def omega_n_floor(base: ShellCalibration, p0: float, robot: RobotParameters, margin: float = 0.9) -> float:
+    """The least ω_n(p₀) [rad/s] whose linear stiffness stays stable at the reach of φ at every pressure.
+
+    Every form's extra stiffness vanishes (saturating) or may be negative (softening quadratic) at
+    large |φ|, so the linear part alone must keep K_inject(p) + K_g cos φ_max > 0 over the range, with
+    K_g the free-pendulum gravity stiffness; ``margin`` < 1 keeps a little positive stiffness there.
+    The slope of ω_n(p) carries p₀ to the weakest end of the range.
+    """
+    from sphere_env.models.shell import PHI_REACH_RAD, gravity_stiffness_free_pendulum
+
+    k_min = -margin * gravity_stiffness_free_pendulum(robot) * math.cos(PHI_REACH_RAD)
+    w_min = math.sqrt(max(robot.K_eq + k_min, 0.0) / robot.M_eq)
+    lo, hi = base.pressure_range_kpa
+    return w_min + max(base.omega_n_slope * (p0 - lo), base.omega_n_slope * (p0 - hi), 0.0)
+
+
+def _moving(log: RobotLog, min_swing_rad: float = 0.02) -> bool:
+    return float(np.ptp(log["phi"])) >= min_swing_rad or float(np.ptp(log["theta"])) >= min_swing_rad
 
 
 def fit_shell(
@@ -129,68 +260,186 @@ def fit_shell(
     time_step_s: float = 0.005,
     max_nfev: int = 60,
     twin: Twin | None = None,
+    form: str | None = None,
+    params: Sequence[str] | None = None,
+    pool: TwinPool | None = None,
+    drive_friction: FrictionModel | str = "majd_drive",
+    require_convergence: bool = True,
+    theta_weight: float = 1.0,
 ) -> ShellFit:
-    """Fit the shell ``model`` (``injected`` or ``hydroelastic``) at p₀ = ``pressure_kpa`` to steer-plane logs.
+    """Fit the shell ``model`` at p₀ = ``pressure_kpa`` to free-motion segments (``steer_plane`` or ``free``).
 
-    Residuals are φ and θ errors [rad] of every log, each trial weighted equally.
-    ``fixed_injected``: ω_n, ζ at p₀ to keep while fitting the hydroelastic parameters (they set
-    C_inject, through which the dissipation is stored as k_d); default the base calibration's.
+    Residuals are φ and θ errors [rad] of every log (θ times ``theta_weight``: the pendulum angle
+    also depends on steer friction, which this fit does not touch), each log weighted equally. Parameters:
+    ``injected``: :func:`law_params` of ``form`` (default: the base calibration's form);
+    ``hydroelastic``: :data:`HYDRO_PARAMS` (the steer couple's factors) unless ``params`` names
+    others (``log10_modulus_pa``, ``dissipation_s_per_m``). ``fixed_injected``: ω_n, ζ at p₀ held
+    while fitting hydroelastic parameters (default the base calibration's).
+
+    Refuses (:class:`FitError`, nothing written) a segment with no free motion, a fit that does
+    not converge within ``max_nfev`` evaluations (unless ``require_convergence`` is False), a
+    diverged simulation at the optimum, and a result the robot cannot stand still with.
     """
     if model not in ("injected", "hydroelastic"):
         raise ValueError(f"model: value {model!r}; allowed: ['injected', 'hydroelastic']")
+    if not logs:
+        raise FitError("fit_shell: no segments to fit on")
     for log in logs:
         for ch in ("phi", "theta"):
             if not log.has(ch):
-                raise ValueError(f"log {log.path!r}: needs a {ch} channel for a shell fit")
+                raise FitError(f"log {log.path!r}: trial {log.name!r} needs a {ch} channel for a shell fit")
+        if log.fixture not in ("steer_plane", "free"):
+            raise FitError(f"log {log.path!r}: trial {log.name!r} has fixture {log.fixture!r}; "
+                           "a shell fit needs 'steer_plane' or 'free' segments")
+        if not _moving(log):
+            raise FitError(f"log {log.path!r}: trial {log.name!r}: no free motion to fit (phi and theta move "
+                           f"less than 0.02 rad over {log.t[-1]:.2f} s)")
     base = base or ShellCalibration.load()
     robot = RobotParameters.from_urdf()
     p0 = base.check_pressure(pressure_kpa)
-    twin = twin or steer_plane_twin(model, steer_friction, base.source if base.source.endswith(".yaml") else None,
-                                    p0, time_step_s)
-    inj = dict(fixed_injected or {"omega_n": float(base.omega_n(p0)), "zeta": float(base.zeta(p0))})
-    if model == "injected":
-        names = ["omega_n", "zeta"]
-        x0 = [float((start or {}).get("omega_n", base.omega_n(p0))), float((start or {}).get("zeta", base.zeta(p0)))]
-        lo, hi = [0.5, 0.0], [8.0, 0.95]
-    else:
-        m0, d0 = base.hydroelastic(p0, robot.weight_n, robot.radius_m, robot.M_eq, robot.K_eq)
-        names = ["log10_modulus_pa", "dissipation_s_per_m"]
-        x0 = [math.log10((start or {}).get("modulus_pa", m0)), float((start or {}).get("dissipation_s_per_m", d0))]
-        lo, hi = [4.0, 0.0], [7.0, 20.0]
-    x0 = list(np.clip(x0, lo, hi))
+    form = form or base.steer_law.form
+    if params is None:
+        params = law_params(form) if model == "injected" else HYDRO_PARAMS
+    names = list(params)
+    for n in names:
+        if n not in _BOUNDS:
+            raise ValueError(f"params: unknown value {n!r}; allowed: {sorted(_BOUNDS)}")
+    fixed = dict(fixed_injected or {}) if model == "hydroelastic" else {}
+    lo = np.array([_BOUNDS[n][0] for n in names])
+    hi = np.array([_BOUNDS[n][1] for n in names])
+    if "omega_n" in names:  # keep the search where the robot can stand (see omega_n_floor)
+        i = names.index("omega_n")
+        lo[i] = max(lo[i], omega_n_floor(base, p0, robot))
+    x0 = np.clip([float((start or {}).get(n, _start(n, base, p0, robot))) for n in names], lo, hi)
+    if pool is None:
+        pool = TwinPool(model, steer_friction, time_step_s, drive_friction)
+        if twin is not None:
+            pool.twins[twin.config.fixture] = twin
 
-    def raw_for(x) -> dict[str, Any]:
-        if model == "injected":
-            return calibration_at(base, p0, omega_n=x[0], zeta=x[1], robot=robot)
-        return calibration_at(base, p0, modulus_pa=10 ** x[0], dissipation_s_per_m=x[1], robot=robot, **inj)
+    def cal_for(x) -> ShellCalibration:
+        vals = dict(fixed, **dict(zip(names, map(float, x))))
+        raw = calibration_with(base, p0, vals, form if model == "injected" else None, robot)
+        return ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
 
     weights = [1.0 / math.sqrt(2 * len(log.t)) for log in logs]
+    n_res = sum(2 * len(log.t) for log in logs)
 
     def residuals(x) -> np.ndarray:
-        install_calibration(twin, raw_for(x), p0)
+        try:
+            cal = cal_for(x)
+        except ValueError:  # curves leave their valid range somewhere in p (e.g. ζ ≥ 1): a 1 rad error
+            return np.full(n_res, 1.0 / math.sqrt(n_res))
+        pool.install(cal, p0)
         parts = []
         for w, log in zip(weights, logs):
-            tr = simulate_log(twin, log)
-            parts += [w * (tr["phi"] - log["phi"]), w * (tr["theta"] - log["theta"])]
+            tr = simulate_log(pool.get(log.fixture), log)
+            parts += [w * (tr["phi"] - log["phi"]), theta_weight * w * (tr["theta"] - log["theta"])]
         return np.concatenate(parts)
 
     res = least_squares(residuals, x0, bounds=(lo, hi), diff_step=1e-3, x_scale="jac", max_nfev=max_nfev,
                         xtol=1e-6, ftol=1e-8)
-    raw = raw_for(res.x)
-    install_calibration(twin, raw, p0)
-    per = trial_rmse(twin, logs)
-    J = res.jac
+    where = f"shell fit of {model!r} (form {form!r}) on {[log.name for log in logs]}"
+    if require_convergence and res.status <= 0:
+        raise FitError(f"{where}: did not converge after {res.nfev} evaluations ({res.message}); "
+                       "raise max_nfev, start closer or fit fewer parameters. Nothing written.")
+    if not np.all(np.isfinite(res.x)) or not np.isfinite(res.cost):
+        raise FitError(f"{where}: the optimum is not finite ({res.x}). Nothing written.")
+    cal = cal_for(res.x)
+    raw = dict(cal.raw)
     try:
-        cov = np.linalg.inv(J.T @ J) * (2 * res.cost / max(J.shape[0] - J.shape[1], 1))
+        ShellCalibration.from_dict(raw, source=f"<{where}>")  # the stand-still check, naming the field
+    except ValueError as err:
+        raise FitError(f"{where}: refused: {err}. Nothing written.") from err
+    pool.install(cal, p0)
+    per = {}
+    for log in logs:
+        tr = simulate_log(pool.get(log.fixture), log)
+        if tr.diverged:
+            raise FitError(f"{where}: the twin diverged on {log.name!r} at the optimum. Nothing written.")
+        per[log.name] = {"phi": rmse(tr["phi"], log["phi"]), "theta": rmse(tr["theta"], log["theta"])}
+    J = res.jac
+    dof = max(J.shape[0] - J.shape[1], 1)
+    try:
+        cov = np.linalg.pinv(J.T @ J) * (2 * res.cost / dof)
         std = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
         std = np.full(len(names), np.nan)
     ci = {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(names, res.x, std)}
-    if model == "injected":
-        params = {"omega_n": float(res.x[0]), "zeta": float(res.x[1])}
-        K, C = ShellCalibration.from_dict(raw).injected_gains(p0, robot.M_eq, robot.K_eq)
-        params.update(K_inject=K, C_inject=C)
+    values = {k: float(v) for k, v in zip(names, res.x)}
+    if "log10_modulus_pa" in values:
+        values["modulus_pa"] = 10 ** values["log10_modulus_pa"]
+        ci["modulus_pa"] = tuple(10 ** c for c in ci["log10_modulus_pa"])
+    if "dissipation_s_per_m" in values:
+        values["k_d"] = float(raw["hydroelastic"]["k_d"])
+    K, C = cal.bind(robot).injected_gains(p0)
+    values.update(K_inject=K, C_inject=C)
+    return ShellFit(model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev)
+
+
+def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None) -> RobotLog:
+    """The samples of ``log`` in [start_s, end_s] [s] as a log whose time restarts at 0."""
+    keep = (log.t >= start_s - 1e-9) & (log.t <= end_s + 1e-9)
+    if keep.sum() < 3:
+        raise FitError(f"log {log.path!r}: window [{start_s}, {end_s}] s of {log.name!r} has fewer than 3 samples")
+    t = log.t[keep]
+    return dataclasses.replace(log, name=name or f"{log.name}[{start_s:g}:{end_s:g}]", t=t - t[0],
+                               channels={k: v[keep] for k, v in log.channels.items()}, meta=dict(log.meta))
+
+
+def cross_validate(
+    logs: Sequence[RobotLog],
+    forms: Sequence[str],
+    pressure_kpa: float,
+    base: ShellCalibration | None = None,
+    steer_friction: FrictionModel | str = "majd_steer",
+    max_nfev: int = 40,
+    pool: TwinPool | None = None,
+    blocks: int = 3,
+) -> list[dict[str, Any]]:
+    """Held-out φ/θ RMSE [rad] of each steer-law form for the ``injected`` model.
+
+    Two or more segments: leave one segment out, fit on the others, test on it. One segment: cut it
+    into ``blocks`` consecutive blocks, each replayed from the logged state at its start; leave one
+    block out, fit on the others, test on it (blocked cross-validation: every amplitude of the decay
+    is once held out, and no form is judged only on extrapolation from large swings to small ones).
+    Returns one row per (form, fold) with the held-out RMSE and the fit; a fold
+    whose fit is refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the
+    reason under ``refused``, so that form is never chosen.
+    """
+    base = base or ShellCalibration.load()
+    pool = pool or TwinPool("injected", steer_friction)
+    if len(logs) >= 2:
+        folds = [([lg for j, lg in enumerate(logs) if j != i], [logs[i]]) for i in range(len(logs))]
     else:
-        params = {"modulus_pa": float(10 ** res.x[0]), "dissipation_s_per_m": float(res.x[1]),
-                  "k_d": float(raw["hydroelastic"]["k_d"])}
-    return ShellFit(model, p0, params, per, raw, ci)
+        (lg,) = logs
+        edges = np.linspace(0.0, float(lg.t[-1]), blocks + 1)
+        parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
+        folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
+    rows = []
+    for form in forms:
+        for train, test in folds:
+            try:
+                fit = fit_shell(train, "injected", pressure_kpa, steer_friction=steer_friction, base=base, form=form,
+                                max_nfev=max_nfev, pool=pool, require_convergence=False)
+            except FitError as err:
+                rows += [{"form": form, "fit_on": [t.name for t in train], "test": lg.name, "rmse_phi_rad": math.inf,
+                          "rmse_theta_rad": math.inf, "refused": str(err)} for lg in test]
+                continue
+            pool.install(ShellCalibration.from_dict(fit.calibration, source="<cv>"), pressure_kpa)
+            held = trial_rmse(pool, test)
+            for name, r in held.items():
+                rows.append({"form": form, "fit_on": [t.name for t in train], "test": name,
+                             "rmse_phi_rad": r["phi"], "rmse_theta_rad": r["theta"],
+                             "train_rmse_rad": fit.rmse, "params": fit.params})
+    return rows
+
+
+def choose_form(rows: Sequence[Mapping[str, Any]]) -> tuple[str, dict[str, float]]:
+    """The form with the least mean held-out φ RMSE (ties: fewer parameters, i.e. earlier in the list)."""
+    mean: dict[str, float] = {}
+    for form in dict.fromkeys(r["form"] for r in rows):
+        mean[form] = float(np.mean([r["rmse_phi_rad"] for r in rows if r["form"] == form]))
+    best = min(mean, key=lambda f: (round(mean[f], 4), list(STEER_LAW_FORMS).index(f)))
+    if not math.isfinite(mean[best]):
+        raise FitError(f"no steer-law form could be fitted: {[r.get('refused') for r in rows]}")
+    return best, mean

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.math import RollPitchYaw
 
 from sphere_env.analysis.metrics import pme_percent, rmse  # noqa: F401  (re-exported for callers)
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.physics.twin import InitialState, Twin
 
 SIM_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate")
+PITCH_CHANNELS = ("pendulum_pitch", "pendulum_pitch_rate")  # sampled on floating-base fixtures
 
 
 def initial_rate(t: np.ndarray, x: np.ndarray, window_s: float = 0.1) -> float:
@@ -25,27 +28,90 @@ def initial_rate(t: np.ndarray, x: np.ndarray, window_s: float = 0.1) -> float:
     return float(coeff[-2])
 
 
+def _rate(log: RobotLog, name: str, rate_name: str) -> float:
+    """The logged rate channel at the first sample, else :func:`initial_rate` of the angle."""
+    return float(log[rate_name][0]) if log.has(rate_name) else initial_rate(log.t, log[name])
+
+
 def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_m: float = 0.305) -> InitialState:
-    """The logged initial state for the log's fixture.
+    """The twin's initial state at the log's first sample (a window's start), for the log's fixture.
 
     ``theta_offset_rad``: encoder zero offset, θ_log = θ_model + offset (see friction fit).
     Rates come from the log's velocity channels when present, else from :func:`initial_rate`.
+
+    Channel mapping (log channel → twin; frames and signs as in ``docs/design.md``):
+
+    * ``stand``: θ, θ̇ ← ``theta``, ``theta_dot`` (steer joint). The shell is welded.
+    * ``steer_plane``: additionally φ, φ̇ ← ``phi``, ``phi_dot``: the planar joint's rotation about x_W
+      is φ itself; the centre rolls without slip, v = (0, −R φ̇, 0). The drive is locked.
+    * ``free`` / ``locked_steer`` (floating base, flat ground, heading ψ = 0: the dynamics on flat
+      ground do not depend on heading, so the log's yaw is not used):
+      the pitch center's orientation is R_W,PC = Ry(α) Rx(γ). α ← ``pendulum_pitch`` (the IMU pitch
+      of the pendulum / pitch center against gravity about the driveshaft; same sign as the twin's
+      ``pendulum_pitch``, which is this Ry angle); 0 when the log has no such channel.
+      The roll γ is solved from φ: φ = asin(ŷ_PC · ẑ_W) = asin(cos α sin γ), so
+      γ = asin(sin φ / cos α), and its rate γ̇ = (φ̇ cos φ + α̇ sin α sin γ) / (cos α cos γ).
+      The pitch center's angular velocity is ω_W = α̇ ŷ_W + γ̇ (cos α, 0, −sin α) + s ẑ_W, the spin s
+      about the vertical chosen so that the heading rate ψ̇ (yaw rate of ŷ_PC's horizontal
+      projection, the twin's ``heading_rate``) equals ``heading_rate`` when logged (twin's sign),
+      else s = 0.
+      Drive joint: q_d, q̇_d ← ``drive_angle``, ``drive_rate`` (motor encoder, the shell against
+      the pendulum about the driveshaft; the twin's joint axis is −ŷ_PC, so the shell turns at
+      ω_PC − q̇_d ŷ_PC). The centre rolls without slip: v = ω_shell × (R ẑ_W).
+      θ is not used for ``locked_steer`` (the joint is locked at 0).
     """
     t = log.t
     kw: dict = {}
     if log.has("theta"):
         kw["theta"] = float(log["theta"][0]) - theta_offset_rad
-        kw["theta_dot"] = float(log["theta_dot"][0]) if log.has("theta_dot") else initial_rate(t, log["theta"])
+        kw["theta_dot"] = _rate(log, "theta", "theta_dot")
+    fixture = log.fixture
     if log.has("phi"):
-        kw["roll"] = float(log["phi"][0])
-        phi_dot = float(log["phi_dot"][0]) if log.has("phi_dot") else initial_rate(t, log["phi"])
-        if log.fixture in ("steer_plane", "free", "locked_steer"):
-            # Rolling about x_W without slip: v_centre = ω × (R ẑ) = (0, −R φ̇, 0).
-            kw["angular_velocity_W"] = (phi_dot, 0.0, 0.0)
-            kw["velocity_W"] = (0.0, -radius_m * phi_dot, 0.0)
-    if log.has("drive_angle") and log.fixture not in ("stand", "steer_plane"):
+        phi, phi_dot = float(log["phi"][0]), _rate(log, "phi", "phi_dot")
+        if fixture in ("free", "locked_steer"):
+            alpha = float(log["pendulum_pitch"][0]) if log.has("pendulum_pitch") else 0.0
+            alpha_dot = _rate(log, "pendulum_pitch", "pendulum_pitch_rate") if log.has("pendulum_pitch") else 0.0
+            ca, sa = math.cos(alpha), math.sin(alpha)
+            gamma = math.asin(max(-1.0, min(1.0, math.sin(phi) / ca)))
+            gamma_dot = (phi_dot * math.cos(phi) + alpha_dot * sa * math.sin(gamma)) / (ca * math.cos(gamma))
+            w_pc = np.array([gamma_dot * ca, alpha_dot, -gamma_dot * sa])
+            y_pc = np.array([sa * math.sin(gamma), math.cos(gamma), ca * math.sin(gamma)])
+            if log.has("heading_rate"):
+                # Add a ẑ spin so the heading rate (of ŷ's horizontal projection) is the logged one;
+                # a ẑ spin changes neither φ̇ nor α̇, and raises that heading rate one for one.
+                y_dot = np.cross(w_pc, y_pc)
+                psi_dot_0 = (y_pc[0] * y_dot[1] - y_pc[1] * y_dot[0]) / (y_pc[0] ** 2 + y_pc[1] ** 2)
+                w_pc[2] += float(log["heading_rate"][0]) - psi_dot_0
+            qd_dot = _rate(log, "drive_angle", "drive_rate") if log.has("drive_angle") or log.has("drive_rate") else 0.0
+            if fixture == "locked_steer":
+                kw.pop("theta", None), kw.pop("theta_dot", None)
+            w_shell = w_pc - qd_dot * y_pc
+            kw.update(roll=gamma, pitch=alpha, drive_rate=qd_dot,
+                      angular_velocity_W=tuple(float(x) for x in w_pc),
+                      velocity_W=(radius_m * float(w_shell[1]), -radius_m * float(w_shell[0]), 0.0))
+        else:
+            kw["roll"] = phi
+            if fixture == "steer_plane":
+                # Rolling about x_W without slip: v_centre = ω × (R ẑ) = (0, −R φ̇, 0).
+                kw["angular_velocity_W"] = (phi_dot, 0.0, 0.0)
+                kw["velocity_W"] = (0.0, -radius_m * phi_dot, 0.0)
+    if log.has("drive_angle") and fixture not in ("stand", "steer_plane"):
         kw["drive_angle"] = float(log["drive_angle"][0])
     return InitialState(**kw)
+
+
+def pendulum_pitch(twin: Twin) -> tuple[float, float]:
+    """α, α̇: the pitch center's pitch against gravity [rad] and its rate [rad/s] (the Ry angle of
+    R_W,PC = Rz(ψ) Ry(α) Rx(γ)); the twin's ``TwinState.pendulum_pitch`` when it has one."""
+    st = twin.state()
+    if hasattr(st, "pendulum_pitch"):
+        return float(st.pendulum_pitch), float(st.pendulum_pitch_rate)
+    if twin._layout["base"] != "quaternion":
+        return 0.0, 0.0
+    X = twin.plant.EvalBodyPoseInWorld(twin.plant_context, twin.pc)
+    V = twin.plant.EvalBodySpatialVelocityInWorld(twin.plant_context, twin.pc)
+    rpy = RollPitchYaw(X.rotation())
+    return float(rpy.pitch_angle()), float(rpy.CalcRpyDtFromAngularVelocityInParent(V.rotational())[1])
 
 
 @dataclass
@@ -80,27 +146,30 @@ def simulate_log(
     init = initial or initial_state_from_log(log, theta_offset_rad, twin.robot.radius_m)
     s = twin.reset(init, pressure_kpa=pressure_kpa)
     n = len(log.t)
-    out = {k: np.empty(n) for k in SIM_CHANNELS}
+    names = SIM_CHANNELS + (PITCH_CHANNELS if twin._layout["base"] == "quaternion" else ())
+    out = {k: np.empty(n) for k in names}
     diverged = False
 
     def put(i: int, st) -> None:
         for k in SIM_CHANNELS:
             out[k][i] = getattr(st, k)
+        if len(names) > len(SIM_CHANNELS):
+            out["pendulum_pitch"][i], out["pendulum_pitch_rate"][i] = pendulum_pitch(twin)
 
     put(0, s)
     for i in range(1, n):
         if diverged:
-            for k in SIM_CHANNELS:
+            for k in names:
                 out[k][i] = out[k][i - 1]
             continue
         try:
             # Advance to the absolute log time (no drift from summed increments); the 1 ns margin
             # keeps a sample that falls on a plant-step boundary on the same side as a live run.
-            twin.advance(max(float(log.t[i]) - twin.context.get_time() - 1e-9, 0.0), motor_torque)
+            twin.advance(max(float(log.t[i]) - twin.time_s - 1e-9, 0.0), motor_torque)
             put(i, twin.state())
         except RuntimeError:  # a solver failure at absurd parameters: keep a flat, bad trace
             diverged = True
-            for k in SIM_CHANNELS:
+            for k in names:
                 out[k][i] = out[k][i - 1]
     out["theta"] = out["theta"] + theta_offset_rad
     return SimTrace(log.t.copy(), out, diverged)

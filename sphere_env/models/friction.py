@@ -1,4 +1,4 @@
-"""Joint friction laws (paper §II.B, Table I; DESIGN.md §2).
+"""Joint friction laws (paper §II.B, Table I; docs/design.md §4).
 
 Each law maps joint velocity ``v`` [rad/s] to the *resisting* torque [N m] at the joint. The
 friction torque adds to the motor torque. Laws take a math backend ``m`` (numpy by default) so the
@@ -49,7 +49,7 @@ def coulomb(v, mu_s: float, mu_d: float, c: float, v_tol: float = 0.05, m=NUMPY)
 
 
 def majd(v, f_w: float, f_c: float, sigma: float, omega_c: float, n: float, m=NUMPY):
-    """Majd–Simaan friction, continuous form (DESIGN.md §2):
+    """Majd–Simaan friction, continuous form (docs/design.md §4):
 
         τ = −( f_ω v + [f_c + σ e^{−|v/ω_c|} − (σ + f_c) e^{−|n v/ω_c|}] sign(v) )
 

@@ -1,12 +1,26 @@
-"""Shell contact laws and the pressure calibration they read (paper §III, DESIGN.md §3).
+"""Shell contact laws and the pressure calibration they read (paper §III; docs/design.md).
 
-A :class:`ShellCalibration` holds the measured/assumed pressure curves ω_n(p), ζ(p), V(p) and the
-valid pressure range, loaded from one YAML file (``assets/calibration/default.yaml`` by default,
+A :class:`ShellCalibration` holds the measured/assumed pressure curves ω_n(p), ζ(p), V(p), the
+valid pressure range, the steer-direction law (form, rest angle φ_0, amplitude term) and the
+hydroelastic settings, loaded from one YAML file (``assets/calibration/default.yaml`` by default,
 or a user's own). Pressures are gauge pressures in **kPa** at this user-facing boundary.
+
+The laws are written once, here, against a math backend (``m``: numpy by default, Drake symbolic
+in :mod:`sphere_env.physics.forces`), as the friction laws are. :meth:`ShellCalibration.bind`
+evaluates a calibration for one robot (:class:`BoundShell`): injected gains, hydroelastic modulus
+and dissipation, and the gain vector of the shell couple.
+
+Calibration file, steer-law section (optional; absent = linear about φ = 0, the paper's eq. 9)::
+
+    steer_law: {form: linear | saturating | quadratic, rest_angle_rad: φ_0,
+                amplitude_stiffness_nm_per_rad: K_a, amplitude_scale_rad: φ_a,   # saturating only
+                quadratic_stiffness_nm_per_rad2: K_2}                           # quadratic only
+    hydroelastic: {..., couple_stiffness_factor: f_K, couple_damping_factor: f_C}  # default 0, 0
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +29,7 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from sphere_env.models.mathbackend import NUMPY
 from sphere_env.resources import asset_path
 
 DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
@@ -45,13 +60,93 @@ def injected_gains(omega_n: float, zeta: float, M_eq: float, K_eq: float) -> tup
     return omega_n**2 * M_eq - K_eq, 2.0 * M_eq * omega_n * zeta
 
 
-def injected_torques(phi, phi_dot, omega_d, K_inject: float, C_inject: float):
-    """Injected shell torques (eq. 9 and §IV) [N m].
+# ---- the steer-direction restoring law --------------------------------------------------------------
+# Forms of the steer-direction spring (calibration field ``steer_law.form``) and their extra fields.
+# Every form has a rest angle φ_0 (``rest_angle_rad``); Δ = φ − φ_0.
+#   linear      τ_s = −K_inject Δ                                   (paper eq. 9 when φ_0 = 0)
+#   saturating  τ_s = −K_inject Δ − K_a φ_a tanh(Δ / φ_a)           stiffness K_inject + K_a sech²(Δ/φ_a):
+#               K_a + K_inject at small swings, K_inject at large ones (bounded: no run-away)
+#   quadratic   τ_s = −K_inject Δ − K_2 Δ |Δ|                       stiffness K_inject + 2 K_2 |Δ|
+STEER_LAW_FORMS: dict[str, tuple[str, ...]] = {
+    "linear": (),
+    "saturating": ("amplitude_stiffness_nm_per_rad", "amplitude_scale_rad"),
+    "quadratic": ("quadratic_stiffness_nm_per_rad2",),
+}
+PHI_REACH_RAD = 1.2  # largest |φ| the robot reaches on flat ground (pendulum at its stop)
 
-    Steer direction: τ_φ = −C_inject φ̇ − K_inject φ.  Drive direction: τ_d = −C_inject ω_d
-    (the paper drops K_inject there and damps the rolling velocity).
+# The law's numbers in the order the physics layer feeds them (one vector, updated in the context
+# when pressure or calibration change): K_inject [N m/rad], C_steer, C_drive [N m s/rad], φ_0 [rad],
+# A = K_a φ_a [N m], B = 1/φ_a [1/rad], K_2 [N m/rad²].
+LAW_GAIN_NAMES = ("K_inject", "C_steer", "C_drive", "rest_angle", "amp_torque", "amp_inv_scale", "quad_stiffness")
+
+
+def steer_torque(phi, phi_dot, K, C, rest, amp_torque, amp_inv_scale, quad, m=NUMPY):
+    """Steer-direction shell couple τ_φ [N m] about the rocking axis (numpy or symbolic via ``m``).
+
+    τ_φ = −K Δ − A tanh(B Δ) − K_2 Δ|Δ| − C φ̇,  Δ = φ − φ_0. With A = K_2 = φ_0 = 0 this is the
+    paper's eq. 9 (−K_inject φ − C_inject φ̇). Forms: see :data:`STEER_LAW_FORMS`.
     """
-    return -C_inject * phi_dot - K_inject * phi, -C_inject * omega_d
+    d = phi - rest
+    return -K * d - amp_torque * m.tanh(amp_inv_scale * d) - quad * d * m.abs(d) - C * phi_dot
+
+
+def injected_torques(phi, phi_dot, omega_d, K, C_steer, C_drive, rest=0.0, amp_torque=0.0,
+                     amp_inv_scale=1.0, quad=0.0, m=NUMPY):
+    """Injected shell torques (eq. 9 and §IV) [N m]: (τ_φ, τ_d).
+
+    Steer direction: :func:`steer_torque`. Drive direction: τ_d = −C_drive ω_d (the paper drops
+    K_inject there and damps the rolling velocity). Arguments in :data:`LAW_GAIN_NAMES` order.
+    """
+    return steer_torque(phi, phi_dot, K, C_steer, rest, amp_torque, amp_inv_scale, quad, m=m), -C_drive * omega_d
+
+
+@dataclass(frozen=True)
+class SteerLaw:
+    """The steer-direction spring's form and its pressure-independent numbers.
+
+    The linear stiffness K_inject(p) and damping C_inject(p) come from ω_n(p), ζ(p) (eqs. 7–8);
+    ``rest_angle_rad`` φ_0 [rad] and the amplitude terms are held over the pressure range.
+    """
+
+    form: str = "linear"
+    rest_angle_rad: float = 0.0
+    amplitude_stiffness_nm_per_rad: float = 0.0
+    amplitude_scale_rad: float = 1.0
+    quadratic_stiffness_nm_per_rad2: float = 0.0
+
+    def gains_tail(self) -> tuple[float, float, float, float]:
+        """(φ_0, A, B, K_2) of :data:`LAW_GAIN_NAMES`."""
+        if self.form == "saturating":
+            a = self.amplitude_scale_rad
+            return self.rest_angle_rad, self.amplitude_stiffness_nm_per_rad * a, 1.0 / a, 0.0
+        if self.form == "quadratic":
+            return self.rest_angle_rad, 0.0, 1.0, self.quadratic_stiffness_nm_per_rad2
+        return self.rest_angle_rad, 0.0, 1.0, 0.0
+
+    def stiffness(self, phi, K_inject: float):
+        """Tangent stiffness −∂τ_φ/∂φ [N m/rad] of the shell spring at pipe angle ``phi``."""
+        d = np.asarray(phi, dtype=float) - self.rest_angle_rad
+        _, A, B, Q = self.gains_tail()
+        return K_inject + A * B / np.cosh(B * d) ** 2 + 2.0 * Q * np.abs(d)
+
+    def as_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"form": self.form, "rest_angle_rad": self.rest_angle_rad}
+        for k in STEER_LAW_FORMS[self.form]:
+            out[k] = getattr(self, k)
+        return out
+
+
+def gravity_stiffness_free_pendulum(robot) -> float:
+    """Gravity's rocking stiffness at φ = 0 with the pendulum hanging free [N m/rad].
+
+    On flat ground the centre stays at height R; a pendulum free on the steer joint (axis through
+    the centre) hangs plumb and its weight passes through the contact point, so only the pitch
+    center's offset r_pc restores: K_g = m_pc r_pc g, and the moment is K_g sin φ. This is the least
+    gravity the robot can have, so it is the safe value for the stand-still check.
+    """
+    from sphere_env.models.rigid_body import GRAVITY_M_S2
+
+    return robot.m_pc * robot.r_pc * GRAVITY_M_S2
 
 
 def _number(data: Mapping[str, Any], key: str, where: str, path: str) -> float:
@@ -65,11 +160,18 @@ def _number(data: Mapping[str, Any], key: str, where: str, path: str) -> float:
 
 @dataclass(frozen=True)
 class ShellCalibration:
-    """Pressure curves of the shell (paper Fig. 10 form) and hydroelastic settings.
+    """Pressure curves of the shell (paper Fig. 10 form), the steer law and hydroelastic settings.
 
     ω_n(p) = omega_n_intercept + omega_n_slope · p       [rad/s], p in kPa (linear, Fig. 10)
     ζ(p)   = zeta_scale · exp(zeta_rate · p)             [-]                 (exponential, Fig. 10)
     V(p)   = membrane estimate, or a table interpolated in p                [m³]
+    steer law (section ``steer_law``, optional, default linear about φ_0 = 0): the spring's form,
+    rest angle and amplitude term (:class:`SteerLaw`); K_inject(p), C_inject(p) from ω_n, ζ.
+    hydroelastic couple: ``hydroelastic.couple_stiffness_factor`` / ``couple_damping_factor``
+    (default 0: no couple) scale the injected steer-direction couple that the hydroelastic model
+    carries on top of Drake's hydroelastic contact (the sphere itself has no restoring moment).
+
+    Use :meth:`bind` to evaluate the laws for one robot.
     """
 
     pressure_range_kpa: tuple[float, float]
@@ -85,6 +187,10 @@ class ShellCalibration:
     fitted_time_step_s: float | None
     source: str
     raw: Mapping[str, Any]
+    steer_law: SteerLaw = SteerLaw()
+    couple_stiffness_factor: float = 0.0
+    couple_damping_factor: float = 0.0
+    stand_still_checked: bool = True
 
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
@@ -98,7 +204,10 @@ class ShellCalibration:
         return cls.from_dict(data, source=p)
 
     @classmethod
-    def from_dict(cls, data: Any, source: str = "<dict>") -> "ShellCalibration":
+    def from_dict(cls, data: Any, source: str = "<dict>", check_stand_still: bool = True) -> "ShellCalibration":
+        """Validate a calibration mapping. Refuses (``ValueError`` naming file and field) curves
+        outside their ranges and, unless ``check_stand_still`` is False, a steer law that leaves
+        the robot unable to stand still on flat ground (:meth:`check_stand_still`)."""
         p = source
         if not isinstance(data, Mapping):
             raise ValueError(f"calibration file {p!r}: top level must be a mapping")
@@ -148,6 +257,12 @@ class ShellCalibration:
             raise ValueError(
                 f"calibration file {p!r}: field 'contact_volume.model' = {vmodel!r}; allowed: ['membrane', 'table']"
             )
+        law = _steer_law(data.get("steer_law"), p)
+        factors = {}
+        for key in ("couple_stiffness_factor", "couple_damping_factor"):
+            factors[key] = _number(hyd, key, "hydroelastic", p) if key in hyd else 0.0
+            if factors[key] < 0:
+                raise ValueError(f"calibration file {p!r}: field 'hydroelastic.{key}' = {factors[key]!r} must be >= 0")
         cal = cls(
             pressure_range_kpa=(lo, hi),
             nominal_pressure_kpa=float(nominal),
@@ -164,6 +279,9 @@ class ShellCalibration:
             ),
             source=p,
             raw=dict(data),
+            steer_law=law,
+            stand_still_checked=check_stand_still,
+            **factors,
         )
         for q in (lo, hi):
             if cal.omega_n(q) <= 0 or not 0 <= cal.zeta(q) < 1:
@@ -175,6 +293,8 @@ class ShellCalibration:
             raise ValueError(
                 f"calibration file {p!r}: 'hydroelastic.k_d' must be >= 0 and 'resolution_hint_m' > 0"
             )
+        if check_stand_still:
+            cal.check_stand_still(_default_robot())
         return cal
 
     # ---- curves ----------------------------------------------------------------------------------
@@ -207,16 +327,149 @@ class ShellCalibration:
             return float(np.interp(pressure_kpa, pk, vm))
         return membrane_contact_volume_m3(pressure_kpa, weight_n, radius_m)
 
-    def injected_gains(self, pressure_kpa: float, M_eq: float, K_eq: float) -> tuple[float, float]:
-        """(K_inject, C_inject) at pressure p (eqs. 7–8)."""
-        return injected_gains(float(self.omega_n(pressure_kpa)), float(self.zeta(pressure_kpa)), M_eq, K_eq)
+    # ---- stability -------------------------------------------------------------------------------
+    def check_stand_still(self, robot) -> None:
+        """Refuse a steer law under which the robot cannot stand still on flat ground.
 
-    def hydroelastic(self, pressure_kpa: float, weight_n: float, radius_m: float, M_eq: float, K_eq: float):
+        The total rocking stiffness K_g cos φ + ∂(−τ_φ)/∂φ, with K_g the free-pendulum gravity
+        stiffness (:func:`gravity_stiffness_free_pendulum`, the least the robot has), must stay
+        positive for |φ| ≤ :data:`PHI_REACH_RAD` at both ends of the pressure range, for the
+        injected law and for the hydroelastic couple. Then the restoring moment grows
+        monotonically with φ: one rest pose, and no angle the robot can reach tips it over.
+        """
+        phi = np.linspace(-PHI_REACH_RAD, PHI_REACH_RAD, 481)
+        k_g = gravity_stiffness_free_pendulum(robot) * np.cos(phi)
+        law = self.steer_law
+        for p in (*self.pressure_range_kpa, self.nominal_pressure_kpa):
+            K, _ = injected_gains(float(self.omega_n(p)), float(self.zeta(p)), robot.M_eq, robot.K_eq)
+            cases = [("injected", 1.0)]
+            if self.couple_stiffness_factor > 0:
+                cases.append(("hydroelastic", self.couple_stiffness_factor))
+            for model, factor in cases:
+                total = k_g + factor * law.stiffness(phi, K)
+                if total.min() > 0:
+                    continue
+                j = int(np.argmin(total))
+                linear_ok = (k_g + factor * K).min() > 0
+                if not linear_ok:
+                    field = "omega_n" if model == "injected" else "hydroelastic.couple_stiffness_factor"
+                else:
+                    field = "steer_law." + (STEER_LAW_FORMS[law.form] or ("form",))[0]
+                raise ValueError(
+                    f"calibration file {self.source!r}: field '{field}': the robot cannot stand still on flat "
+                    f"ground ({model} model at {p:g} kPa): total rocking stiffness {total[j]:.3g} N m/rad <= 0 at "
+                    f"phi = {phi[j]:+.2f} rad (K_inject = {K:.3g} N m/rad, form {law.form!r}); it must stay > 0 "
+                    f"for |phi| <= {PHI_REACH_RAD} rad"
+                )
+
+    def bind(self, robot) -> "BoundShell":
+        """This calibration evaluated for one robot (:class:`BoundShell`); checks it can stand still
+        (unless it was built with ``check_stand_still=False``: a fitter's trial candidate)."""
+        if self.stand_still_checked:
+            self.check_stand_still(robot)
+        return BoundShell(self, robot)
+
+
+class BoundShell:
+    """A :class:`ShellCalibration` bound to one robot's eq. 4 equivalents and weight.
+
+    Every shell law of the twin is read from here: injected gains (eqs. 7–8), the hydroelastic
+    modulus and dissipation (eqs. 10–11, memoized per pressure) and the steer-law gain vector the
+    force system reads (:meth:`law_gains`).
+    """
+
+    def __init__(self, calibration: ShellCalibration, robot):
+        self.calibration, self.robot = calibration, robot
+        self._hydro: dict[float, tuple[float, float]] = {}
+
+    def injected_gains(self, pressure_kpa: float) -> tuple[float, float]:
+        """(K_inject [N m/rad], C_inject [N m s/rad]) at pressure p (eqs. 7–8)."""
+        cal, r = self.calibration, self.robot
+        return injected_gains(float(cal.omega_n(pressure_kpa)), float(cal.zeta(pressure_kpa)), r.M_eq, r.K_eq)
+
+    def hydroelastic(self, pressure_kpa: float) -> tuple[float, float]:
         """(modulus [Pa], Hunt–Crossley dissipation [s/m]) at pressure p.
 
         m_hydro = f_n / V(p) (eq. 10);  d = k_d · C_inject(p) (eq. 11 with the §III.D factor k_d).
         C_inject is used by number as the dissipation in s/m, as the paper does.
         """
-        modulus = weight_n / self.volume_m3(pressure_kpa, weight_n, radius_m)
-        _, c_inject = self.injected_gains(pressure_kpa, M_eq, K_eq)
-        return modulus, self.k_d * c_inject
+        key = float(pressure_kpa)
+        out = self._hydro.get(key)
+        if out is None:
+            r, cal = self.robot, self.calibration
+            modulus = r.weight_n / cal.volume_m3(key, r.weight_n, r.radius_m)
+            out = (modulus, cal.k_d * self.injected_gains(key)[1])
+            self._hydro[key] = out
+        return out
+
+    def law_gains(self, shell_model: str, pressure_kpa: float) -> np.ndarray:
+        """The shell couple's numbers in :data:`LAW_GAIN_NAMES` order for ``shell_model``.
+
+        ``injected``: the full law (steer spring + damper, drive damper). ``hydroelastic``: the steer
+        spring and damper scaled by the couple factors, no drive damper (the contact's dissipation
+        damps rolling). ``point``: zeros (the rigid baseline).
+        """
+        K, C = self.injected_gains(pressure_kpa)
+        rest, A, B, Q = self.calibration.steer_law.gains_tail()
+        if shell_model == "injected":
+            return np.array([K, C, C, rest, A, B, Q])
+        if shell_model == "hydroelastic":
+            fk, fc = self.calibration.couple_stiffness_factor, self.calibration.couple_damping_factor
+            return np.array([fk * K, fc * C, 0.0, rest, fk * A, B, fk * Q])
+        return np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0])
+
+    def parameters(self, shell_model: str, pressure_kpa: float) -> dict[str, Any]:
+        """The shell model's parameters at a pressure, units in the keys."""
+        cal = self.calibration
+        K, C = self.injected_gains(pressure_kpa)
+        out: dict[str, Any] = {"pressure_kpa": float(pressure_kpa), "omega_n_rad_s": float(cal.omega_n(pressure_kpa)),
+                               "zeta": float(cal.zeta(pressure_kpa)), "K_inject_Nm_per_rad": K,
+                               "C_inject_Nms_per_rad": C, "steer_law": cal.steer_law.as_dict()}
+        if shell_model == "hydroelastic":
+            m, d = self.hydroelastic(pressure_kpa)
+            out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d,
+                       couple_stiffness_factor=cal.couple_stiffness_factor,
+                       couple_damping_factor=cal.couple_damping_factor)
+        return out
+
+
+@functools.lru_cache(maxsize=1)
+def _default_robot():
+    from sphere_env.models.rigid_body import RobotParameters
+
+    return RobotParameters.from_urdf()
+
+
+def _steer_law(sec: Any, path: str) -> SteerLaw:
+    """Parse the optional ``steer_law`` section (absent: linear about φ = 0)."""
+    if sec is None:
+        return SteerLaw()
+    if not isinstance(sec, Mapping):
+        raise ValueError(f"calibration file {path!r}: field 'steer_law' must be a mapping")
+    form = sec.get("form")
+    if form not in STEER_LAW_FORMS:
+        raise ValueError(
+            f"calibration file {path!r}: field 'steer_law.form' = {form!r}; allowed: {list(STEER_LAW_FORMS)}"
+        )
+    allowed = {"form", "rest_angle_rad", *STEER_LAW_FORMS[form]}
+    extra = sorted(set(sec) - allowed - {"ci95", "notes"})
+    if extra:
+        raise ValueError(
+            f"calibration file {path!r}: field 'steer_law' has {extra} not used by form {form!r}; "
+            f"allowed: {sorted(allowed)}"
+        )
+    kw: dict[str, Any] = {"form": form}
+    kw["rest_angle_rad"] = _number(sec, "rest_angle_rad", "steer_law", path) if "rest_angle_rad" in sec else 0.0
+    if abs(kw["rest_angle_rad"]) > 0.3:
+        raise ValueError(
+            f"calibration file {path!r}: field 'steer_law.rest_angle_rad' = {kw['rest_angle_rad']!r} "
+            "must lie in [-0.3, 0.3] rad"
+        )
+    for key in STEER_LAW_FORMS[form]:
+        kw[key] = _number(sec, key, "steer_law", path)
+    if form == "saturating" and not kw["amplitude_scale_rad"] > 0:
+        raise ValueError(
+            f"calibration file {path!r}: field 'steer_law.amplitude_scale_rad' = {kw['amplitude_scale_rad']!r} "
+            "must be > 0 rad"
+        )
+    return SteerLaw(**kw)

@@ -29,7 +29,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
 
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import ShellCalibration
+from sphere_env.models.shell import BoundShell
 from sphere_env.params import SHELL_FRICTION
 from sphere_env.physics.config import DEFAULT_CONTACT_APPROXIMATION, TwinConfig
 from sphere_env.physics.forces import build_force_expressions
@@ -69,14 +69,13 @@ def ground_coefficient(mu: float) -> float:
     return mu * SHELL_FRICTION / (2.0 * SHELL_FRICTION - mu)
 
 
-def shell_properties(config: TwinConfig, calibration: ShellCalibration, robot: RobotParameters,
-                     pressure_kpa: float) -> ProximityProperties:
+def shell_properties(config: TwinConfig, shell: BoundShell, pressure_kpa: float) -> ProximityProperties:
     """The shell's proximity properties at a pressure: friction μ_s and, for ``hydroelastic``, the
-    compliant-hydroelastic modulus and Hunt–Crossley dissipation of the calibration."""
-    cfg, cal, r = config, calibration, robot
+    compliant-hydroelastic modulus and Hunt–Crossley dissipation of the bound calibration."""
+    cfg, cal = config, shell.calibration
     props = ProximityProperties()
     if cfg.shell_model == "hydroelastic":
-        modulus, dissipation = cal.hydroelastic(pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
+        modulus, dissipation = shell.hydroelastic(pressure_kpa)
         AddContactMaterial(
             dissipation=dissipation,
             friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION),
@@ -161,7 +160,7 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     gain_source = None
     if not cfg.bare_plant:
         x, g, out, kinematics = build_force_expressions(
-            layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model == "injected",
+            layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model in ("injected", "hydroelastic"),
             terrain.normal_at,
         )
         k = kinematics[0] if kinematics is not None else np.array([], dtype=object)

@@ -1,12 +1,14 @@
-"""Joint friction and injected shell torques as a Drake system evaluated in C++.
+"""Joint friction and the shell couple as a Drake system evaluated in C++.
 
-The laws are the pure functions of :mod:`sphere_env.models`, evaluated with Drake's symbolic
-math into one ``SymbolicVectorSystem``. Drake then evaluates the expression tree in C++ at every
-plant step, which costs a few µs instead of the 25–70 µs of a Python ``LeafSystem``.
+The laws are the pure functions of :mod:`sphere_env.models` (friction laws, and the shell's
+:func:`~sphere_env.models.shell.injected_torques`), evaluated with Drake's symbolic math into one
+``SymbolicVectorSystem``. Drake then evaluates the expression tree in C++ at every plant step,
+which costs a few µs instead of the 25–70 µs of a Python ``LeafSystem``.
 
-Input ``x``: the plant state [q; v]. Input ``gains``: [K_inject, C_inject, s_steer, s_drive]
-(injected stiffness N m/rad, damping N m s/rad, friction scale factors), fed by a
-``ConstantVectorSource`` whose context value the twin updates when pressure changes.
+Input ``x``: the plant state [q; v]. Input ``gains``: :data:`GAIN_NAMES` — the shell law's numbers
+(:data:`~sphere_env.models.shell.LAW_GAIN_NAMES`: K_inject, C_steer, C_drive, φ_0, amplitude terms)
+then the two friction scale factors, fed by a ``ConstantVectorSource`` whose context value the
+twin updates when pressure or calibration change (``BoundShell.law_gains``).
 Output: generalized forces (size nv) for the plant's applied-generalized-force port.
 """
 
@@ -18,8 +20,10 @@ import numpy as np
 from pydrake.symbolic import Expression, Variable, if_then_else
 import pydrake.symbolic as sym
 
+from sphere_env.models.shell import LAW_GAIN_NAMES, injected_torques
+
 COS_PHI_FLOOR = 1e-3
-GAIN_NAMES = ("K_inject", "C_inject", "steer_friction_scale", "drive_friction_scale")
+GAIN_NAMES = (*LAW_GAIN_NAMES, "steer_friction_scale", "drive_friction_scale")
 
 
 class SymbolicMath:
@@ -74,7 +78,7 @@ def pipe_angle_expressions(y_W, w_W, n_W):
 KINEMATICS_NAMES = ("phi", "phi_dot", "axis_x", "axis_y", "axis_z", "y_x", "y_y", "y_z", "omega_d")
 
 
-def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground_normal_fn):
+def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, ground_normal_fn):
     """Expressions of the force system, in two stages.
 
     Returns ``(x, g, out, kinematics)``: state variables x = [q; v], gain variables g, the output
@@ -85,7 +89,10 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
     feeding it to the second evaluates the quaternion/φ tree once per step instead of once per
     output component.
 
-    ``layout`` describes index positions in [q; v] (see ``Twin._layout``); ``*_law`` are
+    ``shell_couple``: add the shell couple (the injected law; the hydroelastic model carries its
+    steer part on top of hydroelastic contact, with the gains :meth:`BoundShell.law_gains` gives).
+
+    ``layout`` describes index positions in [q; v] (see ``TwinDiagram.layout``); ``*_law`` are
     :class:`~sphere_env.models.friction.FrictionModel`; ``ground_normal_fn(p_W)`` returns the
     world ground normal under a base position (symbolic-friendly).
     """
@@ -93,7 +100,7 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
     x = np.array([Variable(f"x{i}") for i in range(nq + nv)])
     g = np.array([Variable(n) for n in GAIN_NAMES])
     q, v = x[:nq], x[nq:]
-    K, C, s_steer, s_drive = g
+    law_g, (s_steer, s_drive) = g[: len(LAW_GAIN_NAMES)], g[len(LAW_GAIN_NAMES) :]
     out = [Expression(0.0) for _ in range(nv)]
     kinematics = None
 
@@ -102,7 +109,7 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
     if layout["drive_v"] is not None and not layout["drive_locked"]:
         out[layout["drive_v"]] += s_drive * drive_law.torque(v[layout["drive_v"]], m=SYMBOLIC)
 
-    if injected and layout["base"] == "quaternion":
+    if shell_couple and layout["base"] == "quaternion":
         qi, wi, pi = layout["base_q"], layout["base_v"], layout["base_q"] + 4
         y_W = quaternion_y_axis(*q[qi : qi + 4])
         w_W = v[wi : wi + 3]
@@ -114,15 +121,15 @@ def build_force_expressions(layout, steer_law, drive_law, injected: bool, ground
         k = np.array([Variable(n) for n in KINEMATICS_NAMES])
         kinematics = (k, np.array([phi, phi_dot, *axis, *y_W, omega_d], dtype=object))
         k_phi, k_phi_dot, k_axis, k_y, k_omega_d = k[0], k[1], k[2:5], k[5:8], k[8]
-        tau_phi = -C * k_phi_dot - K * k_phi  # eq. 9, steer direction
-        tau_d = -C * k_omega_d  # §IV, drive direction (no K_inject)
+        # eq. 9 / the calibration's steer law, and §IV's drive damper (no K_inject there)
+        tau_phi, tau_d = injected_torques(k_phi, k_phi_dot, k_omega_d, *law_g, m=SYMBOLIC)
         torque_W = [tau_phi * a + tau_d * y for a, y in zip(k_axis, k_y)]  # a pure couple on the shell
         for j in range(3):
             out[wi + j] += torque_W[j]
         if not layout["drive_locked"]:
             out[layout["drive_v"]] += -tau_d  # the drive joint axis is −ŷ
-    elif injected and layout["base"] == "planar":
+    elif shell_couple and layout["base"] == "planar":
         # Planar steer-plane fixture: coordinates (y_W, z_W, φ) on flat ground.
         phi, phi_dot = q[layout["base_q"] + 2], v[layout["base_v"] + 2]
-        out[layout["base_v"] + 2] += -C * phi_dot - K * phi
+        out[layout["base_v"] + 2] += injected_torques(phi, phi_dot, 0.0, *law_g, m=SYMBOLIC)[0]
     return x, g, np.array(out, dtype=object), kinematics

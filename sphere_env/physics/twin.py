@@ -49,6 +49,7 @@ class Twin:
         self.config = config
         self.calibration = ShellCalibration.load(config.calibration)
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
+        self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
         p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
         self._pressure_kpa = self.calibration.check_pressure(p0, "pressure_kpa")
         self.terrain = Terrain(config.incline_deg, config.ramp_length_m)
@@ -65,7 +66,7 @@ class Twin:
 
     # ---- building --------------------------------------------------------------------------------
     def _build(self) -> None:
-        shell = shell_properties(self.config, self.calibration, self.robot, self._pressure_kpa)
+        shell = shell_properties(self.config, self.shell, self._pressure_kpa)
         d = build_diagram(self.config, self.robot, self.terrain, shell, self.meshcat)
         # Drake handles, public for tools that inspect the plant (calibration, tests); the env and
         # tasks use the methods below instead.
@@ -99,14 +100,7 @@ class Twin:
     def shell_parameters(self, pressure_kpa: float | None = None) -> dict:
         """The shell model's parameters at a pressure (current by default), with units in the keys."""
         p = self._pressure_kpa if pressure_kpa is None else pressure_kpa
-        r, cal = self.robot, self.calibration
-        K, C = cal.injected_gains(p, r.M_eq, r.K_eq)
-        out = {"pressure_kpa": p, "omega_n_rad_s": float(cal.omega_n(p)), "zeta": float(cal.zeta(p)),
-               "K_inject_Nm_per_rad": K, "C_inject_Nms_per_rad": C}
-        if self.config.shell_model == "hydroelastic":
-            m, d = cal.hydroelastic(p, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
-            out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d)
-        return out
+        return self.shell.parameters(self.config.shell_model, p)
 
     def set_pressure(self, pressure_kpa: float) -> None:
         """Change the inflation pressure [kPa gauge] now; takes effect on the next step.
@@ -122,7 +116,8 @@ class Twin:
         current pressure. Validated first: on error nothing changes."""
         cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
         p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa, "pressure_kpa")
-        self.calibration, self._pressure_kpa = cal, p
+        shell = cal.bind(self.robot)
+        self.calibration, self.shell, self._pressure_kpa = cal, shell, p
         self._apply_pressure_to_context()
 
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
@@ -135,11 +130,9 @@ class Twin:
     def _apply_gains(self) -> None:
         if self._gain_source is None:  # bare plant
             return
-        K, C = 0.0, 0.0
-        if self.config.shell_model == "injected":
-            K, C = self.calibration.injected_gains(self._pressure_kpa, self.robot.M_eq, self.robot.K_eq)
+        law = self.shell.law_gains(self.config.shell_model, self._pressure_kpa)
         self._gain_source.get_mutable_source_value(self._gain_context).SetFromVector(
-            np.array([K, C, *self._friction_scale])
+            np.concatenate([law, self._friction_scale])
         )
 
     def _apply_pressure_to_context(self) -> None:
@@ -156,8 +149,7 @@ class Twin:
         if self.config.shell_model != "hydroelastic":
             return
         idx = self._geometry_state_index()
-        r = self.robot
-        key = tuple(self.calibration.hydroelastic(self._pressure_kpa, r.weight_n, r.radius_m, r.M_eq, r.K_eq))
+        key = self.shell.hydroelastic(self._pressure_kpa)
         entry = self._geometry_cache.get(key)
         if entry is not None:
             snap, mu = entry
@@ -168,7 +160,7 @@ class Twin:
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
-            shell_properties(self.config, self.calibration, self.robot, self._pressure_kpa), RoleAssign.kReplace,
+            shell_properties(self.config, self.shell, self._pressure_kpa), RoleAssign.kReplace,
         )
         self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(), self._ground_friction)
         if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:

@@ -29,6 +29,7 @@ def test_damped_sinusoid_fit_and_log_decrement():
     assert fit_free_decay(t, y2, transient_s=1.0).zeta == pytest.approx(0.12, rel=0.05)
 
 
+@pytest.mark.slow
 def test_shell_command_recovers_twin_parameters(tmp_path):
     cal_path = write_calibration(tmp_path / "truth.yaml")
     truth = ShellCalibration.load(cal_path)

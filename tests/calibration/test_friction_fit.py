@@ -25,6 +25,7 @@ def _stand_logs(tmp_path, model: FrictionModel, releases=(0.40, 0.32)):
     return man, [t.load() for t in load_manifest(man).trials]
 
 
+@pytest.mark.slow
 def test_majd_fit_recovers_parameters(tmp_path):
     _, logs = _stand_logs(tmp_path, FrictionModel("majd", TRUE_MAJD))
     fit = fit_friction(logs, "majd", fixed=("sigma", "n"), start={"f_w": 0.1, "f_c": 0.3, "omega_c": 0.2},

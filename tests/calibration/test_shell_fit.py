@@ -34,7 +34,7 @@ def test_calibration_at_expresses_modulus_and_dissipation():
     r = RobotParameters.from_urdf()
     raw = calibration_at(base, 5.0, omega_n=3.0, zeta=0.07, modulus_pa=1.2e5, dissipation_s_per_m=0.4)
     cal = ShellCalibration.from_dict(raw)
-    m, d = cal.hydroelastic(5.0, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
+    m, d = cal.bind(r).hydroelastic(5.0)
     assert m == pytest.approx(1.2e5, rel=1e-6) and d == pytest.approx(0.4, rel=1e-6)
     assert float(cal.omega_n(5.0)) == pytest.approx(3.0) and cal.omega_n_slope == base.omega_n_slope
     assert float(cal.zeta(5.0)) == pytest.approx(0.07) and cal.zeta_rate == base.zeta_rate

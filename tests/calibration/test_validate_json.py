@@ -46,6 +46,7 @@ def test_json_records_have_the_named_fields_and_no_pme_on_flat_ground(logs_dir, 
     assert [p.name for p in out.parent.iterdir()] == ["v.json"]  # no temp file left
 
 
+@pytest.mark.slow
 def test_workers_give_the_same_rows_as_one_process(logs_dir):
     logs = [t.load() for t in load_manifest(_manifest(logs_dir, ["sf", "phi_only"])).trials]
     one = validate(logs, ["point", "injected"], steer_friction="majd_steer", drive_friction="none", workers=1)

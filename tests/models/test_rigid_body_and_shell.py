@@ -10,7 +10,7 @@ from sphere_env.models.shell import DEFAULT_CALIBRATION, ShellCalibration, membr
 
 def test_equivalents_match_design_figures():
     r = RobotParameters.from_urdf()
-    # DESIGN.md §1/§3 figures (computed there from Table II; we compute from the URDF).
+    # docs/design.md §1/§5 figures (computed there from Table II; we compute from the URDF).
     assert r.m_total == pytest.approx(41.35, abs=0.01)
     assert r.weight_n == pytest.approx(405.6, abs=0.1)
     assert r.K_eq == pytest.approx(21.9, abs=0.05)
@@ -57,11 +57,12 @@ def test_default_calibration_loads_and_gains_follow_eq_7_8():
     cal = ShellCalibration.load()
     r = RobotParameters.from_urdf()
     p = cal.nominal_pressure_kpa
-    K, C = cal.injected_gains(p, r.M_eq, r.K_eq)
+    shell = cal.bind(r)
+    K, C = shell.injected_gains(p)
     wn, z = float(cal.omega_n(p)), float(cal.zeta(p))
     assert K == pytest.approx(wn**2 * r.M_eq - r.K_eq)
     assert C == pytest.approx(2 * r.M_eq * wn * z)
-    modulus, d = cal.hydroelastic(p, r.weight_n, r.radius_m, r.M_eq, r.K_eq)
+    modulus, d = shell.hydroelastic(p)
     assert modulus == pytest.approx(r.weight_n / membrane_contact_volume_m3(p, r.weight_n, r.radius_m)) or cal.volume_model == "table"
     assert d == pytest.approx(cal.k_d * C)
 
