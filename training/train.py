@@ -495,6 +495,8 @@ def _train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] 
             rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
             if cfg.algo == "sac" and rb.exists():
                 model.load_replay_buffer(rb)
+            elif cfg.algo == "sac":
+                _say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
         else:
             model = cls(cfg.policy, venv, seed=cfg.seed, device=cfg.device, verbose=verbose,
                         tensorboard_log=str(run_dir / "tb"), **cfg.algo_kwargs())
