@@ -16,6 +16,10 @@ Writes into ``--out``: ``episodes.csv`` (one row per episode, metrics of
 :mod:`sphere_env.evaluation.metrics`), ``traces.npz``, ``report.md`` (tables), ``plots/*.png`` (drive
 velocity vs time per pressure and model; error bars per pressure and model as in the paper's
 Figs. 13–14; success and tracking error vs pressure; PME) and ``replay_*.html`` (Meshcat).
+Everything is validated first (grid, env kwargs, controllers: model files load, the policy's training
+env id matches ``--env`` unless ``--allow-env-mismatch``, each controller returns 2 numbers); outputs
+are then written into a temporary folder beside ``--out`` and moved into place at the end, replacing
+the files an earlier sweep wrote there (other files are kept). A failure leaves ``--out`` as it was.
 
 PME (eq. 12) for zero torque: every ordered pair of shell models (reference = "experiment") over
 the reference's on-ramp samples, and optionally against a user log: a CSV with columns ``t_s`` and
