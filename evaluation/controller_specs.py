@@ -52,16 +52,40 @@ def run_folder(spec: str) -> tuple[Path, str] | None:
     return None
 
 
-def check_spec(spec: str) -> None:
-    """Refuse a spec that cannot be resolved (called in the main process before a sweep)."""
+def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = False) -> None:
+    """Refuse a spec that cannot be resolved (called in the main process before a sweep): an
+    unknown baseline or callable, a run folder whose model is missing or unreadable, or a policy
+    trained on another env id than ``env_id`` (unless ``allow_env_mismatch``)."""
     if spec in BASELINES:
         return
     rf = run_folder(spec)
     if rf is not None:
+        from sphere_env.training.config import algo_class
+        from sphere_env.training.train import load_config
+
         folder, which = rf
         model = folder / ("best/best_model.zip" if which == "best" else "model.zip")
         if not model.exists():
             raise ValueError(f"controller: {spec!r}: {model} is missing (training unfinished?)")
+        try:
+            cfg = load_config(folder)
+        except Exception as err:  # noqa: BLE001 - an unreadable config.yaml
+            raise ValueError(f"controller: {spec!r}: {folder / 'config.yaml'} cannot be read: {err}") from None
+        if env_id is not None and cfg.env_id != env_id and not allow_env_mismatch:
+            raise ValueError(f"controller: {spec!r} was trained on {cfg.env_id!r}, not on the evaluated env "
+                             f"{env_id!r}; pass --allow-env-mismatch to evaluate it there anyway")
+        try:
+            algo_class(cfg.algo).load(model, device="cpu")
+        except Exception as err:  # noqa: BLE001 - truncated or foreign zip
+            raise ValueError(f"controller: {spec!r}: {model} cannot be loaded ({type(err).__name__}: {err}); "
+                             "a truncated or corrupt model file") from None
+        vn = model.parent / "vecnormalize.pkl"
+        if vn.exists():
+            try:
+                with open(vn, "rb") as f:
+                    pickle.load(f)
+            except Exception as err:  # noqa: BLE001
+                raise ValueError(f"controller: {spec!r}: {vn} cannot be loaded ({type(err).__name__}: {err})") from None
         return
     if ":" not in spec:
         raise ValueError(f"controller: {spec!r} is not a baseline {list(BASELINES)}, a run folder with config.yaml, "
@@ -131,6 +155,20 @@ def env_kwargs_of(spec: str) -> dict[str, Any]:
     for k in ("shell_model", "friction_model", "randomization", "render_mode", "record_replay", "meshcat"):
         kw.pop(k, None)
     return kw
+
+
+def check_action(label: str, action: Any) -> np.ndarray:
+    """A controller's action as a float array of shape (2,) [τ_steer, τ_drive] (normalized), or a
+    ValueError naming the controller and what it returned."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"controller: {label!r} returned {action!r}; allowed: 2 real numbers "
+                         "[steer, drive] in [-1, 1]") from None
+    if a.size != 2:
+        raise ValueError(f"controller: {label!r} returned an action of shape {a.shape}; allowed: 2 numbers "
+                         "[steer, drive] in [-1, 1]")
+    return a.reshape(2)
 
 
 def make_controller(spec: str, env: Any) -> Callable:

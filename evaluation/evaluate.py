@@ -16,6 +16,10 @@ Writes into ``--out``: ``episodes.csv`` (one row per episode, metrics of
 :mod:`sphere_env.evaluation.metrics`), ``traces.npz``, ``report.md`` (tables), ``plots/*.png`` (drive
 velocity vs time per pressure and model; error bars per pressure and model as in the paper's
 Figs. 13–14; success and tracking error vs pressure; PME) and ``replay_*.html`` (Meshcat).
+Everything is validated first (grid, env kwargs, controllers: model files load, the policy's training
+env id matches ``--env`` unless ``--allow-env-mismatch``, each controller returns 2 numbers); outputs
+are then written into a temporary folder beside ``--out`` and moved into place at the end, replacing
+the files an earlier sweep wrote there (other files are kept). A failure leaves ``--out`` as it was.
 
 PME (eq. 12) for zero torque: every ordered pair of shell models (reference = "experiment") over
 the reference's on-ramp samples, and optionally against a user log: a CSV with columns ``t_s`` and
@@ -25,10 +29,13 @@ the reference's on-ramp samples, and optionally against a user log: a CSV with c
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import math
 import os
+import shutil
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,13 +46,19 @@ import numpy as np
 from sphere_env.parallel import run_parallel
 from sphere_env.models.shell import SHELL_MODELS
 
-from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, make_controller, split_label
+from sphere_env.evaluation.controller_specs import (check_action, check_spec, env_kwargs_of, make_controller,
+                                                    split_label)
 from sphere_env.evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 
 METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
                   "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm", "time_on_ramp_s",
                   "omega_ref_rad_s")
 KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
+#: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
+GRID_KWARGS = {"shell_model": "--shell-models", "friction_model": "--friction", "randomization": "off",
+               "record_replay": "--replay"}
+#: What a sweep writes into ``out`` (replaced as a whole when ``out`` is reused).
+OUTPUT_NAMES = ("episodes.csv", "traces.npz", "pme.csv", "report.md", "plots")
 
 
 @dataclass
@@ -60,6 +73,7 @@ class SweepSpec:
     frictions: list[str] = field(default_factory=lambda: ["majd"])
     seeds: list[int] = field(default_factory=lambda: [0, 1])
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    allow_env_mismatch: bool = False  # evaluate a policy on an env id it was not trained on
 
     def jobs(self) -> list[dict[str, Any]]:
         """One picklable job per cell, grouped so that a worker reuses its envs."""
@@ -82,13 +96,19 @@ class SweepSpec:
 
         if self.env_id not in gym.registry:
             raise ValueError(f"env: unknown env id {self.env_id!r}")
+        if not isinstance(self.env_kwargs, Mapping):
+            raise ValueError(f"env_kwargs: value {self.env_kwargs!r} must be a mapping of env kwargs")
+        for k in self.env_kwargs:
+            if k in GRID_KWARGS:
+                raise ValueError(f"env_kwargs.{k}: set by the sweep itself ({GRID_KWARGS[k]}); "
+                                 f"not allowed in --env-kwargs")
         if not self.controllers:
             raise ValueError("controller: give at least one controller")
         labels = [split_label(c)[0] for c in self.controllers]
         if len(set(labels)) != len(labels):
             raise ValueError(f"controller: labels must be unique, got {labels}")
         for c in self.controllers:
-            check_spec(split_label(c)[1])
+            check_spec(split_label(c)[1], self.env_id, self.allow_env_mismatch)
         for m in self.shell_models:
             if m not in SHELL_MODELS:
                 raise ValueError(f"shell_models: unknown model {m!r}; allowed: {list(SHELL_MODELS)}")
@@ -100,8 +120,28 @@ class SweepSpec:
                 raise ValueError(f"pressures: {p} kPa outside the calibrated range [{lo}, {hi}] kPa")
         if not self.seeds:
             raise ValueError("seeds: give at least one seed")
-        env = gym.make(self.env_id, shell_model="point", randomization="off", **self.env_kwargs)  # checks kwargs
-        env.close()
+        for sd in self.seeds:
+            if isinstance(sd, bool) or not isinstance(sd, (int, np.integer)) or sd < 0:
+                raise ValueError(f"seeds: value {sd!r} must be an integer >= 0")
+        try:
+            env = gym.make(self.env_id, shell_model="point", randomization="off", **self.env_kwargs)  # checks kwargs
+        except TypeError as err:
+            raise ValueError(f"env_kwargs: {err}") from None
+        try:
+            for c in self.controllers:  # each controller acts once: the action must be 2 numbers
+                label, cspec = split_label(c)
+                ctrl = make_controller(cspec, env)
+                if hasattr(ctrl, "reset"):
+                    ctrl.reset()
+                obs, info = env.reset(seed=self.seeds[0])
+                try:
+                    action = ctrl(obs, info)
+                except Exception as err:  # noqa: BLE001 - the user's controller failed on a valid observation
+                    raise ValueError(f"controller: {label!r} failed on the first observation: "
+                                     f"{type(err).__name__}: {err}") from None
+                check_action(label, action)
+        finally:
+            env.close()
         for fr in self.frictions:
             from sphere_env.models.friction import resolve_friction
 
@@ -152,7 +192,7 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
     tr: dict[str, list[float]] = {k: [] for k in TRACE_CHANNELS}
     ret, n, terminated, truncated = 0.0, 0, False, False
     while not (terminated or truncated):
-        a = np.clip(np.asarray(controller(obs, info), dtype=np.float64).reshape(2), -1.0, 1.0)
+        a = np.clip(check_action(job["controller"], controller(obs, info)), -1.0, 1.0)
         obs, r, terminated, truncated, info = env.step(a)
         ret += float(r)
         n += 1
@@ -233,13 +273,24 @@ def load_user_log(path: str | Path) -> dict[str, np.ndarray]:
     """A user ramp log: CSV with ``t_s``, ``omega_d`` [rad/s], optional ``on_ramp`` (0/1)."""
     import pandas as pd
 
-    df = pd.read_csv(path)
+    try:
+        df = pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as err:
+        raise ValueError(f"pme_log: cannot read {str(path)!r}: {err}") from None
     for col in ("t_s", "omega_d"):
         if col not in df:
             raise ValueError(f"pme_log: {str(path)!r} has no column {col!r} (needs t_s, omega_d[, on_ramp])")
-    t = df["t_s"].to_numpy(float)
+    if len(df) < 2:
+        raise ValueError(f"pme_log: {str(path)!r} has {len(df)} samples; at least 2 are needed")
+    try:
+        t = df["t_s"].to_numpy(float)
+        w = df["omega_d"].to_numpy(float)
+    except ValueError as err:
+        raise ValueError(f"pme_log: {str(path)!r}: t_s and omega_d must be numbers ({err})") from None
+    if not (np.all(np.isfinite(t)) and np.all(np.diff(t) > 0)):
+        raise ValueError(f"pme_log: {str(path)!r} column t_s must be finite and strictly increasing")
     on = df["on_ramp"].to_numpy(bool) if "on_ramp" in df else np.ones(len(t), bool)
-    return {"t_s": t - t[0], "omega_d": df["omega_d"].to_numpy(float), "on_ramp": on}
+    return {"t_s": t - t[0], "omega_d": w, "on_ramp": on}
 
 
 def pme_log_rows(log: Mapping[str, np.ndarray], rows, traces, pressure_kpa: float | None,
@@ -498,8 +549,17 @@ def parse_replay(text: str, spec: SweepSpec) -> dict[str, Any]:
     model = parts[1] if len(parts) > 1 and parts[1] else spec.shell_models[0]
     if model not in SHELL_MODELS:
         raise ValueError(f"replay: shell model {model!r} not in {list(SHELL_MODELS)}")
-    p = float(parts[2]) if len(parts) > 2 and parts[2] else spec.pressures_kpa[len(spec.pressures_kpa) // 2]
-    seed = int(parts[3]) if len(parts) > 3 and parts[3] else spec.seeds[0]
+    try:
+        p = float(parts[2]) if len(parts) > 2 and parts[2] else spec.pressures_kpa[len(spec.pressures_kpa) // 2]
+        seed = int(parts[3]) if len(parts) > 3 and parts[3] else spec.seeds[0]
+    except ValueError:
+        raise ValueError(f"replay: {text!r} must be controller,shell_model,pressure_kpa,seed (numbers for the "
+                         "last two)") from None
+    from sphere_env.models.shell import ShellCalibration
+
+    ShellCalibration.load(spec.env_kwargs.get("calibration")).check_pressure(p, "replay: pressure_kpa")
+    if seed < 0:
+        raise ValueError(f"replay: seed {seed} must be >= 0")
     cspec = dict(split_label(c) for c in spec.controllers)[ctrl]
     return dict(controller=ctrl, spec=cspec, env_id=spec.env_id, shell_model=model, friction=spec.frictions[0],
                 pressure_kpa=p, seed=seed, env_kwargs={**env_kwargs_of(cspec), **spec.env_kwargs})
@@ -513,11 +573,60 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
 
     :returns: dict with ``rows``, ``pme``, ``files`` (name -> path), ``wall_s``.
     """
+    out = Path(out)
+    check_out_dir(out)
     spec.validate()
+    if pme_reference not in (*SHELL_MODELS, "log"):
+        raise ValueError(f"pme_reference: value {pme_reference!r}; allowed: {[*SHELL_MODELS, 'log']}")
     replay_jobs = [parse_replay(r, spec) for r in replays]
     log = load_user_log(pme_log) if pme_log else None
-    out = Path(out)
-    (out / "plots").mkdir(parents=True, exist_ok=True)
+    with _staging(out) as work:
+        res = _sweep(spec, work, workers, ray_address, replay_jobs, log, pme_log_pressure, pme_reference, plots,
+                     progress, extra_report)
+    res["files"] = {k: out / v.relative_to(work) if v.is_relative_to(work) else v for k, v in res["files"].items()}
+    return res
+
+
+def check_out_dir(out: Path) -> None:
+    """Refuse an ``--out`` that is a file, or lies under one."""
+    for p in (out, *out.parents):
+        if p.exists() and not p.is_dir():
+            raise ValueError(f"out: {str(out)!r} cannot be an output folder: {str(p)!r} is a file")
+
+
+@contextlib.contextmanager
+def _staging(out: Path):
+    """A fresh temporary folder beside ``out``; on success its contents replace what an earlier sweep
+    wrote into ``out`` (:data:`OUTPUT_NAMES`, ``replay_*.html``), on failure it is removed and
+    ``out`` is left as it was (folders created for it are removed too)."""
+    created = [p for p in (out, *out.parents) if not p.exists()]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
+    try:
+        yield work
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        for p in created[1:]:  # parents made for the staging folder, innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
+        raise
+    if not out.exists():
+        work.rename(out)
+        return
+    for p in [*(out / n for n in OUTPUT_NAMES), *out.glob("replay_*.html")]:
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
+    for p in work.iterdir():
+        p.rename(out / p.name)
+    work.rmdir()
+
+
+def _sweep(spec: SweepSpec, out: Path, workers, ray_address, replay_jobs, log, pme_log_pressure, pme_reference,
+           plots, progress, extra_report) -> dict[str, Any]:
+    if plots:
+        (out / "plots").mkdir()
     t0 = time.perf_counter()
     results = run_jobs(spec.jobs(), workers, ray_address, progress)
     wall = time.perf_counter() - t0
@@ -559,6 +668,33 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
             "agg_model": agg_model}
 
 
+def parse_env_kwargs(text: str) -> dict[str, Any]:
+    """``--env-kwargs``: a YAML mapping without repeated keys."""
+    import yaml
+
+    class _UniqueKeys(yaml.SafeLoader):
+        pass
+
+    def mapping(loader, node, deep=False):
+        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
+        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
+        if dup:
+            raise ValueError(f"env_kwargs: key {dup[0]!r} given twice in {text!r}")
+        return loader.construct_mapping(node, deep=deep)
+
+    _UniqueKeys.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+    try:
+        value = yaml.load(text, Loader=_UniqueKeys)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as err:
+        raise ValueError(f"env_kwargs: {text!r} is not valid YAML: {err}".replace("\n", " ")) from None
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise ValueError(f"env_kwargs: value {value!r} must be a YAML mapping such as "
+                         "'{observation_noise_scale: 0.5}'")
+    return value
+
+
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
@@ -577,14 +713,17 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--pme-log", type=Path, default=None, help="CSV log (t_s, omega_d[, on_ramp]) for PME")
     parser.add_argument("--pme-log-pressure", type=float, default=None, help="log's pressure [kPa]")
     parser.add_argument("--pme-reference", default="hydroelastic", help="reference model of the PME plot")
+    parser.add_argument("--allow-env-mismatch", action="store_true",
+                        help="evaluate trained policies on an env id other than the one they were trained on")
     args = parser.parse_args(argv)
     import yaml
 
     out = args.out or Path("out/eval") / time.strftime("%Y%m%d-%H%M%S")
-    spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressures,
-                     shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
-                     env_kwargs=yaml.safe_load(args.env_kwargs) or {})
     try:
+        env_kwargs = parse_env_kwargs(args.env_kwargs)
+        spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressures,
+                         shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
+                         env_kwargs=env_kwargs, allow_env_mismatch=args.allow_env_mismatch)
         res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log, args.pme_log_pressure,
                        args.pme_reference, progress=True)
     except ValueError as err:

@@ -165,6 +165,163 @@ def _eval_policy_kwargs(text: str) -> dict[str, Any]:
     return out
 
 
+# ---- hyperparameter checks (type and range of every SB3 constructor argument) -------------------------
+def _hp_number(key: str, val: Any, *, low: float | None = None, high: float | None = None,
+               low_open: bool = False, high_open: bool = False) -> float:
+    """A finite real number within the given bounds (bools are not numbers)."""
+    lo = "" if low is None else f"{'>' if low_open else '>='} {low:g}"
+    hi = "" if high is None else f"{'<' if high_open else '<='} {high:g}"
+    allowed = " and ".join(x for x in (lo, hi) if x) or "finite"
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be a number {allowed}")
+    if low is not None and (val < low or (low_open and val == low)):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be {allowed}")
+    if high is not None and (val > high or (high_open and val == high)):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be {allowed}")
+    return float(val)
+
+
+def _hp_int(key: str, val: Any, low: int) -> int:
+    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val != int(val) \
+            or int(val) < low:
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be an integer >= {low}")
+    return int(val)
+
+
+def _hp_bool(key: str, val: Any) -> None:
+    if not isinstance(val, bool):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be true or false")
+
+
+def _hp_schedule(key: str, val: Any) -> None:
+    """A positive number or rl-zoo3's ``lin_<positive number>``."""
+    if isinstance(val, str):
+        _lin_value(key, val)
+    else:
+        _hp_number(key, val, low=0.0, low_open=True)
+
+
+def _hp_optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
+    return lambda key, val: None if val is None else check(key, val)
+
+
+def _hp_mapping(key: str, val: Any) -> None:
+    if val is not None and not isinstance(val, Mapping):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be a mapping")
+
+
+def _hp_policy_kwargs(key: str, val: Any) -> None:
+    if not isinstance(val, (Mapping, str)):
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be a mapping (or rl-zoo3's 'dict(...)' string)")
+
+
+def _hp_sac_ent_coef(key: str, val: Any) -> None:
+    """SAC's entropy coefficient: a number >= 0, ``"auto"`` or ``"auto_<initial value > 0>"``."""
+    if isinstance(val, str):
+        if val == "auto":
+            return
+        if val.startswith("auto_"):
+            try:
+                x = float(val[5:])
+            except ValueError:
+                x = math.nan
+            if math.isfinite(x) and x > 0:
+                return
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be a number >= 0, 'auto' or 'auto_<value > 0>'")
+    _hp_number(key, val, low=0.0)
+
+
+def _hp_target_entropy(key: str, val: Any) -> None:
+    if val != "auto":
+        if isinstance(val, str):
+            raise ValueError(f"hyperparams.{key}: value {val!r} must be a number or 'auto'")
+        _hp_number(key, val)
+
+
+def _hp_train_freq(key: str, val: Any) -> None:
+    """An integer >= 1 (steps) or ``[n, "step"|"episode"]``."""
+    if isinstance(val, (list, tuple)):
+        if len(val) != 2 or val[1] not in ("step", "episode"):
+            raise ValueError(f"hyperparams.{key}: value {val!r} must be an integer >= 1 or [n, 'step'|'episode']")
+        _hp_int(key, val[0], 1)
+    else:
+        _hp_int(key, val, 1)
+
+
+def _hp_gradient_steps(key: str, val: Any) -> None:
+    if _hp_int(key, val, -1) == 0:
+        raise ValueError(f"hyperparams.{key}: value {val!r} must be an integer >= 1 or -1 (as many as env steps)")
+
+
+def _hp_refuse_object(key: str, val: Any) -> None:
+    if val is not None:
+        raise ValueError(f"hyperparams.{key}: value {val!r} cannot be set from a configuration file (only null)")
+
+
+_COMMON_CHECKS: dict[str, Callable[[str, Any], Any]] = {
+    "learning_rate": _hp_schedule,
+    "gamma": lambda k, v: _hp_number(k, v, low=0.0, high=1.0, low_open=True),
+    "batch_size": lambda k, v: _hp_int(k, v, 1),
+    "use_sde": _hp_bool,
+    "sde_sample_freq": lambda k, v: _hp_int(k, v, -1),
+    "stats_window_size": lambda k, v: _hp_int(k, v, 1),
+    "policy_kwargs": _hp_policy_kwargs,
+}
+#: Type and range of every constructor argument a configuration may set, per algorithm.
+HYPERPARAM_CHECKS: dict[str, dict[str, Callable[[str, Any], Any]]] = {
+    "ppo": {
+        **_COMMON_CHECKS,
+        "n_steps": lambda k, v: _hp_int(k, v, 1),
+        "n_epochs": lambda k, v: _hp_int(k, v, 1),
+        "gae_lambda": lambda k, v: _hp_number(k, v, low=0.0, high=1.0),
+        "clip_range": _hp_schedule,
+        "clip_range_vf": _hp_optional(_hp_schedule),
+        "normalize_advantage": _hp_bool,
+        "ent_coef": lambda k, v: _hp_number(k, v, low=0.0),
+        "vf_coef": lambda k, v: _hp_number(k, v, low=0.0),
+        "max_grad_norm": lambda k, v: _hp_number(k, v, low=0.0, low_open=True),
+        "target_kl": _hp_optional(lambda k, v: _hp_number(k, v, low=0.0, low_open=True)),
+        "rollout_buffer_class": _hp_refuse_object,
+        "rollout_buffer_kwargs": _hp_mapping,
+    },
+    "sac": {
+        **_COMMON_CHECKS,
+        "buffer_size": lambda k, v: _hp_int(k, v, 1),
+        "learning_starts": lambda k, v: _hp_int(k, v, 0),
+        "tau": lambda k, v: _hp_number(k, v, low=0.0, high=1.0, low_open=True),
+        "train_freq": _hp_train_freq,
+        "gradient_steps": _hp_gradient_steps,
+        "n_steps": lambda k, v: _hp_int(k, v, 1),
+        "ent_coef": _hp_sac_ent_coef,
+        "target_update_interval": lambda k, v: _hp_int(k, v, 1),
+        "target_entropy": _hp_target_entropy,
+        "use_sde_at_warmup": _hp_bool,
+        "optimize_memory_usage": _hp_bool,
+        "action_noise": _hp_refuse_object,
+        "replay_buffer_class": _hp_refuse_object,
+        "replay_buffer_kwargs": _hp_mapping,
+    },
+}
+
+
+def check_hyperparams(algo: str, hyper: Mapping[str, Any]) -> dict[str, Any]:
+    """Refuse a hyperparameter of the wrong type or out of range (before anything starts).
+    Returns the hyperparameters with integer arguments given as ``256.0`` turned into ints.
+
+    :raises ValueError: ``hyperparams.<key>: value ... must be ...``.
+    """
+    checks = HYPERPARAM_CHECKS[algo]
+    out = dict(hyper)
+    for key, val in hyper.items():
+        check = checks.get(key)
+        if check is None:
+            raise ValueError(f"hyperparams.{key}: not settable from a configuration; allowed: {sorted(checks)}")
+        checked = check(key, val)
+        if isinstance(checked, int) and not isinstance(checked, bool):
+            out[key] = checked
+    return out
+
+
 def _number_or_str(val: Any) -> Any:
     """YAML 1.1 reads ``1e-3`` as a string; turn numeric strings into floats."""
     if isinstance(val, str):
@@ -287,15 +444,20 @@ def resolve_config(
         if n_workers > n_envs:
             raise ValueError(f"n_workers: value {n_workers} must be <= n_envs={n_envs}")
     n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000))
+    hyper = check_hyperparams(algo, hyper)
+    # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
+    # default evaluation and checkpoint periods are never shorter, so a tiny budget (--n-timesteps 10)
+    # gives a handful of checkpoints, not one per env step of the first rollout.
+    chunk = n_envs * (hyper.get("n_steps", 2048) if algo == "ppo" else 1)
     cfg = TrainConfig(
         env_id=env_id, algo=algo, seed=_int("seed", seed, 0), n_timesteps=n_timesteps, n_envs=n_envs,
         n_workers=n_workers,
         policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=env_kwargs,
         randomization=randomization, hyperparams=hyper,
-        eval_freq=_int("eval_freq", eval_freq if eval_freq is not None else max(n_timesteps // 10, 1)),
+        eval_freq=_int("eval_freq", eval_freq if eval_freq is not None else max(n_timesteps // 10, chunk)),
         eval_episodes=_int("eval_episodes", eval_episodes),
         eval_randomization=eval_randomization,
-        checkpoint_freq=_int("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None else max(n_timesteps // 5, 1)),
+        checkpoint_freq=_int("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None else max(n_timesteps // 5, chunk)),
         device=device, torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
     )
     cfg.algo_kwargs()  # schedules and policy_kwargs parse
@@ -309,6 +471,23 @@ def _prefixed(err: Exception, prefix: str) -> ValueError:
     if msg.startswith(("randomization", "options")):
         return ValueError(msg)
     return ValueError(f"{prefix}{msg}")
+
+
+def _try_episode_start(env, seed: int, where: str) -> None:
+    """Reset and step the env once, so values that only fail when sampled (a pressure schedule,
+    a distribution) are refused here rather than inside a worker."""
+    import numpy as np
+
+    try:
+        env.reset(seed=seed)
+        env.step(np.zeros(env.action_space.shape, dtype=env.action_space.dtype))
+    except Exception as err:  # noqa: BLE001 - whatever the env raises, the configuration is at fault
+        env.close()
+        msg = str(err)
+        if msg.startswith("randomization"):
+            raise ValueError(where + msg[len("randomization"):]) from None
+        raise ValueError(f"{where}: the env failed its first reset/step with this configuration: "
+                         f"{type(err).__name__}: {msg}") from None
 
 
 def validate_with_env(cfg: TrainConfig) -> None:
@@ -329,6 +508,7 @@ def validate_with_env(cfg: TrainConfig) -> None:
             raise ValueError(f"env_kwargs.{msg}") from None
         except TypeError as err:
             raise ValueError(f"env_kwargs: {err}") from None
+        _try_episode_start(env, cfg.seed, where)
         if rnd is cfg.randomization:
             venv = DummyVecEnv([lambda env=env: env])
             try:

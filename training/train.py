@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 
 from sphere_env.provenance import software_versions
-from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
+from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -271,7 +271,9 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     data["created_utc"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     data.update(extra or {})
     path = run_dir / "config.yaml"
-    path.write_text(yaml.safe_dump(_plain(data), sort_keys=False))
+    tmp = run_dir / "config.yaml.tmp"
+    tmp.write_text(yaml.safe_dump(_plain(data), sort_keys=False))
+    tmp.replace(path)
     return path
 
 
@@ -298,16 +300,120 @@ def load_config(run_dir: str | Path) -> TrainConfig:
     path = run_dir / "config.yaml"
     if not path.exists():
         raise ValueError(f"run: {str(run_dir)!r} has no config.yaml (not a training run folder)")
-    data = yaml.safe_load(path.read_text())
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as err:
+        raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
     fields = TrainConfig.__dataclass_fields__
-    return TrainConfig(**{k: v for k, v in data.items() if k in fields})
+    if not isinstance(data, Mapping) or not {"env_id", "algo"} <= set(data):
+        raise ValueError(f"run: {str(path)!r} is not a training config (needs env_id and algo)")
+    try:
+        return TrainConfig(**{k: v for k, v in data.items() if k in fields})
+    except TypeError as err:
+        raise ValueError(f"run: {str(path)!r} is not a training config: {err}") from None
+
+
+#: What a run writes into its folder (cleared when an interrupted run is restarted from scratch).
+RUN_OUTPUTS = ("checkpoints", "monitor", "eval", "best", "tb", "learning_curve_train.csv", "learning_curve.csv",
+               "learning_curve.png", "model.zip", "vecnormalize.pkl", "timing.json")
+
+
+def _say(msg: str) -> None:
+    print(f"training.train: {msg}", file=sys.stderr, flush=True)
+
+
+def _checkpoint_problem(cls, cfg: TrainConfig, run_dir: Path, steps: int, path: Path) -> str | None:
+    """Why the checkpoint at ``steps`` cannot be resumed from (None: it can)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            bad = z.testzip()
+        if bad is not None:
+            return f"{path.name} is corrupt ({bad})"
+        cls.load(path, device="cpu")
+    except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
+        return f"{path.name} cannot be read ({type(err).__name__}: {err})"
+    if cfg.normalize is not None:
+        vn = _ckpt_file(run_dir, "vecnormalize", steps)
+        if not vn.exists():
+            return f"{vn.name} (its VecNormalize statistics) is missing"
+        try:
+            import pickle
+
+            with open(vn, "rb") as f:
+                pickle.load(f)
+        except Exception as err:  # noqa: BLE001
+            return f"{vn.name} cannot be read ({type(err).__name__}: {err})"
+    return None
+
+
+def usable_checkpoint(cls, cfg: TrainConfig, run_dir: Path) -> tuple[tuple[int, Path] | None, list[str]]:
+    """The newest checkpoint that loads (model and, with normalization, its VecNormalize file) and
+    the reasons the newer ones were skipped."""
+    found = []
+    for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
+        m = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", p.name)
+        if m:
+            found.append((int(m.group(1)), p))
+    skipped = []
+    for steps, path in sorted(found, reverse=True):
+        problem = _checkpoint_problem(cls, cfg, run_dir, steps, path)
+        if problem is None:
+            return (steps, path), skipped
+        skipped.append(problem)
+    return None, skipped
+
+
+def _is_interrupted_run(run_dir: Path) -> bool:
+    """A folder with config.yaml but no model and no checkpoint: a run stopped before its first checkpoint."""
+    return ((run_dir / "config.yaml").exists() and not (run_dir / "model.zip").exists()
+            and latest_checkpoint(run_dir) is None)
+
+
+def _clear_outputs(run_dir: Path) -> None:
+    import shutil
+
+    for name in RUN_OUTPUTS:
+        p = run_dir / name
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
+
+
+def _truncate_history(run_dir: Path, steps: int) -> None:
+    """Drop training episodes and evaluations logged after ``steps`` (past the restored checkpoint)."""
+    train_csv = run_dir / "learning_curve_train.csv"
+    if train_csv.exists():
+        with open(train_csv, newline="") as f:
+            rows = list(csv.reader(f))
+        keep = rows[:1] + [r for r in rows[1:] if r and int(r[0]) <= steps]
+        if len(keep) != len(rows):
+            tmp = train_csv.with_suffix(".csv.tmp")
+            with open(tmp, "w", newline="") as f:
+                csv.writer(f).writerows(keep)
+            tmp.replace(train_csv)
+    ev = run_dir / "eval" / "evaluations.npz"
+    if ev.exists():
+        d = dict(np.load(ev))
+        mask = np.asarray(d["timesteps"]) <= steps
+        if not mask.all():
+            tmp = ev.with_name("evaluations.tmp.npz")
+            np.savez(tmp, **{k: np.asarray(v)[mask] if len(v) == len(mask) else v for k, v in d.items()})
+            tmp.replace(ev)
 
 
 def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = False, progress_bar: bool = True,
           verbose: int = 0, command: Sequence[str] | None = None, return_model: bool = False):
-    """Train per ``cfg`` into ``run_dir`` (new), or continue ``run_dir`` from its last checkpoint
-    (``resume``) up to ``cfg.n_timesteps`` total steps. Returns the run folder (and the in-memory
-    model, whose ``get_vec_normalize_env()`` holds the statistics, with ``return_model``)."""
+    """Train per ``cfg`` into ``run_dir`` (new), or continue ``run_dir`` from its newest usable
+    checkpoint (``resume``) up to ``cfg.n_timesteps`` total steps. Returns the run folder (and the
+    in-memory model, whose ``get_vec_normalize_env()`` holds the statistics, with ``return_model``).
+
+    Resume falls back past unreadable checkpoints (truncated zip, missing VecNormalize file) to the
+    newest good one, saying so; a run stopped before its first checkpoint is restarted from scratch
+    in the same folder. Both are decided before anything in the folder changes. A fresh run that
+    fails before its first checkpoint removes the folder it created."""
     import torch
 
     torch.set_num_threads(cfg.torch_threads)
@@ -315,20 +421,70 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(cfg)
     start_steps = 0
     ckpt = None
+    previous: dict[str, Any] = {}
+    created = False
     if resume:
-        ckpt = latest_checkpoint(run_dir)
-        if ckpt is None:
-            raise ValueError(f"resume: no checkpoint in {str(run_dir / 'checkpoints')!r}")
-        start_steps = ckpt[0]
-        if start_steps >= cfg.n_timesteps:
-            raise ValueError(f"n_timesteps: {cfg.n_timesteps} already reached (checkpoint at {start_steps}); "
-                             "pass a larger --n-timesteps to continue")
+        if not (run_dir / "config.yaml").exists():
+            raise ValueError(f"resume: {str(run_dir)!r} has no config.yaml (not a training run folder)")
+        try:
+            previous = yaml.safe_load((run_dir / "config.yaml").read_text()) or {}
+        except yaml.YAMLError as err:
+            raise ValueError(f"resume: {str(run_dir / 'config.yaml')!r} cannot be read: "
+                             + " ".join(str(err).split())) from None
+        ckpt, skipped = usable_checkpoint(cls, cfg, run_dir)
+        if ckpt is None and skipped:
+            raise ValueError(f"resume: no usable checkpoint in {str(run_dir / 'checkpoints')!r}: "
+                             + "; ".join(skipped) + ". Start a new run (another --run-dir)")
+        if ckpt is not None:
+            start_steps = ckpt[0]
+            if start_steps >= cfg.n_timesteps:
+                raise ValueError(f"n_timesteps: {cfg.n_timesteps} already reached (checkpoint at {start_steps}); "
+                                 "pass a larger --n-timesteps to continue")
+            for problem in skipped:
+                _say(f"resume: skipping a checkpoint: {problem}")
+            if skipped:
+                _say(f"resume: falling back to the checkpoint at {start_steps} steps")
+            _truncate_history(run_dir, start_steps)
+        else:
+            _say(f"resume: {str(run_dir)!r} has no checkpoint (stopped before the first one); "
+                 "restarting from scratch in the same folder")
+            _clear_outputs(run_dir)
+            resume = False
     else:
         if (run_dir / "config.yaml").exists():
-            raise ValueError(f"run_dir: {str(run_dir)!r} already holds a run; use --resume or another folder")
+            if not _is_interrupted_run(run_dir):
+                raise ValueError(f"run_dir: {str(run_dir)!r} already holds a run; use --resume or another folder")
+            _say(f"run_dir: {str(run_dir)!r} holds a run stopped before its first checkpoint; "
+                 "starting over in it")
+            _clear_outputs(run_dir)
+        elif not run_dir.exists():
+            created = True
         run_dir.mkdir(parents=True, exist_ok=True)
-    write_config(cfg, run_dir, command, extra={"resumed_from_steps": start_steps} if resume else None)
+    extra: dict[str, Any] = {}
+    if previous:  # keep the original command; list the resume commands
+        extra["command"] = previous.get("command", [])
+        extra["created_utc"] = previous.get("created_utc")
+        extra["resume_commands"] = [*previous.get("resume_commands", []),
+                                    {"command": list(command) if command is not None else [],
+                                     "from_steps": start_steps,
+                                     "utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}]
+        extra["resumed_from_steps"] = start_steps
+    try:
+        write_config(cfg, run_dir, command, extra=extra or None)
+        result = _train_session(cfg, cls, run_dir, ckpt, start_steps, progress_bar, verbose)
+    except BaseException:
+        if created and latest_checkpoint(run_dir) is None:
+            import shutil
 
+            shutil.rmtree(run_dir, ignore_errors=True)
+        raise
+    write_learning_curves(run_dir)
+    return (run_dir, result) if return_model else run_dir
+
+
+def _train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] | None, start_steps: int,
+                   progress_bar: bool, verbose: int):
+    resume = ckpt is not None
     venv = make_vec_env(cfg, run_dir)
     try:
         stats = _ckpt_file(run_dir, "vecnormalize", start_steps) if resume and cfg.normalize is not None else None
@@ -339,6 +495,8 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
             rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
             if cfg.algo == "sac" and rb.exists():
                 model.load_replay_buffer(rb)
+            elif cfg.algo == "sac":
+                _say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
         else:
             model = cls(cfg.policy, venv, seed=cfg.seed, device=cfg.device, verbose=verbose,
                         tensorboard_log=str(run_dir / "tb"), **cfg.algo_kwargs())
@@ -357,8 +515,7 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
              "steps_per_s": steps / wall if wall > 0 else math.nan}, indent=2))
     finally:
         venv.close()
-    write_learning_curves(run_dir)
-    return (run_dir, model) if return_model else run_dir
+    return model
 
 
 def _parse_params(items: Sequence[str]) -> dict[str, Any]:
@@ -395,7 +552,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
         if args.resume is not None:
             cfg = load_config(args.resume)
             if args.n_timesteps is not None:
-                cfg.n_timesteps = int(args.n_timesteps)
+                cfg.n_timesteps = _int("n_timesteps", args.n_timesteps)
             cfg = resolve_config(cfg.env_id, cfg.algo, cfg.hyperparams_file or None, overrides=_stored_overrides(cfg),
                                  seed=cfg.seed, eval_freq=cfg.eval_freq, eval_episodes=cfg.eval_episodes,
                                  eval_randomization=cfg.eval_randomization, checkpoint_freq=cfg.checkpoint_freq,

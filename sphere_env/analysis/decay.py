@@ -18,6 +18,11 @@ from scipy.optimize import curve_fit
 from scipy.signal import find_peaks
 
 
+#: A signal whose peak-to-peak swing is below this fraction of its magnitude is constant to
+#: rounding: nothing to fit.
+MIN_SWING_REL = 1e-9
+
+
 def damped_sinusoid(t, amplitude, zeta, omega_n, phase, offset):
     """y(t) = A e^{−ζ ω_n t} cos(ω_n √(1−ζ²) t + ϕ) + c  (t in s, ω_n in rad/s)."""
     wd = omega_n * np.sqrt(np.clip(1.0 - zeta * zeta, 1e-12, None))
@@ -87,10 +92,20 @@ def fit_free_decay(
     """
     t = np.asarray(t, float)
     y = np.asarray(y, float)
+    if t.shape != y.shape or t.ndim != 1:
+        raise ValueError(f"fit_free_decay: t and y must be 1-D of one length, got {t.shape} and {y.shape}")
+    if not (np.isfinite(t).all() and np.isfinite(y).all()):
+        raise ValueError("fit_free_decay: t and y must be finite (no NaN or inf)")
     keep = t >= t[0] + transient_s
     t, y = t[keep] - t[keep][0], y[keep]
     if len(t) < 8:
         raise ValueError(f"fit_free_decay: {len(t)} samples after the transient; need >= 8")
+    if not np.all(np.diff(t) > 0):
+        raise ValueError("fit_free_decay: t must increase strictly")
+    swing = float(np.ptp(y))
+    if swing <= MIN_SWING_REL * max(float(np.max(np.abs(y))), 1e-300) or swing == 0.0:
+        raise ValueError(f"fit_free_decay: the signal is constant (peak to peak {swing:.3g}); there is no "
+                         "oscillation to fit ω_n and ζ to")
     offset0 = float(np.mean(y[-max(len(y) // 6, 1):]))
     z_ld, wd_ld = log_decrement(t, y, offset0)
     if omega_guess is None:
@@ -115,6 +130,11 @@ def fit_free_decay(
     dof = max(len(t) - len(popt), 1)
     tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
     std = np.sqrt(np.clip(np.diag(pcov), 0, None))
+    if not (np.isfinite(std[1:3]).all() and np.all(std[1:3] > 0)):
+        # A zero-width or infinite interval: the data do not determine ω_n and ζ (e.g. no
+        # oscillation, or fewer samples per period than parameters); the "fit" is the start guess.
+        raise ValueError(f"fit_free_decay: the data do not determine ω_n and ζ (standard errors "
+                         f"{std[2]:.3g} rad/s and {std[1]:.3g}); is there a decaying oscillation in the window?")
     return DecayFit(
         omega_n=float(popt[2]), zeta=float(popt[1]),
         omega_n_ci=(float(popt[2] - tq * std[2]), float(popt[2] + tq * std[2])),

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -150,6 +151,10 @@ def cmd_sensitivity(args) -> int:
     ps = args.pressures_kpa or [cal.pressure_range_kpa[0], cal.nominal_pressure_kpa, cal.pressure_range_kpa[1]]
     for p in ps:
         cal.check_pressure(p, "--pressures-kpa")
+    if not (math.isfinite(args.duration_s) and 0 < args.duration_s <= 600):
+        raise ValueError(f"--duration-s: value {args.duration_s!r} must be a simulated time in (0, 600] s")
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers: value {args.workers!r} must be >= 1")
     rows = sweep(ps, args.calibration, workers=args.workers, duration_s=args.duration_s)
     print(markdown_table(rows))
     if args.plot:
@@ -343,9 +348,29 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+#: Output-file options of the subcommands, checked before any fit runs.
+OUTPUT_OPTIONS = ("out", "plot", "json", "preset_file", "write_manifest")
+
+
+def check_output_paths(args) -> None:
+    """Refuse an output path that is a folder or lies under a file, before anything is computed, so
+    that a bad second output cannot fail after the first one was written."""
+    for name in OUTPUT_OPTIONS:
+        value = getattr(args, name, None)
+        if not value or (args.command == "report" and name == "out"):  # report --out is a folder
+            continue
+        path = Path(value)
+        if path.is_dir():
+            raise ValueError(f"--{name.replace('_', '-')}: {value!r} is a folder; give a file name")
+        for parent in path.parents:
+            if parent.exists() and not parent.is_dir():
+                raise ValueError(f"--{name.replace('_', '-')}: {value!r} lies under {str(parent)!r}, which is a file")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        check_output_paths(args)
         return args.func(args)
     except ValueError as err:  # LogError and config errors: named, nothing written
         print(f"error: {err}", file=sys.stderr)

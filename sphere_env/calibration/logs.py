@@ -89,7 +89,28 @@ RATE_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.
 
 MAX_ANGLE_RAD = 2.0 * math.pi * 10.0  # |angle| above this cannot be radians (degrees? counts?)
 MAX_RATE_RAD_S = 500.0  # no joint of this robot turns faster (the drive motor is ~30 rad/s)
-DT_RANGE_S = (1e-5, 5.0)  # plausible median sample period after unit conversion
+#: Largest plausible |value| per channel, in rad or rad/s, so that a log in degrees, deg/s or
+#: encoder counts is refused instead of fitted. Angles: the steer joint θ is limited to
+#: [−1.57, 1.0] rad (``docs/design.md`` §1); the pipe's lean φ and the pendulum's pitch α cannot
+#: pass a half turn; the drive encoder and the heading are multi-turn. Rates: the RoboBall logs
+#: stay below 3.4 rad/s (θ̇) and 1.6 rad/s (φ̇, q̇_d, ω_d); the limits leave a wide margin but are
+#: below what a few tens of rad/s written in deg/s becomes.
+CHANNEL_LIMITS: dict[str, float] = {
+    "theta": 2.0, "phi": math.pi / 2, "pendulum_pitch": math.pi, "drive_angle": MAX_ANGLE_RAD,
+    "heading": MAX_ANGLE_RAD,
+    "theta_dot": 30.0, "phi_dot": 30.0, "pendulum_pitch_rate": 30.0, "heading_rate": 30.0,
+    "drive_rate": 60.0, "omega_d": 60.0,
+}
+#: Angle -> rate channel pairs whose ratio (rate against the angle's time derivative) is checked.
+RATE_OF = {"theta": "theta_dot", "phi": "phi_dot", "drive_angle": "drive_rate",
+           "pendulum_pitch": "pendulum_pitch_rate"}
+#: Least-squares gain of a rate on its angle's derivative outside this range means the angle and the
+#: rate are in different units (deg vs rad gives 57.3 or 1/57.3); judged only where the two agree in
+#: shape (correlation >= 0.9). The RoboBall logs give 0.79-0.95.
+RATE_GAIN_RANGE = (0.2, 5.0)
+#: Plausible median sample period after unit conversion [s]: 5 kHz to 1 Hz (the RoboBall logs are
+#: 50-100 Hz). A µs time column read as ns gives 1e-5 s, an ns column read as µs 10 s.
+DT_RANGE_S = (2e-4, 1.0)
 
 
 class LogError(ValueError):
@@ -283,14 +304,17 @@ def load_log(
     if np.isnan(t_raw).any():
         i = int(np.flatnonzero(np.isnan(t_raw))[0])
         raise _fail(p, f"line {i + 2}, column {tcol!r}: time is missing (NaN)")
+    if not np.isfinite(t_raw).all():
+        i = int(np.flatnonzero(~np.isfinite(t_raw))[0])
+        raise _fail(p, f"line {i + 2}, column {tcol!r}: time {float(t_raw[i])} is not finite")
     dt = np.diff(t_raw)
     if (dt == 0).any():
         i = int(np.flatnonzero(dt == 0)[0]) + 1
-        raise _fail(p, f"line {i + 2}, column {tcol!r}: duplicate time {t_raw[i]!r} (same as line {i + 1})")
+        raise _fail(p, f"line {i + 2}, column {tcol!r}: duplicate time {float(t_raw[i])} (same as line {i + 1})")
     if (dt < 0).any():
         i = int(np.flatnonzero(dt < 0)[0]) + 1
         raise _fail(
-            p, f"line {i + 2}, column {tcol!r}: time {t_raw[i]!r} is before line {i + 1} ({t_raw[i - 1]!r}); "
+            p, f"line {i + 2}, column {tcol!r}: time {float(t_raw[i])} is before line {i + 1} ({float(t_raw[i - 1])}); "
             "time must increase"
         )
     t = (t_raw - t_raw[0]) * TIME_UNITS[tunit]
@@ -303,22 +327,26 @@ def load_log(
             )
 
     channels: dict[str, np.ndarray] = {}
+    columns: dict[str, str] = {}
     for chan, candidates in mapping.channels.items():
         for col, unit in candidates:
             if col in df.columns:
                 x = numeric(col)
                 scale = ANGLE_UNITS[unit] if chan in ANGLE_CHANNELS else RATE_UNITS[unit]
                 channels[chan] = _fill_nans(p, col, x, max_nan_run) * (scale * mapping.signs.get(chan, 1.0))
-                limit = MAX_ANGLE_RAD if chan in ANGLE_CHANNELS else MAX_RATE_RAD_S
+                limit = CHANNEL_LIMITS.get(chan, MAX_ANGLE_RAD if chan in ANGLE_CHANNELS else MAX_RATE_RAD_S)
                 big = np.abs(channels[chan]) > limit
                 if big.any():
                     i = int(np.flatnonzero(big)[0])
+                    si = "rad" if chan in ANGLE_CHANNELS else "rad/s"
                     raise _fail(
-                        p, f"line {i + 2}, column {col!r}: {chan} = {channels[chan][i]:.4g} "
-                        f"{'rad' if chan in ANGLE_CHANNELS else 'rad/s'} exceeds {limit:.4g} with unit {unit!r}; "
-                        "the unit cannot be right"
+                        p, f"line {i + 2}, column {col!r}: {chan} = {channels[chan][i]:.4g} {si} "
+                        f"(read with unit {unit!r}) is beyond what this robot can do: allowed |{chan}| <= "
+                        f"{limit:.4g} {si}; is the column in {'degrees' if si == 'rad' else 'deg/s'} or counts?"
                     )
+                columns[chan] = col
                 break
+    _check_rate_units(p, t, channels, columns)
     derived: dict[str, str] = {}
     if "omega_d" not in channels and "drive_rate" in channels and "pendulum_pitch_rate" in channels:
         # ω_d = α̇ − q̇_d, as the twin reads it (module docstring).
@@ -334,6 +362,23 @@ def load_log(
     if not channels:
         raise _fail(p, f"no known channel columns; found {list(df.columns)} (mapping {mapping.source})")
     return RobotLog(name or Path(p).stem, p, t, channels, derived=derived)
+
+
+def _check_rate_units(path: str, t: np.ndarray, channels: Mapping[str, np.ndarray], columns: Mapping[str, str]) -> None:
+    """Refuse a log whose rate column disagrees with its angle column's derivative by a unit factor
+    (one in degrees, the other in radians; or a wrong time unit)."""
+    for angle, rate in RATE_OF.items():
+        if angle not in channels or rate not in channels or len(t) < 5 or np.ptp(channels[angle]) < 0.05:
+            continue
+        g = np.gradient(channels[angle], t)
+        r = channels[rate]
+        if np.std(g) == 0 or np.std(r) == 0 or np.corrcoef(g, r)[0, 1] < 0.9:
+            continue
+        gain = float(np.dot(r, g) / np.dot(g, g))
+        if not RATE_GAIN_RANGE[0] <= gain <= RATE_GAIN_RANGE[1]:
+            raise _fail(path, f"columns {columns[rate]!r} and {columns[angle]!r}: {rate} is {gain:.3g} x the "
+                        f"time derivative of {angle} (allowed {RATE_GAIN_RANGE[0]}-{RATE_GAIN_RANGE[1]}); the two "
+                        "columns are in different units (57.3: deg/s against rad; 1000: a time unit off)")
 
 
 def _fill_nans(path: str, col: str, x: np.ndarray, max_run: int) -> np.ndarray:
@@ -360,6 +405,10 @@ def _fill_nans(path: str, col: str, x: np.ndarray, max_run: int) -> np.ndarray:
 #: A window must show at least this much motion [rad, peak to peak of φ or θ] to be fitted: the
 #: RoboBall encoders and IMU rest within ~1e-3 rad, a release or push moves φ by 0.1–0.8 rad.
 MIN_MOTION_RAD = 0.02
+#: Gauge pressures [kPa] a trial of an inflatable shell can have been run at: RoboBall runs
+#: 3-14 kPa; a fabric/rubber shell does not hold 100 kPa (1 bar) over ambient. A value in Pa
+#: (thousands) or MPa (thousandths) falls outside.
+PLAUSIBLE_PRESSURE_KPA = (0.5, 100.0)
 MOTION_CHANNELS = ("phi", "theta")
 
 
@@ -475,8 +524,11 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
         if entry["fixture"] not in FIXTURES:
             raise LogError(f"{where}: field 'fixture' = {entry['fixture']!r}; allowed: {list(FIXTURES)}")
         pk = entry.get("pressure_kpa")
-        if pk is not None and (isinstance(pk, bool) or not isinstance(pk, (int, float)) or not math.isfinite(pk) or pk <= 0):
-            raise LogError(f"{where}: field 'pressure_kpa' = {pk!r} must be a positive number (kPa gauge) or null")
+        lo, hi = PLAUSIBLE_PRESSURE_KPA
+        if pk is not None and (isinstance(pk, bool) or not isinstance(pk, (int, float)) or not math.isfinite(pk)
+                               or not lo <= pk <= hi):
+            raise LogError(f"{where}: field 'pressure_kpa' = {pk!r} must be a gauge pressure in kPa within "
+                           f"[{lo}, {hi}] (an inflatable shell; Pa or MPa values fall outside), or null")
         tr = entry.get("transient_s", 0.0)
         if isinstance(tr, bool) or not isinstance(tr, (int, float)) or not 0 <= tr < 1e4:
             raise LogError(f"{where}: field 'transient_s' = {tr!r} must be a number >= 0 (s)")

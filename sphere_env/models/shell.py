@@ -149,6 +149,41 @@ def gravity_stiffness_free_pendulum(robot) -> float:
     return robot.m_pc * robot.r_pc * GRAVITY_M_S2
 
 
+#: Gauge pressures [kPa] a calibration may cover: RoboBall runs 3-14 kPa and a fabric/rubber shell
+#: does not hold 1 bar (100 kPa) over ambient; a range written in Pa (thousands) or MPa (thousandths)
+#: falls outside.
+PLAUSIBLE_PRESSURE_KPA = (0.5, 100.0)
+#: Contact (sphere–plane intersection) volumes must be below a hemisphere of the 0.305 m shell [m³].
+MAX_CONTACT_VOLUME_M3 = 0.06
+#: Hydroelastic mesh resolution hint [m]: from 2 mm (a mesh of ~10⁵ facets) to about the shell radius.
+RESOLUTION_HINT_RANGE_M = (0.002, 0.3)
+#: Plant time step at which k_d was matched [s].
+FITTED_TIME_STEP_RANGE_S = (1e-5, 0.1)
+#: Keys a calibration file may hold, per section (``None``: the top level). Anything else (a typo such
+#: as ``nominal_pressure_kpaa``) is refused rather than silently ignored.
+CALIBRATION_KEYS: dict[str | None, tuple[str, ...]] = {
+    None: ("name", "pressure_range_kpa", "nominal_pressure_kpa", "omega_n", "zeta", "steer_law", "contact_volume",
+           "hydroelastic", "provenance", "fit_ci", "trial_fits", "steer_fit", "notes"),
+    "omega_n": ("model", "intercept_rad_s", "slope_rad_s_per_kpa", "ci95", "notes"),
+    "zeta": ("model", "scale", "rate_per_kpa", "ci95", "notes"),
+    "contact_volume": ("model", "pressure_kpa", "volume_m3", "notes"),
+    "hydroelastic": ("k_d", "resolution_hint_m", "fitted_time_step_s", "couple_stiffness_factor",
+                     "couple_damping_factor", "ci95", "notes"),
+}
+
+
+def _check_keys(data: Mapping[str, Any], path: str) -> None:
+    for section, allowed in CALIBRATION_KEYS.items():
+        node = data if section is None else data.get(section)
+        if not isinstance(node, Mapping):
+            continue  # a missing or non-mapping section is reported by its own check
+        unknown = sorted(str(k) for k in node if k not in allowed)
+        if unknown:
+            where = unknown[0] if section is None else f"{section}.{unknown[0]}"
+            raise ValueError(f"calibration file {path!r}: field '{where}' is not a calibration key; allowed"
+                             f"{'' if section is None else ' in ' + repr(section)}: {sorted(allowed)}")
+
+
 def _number(data: Mapping[str, Any], key: str, where: str, path: str) -> float:
     if key not in data:
         raise ValueError(f"calibration file {path!r}: field '{where}.{key}' is missing")
@@ -195,6 +230,9 @@ class ShellCalibration:
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path | None = None) -> "ShellCalibration":
+        if path is not None and not isinstance(path, (str, Path)):
+            raise ValueError(f"calibration: value {path!r} must be the path of a calibration YAML file (or None "
+                             "for the shipped one)")
         path = Path(path) if path is not None else DEFAULT_CALIBRATION
         p = str(path)
         try:
@@ -214,20 +252,22 @@ class ShellCalibration:
         for section in ("pressure_range_kpa", "omega_n", "zeta", "contact_volume", "hydroelastic"):
             if section not in data:
                 raise ValueError(f"calibration file {p!r}: field '{section}' is missing")
+        _check_keys(data, p)
         rng = data["pressure_range_kpa"]
+        plo, phi_ = PLAUSIBLE_PRESSURE_KPA
         if (
             not isinstance(rng, (list, tuple))
             or len(rng) != 2
-            or not all(isinstance(x, (int, float)) and math.isfinite(x) for x in rng)
-            or not 0 < rng[0] < rng[1]
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in rng)
+            or not plo <= rng[0] < rng[1] <= phi_
         ):
             raise ValueError(
                 f"calibration file {p!r}: field 'pressure_range_kpa' = {rng!r} must be [low, high] "
-                "with 0 < low < high (kPa gauge)"
+                f"with {plo} <= low < high <= {phi_} (kPa gauge of an inflatable shell; Pa or MPa fall outside)"
             )
         lo, hi = float(rng[0]), float(rng[1])
         nominal = data.get("nominal_pressure_kpa", 0.5 * (lo + hi))
-        if not isinstance(nominal, (int, float)) or not lo <= nominal <= hi:
+        if isinstance(nominal, bool) or not isinstance(nominal, (int, float)) or not lo <= nominal <= hi:
             raise ValueError(
                 f"calibration file {p!r}: field 'nominal_pressure_kpa' = {nominal!r} must lie in [{lo}, {hi}]"
             )
@@ -245,12 +285,13 @@ class ShellCalibration:
             pk, vm = vol.get("pressure_kpa"), vol.get("volume_m3")
             if (
                 not isinstance(pk, list) or not isinstance(vm, list) or len(pk) != len(vm) or len(pk) < 2
-                or any(not isinstance(x, (int, float)) for x in pk + vm)
-                or any(b <= a for a, b in zip(pk, pk[1:])) or any(v <= 0 for v in vm)
+                or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in pk + vm)
+                or any(b <= a for a, b in zip(pk, pk[1:])) or any(not 0 < v < MAX_CONTACT_VOLUME_M3 for v in vm)
             ):
                 raise ValueError(
-                    f"calibration file {p!r}: field 'contact_volume' table needs increasing 'pressure_kpa' "
-                    "and positive 'volume_m3' lists of equal length >= 2"
+                    f"calibration file {p!r}: field 'contact_volume' table needs finite, increasing 'pressure_kpa' "
+                    f"and 'volume_m3' lists of equal length >= 2, volumes in (0, {MAX_CONTACT_VOLUME_M3}) m³ "
+                    f"(got pressure_kpa={pk!r}, volume_m3={vm!r})"
                 )
             table = (tuple(map(float, pk)), tuple(map(float, vm)))
         elif vmodel != "membrane":
@@ -289,9 +330,19 @@ class ShellCalibration:
                     f"calibration file {p!r}: curves give omega_n={cal.omega_n(q):.3g} rad/s, "
                     f"zeta={cal.zeta(q):.3g} at {q} kPa; need omega_n > 0 and 0 <= zeta < 1 over the range"
                 )
-        if cal.k_d < 0 or cal.resolution_hint_m <= 0:
+        if cal.k_d < 0:
+            raise ValueError(f"calibration file {p!r}: field 'hydroelastic.k_d' = {cal.k_d!r} must be >= 0")
+        rlo, rhi = RESOLUTION_HINT_RANGE_M
+        if not rlo <= cal.resolution_hint_m <= rhi:
             raise ValueError(
-                f"calibration file {p!r}: 'hydroelastic.k_d' must be >= 0 and 'resolution_hint_m' > 0"
+                f"calibration file {p!r}: field 'hydroelastic.resolution_hint_m' = {cal.resolution_hint_m!r} must "
+                f"lie in [{rlo}, {rhi}] m (a mesh edge length on a shell of radius ~0.3 m)"
+            )
+        tlo, thi = FITTED_TIME_STEP_RANGE_S
+        if cal.fitted_time_step_s is not None and not tlo <= cal.fitted_time_step_s <= thi:
+            raise ValueError(
+                f"calibration file {p!r}: field 'hydroelastic.fitted_time_step_s' = {cal.fitted_time_step_s!r} "
+                f"must lie in [{tlo}, {thi}] s (a plant time step)"
             )
         if check_stand_still:
             cal.check_stand_still(_default_robot())
@@ -360,6 +411,9 @@ class ShellCalibration:
                     f"ground ({model} model at {p:g} kPa): total rocking stiffness {total[j]:.3g} N m/rad <= 0 at "
                     f"phi = {phi[j]:+.2f} rad (K_inject = {K:.3g} N m/rad, form {law.form!r}); it must stay > 0 "
                     f"for |phi| <= {PHI_REACH_RAD} rad"
+                    + (f"; omega_n({p:g} kPa) = {float(self.omega_n(p)):.3g} rad/s is below the point-contact "
+                       f"{math.sqrt(robot.K_eq / robot.M_eq):.3g} rad/s (omega_n is in rad/s: a value in Hz is "
+                       "2π too small)" if K < 0 and field == "omega_n" else "")
                 )
 
     def bind(self, robot) -> "BoundShell":

@@ -1,0 +1,96 @@
+"""Calibration files that cannot be right are refused naming the field and what is allowed, and
+`calibration shell` writes nothing rather than such a file."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import pytest
+import yaml
+
+from sphere_env.calibration.__main__ import main
+from sphere_env.calibration.decay import PressureFit, calibration_dict
+from sphere_env.models.shell import ShellCalibration
+from sphere_env.resources import asset_path
+
+from .conftest import write_manifest
+
+BASE = yaml.safe_load(asset_path("calibration", "default.yaml").read_text())
+
+
+def _variant(**changes):
+    d = copy.deepcopy(BASE)
+    for dotted, v in changes.items():
+        *path, last = dotted.split("__")
+        node = d
+        for k in path:
+            node = node[k]
+        node[last] = v
+    return d
+
+
+@pytest.mark.parametrize("changes, field", [
+    ({"omega_n__intercept_rad_s": BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi),
+      "omega_n__slope_rad_s_per_kpa": 0.0}, "omega_n"),
+    ({"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [float("nan"), 1e-3]}},
+     "contact_volume"),
+    ({"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [True, 1e-3]}}, "contact_volume"),
+    ({"pressure_range_kpa": [3000.0, 14000.0], "nominal_pressure_kpa": 4310.0}, "pressure_range_kpa"),
+    ({"pressure_range_kpa": [0.003, 0.014], "nominal_pressure_kpa": 0.005}, "pressure_range_kpa"),
+    ({"pressure_range_kpa": [True, 14]}, "pressure_range_kpa"),
+    ({"nominal_pressure_kpa": True}, "nominal_pressure_kpa"),
+    ({"hydroelastic__fitted_time_step_s": -0.005}, "hydroelastic.fitted_time_step_s"),
+    ({"hydroelastic__resolution_hint_m": 1e6}, "hydroelastic.resolution_hint_m"),
+    ({"nominal_pressure_kpaa": 6.0}, "nominal_pressure_kpaa"),
+    ({"hydroelastic__k_dd": 0.3}, "hydroelastic.k_dd"),
+    ({"omega_n__slope": 0.03}, "omega_n.slope"),
+])
+def test_impossible_calibration_refused_naming_the_field(changes, field):
+    with pytest.raises(ValueError, match=rf"field '{field}"):
+        ShellCalibration.from_dict(_variant(**changes), source="bad.yaml")
+
+
+def test_hz_message_says_rad_per_s():
+    bad = _variant(omega_n__intercept_rad_s=BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi),
+                   omega_n__slope_rad_s_per_kpa=0.0)
+    with pytest.raises(ValueError, match="a value in Hz is 2π too small"):
+        ShellCalibration.from_dict(bad)
+
+
+def test_shipped_calibrations_still_load():
+    for name in ("default.yaml", "v0_linear.yaml", "free_robot_release.yaml"):
+        ShellCalibration.load(asset_path("calibration", name))
+
+
+@pytest.mark.parametrize("value", [123, 4.5, ["a.yaml"]])
+def test_calibration_that_is_not_a_path_is_a_named_error(value):
+    with pytest.raises(ValueError, match=r"^calibration: value .* must be the path of a calibration YAML"):
+        ShellCalibration.load(value)
+
+
+def test_env_with_calibration_123_is_a_named_error():
+    import gymnasium as gym
+
+    import sphere_env  # noqa: F401
+
+    with pytest.raises(ValueError, match="calibration"):
+        gym.make("sphere_env/RampDescent-v1", shell_model="point", calibration=123)
+
+
+def test_fitted_curves_in_hz_are_not_turned_into_a_calibration(tmp_path):
+    """calibration_dict (what `calibration shell` writes) refuses ω_n curves in Hz."""
+    hz = PressureFit(omega_n_intercept=0.45, omega_n_slope=0.005, zeta_scale=0.17, zeta_rate=-0.05, ci={},
+                     pressures_kpa=(3.0, 8.0, 14.0), confidence=0.95)
+    with pytest.raises(ValueError, match="omega_n"):
+        calibration_dict(hz)
+
+
+def test_shell_command_with_pressures_in_pa_writes_nothing(tmp_path, capsys):
+    man = write_manifest(tmp_path / "m.yaml", [
+        {"name": f"t{p}", "file": f"t{p}.csv", "fixture": "locked_steer", "group": "locked_steer", "pressure_kpa": p}
+        for p in (4000, 8000, 12000)])
+    out = tmp_path / "cal.yaml"
+    assert main(["shell", "--manifest", str(man), "--out", str(out)]) == 2
+    assert "pressure_kpa" in capsys.readouterr().err
+    assert not out.exists() and not list(tmp_path.glob("cal.yaml*"))

@@ -1,0 +1,142 @@
+"""Evaluation CLI: bad models, env kwargs, controllers and output folders are refused with a named
+error before anything is written; a failing sweep leaves nothing behind; a reused output folder
+holds only the latest sweep's files; a policy is evaluated only on the env id it was trained on."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main, parse_env_kwargs
+from sphere_env.training.config import resolve_config
+from sphere_env.training.train import train
+
+GRID = ["--pressures", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1", "--replay"]
+
+
+def three_actions(obs, info=None):
+    """A controller returning the wrong shape."""
+    return np.zeros(3)
+
+
+class FailsLater:
+    """A controller that acts once, then raises (a failure after validation)."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def __call__(self, obs, info=None):
+        self.calls += 1
+        if self.calls > 1:
+            raise RuntimeError("controller broke mid-episode")
+        return np.zeros(2)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    cfg = resolve_config("sphere_env/RampDescent-v0", "ppo",
+                         overrides={"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 32,
+                                    "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
+    return train(cfg, tmp_path_factory.mktemp("tiny") / "run", progress_bar=False)
+
+
+def _refused(capsys, argv, *needles):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    for n in needles:
+        assert n in err, err
+    return err
+
+
+@pytest.mark.parametrize("text, needle", [
+    ("{shell_model: point}", "env_kwargs.shell_model"),
+    ("{randomization: full}", "env_kwargs.randomization"),
+    ("{observation_noise_scale: 0.1, observation_noise_scale: 0.2}", "given twice"),
+    ("{a: [1, 2", "not valid YAML"),
+    ("[1, 2]", "must be a YAML mapping"),
+    ("{no_such_kwarg: 1}", "no_such_kwarg"),
+])
+def test_bad_env_kwargs_refused(tmp_path, capsys, text, needle):
+    _refused(capsys, ["--controller", "zero", "--env-kwargs", text, "--out", str(tmp_path / "o"), *GRID], needle)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--seeds", "-1"], "seeds"),
+    (["--replay", "zero,point,99"], "replay: pressure_kpa"),
+    (["--replay", "zero,point,x"], "replay"),
+    (["--pme-reference", "jelly"], "pme_reference"),
+    (["--workers", "0"], "workers"),
+])
+def test_bad_sweep_arguments_refused_before_the_sweep(tmp_path, capsys, argv, needle):
+    _refused(capsys, ["--controller", "zero", "--out", str(tmp_path / "o"), *GRID, *argv], needle)
+    assert not (tmp_path / "o").exists()
+
+
+def test_parse_env_kwargs_accepts_a_mapping():
+    assert parse_env_kwargs("{observation_noise_scale: 0.5}") == {"observation_noise_scale": 0.5}
+    assert parse_env_kwargs("") == {}
+
+
+def test_wrong_action_shape_refused(tmp_path, capsys):
+    _refused(capsys, ["--controller", "tests.evaluation.test_eval_cli:three_actions", "--out", str(tmp_path / "o"),
+                      *GRID], "three_actions", "shape (3,)")
+    assert not (tmp_path / "o").exists()
+
+
+def test_out_that_is_a_file_refused(tmp_path, capsys):
+    f = tmp_path / "file"
+    f.write_text("keep")
+    _refused(capsys, ["--controller", "zero", "--out", str(f), *GRID], "out:", "is a file")
+    _refused(capsys, ["--controller", "zero", "--out", str(f / "sub"), *GRID], "out:")
+    assert f.read_text() == "keep"
+
+
+def test_truncated_model_refused(tiny_run, tmp_path, capsys):
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    data = (run / "model.zip").read_bytes()
+    (run / "model.zip").write_bytes(data[: len(data) // 3])
+    _refused(capsys, ["--controller", str(run), "--out", str(tmp_path / "o"), *GRID], "model.zip", "truncated")
+    assert not (tmp_path / "o").exists()
+
+
+def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys):
+    _refused(capsys, ["--controller", str(tiny_run), "--env", "sphere_env/Roll-v0", "--out", str(tmp_path / "o"),
+                      *GRID], "trained on 'sphere_env/RampDescent-v0'", "--allow-env-mismatch")
+    assert not (tmp_path / "o").exists()
+    SweepSpec(controllers=[str(tiny_run)], env_id="sphere_env/RampDescent-v0", pressures_kpa=[8.5],
+              shell_models=["point"], seeds=[0]).validate()
+
+
+def test_failure_after_validation_leaves_nothing(tmp_path):
+    spec = SweepSpec(controllers=["late=tests.evaluation.test_eval_cli:FailsLater"], pressures_kpa=[8.5],
+                     shell_models=["point"], seeds=[0])
+    with pytest.raises(RuntimeError, match="mid-episode"):
+        evaluate(spec, tmp_path / "new" / "o", workers=1, replays=[])
+    assert not (tmp_path / "new").exists()
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "episodes.csv").write_text("earlier sweep")
+    with pytest.raises(RuntimeError):
+        evaluate(spec, old, workers=1, replays=[])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old"]  # no staging folder left
+    assert [p.name for p in old.iterdir()] == ["episodes.csv"] and (old / "episodes.csv").read_text() == "earlier sweep"
+
+
+def test_reused_out_holds_only_the_latest_sweep(tmp_path):
+    out = tmp_path / "o"
+    evaluate(SweepSpec(controllers=["zero"], pressures_kpa=[8.5], shell_models=["point", "injected"], seeds=[0]),
+             out, workers=1, replays=[])
+    assert (out / "pme.csv").exists() and (out / "plots" / "pme.png").exists()
+    (out / "notes.txt").write_text("mine")  # not the sweep's: kept
+    res = evaluate(SweepSpec(controllers=["pd"], pressures_kpa=[8.5], shell_models=["point"], seeds=[0]),
+                   out, workers=1, replays=[])
+    assert not (out / "pme.csv").exists() and not (out / "plots" / "pme.png").exists()
+    assert (out / "notes.txt").read_text() == "mine"
+    assert all(p.exists() and p.is_relative_to(out) for p in res["files"].values())
+    assert "pd" in (out / "episodes.csv").read_text() and "zero" not in (out / "episodes.csv").read_text()

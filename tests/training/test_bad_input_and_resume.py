@@ -1,0 +1,130 @@
+"""Training refuses bad hyperparameters before anything is written; resume falls back to the newest
+readable checkpoint, restarts a run stopped before its first checkpoint, keeps the original command
+and drops history past the restored checkpoint; tiny budgets write a handful of checkpoints."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+import yaml
+
+from sphere_env.training.config import check_hyperparams, resolve_config
+from sphere_env.training.train import latest_checkpoint, main, train
+
+RAMP = "sphere_env/RampDescent-v0"
+TINY = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs": {"shell_model": "point"}}
+
+
+@pytest.mark.parametrize(
+    "param, field",
+    [
+        ("ent_coef:abc", "hyperparams.ent_coef"),
+        ("n_epochs:0", "hyperparams.n_epochs"),
+        ("gamma:2.0", "hyperparams.gamma"),
+        ("gamma:0", "hyperparams.gamma"),
+        ("gae_lambda:1.5", "hyperparams.gae_lambda"),
+        ("learning_rate:-1", "hyperparams.learning_rate"),
+        ("learning_rate:lin_-3", "hyperparams.learning_rate"),
+        ("clip_range:0", "hyperparams.clip_range"),
+        ("max_grad_norm:0", "hyperparams.max_grad_norm"),
+        ("n_steps:true", "hyperparams.n_steps"),
+        ("batch_size:12.5", "hyperparams.batch_size"),
+        ("vf_coef:.nan", "hyperparams.vf_coef"),
+        ("policy_kwargs:[64, 64]", "hyperparams.policy_kwargs"),
+        ("randomization:{pressure_kpa: {distribution: uniform}, pressure_schedule: {rate_kpa_per_s: [0.5, -0.5]}}",
+         "randomization"),
+    ],
+)
+def test_bad_hyperparameters_refused_before_anything_is_written(tmp_path, capsys, param, field):
+    with pytest.raises(SystemExit) as exc:
+        main(["--params", param, "--run-dir", str(tmp_path / "run"), "--n-timesteps", "10", "--no-progress"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert field in err, err
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("value, ok", [("auto", True), ("auto_0.1", True), (0.05, True), ("auto_-1", False),
+                                       ("autox", False), (-0.1, False), (True, False)])
+def test_sac_entropy_coefficient(value, ok):
+    if ok:
+        check_hyperparams("sac", {"ent_coef": value})
+    else:
+        with pytest.raises(ValueError, match=r"^hyperparams\.ent_coef"):
+            check_hyperparams("sac", {"ent_coef": value})
+
+
+def test_shipped_hyperparameters_pass_the_checks():
+    for algo in ("ppo", "sac"):
+        for env_id in (RAMP, "sphere_env/Roll-v0"):
+            resolve_config(env_id, algo, build_env=False)
+
+
+def test_tiny_budget_writes_few_checkpoints(tmp_path):
+    cfg = resolve_config(RAMP, "ppo", overrides={**TINY, "n_timesteps": 10}, eval_episodes=1)
+    assert cfg.checkpoint_freq >= 32 and cfg.eval_freq >= 32
+    run = train(cfg, tmp_path / "run", progress_bar=False)
+    assert len(list((run / "checkpoints").glob("rl_model_*_steps.zip"))) <= 2
+
+
+def _tiny_run(tmp_path, n=64):
+    cfg = resolve_config(RAMP, "ppo", overrides={**TINY, "n_timesteps": n}, eval_freq=32, eval_episodes=1,
+                         checkpoint_freq=32)
+    return train(cfg, tmp_path / "run", progress_bar=False, command=["original", "command"])
+
+
+def test_resume_falls_back_past_truncated_checkpoint_and_missing_vecnormalize(tmp_path, capsys):
+    run = _tiny_run(tmp_path)
+    assert latest_checkpoint(run)[0] == 64
+    ck = run / "checkpoints"
+    data = (ck / "rl_model_64_steps.zip").read_bytes()
+    (ck / "rl_model_64_steps.zip").write_bytes(data[: len(data) // 2])  # truncated newest
+    (ck / "rl_model_vecnormalize_32_steps.pkl").unlink()  # the one before has no statistics
+    # a 3rd, older good one
+    import shutil
+
+    first = sorted(ck.glob("rl_model_*_steps.zip"))
+    assert {p.name for p in first} == {"rl_model_32_steps.zip", "rl_model_64_steps.zip"}
+    shutil.copy(ck / "rl_model_32_steps.zip", ck / "rl_model_0_steps.zip")
+    # no statistics for 0 either: nothing usable → refused, config untouched
+    before = (run / "config.yaml").read_text()
+    with pytest.raises(SystemExit):
+        main(["--resume", str(run), "--n-timesteps", "96", "--no-progress"])
+    err = capsys.readouterr().err
+    assert "rl_model_64_steps.zip" in err and "vecnormalize" in err.lower()
+    assert (run / "config.yaml").read_text() == before
+    # restore the statistics of step 32: resume falls back to it and says so
+    (ck / "rl_model_0_steps.zip").unlink()
+    shutil.copy(run / "vecnormalize.pkl", ck / "rl_model_vecnormalize_32_steps.pkl")
+    main(["--resume", str(run), "--n-timesteps", "96", "--no-progress"])
+    err = capsys.readouterr().err
+    assert "falling back to the checkpoint at 32 steps" in err
+    conf = yaml.safe_load((run / "config.yaml").read_text())
+    assert conf["command"] == ["original", "command"]
+    assert conf["resumed_from_steps"] == 32
+    assert len(conf["resume_commands"]) == 1 and "--resume" in conf["resume_commands"][0]["command"]
+    # episodes logged after step 32 by the first session are gone: the curve restarts at 32
+    with open(run / "learning_curve_train.csv") as f:
+        steps = [int(r["timesteps"]) for r in csv.DictReader(f)]
+    assert steps == sorted(steps)
+    ev = np.load(run / "eval" / "evaluations.npz")["timesteps"]
+    assert list(ev) == sorted(ev) and len(ev) == len(set(ev))
+
+
+def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, capsys):
+    run = _tiny_run(tmp_path, n=32)
+    import shutil
+
+    shutil.rmtree(run / "checkpoints")
+    (run / "model.zip").unlink()  # as if killed before the first checkpoint
+    main(["--resume", str(run), "--n-timesteps", "32", "--no-progress"])
+    assert "restarting from scratch" in capsys.readouterr().err
+    assert latest_checkpoint(run)[0] >= 32 and (run / "model.zip").exists()
+    shutil.rmtree(run / "checkpoints")
+    (run / "model.zip").unlink()
+    main(["--run-dir", str(run), "--n-timesteps", "32", "--no-progress", "--params", "n_envs:1", "n_steps:32",
+          "batch_size:32", "n_epochs:1", "env_kwargs:{shell_model: point}"])
+    assert "starting over" in capsys.readouterr().err
+    assert (run / "model.zip").exists()
