@@ -39,7 +39,7 @@ def fit_calibration(train: Sequence[RobotLog], model: str, pressure_kpa: float, 
     from sphere_env.models.shell import STEER_LAW_FORMS
 
     models = ("injected",) if model == "injected" else ("injected", model)
-    raw, record = steer_fit(list(train), models, pressure_kpa, base, forms=forms or STEER_LAW_FORMS,
+    raw, record = steer_fit(list(train), models, pressure_kpa, base, forms=tuple(forms or STEER_LAW_FORMS),
                             steer_friction=steer_friction, max_nfev=max_nfev)
     params: dict[str, float] = {}
     for m in models:

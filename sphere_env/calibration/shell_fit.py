@@ -450,7 +450,7 @@ def steer_fit(
     models: Sequence[str],
     pressure_kpa: float,
     base: ShellCalibration,
-    forms: Sequence[str] = STEER_LAW_FORMS,
+    forms: Sequence[str] = tuple(STEER_LAW_FORMS),
     steer_friction: FrictionModel | str = "majd_steer",
     drive_friction: FrictionModel | str = "majd_drive",
     max_nfev: int = 60,
