@@ -134,7 +134,7 @@ def soak(steps: int, seed: int = 0, sample_every: int = 10_000, shell_model: str
             samples.append((i, rss_mb()))
     wall = time.perf_counter() - t0
     twins = env.unwrapped.cached_twin_count
-    shells = sum(t.cached_shell_count for t in env.unwrapped._twins.values())
+    shells = env.unwrapped.cached_shell_count
     env.close()
     warm = samples[0][1]
     late = sorted(reset_s[len(reset_s) // 2:]) or [float("nan")]

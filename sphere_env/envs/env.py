@@ -276,6 +276,11 @@ class SphereEnv(gym.Env, EzPickle):
         """Twins built for distinct inclines and kept for reuse."""
         return len(self._twins)
 
+    @property
+    def cached_shell_count(self) -> int:
+        """Hydroelastic shells (one per distinct pressure) cached over all the env's twins."""
+        return sum(t.cached_shell_count for t in self._twins.values())
+
     # ---- parameters ----------------------------------------------------------------------------
     def _sample_params(self, fixed: Mapping[str, Any], rng: np.random.Generator) -> dict[str, Any]:
         """Sample this episode's parameters from ``rng``; ``fixed`` (checked option values) win."""
