@@ -8,7 +8,8 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
 * **single env**: one Monitor-wrapped env (as a training worker builds it) stepped with random
   actions, episode resets included — the rate one core can step.
 * per **layout** (the shipped one, the former 2-process default, several envs per process, several
-  envs per thread; every layout keeps the shipped rollout of 512 samples per update):
+  envs per thread; every layout keeps the shipped rollout of 512 samples per update, so more envs
+  mean shorter ``n_steps`` segments, which changes what PPO learns):
   PPO ``learn`` one update at a time, after a warm-up update.
 
   - **rollout steps/s** = env steps / (wall − update time): collection, policy forward pass and
@@ -18,11 +19,11 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
 * **1 core**: the shipped layout again with the whole process (threads and any worker processes)
   pinned to one core (``sched_setaffinity``), interleaved with the 2-core rows: the scaling figure.
 
-A scaling model (printed and returned) fits, for the shipped threaded layout, the time per env
-step on N cores as ``u + m + e / N`` (u: update, measured; e: the env's own time per step, from the
-single-env rate; m: the rest of the main process, from the 1-core and 2-core rates), capped by the
-GIL-held share of a step (g: env step time outside Drake's ``AdvanceTo``, measured), which threads
-cannot overlap: rate(N) ≈ 1 / (u + m + max(e / N, g)).
+A scaling model (printed and returned, :func:`scaling_model`) gives the time per env step of the
+threaded layout with n envs on N cores as ``u + c / n + max(e / min(N, n), g)``: u the PPO update
+per sample (measured), c the main process's work per vectorized step (fitted from the 1-core and
+2-core rollout rates), e one env step (the single-env rate), g the part of an env step that holds
+the GIL (outside Drake's ``AdvanceTo``, measured), which threads cannot overlap.
 
     python -m evaluation.scripts.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
 """
@@ -44,7 +45,6 @@ LAYOUTS = {
     "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None, "n_steps": 256}),
     "proc8": ("8 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 8, "n_threads": None, "n_workers": 2, "n_steps": 64}),
     "proc16": ("16 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 16, "n_threads": None, "n_workers": 2, "n_steps": 32}),
-    "thread4": ("4 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 4, "n_threads": 2, "n_steps": 128}),
     "thread8": ("8 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 8, "n_threads": 2, "n_steps": 64}),
     "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2, "n_steps": 32}),
 }
@@ -53,7 +53,7 @@ TRAIN_COLUMNS = [
     ("steps", "env steps timed", "{:d}"), ("single_env_steps_per_s", "env steps/s", "{:.0f}"),
     ("rollout_steps_per_s", "rollout steps/s", "{:.0f}"), ("rollout_ratio_pct", "rollout / (cores × single) %", "{:.0f}"),
     ("train_steps_per_s", "training steps/s", "{:.0f}"), ("train_ratio_pct", "training / (cores × single) %", "{:.0f}"),
-    ("update_share_pct", "update share %", "{:.0f}"), ("cpu_main_ms_per_step", "main CPU ms/step", "{:.3f}"),
+    ("update_share_pct", "update share %", "{:.0f}"), ("cpu_main_ms_per_step", "training process CPU ms/step", "{:.3f}"),
 ]
 
 
@@ -207,7 +207,7 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
     singles, cases = {}, []
     for m in shell_models:
         singles[m] = SingleEnv(m)
-        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "subproc2"))
+        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "subproc2", "thread8"))
         cases += [TrainCase(m, name) for name in names]
         if one_core and cores > 1:
             cases.append(TrainCase(m, "shipped", cores=1))
@@ -246,25 +246,39 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
 
 
 def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
-    """Fit rate(N) = 1 / (u + m + max(e / N, g)) to the shipped layout on 1 and ``cores`` cores
-    (see the module docstring); predictions for 1, 2, 4, 8, 16, 64 cores."""
+    """Time per env step of the threaded layout with ``n`` envs on ``N`` cores:
+
+        t = u + c / n + max(e / min(N, n), g)
+
+    u: PPO update per sample (serial, measured); c: main-process work per vectorized step (policy
+    forward pass, VecNormalize, rollout buffer; fitted from the shipped layout's rollout rate on 1
+    and ``cores`` cores); e: one env step (1 / single-env rate); g: the GIL-held part of an env step
+    (env step time outside Drake's ``AdvanceTo``), which threads cannot overlap. Predictions for the
+    shipped ``n_envs`` and for ``n = N`` envs (one per core) at 1, 2, 4, 8, 16, 64 cores."""
     single = next(r for r in rows if r["shell_model"] == shell_model and r["layout"] == "single")
     ship = [r for r in rows if r["shell_model"] == shell_model and r["layout"] == "shipped"]
     full = next((r for r in ship if r["cores"] == cores), None)
     one = next((r for r in ship if r["cores"] == 1), None)
     if full is None or one is None or cores < 2:
         return {}
+    n_envs = full["n_envs"]
     e = 1.0 / single["single_env_steps_per_s"]
     g = 1e-6 * single["gil_us_per_step"]
     u = 1e-3 * 0.5 * (full["update_ms_per_step"] + one["update_ms_per_step"])
-    # rollout time per step: m + e / N on N cores, from the two measured rollout rates
+    # rollout time per step = c / n + e / min(N, n): one equation per measured core count
     r1, rn = 1.0 / one["rollout_steps_per_s"], 1.0 / full["rollout_steps_per_s"]
-    m = max(0.5 * ((r1 - e) + (rn - e / cores)), 0.0)
-    pred = {n: 1.0 / (u + m + max(e / n, g)) for n in (1, 2, 4, 8, 16, 64)}
+    c = max(0.5 * n_envs * ((r1 - e) + (rn - e / min(cores, n_envs))), 0.0)
+
+    def rate(n_cores: int, n: int) -> float:
+        return 1.0 / (u + c / n + max(e / min(n_cores, n), g))
+
+    grid = (1, 2, 4, 8, 16, 64)
     return {"env_ms_per_step": 1e3 * e, "gil_ms_per_step": 1e3 * g, "update_ms_per_step": 1e3 * u,
-            "main_ms_per_step": 1e3 * m, "measured_1_core": one["train_steps_per_s"],
-            f"measured_{cores}_cores": full["train_steps_per_s"],
-            "predicted_train_steps_per_s": pred, "max_threads_useful": e / g if g > 0 else float("inf")}
+            "main_ms_per_vec_step": 1e3 * c, "n_envs": n_envs,
+            "measured_1_core": one["train_steps_per_s"], f"measured_{cores}_cores": full["train_steps_per_s"],
+            "predicted_shipped": {n: rate(n, n_envs) for n in grid},
+            "predicted_one_env_per_core": {n: rate(n, n) for n in grid},
+            "max_threads_useful": e / g if g > 0 else float("inf")}
 
 
 def report_markdown(result: dict) -> str:
@@ -281,11 +295,14 @@ def report_markdown(result: dict) -> str:
     for m, fit in result["model"].items():
         if not fit:
             continue
-        pred = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_train_steps_per_s"].items())
-        lines += ["", f"Scaling model, {m}: per env step, env {fit['env_ms_per_step']:.3f} ms (parallel), of it "
-                  f"{fit['gil_ms_per_step']:.3f} ms holding the GIL, main process {fit['main_ms_per_step']:.3f} ms, "
-                  f"PPO update {fit['update_ms_per_step']:.3f} ms (serial). Predicted training steps/s by cores "
-                  f"(threads in one process): {pred}; threads stop helping beyond ≈ {fit['max_threads_useful']:.0f}."]
+        ship = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_shipped"].items())
+        wide = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_one_env_per_core"].items())
+        lines += ["", f"Scaling model, {m} (t = u + c/n + max(e/min(N, n), g) per env step): env step e = "
+                  f"{fit['env_ms_per_step']:.3f} ms, of it g = {fit['gil_ms_per_step']:.3f} ms holding the GIL; "
+                  f"main process c = {fit['main_ms_per_vec_step']:.3f} ms per vectorized step; PPO update "
+                  f"u = {fit['update_ms_per_step']:.3f} ms per sample. Predicted training steps/s by cores N, shipped "
+                  f"{fit['n_envs']} envs: {ship}; one env per core (n = N, threads): {wide}. Threads stop helping "
+                  f"beyond ≈ e/g = {fit['max_threads_useful']:.0f} per process."]
     return "\n".join(lines)
 
 

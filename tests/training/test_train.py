@@ -64,7 +64,7 @@ def test_layout_overrides_replace_the_files_layout():
     instead (and vice versa) without having to cancel the file's key."""
     shipped = resolve_config(RAMP, "ppo", build_env=False)
     assert (shipped.n_threads, shipped.n_workers) == ("auto", None)
-    assert shipped.n_envs * shipped.hyperparams["n_steps"] == 512
+    assert shipped.n_envs * shipped.hyperparams["n_steps"] == 512 and shipped.n_envs == 2
     procs = resolve_config(RAMP, "ppo", overrides={"n_workers": 2}, build_env=False)
     assert (procs.n_threads, procs.n_workers) == (None, 2)
 
