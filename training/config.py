@@ -8,9 +8,12 @@ A hyperparameter file maps env ids to mappings of SB3 constructor arguments plus
 (rl-zoo3 conventions):
 
 ==================  ==========================================================================
-``n_envs``          parallel envs (``SubprocVecEnv``, one process each, when > 1)
+``n_envs``          parallel envs (by default ``SubprocVecEnv``, one process each, when > 1)
+``n_threads``       optional: step the ``n_envs`` envs in the main process with this many threads
+                    (:class:`sphere_env.training.vec_env.ThreadedVecEnv`); ``auto``: one per usable
+                    core. The shipped PPO sections use ``auto`` (fastest measured layout)
 ``n_workers``       optional: host the ``n_envs`` envs on this many processes
-                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`; faster on few cores)
+                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`); excludes ``n_threads``
 ``n_timesteps``     total environment steps (``!!float 3e5`` is fine)
 ``policy``          SB3 policy name (``MlpPolicy``)
 ``normalize``       ``true``/``false`` or a mapping of ``VecNormalize`` arguments
@@ -39,7 +42,7 @@ from sphere_env.resources import hyperparams_path
 
 ALGOS = ("ppo", "sac")
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
-SPECIAL_KEYS = ("n_envs", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "randomization")
+SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "randomization")
 #: Constructor arguments the trainer sets itself (refused in the YAML).
 RESERVED = ("self", "env", "tensorboard_log", "verbose", "seed", "device", "_init_setup_model")
 VECNORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
@@ -73,7 +76,8 @@ class TrainConfig:
     seed: int = 0
     n_timesteps: int = 100_000
     n_envs: int = 2
-    n_workers: int | None = None  # None: one process per env (SubprocVecEnv)
+    n_workers: int | None = None  # None: one process per env (SubprocVecEnv) unless n_threads
+    n_threads: int | str | None = None  # threads stepping the envs in-process (ThreadedVecEnv); "auto"
     policy: str = "MlpPolicy"
     normalize: dict[str, Any] | None = field(default_factory=dict)  # None: no VecNormalize
     env_kwargs: dict[str, Any] = field(default_factory=dict)
@@ -414,7 +418,12 @@ def resolve_config(
     check_env_id(env_id)
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
-    for key, val in (overrides or {}).items():
+    overrides = dict(overrides or {})
+    # An override choosing one layout replaces the file's other one (n_threads vs n_workers).
+    for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
+        if overrides.get(key) is not None and other not in overrides:
+            section.pop(other, None)
+    for key, val in overrides.items():
         section[key] = copy.deepcopy(val)
 
     allowed = set(inspect.signature(cls.__init__).parameters) - set(RESERVED)
@@ -443,6 +452,16 @@ def resolve_config(
         n_workers = _int("n_workers", n_workers)
         if n_workers > n_envs:
             raise ValueError(f"n_workers: value {n_workers} must be <= n_envs={n_envs}")
+    n_threads = section.get("n_threads")
+    if isinstance(n_threads, str) and n_threads != "auto":
+        raise ValueError(f"n_threads: value {n_threads!r} must be an integer >= 1 or 'auto'")
+    if n_threads is not None and n_threads != "auto":
+        n_threads = _int("n_threads", n_threads)
+        if n_threads > n_envs:
+            raise ValueError(f"n_threads: value {n_threads} must be <= n_envs={n_envs} (or 'auto')")
+    if n_threads is not None and n_workers is not None:
+        raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers}; "
+                         "set one of them to null (threads in this process, or worker processes)")
     n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000))
     hyper = check_hyperparams(algo, hyper)
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
@@ -451,7 +470,7 @@ def resolve_config(
     chunk = n_envs * (hyper.get("n_steps", 2048) if algo == "ppo" else 1)
     cfg = TrainConfig(
         env_id=env_id, algo=algo, seed=_int("seed", seed, 0), n_timesteps=n_timesteps, n_envs=n_envs,
-        n_workers=n_workers,
+        n_workers=n_workers, n_threads=n_threads,
         policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=env_kwargs,
         randomization=randomization, hyperparams=hyper,
         eval_freq=_int("eval_freq", eval_freq if eval_freq is not None else max(n_timesteps // 10, chunk)),

@@ -66,7 +66,9 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file
 
 
 def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = False):
-    """Training (SubprocVecEnv with ``n_envs`` > 1) or evaluation (one in-process env) VecEnv."""
+    """Training or evaluation (one in-process env) VecEnv. Training: ``ThreadedVecEnv`` when
+    ``n_threads`` is set (``auto``: the usable cores, at most ``n_envs``), ``BatchedSubprocVecEnv``
+    when ``n_workers`` < ``n_envs``, else ``SubprocVecEnv`` (``DummyVecEnv`` for one env)."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     kwargs = cfg.make_kwargs(evaluation)
@@ -79,7 +81,11 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
         return DummyVecEnv(fns)
     fns = [partial(make_env, cfg.env_id, kwargs, s, None if mon is None else str(mon / f"train_{rank}"),
                    cfg.torch_threads) for rank, s in enumerate(cfg.worker_seeds)]
-    if cfg.n_envs == 1:
+    if cfg.n_threads is not None and cfg.n_envs > 1:
+        from sphere_env.training.vec_env import ThreadedVecEnv
+
+        venv = ThreadedVecEnv(fns, None if cfg.n_threads == "auto" else cfg.n_threads)
+    elif cfg.n_envs == 1:
         venv = DummyVecEnv(fns)
     elif cfg.n_workers is not None and cfg.n_workers < cfg.n_envs:
         from sphere_env.training.vec_env import BatchedSubprocVecEnv
@@ -575,7 +581,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
 
 def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
     """A stored config as YAML-section overrides (so a resume re-validates exactly what ran)."""
-    return {"n_envs": cfg.n_envs, "n_workers": cfg.n_workers, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
+    return {"n_envs": cfg.n_envs, "n_workers": cfg.n_workers, "n_threads": cfg.n_threads, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
             "normalize": cfg.normalize if cfg.normalize is not None else False,
             "env_kwargs": cfg.env_kwargs, "randomization": cfg.randomization, **cfg.hyperparams}
 

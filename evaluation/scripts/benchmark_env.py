@@ -4,11 +4,12 @@ Per env id × shell model, single process, 50 Hz control (20 ms chunks, 5 ms pla
 
 * **env steps/s**: ``gym.make(id, shell_model=...)`` (with Gymnasium's default wrappers) stepped
   with uniformly random actions drawn beforehand; episode resets are not timed.
-* **twin steps/s**: the bare :class:`~sphere_env.physics.twin.Twin` of the same configuration
-  given exactly the same torques and resets (same pressure per episode) with the public
-  ``advance(0.02, τ)``, interleaved with the env in blocks of 25 steps so both see the same
-  machine load — the same trajectories, so the difference is the env's own work.
-* **overhead %** = env time per step / twin time per step − 1.
+* **twin steps/s**: the env's own :class:`~sphere_env.physics.twin.Twin` replaying each block of
+  25 env steps from the block's starting context (time, state, parameters) with the same torques
+  through the public ``advance(0.02, τ)``, interleaved with the env — a paired measurement of
+  the same trajectory (the replay's end state is checked against the env's), so the difference
+  is the env's own work.
+* **overhead %** = env time per step / twin time per step − 1 (paired).
 * **env Python µs/step**: ``env.step`` (with wrappers) with the physics call stubbed out — the
   env's own per-step work, less sensitive to machine load than the overhead ratio.
 * **reset ms**: mean wall time of ``env.reset()`` (diagram reused; no rebuild); hydroelastic
@@ -27,7 +28,6 @@ import gymnasium as gym
 import numpy as np
 
 import sphere_env  # noqa: F401  (registers ids)
-from sphere_env.physics.twin import InitialState, Twin
 from sphere_env.models.shell import SHELL_MODELS
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
@@ -41,7 +41,8 @@ ENV_COLUMNS = [
     ("shell_model", "shell", ""),
     ("env_steps_per_s", "env steps/s", "{:.0f}"),
     ("twin_steps_per_s", "bare twin steps/s", "{:.0f}"),
-    ("overhead_pct", "env overhead %", "{:+.1f}"),
+    ("overhead_pct", "env overhead % (paired)", "{:+.1f}"),
+    ("paired_max_state_diff", "replay max state diff", "{:.0e}"),
     ("python_us_per_step", "env Python µs/step (physics stubbed)", "{:.1f}"),
     ("reset_ms", "reset ms", "{:.2f}"),
     ("aims_met", "aims (steps/s, overhead, reset)", ""),
@@ -49,38 +50,50 @@ ENV_COLUMNS = [
 
 
 def bench_case(env_id: str, shell_model: str, seconds: float, seed: int = 0, block: int = 25) -> dict:
-    """Env and bare twin are stepped in alternating blocks of ``block`` steps with identical
-    torques, resets and pressures, so both see the same machine load."""
+    """Env and bare twin over the **same trajectory**: the env steps a block of ``block`` random
+    actions; then its own twin is put back to the block's starting context (time, state,
+    parameters) and stepped with the same motor torques through the public ``advance``; then the
+    env's context is restored and it continues. Both see the same machine load, states, contacts
+    and parameters, so the time difference is the env's own work. The replay's end state is
+    compared with the env's (``paired_max_state_diff``: 0 when the trajectories are identical)."""
     env = gym.make(env_id, shell_model=shell_model)
     u = env.unwrapped
     rng = np.random.default_rng(seed)
-    twin = Twin(u.twin.config)
+    twin = u.twin
     lim = np.array([u.steer_torque_limit_nm, -u.drive_torque_limit_nm])
     env.reset(seed=seed)
     env.step(np.zeros(2, np.float32))  # warm-up (first-step checker)
-    _, info = env.reset(seed=seed)
-    twin.reset(InitialState(), pressure_kpa=info["pressure_kpa"])
-    n, t_env, t_twin = 0, 0.0, 0.0
+    env.reset(seed=seed)
+    n, t_env, t_twin, max_diff = 0, 0.0, 0.0, 0.0
     deadline = time.perf_counter() + seconds
     while time.perf_counter() < deadline:
         actions = rng.uniform(-1.0, 1.0, size=(block, 2)).astype(np.float32)
         torques = [tuple(a) for a in actions.astype(float) * lim]
-        done_at = block
+        start = twin.context.Clone()
+        done_at, done = block, False
         t0 = time.perf_counter()
         for k in range(block):
             _, _, term, trunc, info = env.step(actions[k])
             if term or trunc:
-                done_at = k + 1
+                done_at, done = k + 1, True
                 break
         t_env += time.perf_counter() - t0
+        end = twin.context.Clone()
+        x_env = twin.plant.GetPositionsAndVelocities(twin.plant_context).copy()
+        twin.context.SetTimeStateAndParametersFrom(start)
+        twin.simulator.Initialize()
         t0 = time.perf_counter()
         for k in range(done_at):
             twin.advance(0.02, torques[k])
         t_twin += time.perf_counter() - t0
+        x_twin = twin.plant.GetPositionsAndVelocities(twin.plant_context)
+        if not info.get("physics_failure"):
+            max_diff = max(max_diff, float(np.max(np.abs(x_twin - x_env))))
+        twin.context.SetTimeStateAndParametersFrom(end)
+        twin.simulator.Initialize()
         n += done_at
-        if done_at < block or term or trunc:
-            _, info = env.reset()
-            twin.reset(InitialState(), pressure_kpa=info["pressure_kpa"])
+        if done:
+            env.reset()
 
     # reset() time with the diagram reused; hydroelastic after its pressure-mesh cache is warm
     # (the first reset at each new 0.5 kPa grid pressure re-meshes the shell, ≈50–100 ms).
@@ -109,6 +122,7 @@ def bench_case(env_id: str, shell_model: str, seconds: float, seed: int = 0, blo
     )
     return dict(env=env_id.split("/")[1], shell_model=shell_model, steps=n,
                 env_steps_per_s=env_sps, twin_steps_per_s=twin_sps, overhead_pct=overhead,
+                paired_max_state_diff=max_diff,
                 python_us_per_step=python_us, reset_ms=reset_ms,
                 aims_met=" / ".join("yes" if ok else "no" for ok in aims))
 

@@ -1,13 +1,31 @@
-"""PPO training throughput: environment steps per second with 2 SubprocVecEnv workers.
+"""PPO training throughput against the single-env step rate, per vec-env layout and core count.
 
-The shipped PPO hyperparameters for ``sphere_env/RampDescent-v0`` (training/hyperparams/ppo.yml),
-VecNormalize on, pressure randomization on, per shell model (point contact is the headline case).
-Timing starts after the first rollout+update (worker start-up and imports excluded) and
-includes rollouts and gradient updates, as a real training run does. The CPU seconds of the main
-process and of the workers are reported too, with the throughput they imply on an otherwise idle
-machine (the development machine is shared, so the measured wall-clock rate depends on its load).
+All cases are built first and then timed **interleaved** (``--rounds`` rounds, each case
+``seconds / rounds`` per round), so they see the same machine load; ratios between rows of one run
+count more than absolute figures on a shared machine. Per shell model (RampDescent, the shipped
+PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressure randomization on):
 
-    python -m evaluation.scripts.benchmark_train [--seconds 30] [--shell-models point injected]
+* **single env**: one Monitor-wrapped env (as a training worker builds it) stepped with random
+  actions, episode resets included — the rate one core can step.
+* per **layout** (the shipped one, the former 2-process default, several envs per process, several
+  envs per thread; every layout keeps the shipped rollout of 512 samples per update, so more envs
+  mean shorter ``n_steps`` segments, which changes what PPO learns):
+  PPO ``learn`` one update at a time, after a warm-up update.
+
+  - **rollout steps/s** = env steps / (wall − update time): collection, policy forward pass and
+    VecNormalize included; its ratio to cores × single-env rate (aim ≥ 80%);
+  - **training steps/s** = env steps / wall, updates included; ratio (aim ≥ 50%);
+  - update share of the wall time, main-process CPU ms per env step.
+* **1 core**: the shipped layout again with the whole process (threads and any worker processes)
+  pinned to one core (``sched_setaffinity``), interleaved with the 2-core rows: the scaling figure.
+
+A scaling model (printed and returned, :func:`scaling_model`) gives the time per env step of the
+threaded layout with n envs on N cores as ``u + c / n + max(e / min(N, n), g)``: u the PPO update
+per sample (measured), c the main process's work per vectorized step (fitted from the 1-core and
+2-core rollout rates), e one env step (the single-env rate), g the part of an env step that holds
+the GIL (outside Drake's ``AdvanceTo``, measured), which threads cannot overlap.
+
+    python -m evaluation.scripts.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
 """
 
 from __future__ import annotations
@@ -15,116 +33,292 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from functools import partial
+
+import numpy as np
 
 ENV_ID = "sphere_env/RampDescent-v0"
-TRAIN_COLUMNS = [("case", "case", ""), ("n_workers", "worker processes", "{:d}"), ("steps", "env steps timed", "{:d}"),
-                 ("wall_s", "wall s", "{:.1f}"), ("steps_per_s", "env steps/s", "{:.0f}"),
-                 ("cpu_main_ms_per_step", "main CPU ms/step", "{:.3f}"),
-                 ("cpu_workers_ms_per_step", "workers CPU ms/step", "{:.3f}"),
-                 ("idle_estimate_steps_per_s", "idle-machine estimate steps/s", "{:.0f}"),
-                 ("load_avg_1min", "load avg", "{:.1f}")]
+ROLLOUT = 512  # samples per PPO update in the shipped RampDescent config (n_envs x n_steps)
+#: (label, overrides of the shipped YAML section); None keys cancel the YAML's value.
+LAYOUTS = {
+    "shipped": ("shipped config", {}),
+    "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None, "n_steps": 256}),
+    "proc8": ("8 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 8, "n_threads": None, "n_workers": 2, "n_steps": 64}),
+    "proc16": ("16 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 16, "n_threads": None, "n_workers": 2, "n_steps": 32}),
+    "thread8": ("8 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 8, "n_threads": 2, "n_steps": 64}),
+    "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2, "n_steps": 32}),
+}
+TRAIN_COLUMNS = [
+    ("shell_model", "shell", ""), ("case", "case", ""), ("cores", "cores", "{:d}"),
+    ("steps", "env steps timed", "{:d}"), ("single_env_steps_per_s", "env steps/s", "{:.0f}"),
+    ("rollout_steps_per_s", "rollout steps/s", "{:.0f}"), ("rollout_ratio_pct", "rollout / (cores × single) %", "{:.0f}"),
+    ("train_steps_per_s", "training steps/s", "{:.0f}"), ("train_ratio_pct", "training / (cores × single) %", "{:.0f}"),
+    ("update_share_pct", "update share %", "{:.0f}"), ("cpu_main_ms_per_step", "training process CPU ms/step", "{:.3f}"),
+]
 
 
-def _throughput(shell_model: str, seconds: float, n_envs: int = 2, n_workers: int | None = None, seed: int = 0) -> dict:
-    import torch
-    from stable_baselines3.common.callbacks import BaseCallback
+def usable_cores() -> int:
+    from sphere_env.training.vec_env import usable_cores as _cores
 
-    from sphere_env.training.config import algo_class, resolve_config
-    from sphere_env.training.train import make_vec_env, wrap_normalize
+    return _cores()
 
-    overrides: dict = {"n_envs": n_envs, "env_kwargs": {"shell_model": shell_model}}
-    if n_workers is not None:  # same 512-sample rollout per update as the shipped 2 x 256
-        overrides.update(n_workers=n_workers, n_steps=max(512 // n_envs, 1))
-    cfg = resolve_config(ENV_ID, "ppo", overrides=overrides, seed=seed, build_env=False)
-    torch.set_num_threads(cfg.torch_threads)
 
-    class Clock(BaseCallback):
-        """Starts the clock after the first update; stops training after ``seconds``."""
-
-        def __init__(self):
-            super().__init__()
-            self.t0 = None
-            self.s0 = 0
-            self.t1 = None
-
-        def _on_rollout_start(self) -> None:
-            if self.t0 is None and self.num_timesteps > 0:
-                self.t0, self.s0 = time.perf_counter(), self.num_timesteps
-                self.c0 = (time.process_time(), _worker_cpu_s(venv))
-
-        def _on_step(self) -> bool:
-            if self.t0 is not None and time.perf_counter() - self.t0 > seconds:
-                return False
-            return True
-
-        def _on_rollout_end(self) -> None:
-            if self.t0 is not None:
-                self.t1, self.s1 = time.perf_counter(), self.num_timesteps
-
-    venv = wrap_normalize(cfg, make_vec_env(cfg, None))
+def _tasks(pid: int) -> list[int]:
     try:
-        model = algo_class("ppo")(cfg.policy, venv, seed=seed, device="cpu", **cfg.algo_kwargs())
-        clock = Clock()
-        model.learn(total_timesteps=10**9, callback=clock)
-        # the last (interrupted) rollout is counted up to where it stopped: no update follows it
-        t1 = time.perf_counter()
-        steps = model.num_timesteps - clock.s0
-        wall = t1 - clock.t0
-        cpu_main = time.process_time() - clock.c0[0]
-        cpu_workers = _worker_cpu_s(venv) - clock.c0[1]
-    finally:
-        venv.close()
-    # What the same work needs on an otherwise idle machine: the CPU seconds spent, spread over the
-    # cores, but never less than the main process's own share (it is serial with the workers).
-    cores = max(len(os.sched_getaffinity(0)), 1)
-    idle_wall = max((cpu_main + cpu_workers) / cores, cpu_main, cpu_workers / n_envs)
-    layout = (f"{n_envs} SubprocVecEnv workers" if n_workers is None
-              else f"{n_envs} envs on {n_workers} workers (BatchedSubprocVecEnv)")
-    return dict(case=f"PPO, RampDescent, {shell_model} contact, {layout}", shell_model=shell_model,
-                n_envs=n_envs, n_workers=n_workers or n_envs,
-                steps=int(steps), wall_s=wall, steps_per_s=steps / wall, cpu_main_ms_per_step=1e3 * cpu_main / steps,
-                cpu_workers_ms_per_step=1e3 * cpu_workers / steps, idle_estimate_steps_per_s=steps / idle_wall,
-                load_avg_1min=os.getloadavg()[0])
+        return [int(t) for t in os.listdir(f"/proc/{pid}/task")]
+    except OSError:
+        return []
 
 
-def _worker_cpu_s(venv) -> float:
-    """CPU seconds (user + system) used so far by the SubprocVecEnv worker processes."""
-    while hasattr(venv, "venv"):
-        venv = venv.venv
-    total = 0.0
+def _pin(processes, cores: set[int]) -> None:
+    """Every thread of this process and of ``processes`` (worker pids) onto ``cores``."""
+    for pid in [os.getpid(), *[p.pid for p in processes]]:
+        for tid in _tasks(pid):
+            try:
+                os.sched_setaffinity(tid, cores)
+            except OSError:
+                pass
+
+
+def _cpu_s(pid: int) -> float:
     tick = os.sysconf("SC_CLK_TCK")
-    for proc in getattr(venv, "processes", []):
+    try:
+        fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / tick
+    except (OSError, IndexError, ValueError):
+        return 0.0
+
+
+class SingleEnv:
+    """One env as a training worker builds it, random actions, resets included."""
+
+    def __init__(self, shell_model: str, seed: int = 0):
+        from sphere_env.training.config import resolve_config
+        from sphere_env.training.train import make_env
+
+        cfg = resolve_config(ENV_ID, "ppo", overrides={"env_kwargs": {"shell_model": shell_model}}, seed=seed,
+                             build_env=False)
+        self.env = make_env(cfg.env_id, cfg.make_kwargs(), seed)
+        self.rng = np.random.default_rng(seed)
+        self.twin = self.env.unwrapped.twin
+        self.steps, self.wall, self.advance_s = 0, 0.0, 0.0
+        inner = self.twin.advance_unchecked
+
+        def timed(duration_s, motor_torque):  # time inside Drake's AdvanceTo (GIL released)
+            t0 = time.perf_counter()
+            inner(duration_s, motor_torque)
+            self.advance_s += time.perf_counter() - t0
+
+        self._timed = timed
+
+    def run(self, seconds: float) -> None:
+        acts = self.rng.uniform(-1.0, 1.0, size=(4096, 2)).astype(np.float32)
+        self.twin.advance_unchecked = self._timed
+        t0 = time.perf_counter()
+        k = 0
+        while time.perf_counter() - t0 < seconds:
+            _, _, term, trunc, _ = self.env.step(acts[k % len(acts)])
+            k += 1
+            if term or trunc:
+                self.env.reset()
+        self.wall += time.perf_counter() - t0
+        self.steps += k
+        del self.twin.advance_unchecked
+
+    def close(self) -> None:
+        self.env.close()
+
+
+class TrainCase:
+    """A PPO model on a layout; ``run`` learns whole updates for about ``seconds``."""
+
+    def __init__(self, shell_model: str, layout: str, cores: int | None = None, seed: int = 0):
+        from sphere_env.training.config import algo_class, resolve_config
+        from sphere_env.training.train import make_vec_env, wrap_normalize
+
+        label, over = LAYOUTS[layout]
+        overrides = {**over, "env_kwargs": {"shell_model": shell_model}}
+        cfg = resolve_config(ENV_ID, "ppo", overrides=overrides, seed=seed, build_env=False)
+        self.cfg, self.layout, self.label, self.shell_model = cfg, layout, label, shell_model
+        self.cores = cores or usable_cores()
+        self.venv = wrap_normalize(cfg, make_vec_env(cfg, None))
+        self.model = algo_class("ppo")(cfg.policy, self.venv, seed=seed, device="cpu", **cfg.algo_kwargs())
+        self.rollout = cfg.n_envs * cfg.hyperparams["n_steps"]
+        self.update_s = 0.0
+        train = self.model.train
+
+        def timed_train():
+            t0 = time.perf_counter()
+            train()
+            self.update_s += time.perf_counter() - t0
+
+        self.model.train = timed_train
+        self._learn()  # warm-up: first reset and update, not timed
+        self.steps, self.wall, self.update_s, self.cpu_main = 0, 0.0, 0.0, 0.0
+
+    def _learn(self) -> None:
+        self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
+
+    @property
+    def processes(self):
+        v = self.venv
+        while hasattr(v, "venv"):
+            v = v.venv
+        return list(getattr(v, "processes", []))
+
+    def run(self, seconds: float) -> None:
+        all_cores = os.sched_getaffinity(0)
+        if self.cores < len(all_cores):
+            _pin(self.processes, set(sorted(all_cores)[: self.cores]))
         try:
-            fields = open(f"/proc/{proc.pid}/stat").read().rsplit(")", 1)[1].split()
-            total += (int(fields[11]) + int(fields[12])) / tick
-        except (OSError, IndexError, ValueError):
-            pass
-    return total
+            s0, c0, t0 = self.model.num_timesteps, _cpu_s(os.getpid()), time.perf_counter()
+            while time.perf_counter() - t0 < seconds:
+                self._learn()
+            self.wall += time.perf_counter() - t0
+            self.cpu_main += _cpu_s(os.getpid()) - c0
+            self.steps += self.model.num_timesteps - s0
+        finally:
+            if self.cores < len(all_cores):
+                _pin(self.processes, all_cores)
+
+    def close(self) -> None:
+        self.venv.close()
 
 
-def run_train_benchmark(seconds: float = 30.0, shell_models: tuple[str, ...] = ("point",),
-                        batched: bool = True) -> list[dict]:
-    """PPO training throughput [env steps/s] with 2 worker processes, per shell model: the shipped
-    config (2 envs, SubprocVecEnv) and, with ``batched``, 8 envs on the same 2 workers."""
-    rows = []
+def _layout_name(cfg) -> str:
+    if cfg.n_threads is not None:
+        return f"{cfg.n_envs} envs, {cfg.n_threads} threads (ThreadedVecEnv)"
+    if cfg.n_workers is not None and cfg.n_workers < cfg.n_envs:
+        return f"{cfg.n_envs} envs on {cfg.n_workers} processes (BatchedSubprocVecEnv)"
+    return f"{cfg.n_envs} envs, 1 process each (SubprocVecEnv)"
+
+
+def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = ("point", "injected"),
+                        rounds: int = 3, layouts: dict[str, tuple[str, ...]] | None = None,
+                        one_core: bool = True) -> dict:
+    """Interleaved timing of the single env, the layouts (``layouts[shell_model]``, default: all for
+    point, shipped and the 2-process baseline otherwise) and, with ``one_core``, the shipped layout
+    on one core. Returns ``{"rows": [...], "model": {...}, "load_avg": (...), "cores": n}``."""
+    import torch
+
+    torch.set_num_threads(1)
+    cores = usable_cores()
+    load0 = os.getloadavg()
+    singles, cases = {}, []
     for m in shell_models:
-        rows.append(_throughput(m, seconds))
-        if batched:
-            rows.append(_throughput(m, seconds, n_envs=8, n_workers=2))
-    return rows
+        singles[m] = SingleEnv(m)
+        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "subproc2", "thread8"))
+        cases += [TrainCase(m, name) for name in names]
+        if one_core and cores > 1:
+            cases.append(TrainCase(m, "shipped", cores=1))
+    try:
+        per = seconds / rounds
+        for _ in range(rounds):
+            for m in shell_models:
+                singles[m].run(per)
+            for case in cases:
+                case.run(per)
+    finally:
+        for c in (*singles.values(), *cases):
+            c.close()
+    load1 = os.getloadavg()
+
+    rows, model = [], {}
+    for m in shell_models:
+        s = singles[m]
+        single = s.steps / s.wall
+        rows.append(dict(shell_model=m, case="single env (one core)", layout="single", cores=1, steps=s.steps,
+                         single_env_steps_per_s=single, gil_us_per_step=1e6 * (s.wall - s.advance_s) / s.steps))
+        for c in (c for c in cases if c.shell_model == m):
+            rollout = c.steps / (c.wall - c.update_s)
+            train = c.steps / c.wall
+            label = f"{c.label}: {_layout_name(c.cfg)}" if c.layout == "shipped" else c.label
+            rows.append(dict(shell_model=m, case=label + (" — pinned to 1 core" if c.cores == 1 else ""),
+                             layout=c.layout, cores=c.cores, steps=c.steps, single_env_steps_per_s=single,
+                             rollout_steps_per_s=rollout, rollout_ratio_pct=100 * rollout / (c.cores * single),
+                             train_steps_per_s=train, train_ratio_pct=100 * train / (c.cores * single),
+                             update_share_pct=100 * c.update_s / c.wall, cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
+                             update_ms_per_step=1e3 * c.update_s / c.steps, n_envs=c.cfg.n_envs,
+                             n_steps=c.cfg.hyperparams["n_steps"], n_threads=c.cfg.n_threads, n_workers=c.cfg.n_workers))
+        model[m] = scaling_model(rows, m, cores)
+    return {"rows": rows, "model": model, "load_avg_start": load0, "load_avg_end": load1, "cores": cores,
+            "seconds_per_case": seconds, "rounds": rounds}
+
+
+def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
+    """Time per env step of the threaded layout with ``n`` envs on ``N`` cores:
+
+        t = u + c / n + max(e / min(N, n), g)
+
+    u: PPO update per sample (serial, measured); c: main-process work per vectorized step (policy
+    forward pass, VecNormalize, rollout buffer; fitted from the shipped layout's rollout rate on 1
+    and ``cores`` cores); e: one env step (1 / single-env rate); g: the GIL-held part of an env step
+    (env step time outside Drake's ``AdvanceTo``), which threads cannot overlap. Predictions for the
+    shipped ``n_envs`` and for ``n = N`` envs (one per core) at 1, 2, 4, 8, 16, 64 cores."""
+    single = next(r for r in rows if r["shell_model"] == shell_model and r["layout"] == "single")
+    ship = [r for r in rows if r["shell_model"] == shell_model and r["layout"] == "shipped"]
+    full = next((r for r in ship if r["cores"] == cores), None)
+    one = next((r for r in ship if r["cores"] == 1), None)
+    if full is None or one is None or cores < 2:
+        return {}
+    n_envs = full["n_envs"]
+    e = 1.0 / single["single_env_steps_per_s"]
+    g = 1e-6 * single["gil_us_per_step"]
+    u = 1e-3 * 0.5 * (full["update_ms_per_step"] + one["update_ms_per_step"])
+    # rollout time per step = c / n + e / min(N, n): one equation per measured core count
+    r1, rn = 1.0 / one["rollout_steps_per_s"], 1.0 / full["rollout_steps_per_s"]
+    c = max(0.5 * n_envs * ((r1 - e) + (rn - e / min(cores, n_envs))), 0.0)
+
+    def rate(n_cores: int, n: int) -> float:
+        return 1.0 / (u + c / n + max(e / min(n_cores, n), g))
+
+    grid = (1, 2, 4, 8, 16, 64)
+    return {"env_ms_per_step": 1e3 * e, "gil_ms_per_step": 1e3 * g, "update_ms_per_step": 1e3 * u,
+            "main_ms_per_vec_step": 1e3 * c, "n_envs": n_envs,
+            "measured_1_core": one["train_steps_per_s"], f"measured_{cores}_cores": full["train_steps_per_s"],
+            "predicted_shipped": {n: rate(n, n_envs) for n in grid},
+            "predicted_one_env_per_core": {n: rate(n, n) for n in grid},
+            "max_threads_useful": e / g if g > 0 else float("inf")}
+
+
+def report_markdown(result: dict) -> str:
+    from sphere_env.evaluation._report import markdown_table
+
+    l0, l1 = result["load_avg_start"], result["load_avg_end"]
+    lines = [
+        f"{result['cores']} usable cores; each case timed {result['seconds_per_case']:g} s in {result['rounds']} "
+        f"interleaved rounds; 1-min load average {l0[0]:.1f} at start, {l1[0]:.1f} at end (other jobs share the "
+        "machine: compare rows, not runs). Rollout of 512 samples per update in every layout.",
+        "",
+        markdown_table(result["rows"], TRAIN_COLUMNS),
+    ]
+    for m, fit in result["model"].items():
+        if not fit:
+            continue
+        ship = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_shipped"].items())
+        wide = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_one_env_per_core"].items())
+        lines += ["", f"Scaling model, {m} (t = u + c/n + max(e/min(N, n), g) per env step): env step e = "
+                  f"{fit['env_ms_per_step']:.3f} ms, of it g = {fit['gil_ms_per_step']:.3f} ms holding the GIL; "
+                  f"main process c = {fit['main_ms_per_vec_step']:.3f} ms per vectorized step; PPO update "
+                  f"u = {fit['update_ms_per_step']:.3f} ms per sample. Predicted training steps/s by cores N, shipped "
+                  f"{fit['n_envs']} envs: {ship}; one env per core (n = N, threads): {wide}. Threads stop helping "
+                  f"beyond ≈ e/g = {fit['max_threads_useful']:.0f} per process."]
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> None:
-    from sphere_env.evaluation._report import machine_info, markdown_table
+    from sphere_env.evaluation._report import machine_info
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seconds", type=float, default=30.0, help="timed wall seconds per case")
-    parser.add_argument("--shell-models", nargs="+", default=["point"])
+    parser.add_argument("--seconds", type=float, default=24.0, help="timed wall seconds per case (all rounds)")
+    parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds")
+    parser.add_argument("--shell-models", nargs="+", default=["point", "injected"])
+    parser.add_argument("--no-one-core", action="store_true", help="skip the 1-core (pinned) rows")
     args = parser.parse_args(argv)
-    rows = run_train_benchmark(args.seconds, tuple(args.shell_models))
+    result = run_train_benchmark(args.seconds, tuple(args.shell_models), args.rounds, one_core=not args.no_one_core)
     info = machine_info()
     print(f"Machine: {info['cpu']}, {info['cores']} cores; torch {info['torch']}, sb3 {info['stable_baselines3']}\n")
-    print(markdown_table(rows, TRAIN_COLUMNS))
+    print(report_markdown(result))
 
 
 if __name__ == "__main__":

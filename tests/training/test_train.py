@@ -41,6 +41,9 @@ def no_workers(monkeypatch):
         (["--env", "sphere_env/Nope-v0"], "env"),
         (["--params", "learning_rat:0.001"], "hyperparams.learning_rat"),
         (["--params", "n_envs:0"], "n_envs"),
+        (["--params", "n_threads:9"], "n_threads"),
+        (["--params", "n_threads:many"], "n_threads"),
+        (["--params", "n_threads:2", "n_workers:2"], "n_threads"),
         (["--params", "randomization:{pressure_kpa: [1, 50]}"], "randomization.pressure_kpa"),
         (["--params", "randomization:{ground_friction: [0.9, 0.5]}"], "randomization.ground_friction"),
         (["--params", "env_kwargs:{shell_model: jelly}"], "shell_model"),
@@ -54,6 +57,16 @@ def test_bad_configs_refused_before_workers(no_workers, tmp_path, capsys, argv, 
     err = capsys.readouterr().err
     assert field in err, err
     assert not (tmp_path / "run").exists()
+
+
+def test_layout_overrides_replace_the_files_layout():
+    """The shipped PPO file steps its envs in threads; an n_workers override selects processes
+    instead (and vice versa) without having to cancel the file's key."""
+    shipped = resolve_config(RAMP, "ppo", build_env=False)
+    assert (shipped.n_threads, shipped.n_workers) == ("auto", None)
+    assert shipped.n_envs * shipped.hyperparams["n_steps"] == 512 and shipped.n_envs == 2
+    procs = resolve_config(RAMP, "ppo", overrides={"n_workers": 2}, build_env=False)
+    assert (procs.n_threads, procs.n_workers) == (None, 2)
 
 
 def test_bad_randomization_message_names_field():
@@ -128,8 +141,7 @@ def test_training_improves_evaluation_return(tmp_path):
     The command range is narrowed to slow speeds (always brake), so a few updates show the trend."""
     from sphere_env.evaluation.controller_specs import PolicyController
 
-    overrides = {"n_envs": 2, "n_timesteps": IMPROVE_STEPS, "env_kwargs": TASK,
-                 "randomization": "off"}
+    overrides = {"n_timesteps": IMPROVE_STEPS, "env_kwargs": TASK, "randomization": "off"}  # shipped layout
     cfg = resolve_config(RAMP, "ppo", overrides=overrides, seed=0, eval_freq=10**6, eval_episodes=1)
     run = train(cfg, tmp_path / "run", progress_bar=False)
 

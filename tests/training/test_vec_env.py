@@ -1,4 +1,5 @@
-"""BatchedSubprocVecEnv (several envs per worker) behaves exactly like DummyVecEnv."""
+"""BatchedSubprocVecEnv (several envs per worker) and ThreadedVecEnv (several envs stepped by threads)
+behave exactly like DummyVecEnv."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sphere_env.training.train import make_env
-from sphere_env.training.vec_env import BatchedSubprocVecEnv
+from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv
 
 
 @pytest.mark.slow
@@ -46,3 +47,47 @@ def test_batched_equals_dummy_over_episodes_with_resets():
     finally:
         a.close()
         b.close()
+
+
+def test_threaded_equals_dummy_over_episodes_with_resets():
+    """4 envs on 3 threads (uneven blocks), 1 m ramps so episodes end and auto-reset: observations,
+    rewards, dones, infos and reset infos identical to DummyVecEnv, step by step."""
+    kw = {"shell_model": "point", "randomization": "default", "ramp_length_m": 1.0}
+    fns = [partial(make_env, "sphere_env/RampDescent-v0", kw, seed) for seed in range(4)]
+    a, b = DummyVecEnv(fns), ThreadedVecEnv(fns, n_threads=3)
+    try:
+        assert b.num_envs == 4 and [len(x) for x in b.blocks] == [2, 1, 1]
+        a.seed(3)
+        b.seed(3)
+        np.testing.assert_array_equal(a.reset(), b.reset())
+        assert [r["pressure_kpa"] for r in a.reset_infos] == [r["pressure_kpa"] for r in b.reset_infos]
+        rng = np.random.default_rng(0)
+        dones = 0
+        for _ in range(100):
+            act = rng.uniform(-1, 1, (4, 2)).astype(np.float32)
+            oa, ra, da, ia = a.step(act)
+            ob, rb, db, ib = b.step(act)
+            np.testing.assert_array_equal(oa, ob)
+            np.testing.assert_array_equal(ra, rb)
+            np.testing.assert_array_equal(da, db)
+            for x, y in zip(ia, ib):
+                assert x.keys() == y.keys()
+                assert x["pressure_kpa"] == y["pressure_kpa"]
+                assert x["TimeLimit.truncated"] == y["TimeLimit.truncated"]
+                if "terminal_observation" in x:
+                    np.testing.assert_array_equal(x["terminal_observation"], y["terminal_observation"])
+                    assert x["episode"]["r"] == y["episode"]["r"]
+            assert [r.get("pressure_kpa") for r in a.reset_infos] == [r.get("pressure_kpa") for r in b.reset_infos]
+            dones += int(da.sum())
+        assert dones >= 4
+        assert b.get_attr("shell_model") == ["point"] * 4
+        assert b.env_is_wrapped(Monitor) == [True] * 4
+    finally:
+        a.close()
+        b.close()
+
+
+def test_threaded_n_threads_checked():
+    fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, 0)]
+    with pytest.raises(ValueError, match=r"n_threads: value 2 must be an integer within 1\.\.1"):
+        ThreadedVecEnv(fns, n_threads=2)
