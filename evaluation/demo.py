@@ -1,6 +1,6 @@
 """`make demo`: the project's main job on its default configuration, end to end.
 
-1. Train PPO on ``sphere_env/RampDescent-v0`` (injected shell, Majd friction) with the inflation
+1. Train PPO on ``sphere_env/RampDescent-v1`` (injected shell, Majd friction) with the inflation
    pressure randomized uniformly over the calibrated range at every reset
    (training/hyperparams/ppo.yml, budget shortened by ``--train-steps``).
 2. Evaluate the trained policy against the baselines — zero torque (the paper's uncontrolled
@@ -23,7 +23,7 @@ import shutil
 import time
 from pathlib import Path
 
-ENV_ID = "sphere_env/RampDescent-v0"
+ENV_ID = "sphere_env/RampDescent-v1"
 DEFAULT_TRAIN_STEPS = 120_000
 PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> dict:
     t_eval = time.perf_counter() - t0
     wall = time.perf_counter() - t_start
 
-    from sphere_env.evaluation._report import markdown_table
+    from sphere_env.evaluation.reporting import markdown_table
 
     agg = {a["controller"]: a for a in res["agg_controller"]}
     cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"), ("return", "mean return", "{:.2f}"),

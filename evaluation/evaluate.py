@@ -67,7 +67,7 @@ class SweepSpec:
     (:mod:`sphere_env.evaluation.controller_specs`)."""
 
     controllers: list[str]
-    env_id: str = "sphere_env/RampDescent-v0"
+    env_id: str = "sphere_env/RampDescent-v1"
     pressures_kpa: list[float] = field(default_factory=lambda: [3.0, 8.5, 14.0])
     shell_models: list[str] = field(default_factory=lambda: list(SHELL_MODELS))
     frictions: list[str] = field(default_factory=lambda: ["majd"])
@@ -482,7 +482,7 @@ def save_replay(job: Mapping[str, Any], path: Path) -> Path:
 # ---- report --------------------------------------------------------------------------------------------
 def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, files: Mapping[str, Path],
                  wall_s: float, executor: str, extra: str = "") -> Path:
-    from sphere_env.evaluation._report import machine_info, markdown_table
+    from sphere_env.evaluation.reporting import machine_info, markdown_table
 
     info = machine_info()
     lines = [
@@ -699,7 +699,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
                         help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
-    parser.add_argument("--env", default="sphere_env/RampDescent-v0")
+    parser.add_argument("--env", default="sphere_env/RampDescent-v1")
     parser.add_argument("--pressures", type=float, nargs="+", default=[3.0, 8.5, 14.0], help="kPa")
     parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
     parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")

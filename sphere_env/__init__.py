@@ -4,7 +4,7 @@ pendulum-driven spherical robots (RoboBall).
 Importing the package registers the Gymnasium environments (``sphere_env/RampDescent-v1``,
 ``sphere_env/Roll-v1`` and their superseded ``-v0`` versions).
 Gymnasium 1.x no longer loads the ``gymnasium.envs`` entry-point group by itself; without an
-import, ``gym.make("sphere_env:sphere_env/RampDescent-v0")`` imports this module first. The
+import, ``gym.make("sphere_env:sphere_env/RampDescent-v1")`` imports this module first. The
 entry point (``sphere_env:register_envs``) stays declared for tools and older Gymnasium (0.26–0.29)
 that do load plugins.
 """

@@ -282,7 +282,7 @@ def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
 
 
 def report_markdown(result: dict) -> str:
-    from sphere_env.evaluation._report import markdown_table
+    from sphere_env.evaluation.reporting import markdown_table
 
     l0, l1 = result["load_avg_start"], result["load_avg_end"]
     lines = [
@@ -307,7 +307,7 @@ def report_markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from sphere_env.evaluation._report import machine_info
+    from sphere_env.evaluation.reporting import machine_info
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=24.0, help="timed wall seconds per case (all rounds)")

@@ -453,7 +453,7 @@ def hostile_inputs() -> tuple[Tally, list[dict]]:
 
 
 def _hostile_markdown(tally: Tally, failures: list[dict]) -> list[str]:
-    from sphere_env.evaluation._report import markdown_table
+    from sphere_env.evaluation.reporting import markdown_table
 
     rows = tally.rows()
     total = rows[-1]
@@ -802,7 +802,7 @@ def _interface_counts(rows: list[dict]) -> dict:
 
 def interfaces_markdown(res: dict) -> list[str]:
     """The report section of :func:`fuzz_interfaces`."""
-    from sphere_env.evaluation._report import markdown_table
+    from sphere_env.evaluation.reporting import markdown_table
 
     t = res["total"]
     table = [{"category": k, **v} for k, v in res["by_category"].items()] + [{"category": "**all**", **t}]
@@ -836,7 +836,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--soak-steps", type=int, default=40_000,
                         help="soak steps per shell model (hydroelastic, ~5x slower per step: a quarter)")
     args = parser.parse_args(argv)
-    from sphere_env.evaluation._report import RESULTS, machine_info, markdown_table
+    from sphere_env.evaluation.reporting import RESULTS, machine_info, markdown_table
 
     info = machine_info()  # at the start: the commit that is actually run
     load0 = os.getloadavg()

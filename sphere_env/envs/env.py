@@ -60,7 +60,7 @@ class SphereEnv(gym.Env, EzPickle):
     forward; the applied joint torques are in ``info["motor_torque_nm"]``). Observation: the
     task's :meth:`~sphere_env.tasks.Task.observation_layout` (exported as
     :attr:`observation_layout`). Per-task documentation: :class:`~sphere_env.tasks.RampDescentTask`
-    (``sphere_env/RampDescent-v0``), :class:`~sphere_env.tasks.RollTask` (``sphere_env/Roll-v0``).
+    (``sphere_env/RampDescent-v1``), :class:`~sphere_env.tasks.RollTask` (``sphere_env/Roll-v1``).
 
     :param task: the :class:`~sphere_env.tasks.Task` (command, rewards, termination).
 

@@ -23,8 +23,9 @@ def make_ramp_descent(
     reward_weights: Mapping[str, float] | None = None,
     **kwargs: Any,
 ) -> SphereEnv:
-    """``sphere_env/RampDescent-v0``: :class:`~sphere_env.tasks.RampDescentTask` on a 16° ramp of
-    4 m by default (the paper's experiment), plus :class:`SphereEnv`'s kwargs."""
+    """``sphere_env/RampDescent-v1`` (and ``-v0``, registered with the v0 calibration):
+    :class:`~sphere_env.tasks.RampDescentTask` on a 16° ramp of 4 m by default (the paper's
+    experiment), plus :class:`SphereEnv`'s kwargs."""
     if ramp_length_m is None:
         raise ValueError("ramp_length_m: value None not allowed for RampDescent; give a length in m")
     task = RampDescentTask(lane_half_width_m, omega_ref_range_rad_s, reward_weights)
@@ -41,7 +42,7 @@ def make_roll(
     reward_weights: Mapping[str, float] | None = None,
     **kwargs: Any,
 ) -> SphereEnv:
-    """``sphere_env/Roll-v0``: :class:`~sphere_env.tasks.RollTask` on flat ground, plus
+    """``sphere_env/Roll-v1``: :class:`~sphere_env.tasks.RollTask` on flat ground, plus
     :class:`SphereEnv`'s kwargs."""
     if kwargs.get("ramp_length_m") is not None:
         raise ValueError("ramp_length_m: not used by Roll (flat ground); leave it None")

@@ -70,7 +70,7 @@ class RampDescentTask(Task):
     8 s at 50 Hz) or a physics failure (``info["truncation_reason"]``).
     ``info["motor_torque_nm"]`` holds the applied [τ_steer, τ_drive] at the joints [N m].
 
-    **kwargs** of ``gym.make("sphere_env/RampDescent-v0", ...)``: those of
+    **kwargs** of ``gym.make("sphere_env/RampDescent-v1", ...)``: those of
     :class:`~sphere_env.envs.SphereEnv` (``shell_model``, ``friction_model``, ``calibration``,
     ``control_frequency_hz`` [Hz], ``time_step_s`` [s], ``steer_torque_limit_nm``/
     ``drive_torque_limit_nm`` [N m], ``randomization``, ``observe_pressure``,
@@ -84,7 +84,13 @@ class RampDescentTask(Task):
 
     ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] within [0, 30].
 
-    **Version history.** v0: initial release.
+    **Version history**
+
+    * v1: the shipped shell calibration, whose steer-direction law (rest angle, amplitude term) is
+      fitted on the real ``steer_free`` trials; the hydroelastic shell carries the same restoring
+      couple.
+    * v0: superseded; the earlier linear steer law about φ = 0, hydroelastic without the couple
+      (default ``calibration`` = ``assets/calibration/v0_linear.yaml``). Same task otherwise.
     """
 
     name = "RampDescent"

@@ -61,10 +61,16 @@ class RollTask(Task):
     :param reward_weights: mapping overriding :class:`RollRewardWeights` fields.
 
     ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] within [−30, 30] and ``heading_ref``
-    [rad] within [−2π, 2π] or ``yaw_rate_ref`` [rad/s] within [−5, 5]. ``gym.make("sphere_env/Roll-v0", ...)`` takes these kwargs and those
+    [rad] within [−2π, 2π] or ``yaw_rate_ref`` [rad/s] within [−5, 5]. ``gym.make("sphere_env/Roll-v1", ...)`` takes these kwargs and those
     of :class:`~sphere_env.envs.SphereEnv` (flat ground: ``ramp_length_m`` must stay None).
 
-    **Version history.** v0: initial release.
+    **Version history**
+
+    * v1: the shipped shell calibration, whose steer-direction law (rest angle, amplitude term) is
+      fitted on the real ``steer_free`` trials; the hydroelastic shell carries the same restoring
+      couple.
+    * v0: superseded; the earlier linear steer law about φ = 0, hydroelastic without the couple
+      (default ``calibration`` = ``assets/calibration/v0_linear.yaml``). Same task otherwise.
     """
 
     name = "Roll"
