@@ -63,7 +63,13 @@ def test_default_calibration_loads_and_gains_follow_eq_7_8():
     assert K == pytest.approx(wn**2 * r.M_eq - r.K_eq)
     assert C == pytest.approx(2 * r.M_eq * wn * z)
     modulus, d = shell.hydroelastic(p)
-    assert modulus == pytest.approx(r.weight_n / membrane_contact_volume_m3(p, r.weight_n, r.radius_m)) or cal.volume_model == "table"
+    assert modulus == pytest.approx(r.weight_n / cal.volume_m3(p, r.weight_n, r.radius_m))  # eq. 10
+    if cal.volume_model == "membrane":  # the shipped V(p) is the membrane estimate of docs/design.md §5
+        assert cal.volume_m3(p, r.weight_n, r.radius_m) == pytest.approx(
+            membrane_contact_volume_m3(p, r.weight_n, r.radius_m))
+    else:
+        pk, vm = cal.volume_table
+        assert cal.volume_m3(p, r.weight_n, r.radius_m) == pytest.approx(float(np.interp(p, pk, vm)))
     assert d == pytest.approx(cal.k_d * C)
 
 
