@@ -42,7 +42,7 @@ from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration, membrane_contact_volume_m3
 from sphere_env.physics.twin import Twin, TwinConfig
 
-AUTHORS_MODULUS_PA = 1.55e5  # the authors' tuned single-pressure modulus (DESIGN.md §3)
+AUTHORS_MODULUS_PA = 1.55e5  # the authors' tuned single-pressure modulus (docs/design.md §5)
 
 
 def pressure_for_modulus(modulus_pa: float, robot: RobotParameters | None = None,

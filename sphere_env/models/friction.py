@@ -41,7 +41,7 @@ def coulomb(v, mu_s: float, mu_d: float, c: float, v_tol: float = 0.05, m=NUMPY)
         τ = −[μ_d + (μ_s − μ_d) exp(−(v/v_tol)²)] tanh(3 v / v_tol) − c v
 
     The law is smooth and odd; its slope at v = 0 is 3 μ_s / v_tol, which keeps an explicit
-    friction torque stable for the 5 ms plant step (see DESIGN notes in the README).
+    friction torque stable for the 5 ms plant step (docs/design.md §4).
     Units: μ_s, μ_d [N m], c [N m s/rad], v_tol [rad/s].
     """
     level = mu_d + (mu_s - mu_d) * m.exp(-(v / v_tol) * (v / v_tol))

@@ -44,7 +44,7 @@ def check_shell_model(name: str) -> str:
 
 
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:
-    """Sphere–plane intersection volume V(p) [m³] from a membrane estimate (DESIGN.md §3).
+    """Sphere–plane intersection volume V(p) [m³] from a membrane estimate (docs/design.md §5).
 
     Contact area A = f_n / p gives the flat's radius a = √(A/π); the undeformed sphere would
     penetrate δ = R − √(R² − a²) ≈ a²/(2R); the cap volume is V = π δ² (R − δ/3).
