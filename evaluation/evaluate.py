@@ -716,7 +716,6 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--allow-env-mismatch", action="store_true",
                         help="evaluate trained policies on an env id other than the one they were trained on")
     args = parser.parse_args(argv)
-    import yaml
 
     out = args.out or Path("out/eval") / time.strftime("%Y%m%d-%H%M%S")
     try:

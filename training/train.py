@@ -37,6 +37,7 @@ import yaml
 
 from sphere_env.provenance import software_versions
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
+from sphere_env.files import write_text_atomic
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -276,11 +277,7 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     data["command"] = list(command) if command is not None else []
     data["created_utc"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     data.update(extra or {})
-    path = run_dir / "config.yaml"
-    tmp = run_dir / "config.yaml.tmp"
-    tmp.write_text(yaml.safe_dump(_plain(data), sort_keys=False))
-    tmp.replace(path)
-    return path
+    return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(_plain(data), sort_keys=False))
 
 
 def _plain(x: Any) -> Any:

@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 import os
 import time
-from functools import partial
 
 import numpy as np
 

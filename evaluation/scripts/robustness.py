@@ -38,6 +38,7 @@ import numpy as np
 import sphere_env  # noqa: F401
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import Twin
+from sphere_env.files import write_text_atomic
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
 SOAK_LIMIT_MB = 50.0
@@ -916,9 +917,7 @@ def main(argv: list[str] | None = None) -> None:
     RESULTS.mkdir(parents=True, exist_ok=True)
     # Temp names then rename: an interrupted run leaves the previous results whole.
     for name, text in (("robustness.md", "\n".join(md) + "\n"), ("robustness.json", json.dumps(out, indent=2))):
-        tmp = RESULTS / (name + ".tmp")
-        tmp.write_text(text)
-        tmp.replace(RESULTS / name)
+        write_text_atomic(RESULTS / name, text)
     print("\n".join(md))
 
 

@@ -20,6 +20,7 @@ from scipy.optimize import curve_fit
 from sphere_env.analysis.decay import DecayFit, damped_sinusoid, fit_free_decay, log_decrement
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.plotting import save_figure
+from sphere_env.files import write_text_atomic
 
 __all__ = ["DecayFit", "PressureFit", "calibration_dict", "damped_sinusoid", "fit_free_decay",
            "fit_pressure_curves", "log_decrement", "plot_pressure_curves", "write_yaml"]
@@ -108,15 +109,10 @@ def calibration_dict(
 
 def write_yaml(path: str | Path, data: dict[str, Any], header: str = "") -> Path:
     """Write YAML atomically (temp file then rename), so a failure leaves nothing half-written."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
     text = (header if not header or header.endswith("\n") else header + "\n") + yaml.safe_dump(
         _plain(data), sort_keys=False, default_flow_style=None, width=110
     )
-    tmp.write_text(text)
-    tmp.replace(path)
-    return path
+    return write_text_atomic(path, text)
 
 
 def _plain(x: Any) -> Any:

@@ -27,8 +27,6 @@ rad/s, swings of 0.1–1 rad/s), not tuned per log.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -37,6 +35,7 @@ import numpy as np
 import yaml
 
 from sphere_env.calibration.logs import MIN_MOTION_RAD, LogError, RobotLog
+from sphere_env.files import write_text_atomic
 
 SMOOTH_S = 0.1  # moving-average length of the activity signal [s]
 REST_RAD_S = 0.03  # below: at rest or held [rad/s]
@@ -209,17 +208,7 @@ def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], 
         if e["name"] in names:
             raise LogError(f"manifest {str(path)!r}: field 'name' = {e['name']!r} is already a trial; nothing written")
     data["trials"] = trials + list(entries)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            yaml.safe_dump(data, fh, sort_keys=False, default_flow_style=None, width=110)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    return write_text_atomic(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110))
 
 
 def events_table(events: Sequence[Event]) -> str:

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -28,6 +26,7 @@ from sphere_env.calibration.simulate import SimTrace, simulate_log
 from sphere_env.parallel import run_parallel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
+from sphere_env.files import write_text_atomic
 
 METRICS = ("phi", "theta", "omega_d")
 TOLERANCE_KEYS = METRICS + ("pendulum_pitch", "pme")
@@ -149,18 +148,7 @@ def validate(
 def write_records(path: str | Path, rows: Sequence[ValidationRow]) -> Path:
     """Write ``[row.record() ...]`` as JSON, atomically (temp file in the same folder, then rename)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump([r.record() for r in rows], fh, indent=1)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    return write_text_atomic(path, json.dumps([r.record() for r in rows], indent=1) + "\n")
 
 
 def parse_tolerances(items: Sequence[str] | None) -> dict[str, float]:

@@ -30,6 +30,7 @@ from sphere_env.physics.diagram import build_diagram, ground_coefficient, shell_
 from sphere_env.physics.forces import cross3, pipe_angle_expressions
 from sphere_env.physics.render import RgbCamera
 from sphere_env.physics.terrain import Terrain
+from sphere_env.files import write_text_atomic
 
 __all__ = ["FIXTURES", "InitialState", "Twin", "TwinConfig", "TwinState"]
 
@@ -518,12 +519,7 @@ class Twin:
             raise RuntimeError("save_recording: build the Twin with meshcat=... to record")
         self.visualizer.StopRecording()
         self.visualizer.PublishRecording()
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(self.meshcat.StaticHtml())
-        tmp.replace(path)
-        return path
+        return write_text_atomic(path, self.meshcat.StaticHtml())
 
     def render_rgb(self, width: int = 480, height: int = 360) -> np.ndarray:
         """An (height, width, 3) uint8 frame from Drake's RenderEngineVtk (EGL, headless), the

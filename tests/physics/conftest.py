@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics import Twin, TwinConfig
 
 
 def record(twin: Twin, duration_s: float, chunk_s: float = 0.02, field: str = "phi", torque=(0.0, 0.0)):
