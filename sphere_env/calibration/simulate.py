@@ -56,7 +56,6 @@ def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_
       centre rolls without slip: v = ω_shell × (R ẑ_W), ω_shell = ω_PC − q̇_d ŷ_PC.
       θ is not used for ``locked_steer`` (the joint is locked at 0).
     """
-    t = log.t_s
     kw: dict = {}
     if log.has("theta"):
         kw["theta"] = float(log["theta"][0]) - theta_offset_rad
