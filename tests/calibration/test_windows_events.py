@@ -122,7 +122,7 @@ def test_events_command_writes_loadable_manifest_atomically(tmp_path):
     assert [s.fixture for s in m.trials] == ["free", "free"] and {s.group for s in m.trials} == {"g"}
     first = m.trials[0]
     assert first.window_s[0] == pytest.approx(2.0, abs=0.02) and first.window_s[1] - first.window_s[0] == pytest.approx(3.0)
-    assert first.load().t[-1] == pytest.approx(3.0, abs=0.011)
+    assert first.load().t_s[-1] == pytest.approx(3.0, abs=0.011)
     assert m.trials[1].window_s[0] == pytest.approx(11.39, abs=0.02)  # the push's window starts free
     before = man.read_text()
     assert main(["events", str(p), "--write-manifest", str(man)]) == 2  # names already there: refused
