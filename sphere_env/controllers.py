@@ -23,8 +23,8 @@ DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
 DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 
 # Observation indices, from the tasks' layout: measured components, then the two command values.
-THETA, THETA_DOT, DRIVE_ANGLE, DRIVE_RATE, OMEGA_D, YAW_RATE, GX, GZ = (
-    MEASURED_INDEX[n] for n in ("theta", "theta_dot", "drive_angle", "drive_rate", "omega_d", "yaw_rate",
+THETA, THETA_DOT, DRIVE_ANGLE, DRIVE_RATE, OMEGA_D, HEADING_RATE, GX, GZ = (
+    MEASURED_INDEX[n] for n in ("theta", "theta_dot", "drive_angle", "drive_rate", "omega_d", "heading_rate",
                                 "gravity_x", "gravity_z")
 )
 CMD_SPEED, CMD_HEADING = N_MEASURED, N_MEASURED + 1  # ω_ref, then heading error or ψ̇_ref
@@ -106,9 +106,9 @@ class PendulumPDController:
         beta, beta_dot = pendulum_pitch(obs)
         tau_d = self._K_eq * math.sin(beta_ref) + self.kp_pitch * (beta_ref - beta) - self.kd_pitch * beta_dot
         if self.command_mode == "heading":
-            theta_ref = self.k_heading * float(obs[CMD_HEADING]) - self.k_yaw * float(obs[YAW_RATE])
+            theta_ref = self.k_heading * float(obs[CMD_HEADING]) - self.k_yaw * float(obs[HEADING_RATE])
         else:
-            theta_ref = self.k_yaw_rate * (float(obs[CMD_HEADING]) - float(obs[YAW_RATE]))
+            theta_ref = self.k_yaw_rate * (float(obs[CMD_HEADING]) - float(obs[HEADING_RATE]))
         theta_ref = _clip(theta_ref, self.theta_max)
         tau_s = (
             self._K_lean * math.sin(theta_ref)

@@ -107,7 +107,7 @@ def bench_case(env_id: str, shell_model: str, seconds: float, seed: int = 0, blo
     # The env's own Python per step, physics stubbed out (state frozen): less load-sensitive.
     env.reset()
     twin_now = u.twin
-    twin_now.advance_unchecked = lambda duration_s, motor_torque: None
+    twin_now.advance_unchecked = lambda duration_s, motor_torque_nm: None
     acts = rng.uniform(-1.0, 1.0, size=(2000, 2)).astype(np.float32)
     t0 = time.perf_counter()
     for a in acts:

@@ -287,8 +287,8 @@ def _option_cases(env_id: str) -> list[tuple[Any, str]]:
         ({**p, "initial_state": {"roll": NAN}}, "initial_state.roll"),
         ({**p, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
         ({**p, "initial_state": {"position_m": (0.0, 0.0)}}, "initial_state.position_m"),
-        ({**p, "initial_state": {"velocity_W": "fast"}}, "initial_state.velocity_W"),
-        ({**p, "initial_state": {"angular_velocity_W": (0.0, 5e3, 0.0)}}, "initial_state.angular_velocity_W"),
+        ({**p, "initial_state": {"velocity_m_s": "fast"}}, "initial_state.velocity_m_s"),
+        ({**p, "initial_state": {"angular_velocity_rad_s": (0.0, 5e3, 0.0)}}, "initial_state.angular_velocity_rad_s"),
         ({**p, "initial_state": {"theta_dot": 1e300}}, "initial_state.theta_dot"),
         ({**p, "omega_ref": "abc"}, "omega_ref"), ({**p, "omega_ref": [1.0, 2.0]}, "omega_ref"),
         ({**p, "omega_ref": 1e9}, "omega_ref"), ({**p, "omega_ref": NAN}, "omega_ref"), ({**p, "omega_ref": None}, "omega_ref"),
@@ -384,7 +384,7 @@ def fuzz_ended_and_copied(env_id: str, tally: Tally) -> list[dict]:
     short = env_id.split("/")[1]
     for shell_model in SHELL_MODELS:
         env = gym.make(env_id, shell_model=shell_model, disable_env_checker=True)
-        row = _run_to_failure(env, (0.0, 0.0), 5, {"initial_state": {"angular_velocity_W": (499.0, 499.0, 499.0)}})
+        row = _run_to_failure(env, (0.0, 0.0), 5, {"initial_state": {"angular_velocity_rad_s": (499.0, 499.0, 499.0)}})
         rows.append(dict(env=short, shell_model=shell_model, route="initial spin 499 rad/s per axis", **row))
         if row["truncated"] or row["terminated"]:
             tally.expect("ended / copied episodes", f"{short}/{shell_model} step after the launched episode ended",

@@ -45,7 +45,7 @@ def cmd_shell(args) -> int:
     for log in logs:
         if log.pressure_kpa is None:
             raise LogError(f"trial {log.name!r}: 'pressure_kpa' is null; free-decay curves need a pressure per trial")
-        fit = fit_free_decay(log.t, log[args.channel])
+        fit = fit_free_decay(log.t_s, log[args.channel])
         fits.append(fit)
         ps.append(log.pressure_kpa)
         print(f"{log.name}: p={log.pressure_kpa} kPa  ω_n={fit.omega_n:.4f} [{fit.omega_n_ci[0]:.4f}, {fit.omega_n_ci[1]:.4f}] rad/s"
@@ -204,7 +204,7 @@ def cmd_events(args) -> int:
         raise LogError(f"--duration-s: value {args.duration_s!r} must be > 0 s")
     log = load_log(args.log, mapping)
     events = find_events(log)
-    print(f"{args.log}: {len(log.t)} samples over {log.t[-1]:.2f} s (time unit {mapping.time[1]}); "
+    print(f"{args.log}: {len(log.t_s)} samples over {log.t_s[-1]:.2f} s (time unit {mapping.time[1]}); "
           f"{len(events)} free-motion event(s)")
     print(events_table(events))
     if args.json:

@@ -71,7 +71,7 @@ class Event:
 
 def _rate(log: RobotLog, chan: str) -> np.ndarray:
     rate = RATE_OF[chan]
-    return np.asarray(log[rate] if log.has(rate) else np.gradient(log[chan], log.t), float)
+    return np.asarray(log[rate] if log.has(rate) else np.gradient(log[chan], log.t_s), float)
 
 
 def _smooth(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarray:
@@ -82,9 +82,9 @@ def _smooth(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarray:
 def find_events(log: RobotLog) -> list[Event]:
     """The free-motion events of ``log`` (module docstring), in time order."""
     chans = [c for c in RATE_OF if log.has(c)]
-    if not chans or len(log.t) < 10:
+    if not chans or len(log.t_s) < 10:
         raise LogError(f"log {log.path!r}: needs φ or θ and at least 10 samples to find events")
-    t = log.t
+    t = log.t_s
     rates = {c: _rate(log, c) for c in chans}
     raw = np.max(np.abs(np.vstack([rates[c] for c in chans])), axis=0)
     act = _smooth(t, raw, SMOOTH_S)
@@ -152,8 +152,8 @@ def _classify(log: RobotLog, rates: dict[str, np.ndarray], s: int, e: int) -> Ev
     decays = float(np.ptp(x[-third:])) < float(np.ptp(x[:third]))
     if swings < MIN_SWINGS or not decays:
         return None
-    start_t = float(log.t[s]) + log.t0_s
-    end_t = float(log.t[e]) + log.t0_s
+    start_t = float(log.t_s[s]) + log.t0_s
+    end_t = float(log.t_s[e]) + log.t0_s
     held = abs(float(log[main][s] - log[main][e])) > 0.5 * moved[main]
     if held:
         free_t = start_t
@@ -164,7 +164,7 @@ def _classify(log: RobotLog, rates: dict[str, np.ndarray], s: int, e: int) -> Ev
         k = int(turn)
         while k > 0 and np.sign(r[k - 1]) == np.sign(r[turn]):
             k -= 1
-        free_t = float(log.t[s + k]) + log.t0_s
+        free_t = float(log.t_s[s + k]) + log.t0_s
     return Event(start_t, end_t, moved, "release" if held else "push", free_t)
 
 

@@ -128,7 +128,7 @@ def fit_friction(
     free = tuple(k for k in names if k not in fixed)
     lo = [BOUNDS[law][k][0] for k in free] + ([OFFSET_BOUNDS[0]] if fit_offset else [])
     hi = [BOUNDS[law][k][1] for k in free] + ([OFFSET_BOUNDS[1]] if fit_offset else [])
-    weights = [1.0 / math.sqrt(len(log.t)) for log in logs]
+    weights = [1.0 / math.sqrt(len(log.t_s)) for log in logs]
 
     def unpack(x: np.ndarray) -> tuple[FrictionModel, float]:
         params = dict(base)
@@ -242,10 +242,10 @@ def plot_stand_overlay(path: str | Path, logs: Sequence[RobotLog], models: Mappi
     sims = {label: simulate_stand(logs, m, off, time_step_s) for label, (m, off) in models.items()}
     for ax, i in zip(axes[:, 0], range(n)):
         log = logs[i]
-        ax.plot(log.t, log["theta"], "k.", ms=3, label="measured")
+        ax.plot(log.t_s, log["theta"], "k.", ms=3, label="measured")
         for label, traces in sims.items():
             tr = traces[i]
-            ax.plot(tr.t, tr["theta"], "-", lw=1.2, label=f"{label} (RMSE {rmse(tr['theta'], log['theta']):.4f} rad)")
+            ax.plot(tr.t_s, tr["theta"], "-", lw=1.2, label=f"{label} (RMSE {rmse(tr['theta'], log['theta']):.4f} rad)")
         ax.set_ylabel("θ [rad]")
         ax.set_title(log.name, fontsize=9)
         ax.legend(fontsize=7, loc="upper right")

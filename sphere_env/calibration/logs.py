@@ -186,17 +186,17 @@ class ColumnMapping:
 
 @dataclass
 class RobotLog:
-    """One trial in project units: time ``t`` [s] from the first kept sample, channels by state name.
+    """One trial in project units: time ``t_s`` [s] from the first kept sample, channels by state name.
 
     Angles in rad, rates in rad/s. ``meta`` carries the manifest entry (fixture, pressure_kpa, notes).
     ``derived`` names the channels computed from others (channel -> formula), e.g. ``omega_d``.
     ``window_s`` is the manifest window [start, end] in seconds from the file's first sample (None:
-    the whole file); ``t`` then starts at 0 at the first sample inside the window.
+    the whole file); ``t_s`` then starts at 0 at the first sample inside the window.
     """
 
     name: str
     path: str
-    t: np.ndarray
+    t_s: np.ndarray
     channels: dict[str, np.ndarray]
     fixture: str | None = None
     pressure_kpa: float | None = None
@@ -214,10 +214,10 @@ class RobotLog:
 
     def after(self, transient_s: float) -> "RobotLog":
         """Drop samples before ``transient_s`` [s]; time restarts at 0."""
-        keep = self.t >= transient_s - 1e-12
+        keep = self.t_s >= transient_s - 1e-12
         if keep.sum() < 3:
             raise LogError(f"log {self.path!r}: transient {transient_s} s leaves fewer than 3 samples")
-        t = self.t[keep]
+        t = self.t_s[keep]
         return RobotLog(
             self.name, self.path, t - t[0], {k: v[keep] for k, v in self.channels.items()},
             self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived), self.window_s,
@@ -230,16 +230,16 @@ class RobotLog:
         Refuses (naming file, ``where`` and the problem) a reversed window, one that starts before
         the first or ends after the last sample, or one holding fewer than 3 samples.
         """
-        dur = float(self.t[-1])
+        dur = float(self.t_s[-1])
         if not (math.isfinite(start_s) and math.isfinite(end_s)) or start_s >= end_s:
             raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}]: start must be before end (seconds)")
         if start_s < 0 or end_s > dur + 1e-9:
             raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s lies outside the log, which spans "
                         f"[0, {dur:.3f}] s from its first sample")
-        keep = (self.t >= start_s - 1e-9) & (self.t <= end_s + 1e-9)
+        keep = (self.t_s >= start_s - 1e-9) & (self.t_s <= end_s + 1e-9)
         if keep.sum() < 3:
             raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s holds {int(keep.sum())} samples; need >= 3")
-        t = self.t[keep]
+        t = self.t_s[keep]
         return RobotLog(self.name, self.path, t - t[0], {k: v[keep] for k, v in self.channels.items()},
                         self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived),
                         (self.t0_s + float(start_s), self.t0_s + float(end_s)), self.t0_s + float(t[0]))

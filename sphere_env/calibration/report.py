@@ -68,7 +68,7 @@ def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers:
     results["steer_free_decay"] = {}
     for log in sf:  # what the logs themselves say, model-free (README: ω ≈ 2.0–2.2 rad/s, ζ ≈ 0.22–0.28)
         try:
-            results["steer_free_decay"][log.name] = fit_free_decay(log.t, log["phi"]).as_dict()
+            results["steer_free_decay"][log.name] = fit_free_decay(log.t_s, log["phi"]).as_dict()
         except ValueError as err:
             results["steer_free_decay"][log.name] = {"error": str(err)}
 

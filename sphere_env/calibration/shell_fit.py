@@ -293,7 +293,7 @@ def fit_shell(
                            "a shell fit needs 'steer_plane' or 'free' segments")
         if not _moving(log):
             raise FitError(f"log {log.path!r}: trial {log.name!r}: no free motion to fit (phi and theta move "
-                           f"less than 0.02 rad over {log.t[-1]:.2f} s)")
+                           f"less than 0.02 rad over {log.t_s[-1]:.2f} s)")
     base = base or ShellCalibration.load()
     robot = RobotParameters.from_urdf()
     p0 = base.check_pressure(pressure_kpa)
@@ -321,8 +321,8 @@ def fit_shell(
         raw = calibration_with(base, p0, vals, form if model == "injected" else None, robot)
         return ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
 
-    weights = [1.0 / math.sqrt(2 * len(log.t)) for log in logs]
-    n_res = sum(2 * len(log.t) for log in logs)
+    weights = [1.0 / math.sqrt(2 * len(log.t_s)) for log in logs]
+    n_res = sum(2 * len(log.t_s) for log in logs)
 
     def residuals(x) -> np.ndarray:
         try:
@@ -378,11 +378,11 @@ def fit_shell(
 
 def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None) -> RobotLog:
     """The samples of ``log`` in [start_s, end_s] [s] as a log whose time restarts at 0."""
-    keep = (log.t >= start_s - 1e-9) & (log.t <= end_s + 1e-9)
+    keep = (log.t_s >= start_s - 1e-9) & (log.t_s <= end_s + 1e-9)
     if keep.sum() < 3:
         raise FitError(f"log {log.path!r}: window [{start_s}, {end_s}] s of {log.name!r} has fewer than 3 samples")
-    t = log.t[keep]
-    return dataclasses.replace(log, name=name or f"{log.name}[{start_s:g}:{end_s:g}]", t=t - t[0],
+    t = log.t_s[keep]
+    return dataclasses.replace(log, name=name or f"{log.name}[{start_s:g}:{end_s:g}]", t_s=t - t[0],
                                channels={k: v[keep] for k, v in log.channels.items()}, meta=dict(log.meta))
 
 
@@ -412,7 +412,7 @@ def cross_validate(
         folds = [([lg for j, lg in enumerate(logs) if j != i], [logs[i]]) for i in range(len(logs))]
     else:
         (lg,) = logs
-        edges = np.linspace(0.0, float(lg.t[-1]), blocks + 1)
+        edges = np.linspace(0.0, float(lg.t_s[-1]), blocks + 1)
         parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
         folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
     rows = []

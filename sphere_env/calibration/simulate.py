@@ -28,7 +28,7 @@ def initial_rate(t: np.ndarray, x: np.ndarray, window_s: float = 0.1) -> float:
 
 def _rate(log: RobotLog, name: str, rate_name: str) -> float:
     """The logged rate channel at the first sample, else :func:`initial_rate` of the angle."""
-    return float(log[rate_name][0]) if log.has(rate_name) else initial_rate(log.t, log[name])
+    return float(log[rate_name][0]) if log.has(rate_name) else initial_rate(log.t_s, log[name])
 
 
 def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_m: float = 0.305) -> InitialState:
@@ -56,7 +56,6 @@ def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_
       centre rolls without slip: v = ω_shell × (R ẑ_W), ω_shell = ω_PC − q̇_d ŷ_PC.
       θ is not used for ``locked_steer`` (the joint is locked at 0).
     """
-    t = log.t
     kw: dict = {}
     if log.has("theta"):
         kw["theta"] = float(log["theta"][0]) - theta_offset_rad
@@ -83,14 +82,14 @@ def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_
                 kw.pop("theta", None), kw.pop("theta_dot", None)
             w_shell = w_pc - qd_dot * y_pc
             kw.update(roll=roll, pitch=pitch, heading=yaw, drive_rate=qd_dot,
-                      angular_velocity_W=tuple(float(x) for x in w_pc),
-                      velocity_W=(radius_m * float(w_shell[1]), -radius_m * float(w_shell[0]), 0.0))
+                      angular_velocity_rad_s=tuple(float(x) for x in w_pc),
+                      velocity_m_s=(radius_m * float(w_shell[1]), -radius_m * float(w_shell[0]), 0.0))
         else:
             kw["roll"] = phi
             if fixture == "steer_plane":
                 # Rolling about x_W without slip: v_centre = ω × (R ẑ) = (0, −R φ̇, 0).
-                kw["angular_velocity_W"] = (phi_dot, 0.0, 0.0)
-                kw["velocity_W"] = (0.0, -radius_m * phi_dot, 0.0)
+                kw["angular_velocity_rad_s"] = (phi_dot, 0.0, 0.0)
+                kw["velocity_m_s"] = (0.0, -radius_m * phi_dot, 0.0)
     return InitialState(**kw)
 
 
@@ -98,7 +97,7 @@ def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_
 class SimTrace:
     """Simulated channels sampled at the log's times [s]; angles rad, rates rad/s."""
 
-    t: np.ndarray
+    t_s: np.ndarray
     channels: dict[str, np.ndarray]
     diverged: bool = False
 
@@ -110,7 +109,7 @@ def simulate_log(
     twin: Twin,
     log: RobotLog,
     theta_offset_rad: float = 0.0,
-    motor_torque=(0.0, 0.0),
+    motor_torque_nm=(0.0, 0.0),
     pressure_kpa: float | None = None,
     initial: InitialState | None = None,
 ) -> SimTrace:
@@ -125,7 +124,7 @@ def simulate_log(
         )
     init = initial or initial_state_from_log(log, theta_offset_rad, twin.robot.radius_m)
     s = twin.reset(init, pressure_kpa=pressure_kpa)
-    n = len(log.t)
+    n = len(log.t_s)
     names = SIM_CHANNELS
     out = {k: np.empty(n) for k in names}
     diverged = False
@@ -143,11 +142,11 @@ def simulate_log(
         try:
             # Advance to the absolute log time (no drift from summed increments); the 1 ns margin
             # keeps a sample that falls on a plant-step boundary on the same side as a live run.
-            twin.advance(max(float(log.t[i]) - twin.time_s - 1e-9, 0.0), motor_torque)
+            twin.advance(max(float(log.t_s[i]) - twin.time_s - 1e-9, 0.0), motor_torque_nm)
             put(i, twin.state())
         except RuntimeError:  # a solver failure at absurd parameters: keep a flat, bad trace
             diverged = True
             for k in names:
                 out[k][i] = out[k][i - 1]
     out["theta"] = out["theta"] + theta_offset_rad
-    return SimTrace(log.t.copy(), out, diverged)
+    return SimTrace(log.t_s.copy(), out, diverged)

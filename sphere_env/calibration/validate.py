@@ -81,7 +81,7 @@ def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> Va
 
     A log shorter than :data:`MIN_COMPARED_SAMPLES` is not simulated: every metric is NaN.
     """
-    enough = len(log.t) >= MIN_COMPARED_SAMPLES
+    enough = len(log.t_s) >= MIN_COMPARED_SAMPLES
     if not enough:
         nan = float("nan")
         return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture,
@@ -97,7 +97,7 @@ def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> Va
     pme = float("nan")
     win = log.meta.get("ramp_window_s") if log.meta else None
     if enough and log.has("omega_d") and win is not None:  # PME only on ramp trials
-        mask = (log.t >= win[0]) & (log.t <= win[1])
+        mask = (log.t_s >= win[0]) & (log.t_s <= win[1])
         pme = pme_percent(log["omega_d"], tr["omega_d"], mask)
     return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture, out, pme, tr,
                          dict(log.derived), log.window_s)
@@ -219,10 +219,10 @@ def plot_overlays(path: str | Path, logs: Sequence[RobotLog], rows: Sequence[Val
     panels = [(log, ch) for log in logs for ch in METRICS if log.has(ch)]
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.2 * len(panels)), squeeze=False)
     for ax, (log, ch) in zip(axes[:, 0], panels):
-        ax.plot(log.t, log[ch], "k.", ms=3, label="measured")
+        ax.plot(log.t_s, log[ch], "k.", ms=3, label="measured")
         for r in rows:
             if r.trial == log.name and r.trace is not None:
-                ax.plot(r.trace.t, r.trace[ch], "-", lw=1.2, label=f"{r.model} ({r.rmse[ch]:.3f})")
+                ax.plot(r.trace.t_s, r.trace[ch], "-", lw=1.2, label=f"{r.model} ({r.rmse[ch]:.3f})")
         unit = "rad/s" if ch == "omega_d" else "rad"
         ax.set_ylabel(f"{ch} [{unit}]")
         ax.set_title(log.name, fontsize=9)

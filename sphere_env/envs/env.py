@@ -612,7 +612,7 @@ class SphereEnv(gym.Env, EzPickle):
 def _check_initial_rates(init: InitialState) -> None:
     """Refuse initial speeds and rates beyond the physics-failure limits: such an episode would end
     at its first step (and rates far beyond overflow the float32 observation)."""
-    for name, limit, unit in (("velocity_W", MAX_SPEED_M_S, "m/s"), ("angular_velocity_W", MAX_RATE_RAD_S, "rad/s"),
+    for name, limit, unit in (("velocity_m_s", MAX_SPEED_M_S, "m/s"), ("angular_velocity_rad_s", MAX_RATE_RAD_S, "rad/s"),
                               ("theta_dot", MAX_RATE_RAD_S, "rad/s"), ("drive_rate", MAX_RATE_RAD_S, "rad/s")):
         val = getattr(init, name)
         if np.max(np.abs(np.asarray(val, dtype=float))) > limit:

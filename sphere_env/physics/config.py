@@ -112,13 +112,13 @@ class InitialState:
     position_m: tuple[float, float, float] | None = None
     theta_dot: float = 0.0
     drive_rate: float = 0.0
-    angular_velocity_W: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    velocity_W: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity_rad_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def validate(self) -> "InitialState":
         for name in ("theta", "drive_angle", "roll", "pitch", "heading", "theta_dot", "drive_rate"):
             finite_number(f"initial_state.{name}", getattr(self, name))
-        for name in ("position_m", "angular_velocity_W", "velocity_W"):
+        for name in ("position_m", "angular_velocity_rad_s", "velocity_m_s"):
             val = getattr(self, name)
             if val is None:
                 continue

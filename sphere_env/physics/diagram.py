@@ -182,7 +182,7 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     order = [plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices()]
     if order != ["steer", "drive"]:
         raise RuntimeError(f"robot URDF: expected actuators on [steer, drive], found {order}")
-    builder.ExportInput(plant.get_actuation_input_port(), "motor_torque")
+    builder.ExportInput(plant.get_actuation_input_port(), "motor_torque_nm")
     builder.ExportOutput(plant.get_state_output_port(), "state")
 
     if meshcat is not None:

@@ -79,7 +79,7 @@ class Twin:
 
     >>> twin = Twin(TwinConfig(shell_model="injected", incline_deg=16))
     >>> twin.reset(InitialState())
-    >>> twin.advance(0.02, motor_torque=(0.0, 0.0)); twin.state().omega_d
+    >>> twin.advance(0.02, motor_torque_nm=(0.0, 0.0)); twin.state().omega_d
     """
 
     def __init__(self, config: TwinConfig | None = None, meshcat=None, **kwargs):
@@ -381,14 +381,14 @@ class Twin:
             p = np.asarray(initial.position_m, float) if initial.position_m is not None else R * self.terrain.n_ramp
             R_WPC = RotationMatrix(RollPitchYaw(initial.roll, initial.pitch, initial.heading))
             plant.SetFreeBodyPose(pc, self.pc, RigidTransform(R_WPC, p))
-            V = SpatialVelocity(np.asarray(initial.angular_velocity_W, float), np.asarray(initial.velocity_W, float))
+            V = SpatialVelocity(np.asarray(initial.angular_velocity_rad_s, float), np.asarray(initial.velocity_m_s, float))
             plant.SetFreeBodySpatialVelocity(pc, self.pc, V)
         elif lay["base"] == "planar":
             p = np.asarray(initial.position_m, float) if initial.position_m is not None else np.array([0.0, 0.0, R])
             self.planar.set_translation(pc, [p[1], p[2]])
             self.planar.set_rotation(pc, initial.roll)
-            self.planar.set_translational_velocity(pc, [initial.velocity_W[1], initial.velocity_W[2]])
-            self.planar.set_angular_velocity(pc, initial.angular_velocity_W[0])
+            self.planar.set_translational_velocity(pc, [initial.velocity_m_s[1], initial.velocity_m_s[2]])
+            self.planar.set_angular_velocity(pc, initial.angular_velocity_rad_s[0])
         if pressure_kpa is not None:
             self.set_pressure(pressure_kpa)
         self._motor_port.FixValue(self.context, np.zeros(2))
@@ -402,11 +402,11 @@ class Twin:
                 joint.set_angular_rate(self.plant_context, 0.0)
                 joint.Lock(self.plant_context)
 
-    def advance(self, duration_s: float, motor_torque=(0.0, 0.0)) -> None:
+    def advance(self, duration_s: float, motor_torque_nm=(0.0, 0.0)) -> None:
         """Hold motor torques [τ_steer, τ_drive] (N m at the joints) for ``duration_s`` seconds."""
-        tau = np.asarray(motor_torque, dtype=float)
+        tau = np.asarray(motor_torque_nm, dtype=float)
         if tau.shape != (2,) or not np.all(np.isfinite(tau)):
-            raise ValueError(f"motor_torque: value {motor_torque!r} must be 2 finite numbers [N m]")
+            raise ValueError(f"motor_torque_nm: value {motor_torque_nm!r} must be 2 finite numbers [N m]")
         self.advance_unchecked(duration_s, tau)
 
     def positions_velocities(self) -> tuple[np.ndarray, np.ndarray]:
@@ -474,9 +474,9 @@ class Twin:
             pendulum_pitch_rate=alpha_dot,
         )
 
-    def advance_unchecked(self, duration_s: float, motor_torque: np.ndarray) -> None:
-        """:meth:`advance` without input validation; ``motor_torque`` must be a finite float64 (2,)."""
-        self._motor_port.FixValue(self.context, motor_torque)
+    def advance_unchecked(self, duration_s: float, motor_torque_nm: np.ndarray) -> None:
+        """:meth:`advance` without input validation; ``motor_torque_nm`` must be a finite float64 (2,)."""
+        self._motor_port.FixValue(self.context, motor_torque_nm)
         self.simulator.AdvanceTo(self.context.get_time() + duration_s)
 
     # ---- time and terrain -------------------------------------------------------------------------

@@ -23,7 +23,7 @@ MEASURED_COMPONENTS: tuple[tuple[str, str, str], ...] = (
     ("phi", "rad", "pipe angle φ against the ground (pipe_roll)"),
     ("phi_dot", "rad/s", "pipe angle rate φ̇"),
     ("omega_d", "rad/s", "drive velocity ω_d, + rolling forward (≈ drive_shaft.velocity when rolling steadily)"),
-    ("yaw_rate", "rad/s", "heading rate ψ̇ (shell_yaw rate / IMU gyro)"),
+    ("heading_rate", "rad/s", "heading rate ψ̇ (shell_yaw rate / IMU gyro)"),
     ("gravity_x", "-", "unit gravity direction in the pipe frame, x (IMU)"),
     ("gravity_y", "-", "unit gravity direction in the pipe frame, y (IMU)"),
     ("gravity_z", "-", "unit gravity direction in the pipe frame, z (IMU)"),

@@ -49,7 +49,7 @@ class RampDescentTask(Task):
     4    phi            rad     pipe angle φ against the ground (pipe_roll)
     5    phi_dot        rad/s   φ̇
     6    omega_d        rad/s   drive velocity ω_d, + forward (≈ drive_shaft.velocity rolling)
-    7    yaw_rate       rad/s   ψ̇ (IMU gyro / shell_yaw rate)
+    7    heading_rate   rad/s   ψ̇ (IMU gyro / shell_yaw rate)
     8-10 gravity_xyz    -       unit gravity direction in the pipe frame (IMU)
     11   omega_ref      rad/s   command: target drive velocity
     12   heading_error  rad     command: wrap(0 − ψ), heading error to the fall line (shell_yaw)

@@ -24,7 +24,7 @@ def _log(tmp_path, name, **channels):
 
 def test_valid_synthetic_log_loads(tmp_path):
     log = load_log(_log(tmp_path, "ok", theta=THETA, theta_dot=THETA_DOT, phi=-THETA))
-    assert log.t[-1] == pytest.approx(2.0)
+    assert log.t_s[-1] == pytest.approx(2.0)
 
 
 def test_infinite_last_timestamp_refused_and_validate_exits(tmp_path, capsys):

@@ -19,7 +19,7 @@ def test_roboball_names_ns_timestamps(tmp_path):
     t = np.arange(50) * 0.02
     p = write_log_csv(tmp_path / "a.csv", t, {"theta": 0.3 * np.cos(5 * t), "phi": -0.1 * t, "omega_d": t})
     log = load_log(p)
-    assert np.allclose(log.t, t, atol=1e-9)
+    assert np.allclose(log.t_s, t, atol=1e-9)
     assert set(log.channels) == {"theta", "phi", "omega_d"}
     assert np.allclose(log["theta"], 0.3 * np.cos(5 * t))
 
@@ -27,7 +27,7 @@ def test_roboball_names_ns_timestamps(tmp_path):
 def test_pipe_roll_alias(tmp_path):
     p = _csv(tmp_path / "b.csv", "timestamp,pipe_roll.position\n0,0.1\n20000000,0.2\n40000000,0.3\n")
     log = load_log(p, required=("phi",))
-    assert np.allclose(log["phi"], [0.1, 0.2, 0.3]) and np.allclose(log.t, [0, 0.02, 0.04])
+    assert np.allclose(log["phi"], [0.1, 0.2, 0.3]) and np.allclose(log.t_s, [0, 0.02, 0.04])
 
 
 def test_user_mapping_degrees_and_ms(tmp_path):
@@ -37,7 +37,7 @@ def test_user_mapping_degrees_and_ms(tmp_path):
                                               "omega_d": {"column": "wheel", "unit": "rpm"}}}))
     p = _csv(tmp_path / "c.csv", "t_ms,pend,wheel\n100,90,60\n120,45,30\n140,0,0\n")
     log = load_log(p, m)
-    assert np.allclose(log.t, [0, 0.02, 0.04])
+    assert np.allclose(log.t_s, [0, 0.02, 0.04])
     assert np.allclose(log["theta"], [np.pi / 2, np.pi / 4, 0])
     assert np.allclose(log["omega_d"], [2 * np.pi, np.pi, 0])
 
@@ -94,7 +94,7 @@ def test_manifest_and_transient(tmp_path):
                                               "pressure_kpa": None, "transient_s": 0.5}]))
     log = man.group("g")[0].load()
     assert log.fixture == "stand" and log.pressure_kpa is None
-    assert log.t[0] == 0 and np.isclose(log["theta"][0], np.sin(0.5))
+    assert log.t_s[0] == 0 and np.isclose(log["theta"][0], np.sin(0.5))
 
 
 @pytest.mark.parametrize("entry, needle", [

@@ -72,8 +72,8 @@ def test_steer_plane_initial_state_is_unchanged():
     log = RobotLog("sp", "<sp>", np.arange(0, 1, 0.02), {"theta": np.full(50, 0.3), "phi": np.linspace(-0.3, -0.2, 50)},
                    fixture="steer_plane")
     init = initial_state_from_log(log, radius_m=0.3)
-    assert init.roll == pytest.approx(-0.3) and init.angular_velocity_W[0] == pytest.approx(0.1 / 0.98, rel=1e-3)
-    assert init.velocity_W[1] == pytest.approx(-0.3 * init.angular_velocity_W[0])
+    assert init.roll == pytest.approx(-0.3) and init.angular_velocity_rad_s[0] == pytest.approx(0.1 / 0.98, rel=1e-3)
+    assert init.velocity_m_s[1] == pytest.approx(-0.3 * init.angular_velocity_rad_s[0])
 
 
 @pytest.mark.slow
@@ -81,7 +81,7 @@ def test_fit_recovers_the_stiffness_from_a_free_window(truth_path):
     truth = ShellCalibration.load(truth_path)
     twin = free_twin(truth_path)
     log = record_free(twin, InitialState(theta=0.7, roll=-0.3), 2.5, dt_s=0.02)
-    log.channels["phi"] = log["phi"] + np.random.default_rng(0).normal(0, 2e-3, len(log.t))
+    log.channels["phi"] = log["phi"] + np.random.default_rng(0).normal(0, 2e-3, len(log.t_s))
     start = ShellCalibration.from_dict(calibration_with(truth, P, {"omega_n": 2.6, "zeta": 0.25, "rest_angle_rad": 0.0},
                                                         form="linear"))
     fit = fit_shell([log], "injected", P, base=start, form="linear", twin=twin)
@@ -118,7 +118,7 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
 
     twin = free_twin(truth_path)
     log = record_free(twin, InitialState(theta=0.7, roll=-0.3), 2.0, dt_s=0.02)
-    write_log_csv(tmp_path / "push.csv", log.t, {k: log[k] for k in ("theta", "theta_dot", "phi", "phi_dot")})
+    write_log_csv(tmp_path / "push.csv", log.t_s, {k: log[k] for k in ("theta", "theta_dot", "phi", "phi_dot")})
     (tmp_path / "m.yaml").write_text(yaml.safe_dump({"data_root": ".", "trials": [
         {"name": "push", "group": "pushes", "file": "push.csv", "fixture": "free"}]}))
     out = tmp_path / "fitted.yaml"

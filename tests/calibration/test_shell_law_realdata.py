@@ -27,8 +27,8 @@ def free_release(roboball_dir, seconds=1.0):
     except LogError:
         full = load_log(roboball_dir / "free_robot" / "data2-conv.csv", required=("phi", "theta"), name="free_release")
         full.fixture = "free"
-        moving = np.flatnonzero((full.t > 32.0) & (np.abs(full["theta_dot"]) > 0.05))
-        start = float(full.t[moving[0] - 1])
+        moving = np.flatnonzero((full.t_s > 32.0) & (np.abs(full["theta_dot"]) > 0.05))
+        start = float(full.t_s[moving[0] - 1])
         log = window(full, start, start + 3.0, "free_release")
     return window(log, 0.0, seconds, log.name)
 
@@ -39,7 +39,7 @@ def test_hydroelastic_first_swing_after_a_sideways_tilt_goes_the_way_of_the_log(
     log = free_release(roboball_dir)
     twin = fixture_twin("free", "hydroelastic")
     tr = simulate_log(twin, log)
-    real, sim = first_swing(log.t, log["phi"]), first_swing(tr.t, tr["phi"])
+    real, sim = first_swing(log.t_s, log["phi"]), first_swing(tr.t_s, tr["phi"])
     print(f"first swing of phi: log {real:+.3f} rad, hydroelastic {sim:+.3f} rad")
     assert abs(real) > 0.3 and np.sign(sim) == np.sign(real)
     assert abs(sim) > 0.6 * abs(real)  # the calibration without the couple reached 0.45 of the log
@@ -51,7 +51,7 @@ def test_hydroelastic_first_swing_on_steer_free_goes_the_way_of_the_log(roboball
     for spec in man.group("steer_free"):
         log = window(spec.load(required=("phi", "theta")), 0.0, 1.5, spec.name)
         tr = simulate_log(twin, log)
-        real, sim = first_swing(log.t, log["phi"], 1.5), first_swing(tr.t, tr["phi"], 1.5)
+        real, sim = first_swing(log.t_s, log["phi"], 1.5), first_swing(tr.t_s, tr["phi"], 1.5)
         assert np.sign(sim) == np.sign(real) and abs(sim) > 0.6 * abs(real), (spec.name, real, sim)
 
 

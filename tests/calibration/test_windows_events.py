@@ -48,7 +48,7 @@ def test_window_cuts_the_log_and_restarts_time(tmp_path):
     m = load_manifest(man)
     a, b = m.by_name("a").load(), m.by_name("b").load()
     assert a.fixture == "free" and a.window_s == (2.0, 5.0)
-    assert a.t[0] == 0.0 and a.t[-1] == pytest.approx(3.0, abs=0.011) and a.t0_s == pytest.approx(2.0, abs=0.011)
+    assert a.t_s[0] == 0.0 and a.t_s[-1] == pytest.approx(3.0, abs=0.011) and a.t0_s == pytest.approx(2.0, abs=0.011)
     assert a["theta"][0] == pytest.approx(1.05 - 0.05, abs=0.01)  # the release sample
     assert b["theta"][0] == pytest.approx(-0.05, abs=0.01)  # long after the release, θ at rest
 
@@ -122,7 +122,7 @@ def test_events_command_writes_loadable_manifest_atomically(tmp_path):
     assert [s.fixture for s in m.trials] == ["free", "free"] and {s.group for s in m.trials} == {"g"}
     first = m.trials[0]
     assert first.window_s[0] == pytest.approx(2.0, abs=0.02) and first.window_s[1] - first.window_s[0] == pytest.approx(3.0)
-    assert first.load().t[-1] == pytest.approx(3.0, abs=0.011)
+    assert first.load().t_s[-1] == pytest.approx(3.0, abs=0.011)
     assert m.trials[1].window_s[0] == pytest.approx(11.39, abs=0.02)  # the push's window starts free
     before = man.read_text()
     assert main(["events", str(p), "--write-manifest", str(man)]) == 2  # names already there: refused
@@ -137,13 +137,13 @@ def free_robot(roboball_dir):
 
 @pytest.mark.realdata
 def test_free_robot_timestamps_are_nanoseconds_at_100_hz(free_robot):
-    assert free_robot.t[-1] == pytest.approx(46.6, abs=0.1)  # README: 47 s
-    assert np.median(np.diff(free_robot.t)) == pytest.approx(0.01, rel=0.05)  # README: 100 Hz
+    assert free_robot.t_s[-1] == pytest.approx(46.6, abs=0.1)  # README: 47 s
+    assert np.median(np.diff(free_robot.t_s)) == pytest.approx(0.01, rel=0.05)  # README: 100 Hz
 
 
 @pytest.mark.realdata
 def test_free_robot_channel_mapping(free_robot):
-    t, q, alpha = free_robot.t, free_robot["drive_angle"], free_robot["pendulum_pitch"]
+    t, q, alpha = free_robot.t_s, free_robot["drive_angle"], free_robot["pendulum_pitch"]
     # drive_shaft (drive joint, motor encoder, negated into the twin's q_d) accumulates while
     # driving: ≈ 4.7 rad in the first drive ...
     drive = (t > 6.8) & (t < 17.7)

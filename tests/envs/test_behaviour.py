@@ -101,7 +101,7 @@ def test_physics_failure_truncates_with_reason(make, monkeypatch):
     assert "Hessian" in info["truncation_reason"] and env.observation_space.contains(obs)
     # A diverged (implausible) state is a failure too, detected from the state readout.
     monkeypatch.undo()
-    env.reset(options={"initial_state": {"angular_velocity_W": (499.0, 499.0, 499.0)}})
+    env.reset(options={"initial_state": {"angular_velocity_rad_s": (499.0, 499.0, 499.0)}})
     obs, reward, term, trunc, info = env.step(np.zeros(2, np.float32))
     assert trunc and info["truncation_reason"].startswith("physics_failure")
     assert np.all(np.isfinite(obs))

@@ -141,7 +141,7 @@ def test_initial_position_inside_the_ground_is_refused(make):
         env.reset(options={"initial_state": {"position_m": (0.0, 0.0, -0.5)}})
 
 
-@pytest.mark.parametrize("init", [{"angular_velocity_W": (0.0, 5e3, 0.0)}, {"velocity_W": (0.0, 0.0, -1e300)},
+@pytest.mark.parametrize("init", [{"angular_velocity_rad_s": (0.0, 5e3, 0.0)}, {"velocity_m_s": (0.0, 0.0, -1e300)},
                                   {"theta_dot": 501.0}, {"drive_rate": -1e150}])
 def test_initial_rates_beyond_the_failure_limits_are_refused(make, init):
     env = make(ROLL)
@@ -176,7 +176,7 @@ def test_step_after_the_episode_ended_raises(make):
     assert term
     with pytest.raises(RuntimeError, match=r"episode has ended \(terminated\); call reset\(\)"):
         env.step(ZERO)
-    env.reset(options={"initial_state": {"angular_velocity_W": (499.0, 499.0, 499.0)}})  # flung off
+    env.reset(options={"initial_state": {"angular_velocity_rad_s": (499.0, 499.0, 499.0)}})  # flung off
     obs, r, term, trunc, info = env.step(ZERO)
     assert trunc and info["truncation_reason"].startswith("physics_failure")
     with pytest.raises(RuntimeError, match="episode has ended .truncated: physics_failure"):

@@ -40,7 +40,7 @@ def test_bad_calibration_path_refused_before_build(tmp_path):
     [
         (InitialState(theta=float("nan")), "initial_state.theta"),
         (InitialState(roll=float("inf")), "initial_state.roll"),
-        (InitialState(velocity_W=(0.0, float("nan"), 0.0)), "initial_state.velocity_W"),
+        (InitialState(velocity_m_s=(0.0, float("nan"), 0.0)), "initial_state.velocity_m_s"),
         (InitialState(position_m=(0.0, 0.0)), "initial_state.position_m"),
     ],
 )
@@ -66,14 +66,14 @@ def test_set_pressure_out_of_range_keeps_old_pressure():
 
 def test_non_finite_torque_refused():
     twin = Twin(TwinConfig())
-    with pytest.raises(ValueError, match="motor_torque"):
+    with pytest.raises(ValueError, match="motor_torque_nm"):
         twin.advance(0.02, (float("nan"), 0.0))
 
 
 def test_full_initial_state_round_trip():
     twin = Twin(TwinConfig(shell_model="point"))
     init = InitialState(theta=0.3, drive_angle=0.7, roll=0.1, heading=0.5, theta_dot=0.2, drive_rate=-0.4,
-                        position_m=(1.0, 2.0, 0.31), angular_velocity_W=(0.0, 0.0, 0.3), velocity_W=(0.1, 0.0, 0.0))
+                        position_m=(1.0, 2.0, 0.31), angular_velocity_rad_s=(0.0, 0.0, 0.3), velocity_m_s=(0.1, 0.0, 0.0))
     s = twin.reset(init)
     assert (s.theta, s.theta_dot, s.drive_angle, s.drive_rate) == pytest.approx((0.3, 0.2, 0.7, -0.4))
     assert s.phi == pytest.approx(0.1)
@@ -140,7 +140,7 @@ def test_pendulum_pitch_readout_agrees_with_drake_kinematics():
         rate = (alpha_at(q + eps * q_dot) - alpha_at(q - eps * q_dot)) / (2 * eps)
         assert s.pendulum_pitch_rate == pytest.approx(rate, abs=1e-6)
     upright = Twin(TwinConfig(shell_model="point", fixture="free"))
-    upright.reset(InitialState(pitch=0.2, drive_rate=1.5, angular_velocity_W=(0.0, 0.8, 0.0)))
+    upright.reset(InitialState(pitch=0.2, drive_rate=1.5, angular_velocity_rad_s=(0.0, 0.8, 0.0)))
     s = upright.state()
     assert s.omega_d == pytest.approx(s.pendulum_pitch_rate - s.drive_rate, abs=1e-12)
 
