@@ -14,6 +14,34 @@ from sphere_env.training.train import make_env
 from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv
 
 
+def assert_same_rollout(a, b, steps: int, check_reset_infos: bool = False) -> int:
+    """Step ``a`` and ``b`` in lockstep from one seed with the same random actions; observations,
+    rewards, dones and infos (terminal observations and episode returns included) must be
+    identical. Returns the number of episodes that ended."""
+    a.seed(3)
+    b.seed(3)
+    np.testing.assert_array_equal(a.reset(), b.reset())
+    rng = np.random.default_rng(0)
+    dones = 0
+    for _ in range(steps):
+        act = rng.uniform(-1, 1, (a.num_envs, 2)).astype(np.float32)
+        oa, ra, da, ia = a.step(act)
+        ob, rb, db, ib = b.step(act)
+        np.testing.assert_array_equal(oa, ob)
+        np.testing.assert_array_equal(ra, rb)
+        np.testing.assert_array_equal(da, db)
+        for x, y in zip(ia, ib):
+            assert x.keys() == y.keys()
+            assert x["pressure_kpa"] == y["pressure_kpa"]
+            if "terminal_observation" in x:
+                np.testing.assert_array_equal(x["terminal_observation"], y["terminal_observation"])
+                assert x["episode"]["r"] == y["episode"]["r"]
+        if check_reset_infos:
+            assert [r.get("pressure_kpa") for r in a.reset_infos] == [r.get("pressure_kpa") for r in b.reset_infos]
+        dones += int(da.sum())
+    return dones
+
+
 @pytest.mark.slow
 def test_batched_equals_dummy_over_episodes_with_resets():
     kw = {"shell_model": "point", "randomization": "default", "ramp_length_m": 1.0}
@@ -21,25 +49,7 @@ def test_batched_equals_dummy_over_episodes_with_resets():
     a, b = DummyVecEnv(fns), BatchedSubprocVecEnv(fns, n_workers=2)
     try:
         assert len(b.processes) == 2 and b.num_envs == 5
-        a.seed(3)
-        b.seed(3)
-        np.testing.assert_array_equal(a.reset(), b.reset())
-        rng = np.random.default_rng(0)
-        dones = 0
-        for _ in range(120):  # 1 m ramps: several episodes end and auto-reset
-            act = rng.uniform(-1, 1, (5, 2)).astype(np.float32)
-            oa, ra, da, ia = a.step(act)
-            ob, rb, db, ib = b.step(act)
-            np.testing.assert_array_equal(oa, ob)
-            np.testing.assert_array_equal(ra, rb)
-            np.testing.assert_array_equal(da, db)
-            for x, y in zip(ia, ib):
-                assert x["pressure_kpa"] == y["pressure_kpa"]
-                assert x.get("TimeLimit.truncated") == y.get("TimeLimit.truncated")
-                if "terminal_observation" in x:
-                    np.testing.assert_array_equal(x["terminal_observation"], y["terminal_observation"])
-                    assert x["episode"]["r"] == y["episode"]["r"]
-            dones += int(da.sum())
+        dones = assert_same_rollout(a, b, 120)  # 1 m ramps: several episodes end and auto-reset
         assert dones >= 5
         assert b.get_attr("shell_model") == ["point"] * 5
         assert b.get_attr("spec", indices=[4])[0].id == "sphere_env/RampDescent-v0"
@@ -59,26 +69,9 @@ def test_threaded_equals_dummy_over_episodes_with_resets():
         assert b.num_envs == 4 and [len(x) for x in b.blocks] == [2, 1, 1]
         a.seed(3)
         b.seed(3)
-        np.testing.assert_array_equal(a.reset(), b.reset())
+        a.reset(), b.reset()
         assert [r["pressure_kpa"] for r in a.reset_infos] == [r["pressure_kpa"] for r in b.reset_infos]
-        rng = np.random.default_rng(0)
-        dones = 0
-        for _ in range(100):
-            act = rng.uniform(-1, 1, (4, 2)).astype(np.float32)
-            oa, ra, da, ia = a.step(act)
-            ob, rb, db, ib = b.step(act)
-            np.testing.assert_array_equal(oa, ob)
-            np.testing.assert_array_equal(ra, rb)
-            np.testing.assert_array_equal(da, db)
-            for x, y in zip(ia, ib):
-                assert x.keys() == y.keys()
-                assert x["pressure_kpa"] == y["pressure_kpa"]
-                assert x["TimeLimit.truncated"] == y["TimeLimit.truncated"]
-                if "terminal_observation" in x:
-                    np.testing.assert_array_equal(x["terminal_observation"], y["terminal_observation"])
-                    assert x["episode"]["r"] == y["episode"]["r"]
-            assert [r.get("pressure_kpa") for r in a.reset_infos] == [r.get("pressure_kpa") for r in b.reset_infos]
-            dones += int(da.sum())
+        dones = assert_same_rollout(a, b, 100, check_reset_infos=True)
         assert dones >= 4
         assert b.get_attr("shell_model") == ["point"] * 4
         assert b.env_is_wrapped(Monitor) == [True] * 4
