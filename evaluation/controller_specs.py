@@ -12,7 +12,7 @@ spec                               controller
                                    episode when present
 =================================  ===============================================================
 
-A label can precede any spec: ``ppo=runs/ppo_RampDescent-v1_...``.
+A label can precede any spec: ``ppo=runs/ppo_RampDescent-v2_...``.
 """
 
 from __future__ import annotations

@@ -1,12 +1,14 @@
 """`make demo`: the project's main job on its default configuration, end to end.
 
-1. Train PPO on ``sphere_env/RampDescent-v1`` (injected shell, Majd friction) with the inflation
+1. Train PPO on ``sphere_env/RampDescent-v2`` (injected shell, Majd friction) with the inflation
    pressure randomized uniformly over the calibrated range at every reset
    (training/hyperparams/ppo.yml, budget shortened by ``--train-steps``).
 2. Evaluate the trained policy against the baselines — zero torque (the paper's uncontrolled
    descent) and the hand-written PD controller — over the low, nominal and high calibrated
    pressures × all three shell models × 3 seeds, randomization off.
-3. Print where the run folder, report, plots and Meshcat replays are.
+3. Write ``summary.json`` into the output folder (per controller: ``success_rate``,
+   ``reached_runout_rate``, ``mean_return`` and ``tracking_rmse_rad_s`` over the whole grid, plus
+   timings) and print where the run folder, report, plots and Meshcat replays are.
 
     python -m evaluation.demo [--train-steps 120000] [--out out/demo] [--publish]
 
@@ -23,7 +25,9 @@ import shutil
 import time
 from pathlib import Path
 
-ENV_ID = "sphere_env/RampDescent-v1"
+from sphere_env.files import write_text_atomic
+
+ENV_ID = "sphere_env/RampDescent-v2"
 DEFAULT_TRAIN_STEPS = 120_000
 PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
@@ -76,26 +80,30 @@ def main(argv: list[str] | None = None) -> dict:
     from sphere_env.evaluation.reporting import markdown_table
 
     agg = {a["controller"]: a for a in res["agg_controller"]}
-    cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"), ("return", "mean return", "{:.2f}"),
+    cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"),
+            ("reached_runout_rate", "reached run-out", "{:.0%}"), ("return", "mean return", "{:.2f}"),
             ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"), ("lateral_drift_m", "lateral drift m", "{:.3f}"),
             ("energy_j", "energy J", "{:.1f}"), ("peak_torque_nm", "peak torque N m", "{:.1f}")]
-    summary = {"train_steps": timing["num_timesteps"], "train_wall_s": t_train, "train_steps_per_s": timing["steps_per_s"],
-               "eval_wall_s": t_eval, "total_wall_s": wall,
-               "mean_return": {k: v["return"] for k, v in agg.items()},
-               "tracking_rmse_rad_s": {k: v["tracking_rmse_rad_s"] for k, v in agg.items()},
-               "ppo_beats_zero": agg["ppo"]["return"] > agg["zero"]["return"]}
-    (Path(args.out) / "demo_summary.json").write_text(json.dumps(summary, indent=2))
+    summary = {
+        "env_id": ENV_ID, "pressures_kpa": pressures, "shell_models": list(spec.shell_models), "seeds": args.seeds,
+        "episodes_per_controller": agg["ppo"]["episodes"],
+        "controllers": {k: {"success_rate": v["success_rate"], "reached_runout_rate": v["reached_runout_rate"],
+                            "mean_return": v["return"], "tracking_rmse_rad_s": v["tracking_rmse_rad_s"]}
+                        for k, v in agg.items()},
+        "train_steps": timing["num_timesteps"], "train_wall_s": t_train, "train_steps_per_s": timing["steps_per_s"],
+        "eval_wall_s": t_eval, "total_wall_s": wall, "run_dir": str(run_dir),
+    }
+    write_text_atomic(Path(args.out) / "summary.json", json.dumps(summary, indent=2) + "\n")
     print("\n" + markdown_table(res["agg_controller"], cols) + "\n")
-    verdict = "beats" if summary["ppo_beats_zero"] else "does NOT beat"
-    print(f"PPO {verdict} zero torque on mean return ({agg['ppo']['return']:.2f} vs {agg['zero']['return']:.2f}); "
-          f"PD: {agg['pd']['return']:.2f}.")
+    print(f"Success over the grid: PPO {agg['ppo']['success_rate']:.0%}, PD {agg['pd']['success_rate']:.0%}, "
+          f"zero torque {agg['zero']['success_rate']:.0%}.")
     print(f"[3/3] Done in {wall / 60:.1f} min (training {t_train:.0f} s, evaluation {t_eval:.0f} s).")
     print(f"  run folder : {run_dir.resolve()}")
     for k, v in res["files"].items():
         print(f"  {k:<22s}: {Path(v).resolve()}")
     if args.publish:
         PUBLISH.mkdir(parents=True, exist_ok=True)
-        for f in ["report.md", "demo_summary.json", "episodes.csv"]:
+        for f in ["report.md", "summary.json", "episodes.csv"]:
             shutil.copy(Path(args.out) / f, PUBLISH / f)
         for png in (Path(args.out) / "plots").glob("*.png"):
             shutil.copy(png, PUBLISH / png.name)

@@ -50,9 +50,9 @@ from sphere_env.evaluation.controller_specs import (check_action, check_spec, en
                                                     split_label)
 from sphere_env.evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 
-METRIC_COLUMNS = ("return", "length", "is_success", "terminated", "truncated", "tracking_rmse_rad_s",
-                  "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm", "time_on_ramp_s",
-                  "omega_ref_rad_s")
+METRIC_COLUMNS = ("return", "length", "is_success", "reached_runout", "terminated", "truncated",
+                  "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm",
+                  "time_on_ramp_s", "omega_ref_rad_s", "omega_ref_after_rad_s")
 KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
 GRID_KWARGS = {"shell_model": "--shell-models", "friction_model": "--friction", "randomization": "off",
@@ -67,7 +67,7 @@ class SweepSpec:
     (:mod:`sphere_env.evaluation.controller_specs`)."""
 
     controllers: list[str]
-    env_id: str = "sphere_env/RampDescent-v1"
+    env_id: str = "sphere_env/RampDescent-v2"
     pressures_kpa: list[float] = field(default_factory=lambda: [3.0, 8.5, 14.0])
     shell_models: list[str] = field(default_factory=lambda: list(SHELL_MODELS))
     frictions: list[str] = field(default_factory=lambda: ["majd"])
@@ -213,10 +213,14 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
     trace = {k: np.asarray(v) for k, v in tr.items()}
     row = {k: job[k] for k in KEY_COLUMNS}
     row.update({"return": ret, "length": n, "is_success": bool(info.get("is_success", False)),
+                "reached_runout": bool(info.get("reached_runout", n > 0 and trace["on_ramp"][-1] < 0.5)),
                 "terminated": bool(terminated), "truncated": bool(truncated),
                 "omega_ref_rad_s": float(trace["omega_ref"][0]) if n else math.nan,
+                "omega_ref_after_rad_s": float(trace["omega_ref"][-1]) if n else math.nan,
                 "truncation_reason": info.get("truncation_reason", "")})
     row.update(episode_metrics(trace, dt))
+    if "tracking_samples" in info:  # the task's own judgement (what its success uses)
+        row["tracking_rmse_rad_s"] = float(info["tracking_rmse_rad_s"]) if info["tracking_samples"] else math.nan
     return row, trace
 
 
@@ -320,6 +324,7 @@ def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict
         d = dict(zip(by, key))
         d["episodes"] = len(rs)
         d["success_rate"] = float(np.mean([r["is_success"] for r in rs]))
+        d["reached_runout_rate"] = float(np.mean([r["reached_runout"] for r in rs]))
         for m in ("return", "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j",
                   "peak_torque_nm", "time_on_ramp_s"):
             v = np.array([r[m] for r in rs], float)
@@ -500,14 +505,14 @@ def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, fi
     if extra:
         lines += [extra, ""]
     ctrl_cols = [("controller", "controller", ""), ("episodes", "episodes", "{:d}"),
-                 ("success_rate", "success", "{:.0%}"), ("return", "return", "{:.2f}"),
-                 ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+                 ("success_rate", "success", "{:.0%}"), ("reached_runout_rate", "reached run-out", "{:.0%}"),
+                 ("return", "return", "{:.2f}"), ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
                  ("lateral_drift_m", "lateral drift m", "{:.3f}"), ("energy_j", "energy J", "{:.1f}"),
                  ("peak_torque_nm", "peak torque N m", "{:.1f}"), ("time_on_ramp_s", "time on ramp s", "{:.2f}")]
     lines += ["## Summary per controller (all cells)", "", markdown_table(agg_ctrl, ctrl_cols), ""]
     cols = [("controller", "controller", ""), ("shell_model", "shell model", ""), ("friction", "friction", ""),
             ("pressure_kpa", "pressure kPa", "{:g}"), ("success_rate", "success", "{:.0%}"),
-            ("return", "return", "{:.2f}"), ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+            ("reached_runout_rate", "reached run-out", "{:.0%}"), ("return", "return", "{:.2f}"), ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
             ("mean_omega_d_rad_s", "mean ω_d rad/s", "{:.2f}"), ("lateral_drift_m", "lateral drift m", "{:.3f}"),
             ("energy_j", "energy J", "{:.1f}"), ("peak_torque_nm", "peak torque N m", "{:.1f}")]
     lines += ["## Per controller, shell model and pressure (mean over seeds)", "",
@@ -699,7 +704,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
                         help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
-    parser.add_argument("--env", default="sphere_env/RampDescent-v1")
+    parser.add_argument("--env", default="sphere_env/RampDescent-v2")
     parser.add_argument("--pressures", type=float, nargs="+", default=[3.0, 8.5, 14.0], help="kPa")
     parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
     parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")

@@ -3,7 +3,10 @@
 Pure numpy. An episode is summarized from its trace (one sample per control step, SI units):
 
 ==========================  =======  ==============================================================
-``tracking_rmse_rad_s``     rad/s    RMS of ω_d − ω_ref over the on-ramp samples
+``tracking_rmse_rad_s``     rad/s    RMS of ω_d − ω_ref over the on-ramp samples (the evaluation
+                                     replaces it by the task's own judged RMS when the env reports
+                                     ``info["tracking_rmse_rad_s"]``: RampDescent-v2 leaves out the
+                                     settling time after the start and the command change)
 ``mean_omega_d_rad_s``      rad/s    mean ω_d over the on-ramp samples
 ``lateral_drift_m``         m        max |y| off the fall line through the start
 ``energy_j``                J        motor work drawn, ∫ (|τ_s θ̇| + |τ_d q̇_d|) dt (no regeneration)

@@ -1,10 +1,10 @@
 """sphere_env: a calibrated Drake digital twin and Gymnasium environments for soft,
 pendulum-driven spherical robots (RoboBall).
 
-Importing the package registers the Gymnasium environments (``sphere_env/RampDescent-v1``,
-``sphere_env/Roll-v1`` and their superseded ``-v0`` versions).
+Importing the package registers the Gymnasium environments (``sphere_env/RampDescent-v2``,
+``sphere_env/Roll-v1`` and their superseded earlier versions).
 Gymnasium 1.x no longer loads the ``gymnasium.envs`` entry-point group by itself; without an
-import, ``gym.make("sphere_env:sphere_env/RampDescent-v1")`` imports this module first. The
+import, ``gym.make("sphere_env:sphere_env/RampDescent-v2")`` imports this module first. The
 entry point (``sphere_env:register_envs``) stays declared for tools and older Gymnasium (0.26–0.29)
 that do load plugins.
 """
@@ -13,15 +13,23 @@ __version__ = "0.1.0"
 
 #: id -> (entry point, max_episode_steps at the default 50 Hz control, default kwargs; a
 #: ``calibration`` here names a file in ``assets/calibration``).
-#: Version history (the same for both tasks):
+#: Version history:
+#:   RampDescent-v2  the command changes at mid-ramp and success requires tracking it, on an 8°
+#:       ramp of 6 m (zero torque succeeded in every v1 episode); see RampDescentTask.
 #:   v1  the shipped shell calibration: the fitted steer-direction law (rest angle, amplitude term)
 #:       on the injected shell, and the same restoring couple on the hydroelastic shell.
 #:   v0  superseded: the linear steer law about φ = 0 and a hydroelastic shell without the couple
 #:       (``assets/calibration/v0_linear.yaml``); kept so earlier results and policies reproduce.
+#: The task settings of RampDescent-v0/v1: the paper's 16° ramp of 4 m, one command, success =
+#: reaching the run-out.
+_RAMP_V1 = {"incline_deg": 16.0, "ramp_length_m": 4.0, "omega_ref_range_rad_s": (4.0, 8.0),
+            "omega_ref_change_min_rad_s": None, "tracking_tolerance_rad_s": None, "observe_pendulum_pitch": False}
 ENV_IDS = {
-    "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, {}),
+    "sphere_env/RampDescent-v2": ("sphere_env.envs.factories:make_ramp_descent", 600, {}),
     "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, {}),
-    "sphere_env/RampDescent-v0": ("sphere_env.envs.factories:make_ramp_descent", 400, {"calibration": "v0_linear.yaml"}),
+    "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, _RAMP_V1),
+    "sphere_env/RampDescent-v0": ("sphere_env.envs.factories:make_ramp_descent", 400,
+                                  {**_RAMP_V1, "calibration": "v0_linear.yaml"}),
     "sphere_env/Roll-v0": ("sphere_env.envs.factories:make_roll", 500, {"calibration": "v0_linear.yaml"}),
 }
 

@@ -1,6 +1,6 @@
 """The ``sphere-env`` command: one entry point for training, evaluation, calibration and the demo.
 
-    sphere-env train --env sphere_env/RampDescent-v1 --algo ppo
+    sphere-env train --env sphere_env/RampDescent-v2 --algo ppo
     sphere-env evaluate --controller zero pd ppo=runs/<run>
     sphere-env calibrate report
     sphere-env demo

@@ -1,10 +1,10 @@
 """Train a stable-baselines3 agent (PPO or SAC) on a sphere_env id; one self-describing run folder.
 
-    python -m training.train --env sphere_env/RampDescent-v1 --algo ppo
+    python -m training.train --env sphere_env/RampDescent-v2 --algo ppo
     python -m training.train --env sphere_env/Roll-v1 --algo sac --n-timesteps 2e5 --seed 3
-    python -m training.train --env sphere_env/RampDescent-v1 --algo ppo \\
+    python -m training.train --env sphere_env/RampDescent-v2 --algo ppo \\
         --params n_envs:2 learning_rate:lin_3e-4 "randomization:{pressure_kpa: [3, 10]}"
-    python -m training.train --resume runs/ppo_RampDescent-v1_...   # continue from the last checkpoint
+    python -m training.train --resume runs/ppo_RampDescent-v2_...   # continue from the last checkpoint
 
 A run folder holds::
 
@@ -534,7 +534,7 @@ def _parse_params(items: Sequence[str]) -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> Path:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--env", default="sphere_env/RampDescent-v1", help="registered env id")
+    parser.add_argument("--env", default="sphere_env/RampDescent-v2", help="registered env id")
     parser.add_argument("--algo", default="ppo", help="ppo or sac")
     parser.add_argument("--hyperparams", type=Path, default=None, help="YAML file (default training/hyperparams/<algo>.yml)")
     parser.add_argument("--params", nargs="*", default=[], help="overrides key:value, e.g. n_envs:2 learning_rate:1e-3")

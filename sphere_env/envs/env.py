@@ -29,7 +29,7 @@ from sphere_env.params import check as check_param
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.physics.terrain import Terrain
 from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
-from sphere_env.tasks.observation import DEFAULT_NOISE_STD, MAX_NOISE_SCALE, assemble_observation
+from sphere_env.tasks.observation import MAX_NOISE_SCALE, assemble_observation
 from sphere_env.tasks.randomization import (
     PARAMETERS as RANDOMIZED,
     RandomizationSpec,
@@ -60,7 +60,7 @@ class SphereEnv(gym.Env, EzPickle):
     forward; the applied joint torques are in ``info["motor_torque_nm"]``). Observation: the
     task's :meth:`~sphere_env.tasks.Task.observation_layout` (exported as
     :attr:`observation_layout`). Per-task documentation: :class:`~sphere_env.tasks.RampDescentTask`
-    (``sphere_env/RampDescent-v1``), :class:`~sphere_env.tasks.RollTask` (``sphere_env/Roll-v1``).
+    (``sphere_env/RampDescent-v2``), :class:`~sphere_env.tasks.RollTask` (``sphere_env/Roll-v1``).
 
     :param task: the :class:`~sphere_env.tasks.Task` (command, rewards, termination).
 
@@ -190,7 +190,7 @@ class SphereEnv(gym.Env, EzPickle):
         if not 0.0 <= noise <= MAX_NOISE_SCALE:
             raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} outside allowed [0, {MAX_NOISE_SCALE:g}]")
         self.observation_noise_scale = noise
-        self._noise_std = DEFAULT_NOISE_STD * noise
+        self._noise_std = task.observation_layout().noise_std() * noise
         self.incline_deg = check_param("incline_deg", incline_deg)
         self.ramp_length_m = None if ramp_length_m is None else check_param("ramp_length_m", ramp_length_m)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -225,6 +225,7 @@ class SphereEnv(gym.Env, EzPickle):
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_layout = task.observation_layout(observe_pressure)
+        self._extra_names = self.observation_layout.extra_names
         n_obs = len(self.observation_layout)
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
@@ -533,7 +534,8 @@ class SphereEnv(gym.Env, EzPickle):
         if self.observation_noise_scale > 0.0:
             noise = self.np_random.normal(0.0, self._noise_std)
         obs = assemble_observation(
-            state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise
+            state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise,
+            self._extra_names,
         )
         self._obs = obs
         return obs

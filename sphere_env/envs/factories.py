@@ -21,10 +21,10 @@ def _split(task_cls: type, kwargs: dict[str, Any]) -> tuple[dict[str, Any], dict
     return {k: v for k, v in kwargs.items() if k in names}, {k: v for k, v in kwargs.items() if k not in names}
 
 
-def make_ramp_descent(*, incline_deg: float = 16.0, ramp_length_m: float = 4.0, **kwargs: Any) -> SphereEnv:
-    """``sphere_env/RampDescent-v1`` (and ``-v0``, registered with the v0 calibration):
-    :class:`~sphere_env.tasks.RampDescentTask` on a 16° ramp of 4 m by default (the paper's
-    experiment), plus :class:`SphereEnv`'s kwargs."""
+def make_ramp_descent(*, incline_deg: float = 8.0, ramp_length_m: float = 6.0, **kwargs: Any) -> SphereEnv:
+    """``sphere_env/RampDescent-v2``: :class:`~sphere_env.tasks.RampDescentTask` on an 8° ramp of
+    6 m by default, plus :class:`SphereEnv`'s kwargs. The superseded ``-v1``/``-v0`` are registered
+    with the paper's 16° ramp of 4 m and their task settings (:data:`sphere_env.ENV_IDS`)."""
     if ramp_length_m is None:
         raise ValueError("ramp_length_m: value None not allowed for RampDescent; give a length in m")
     task_kw, env_kw = _split(RampDescentTask, kwargs)

@@ -29,6 +29,13 @@ MEASURED_COMPONENTS: tuple[tuple[str, str, str], ...] = (
     ("gravity_z", "-", "unit gravity direction in the pipe frame, z (IMU)"),
 )
 N_MEASURED = len(MEASURED_COMPONENTS)
+#: Measured components a task may add after its command: (name, unit, meaning, default 1-σ noise).
+#: The name is the :class:`~sphere_env.physics.TwinState` attribute it reads.
+EXTRA_COMPONENTS: dict[str, tuple[str, str, float]] = {
+    "pendulum_pitch": ("rad", "pendulum pitch α against the vertical, + = lifted backward (IMU on the "
+                       "pendulum, pitch_joint); the PD baseline's β = −α", 0.005),
+    "pendulum_pitch_rate": ("rad/s", "pendulum pitch rate α̇ (pitch_joint.velocity)", 0.05),
+}
 #: Observation index of each measured component (the same in every task).
 MEASURED_INDEX: dict[str, int] = {c[0]: i for i, c in enumerate(MEASURED_COMPONENTS)}
 
@@ -38,17 +45,29 @@ class ObservationLayout:
     evaluation index observations by name: ``obs[layout["omega_d"]]``, ``obs[layout.command]``.
 
     Layout: the measured components (:data:`MEASURED_COMPONENTS`), then the task's command
-    components, then ``pressure_kpa`` if the privileged pressure is observed.
+    components, then the task's extra measured components (:data:`EXTRA_COMPONENTS`), then
+    ``pressure_kpa`` if the privileged pressure is observed.
     """
 
-    def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False):
+    def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False,
+                 extra_names: tuple[str, ...] = ()):
         self.command_names = tuple(command_names)
+        self.extra_names = tuple(extra_names)
+        for n in self.extra_names:
+            if n not in EXTRA_COMPONENTS:
+                raise ValueError(f"extra_names: unknown component {n!r}; allowed: {list(EXTRA_COMPONENTS)}")
         self.names: tuple[str, ...] = (
-            tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + (("pressure_kpa",) if observe_pressure else ())
+            tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + self.extra_names
+            + (("pressure_kpa",) if observe_pressure else ())
         )
         self.index: dict[str, int] = {n: i for i, n in enumerate(self.names)}
         self.measured = slice(0, N_MEASURED)
         self.command = slice(N_MEASURED, N_MEASURED + len(self.command_names))
+        self.extra = slice(self.command.stop, self.command.stop + len(self.extra_names))
+
+    def noise_std(self) -> np.ndarray:
+        """Default 1-σ noise of the measured and extra components, in observation order."""
+        return np.concatenate([DEFAULT_NOISE_STD, [EXTRA_COMPONENTS[n][2] for n in self.extra_names]])
 
     def __getitem__(self, name: str) -> int:
         try:
@@ -104,17 +123,24 @@ def assemble_observation(
     command: list[float],
     pressure_kpa: float | None = None,
     noise: np.ndarray | None = None,
+    extra_names: tuple[str, ...] = (),
 ) -> np.ndarray:
-    """[measured (11) | command | pressure_kpa if given] as float32.
+    """[measured (11) | command | extra components | pressure_kpa if given] as float32.
 
     :param command: task command values, appended unchanged (not noised).
     :param pressure_kpa: privileged inflation pressure [kPa], appended if not ``None``.
-    :param noise: additive noise for the measured part (len 11), or ``None``.
+    :param noise: additive noise for the measured and extra components (len 11 + len(extra_names)),
+        or ``None``.
+    :param extra_names: :data:`EXTRA_COMPONENTS` to append after the command.
     """
     values = measured_values(state)
+    extras = [float(getattr(state, n)) for n in extra_names]
     if noise is not None:
-        values = [v + n for v, n in zip(values, noise.tolist())]
+        nz = noise.tolist()
+        values = [v + n for v, n in zip(values, nz)]
+        extras = [v + n for v, n in zip(extras, nz[N_MEASURED:])]
     values += command
+    values += extras
     if pressure_kpa is not None:
         values.append(pressure_kpa)
     return np.array(values, dtype=np.float32)

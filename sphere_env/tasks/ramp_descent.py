@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Mapping
 
 import numpy as np
 
-from sphere_env.checks import ordered_pair, positive
+from sphere_env.checks import finite_number, ordered_pair, positive
 from sphere_env.tasks.observation import wrap_angle
 from sphere_env.tasks.rewards import RampRewardWeights, make_weights, ramp_descent_terms
 from sphere_env.tasks.task import Scene, Task, finite_option
@@ -14,17 +15,24 @@ from sphere_env.tasks.termination import ramp_status
 
 
 class RampDescentTask(Task):
-    """Descend a ramp along the fall line while tracking a commanded drive speed ω_ref.
+    """Descend a ramp along the fall line at a commanded drive speed ω_ref that changes midway.
 
-    The robot starts at rest at the top of a ramp (16° by default, as in the paper) heading
-    downhill (+x_W, ψ = 0); the ramp ends in a flat run-out. Both pendulum motors are driven.
-    Gravity alone accelerates the robot, and the pendulum cannot hold it on this slope: the
-    downhill gravity moment about the contact, m g R sin α ≈ 34 N m, exceeds the pendulum's
-    ≈21.9 N m. The policy shapes the descent instead. Measured on the twin at nominal pressure
-    (4 m ramp, default calibration), the mean ω_d over the descent is ≈3.9–4.9 rad/s when braking
-    hard with the pendulum, ≈5.3–6.2 with zero torque and ≈7.3–8.2 when pushing, depending on the
-    shell model; ω_ref is drawn per episode from ``omega_ref_range_rad_s`` = (4, 8) rad/s, the
-    span a controller can make the robot hold on average.
+    The robot starts at rest at the top of a ramp heading downhill (+x_W, ψ = 0); the ramp ends in
+    a flat run-out. Both pendulum motors are driven. ω_ref holds over the upper half of the ramp and
+    changes by at least ``omega_ref_change_min_rad_s`` for the lower half, so the controller must
+    brake or push on command and keep the robot in its lane; an episode **succeeds** when the robot
+    reaches the run-out inside the lane *and* its on-ramp speed-tracking RMS error, over the samples
+    more than ``settle_time_s`` after the start and after the change, is at most
+    ``tracking_tolerance_rad_s``.
+
+    **What the physics allows** (measured on the twin, default calibration, 8° ramp, ``python -m
+    evaluation.scripts.command_span``, table in the README): with zero torque the shell's rolling
+    resistance settles ω_d at ≈2.6–3.6 rad/s depending on pressure and shell model, and the robot
+    drifts out of a 1 m lane within 6 m; the pendulum can hold ω_d from ≈1 rad/s (braking; below that
+    the pendulum tips over the top) to ≈4.7 rad/s (pushing). ω_ref is drawn from
+    ``omega_ref_range_rad_s`` = (2, 4.5) rad/s, inside that span. On the paper's 16° ramp the
+    downhill gravity moment m g R sin α ≈ 34 N m exceeds the pendulum's ≈21.9 N m, so no speed can
+    be held there: the superseded v0/v1 keep that setting (success = reaching the run-out).
 
     **Action space** ``Box(-1, 1, (2,), float32)``, clipped; NaN/inf raise ``ValueError``.
 
@@ -37,7 +45,8 @@ class RampDescentTask(Task):
                  forward** (the URDF drive axis is −y, so the joint torque is −a·limit)
     ===  ======  =========================================================================
 
-    **Observation space** ``Box(-inf, inf, (13,), float32)`` (14 with ``observe_pressure``):
+    **Observation space** ``Box(-inf, inf, (15,), float32)`` (16 with ``observe_pressure``; 13/14
+    without ``observe_pendulum_pitch``, as in v0/v1):
 
     ===  =============  ======  ================================================================
     idx  name           unit    meaning (real-robot channel)
@@ -51,86 +60,188 @@ class RampDescentTask(Task):
     6    omega_d        rad/s   drive velocity ω_d, + forward (≈ drive_shaft.velocity rolling)
     7    heading_rate   rad/s   ψ̇ (IMU gyro / shell_yaw rate)
     8-10 gravity_xyz    -       unit gravity direction in the pipe frame (IMU)
-    11   omega_ref      rad/s   command: target drive velocity
+    11   omega_ref      rad/s   command: target drive velocity now (changes at mid-ramp)
     12   heading_error  rad     command: wrap(0 − ψ), heading error to the fall line (shell_yaw)
-    13   pressure_kpa   kPa     privileged, only with ``observe_pressure=True``
+    13   pendulum_pitch rad     pendulum pitch α against the vertical, + lifted backward (IMU on
+                                the pendulum, pitch_joint); a policy needs it to know where gravity
+                                pulls the pendulum, which 2, 4 and 8-10 give only in combination
+    14   ..._rate       rad/s   α̇ (pitch_joint.velocity)
+    15   pressure_kpa   kPa     privileged, only with ``observe_pressure=True``
     ===  =============  ======  ================================================================
 
-    Measured components 0–10 get Gaussian noise of ``observation_noise_scale`` × the defaults in
+    Measured components 0–10, 13, 14 get Gaussian noise of ``observation_noise_scale`` × the defaults in
     :data:`sphere_env.tasks.observation.DEFAULT_NOISE_STD` (off by default).
 
     **Reward** = Σ terms, each reported as ``info["reward_<term>"]``
     (:class:`~sphere_env.tasks.rewards.RampRewardWeights`; per-step terms scale with the control
     period): ``speed`` (+ tolerance of ω_d − ω_ref), ``lateral`` (− |y| off the fall line),
-    ``heading`` (− (1 − cos ψ)), ``ctrl`` (− Σa²), ``success`` (+ on reaching the run-out),
+    ``heading`` (− (1 − cos ψ)), ``ctrl`` (− Σa²), ``success`` (+ on success, paid at the run-out),
     ``off_ramp`` (− on leaving the lane).
 
-    **Episode end.** ``terminated`` on reaching the run-out (``is_success=True``) or leaving the
-    lane |y| > ``lane_half_width_m``. ``truncated`` by the registration's time limit (400 steps =
-    8 s at 50 Hz) or a physics failure (``info["truncation_reason"]``).
-    ``info["motor_torque_nm"]`` holds the applied [τ_steer, τ_drive] at the joints [N m].
+    **Episode end.** ``terminated`` on reaching the run-out or leaving the lane
+    |y| > ``lane_half_width_m``. ``truncated`` by the registration's time limit (600 steps = 12 s at
+    50 Hz) or a physics failure (``info["truncation_reason"]``). ``info`` carries ``omega_ref``
+    (now), ``omega_ref_start``/``omega_ref_after`` (the two commands), ``reached_runout``,
+    ``tracking_rmse_rad_s`` (over the ``tracking_samples`` judged samples so far; 0 before the
+    first) and ``is_success``; ``info["motor_torque_nm"]`` holds the applied [τ_steer, τ_drive] [N m].
 
-    **kwargs** of ``gym.make("sphere_env/RampDescent-v1", ...)``: those of
+    **kwargs** of ``gym.make("sphere_env/RampDescent-v2", ...)``: those of
     :class:`~sphere_env.envs.SphereEnv` (``shell_model``, ``friction_model``, ``calibration``,
     ``control_frequency_hz`` [Hz], ``time_step_s`` [s], ``steer_torque_limit_nm``/
     ``drive_torque_limit_nm`` [N m], ``randomization``, ``observe_pressure``,
     ``observation_noise_scale``, ``render_mode``, ``meshcat``, ``record_replay``, ``render_size``
-    [px]) with ``incline_deg`` [deg] default 16 (paper) and ``ramp_length_m`` [m] default 4, plus
-    this task's:
+    [px]) with ``incline_deg`` [deg] default 8 and ``ramp_length_m`` [m] default 6, plus this task's:
 
     :param lane_half_width_m: lateral half-width of the ramp lane [m], default 1.
-    :param omega_ref_range_rad_s: (low, high) of the per-episode ω_ref [rad/s].
+    :param omega_ref_range_rad_s: (low, high) of both commands [rad/s].
+    :param omega_ref_change_min_rad_s: the lower-half command differs from the upper-half one by at
+        least this [rad/s], drawn uniformly from the part of the range that allows it; ``None``
+        keeps one command for the whole ramp.
+    :param settle_time_s: samples this long after the start and after the change are not judged [s].
+    :param tracking_tolerance_rad_s: largest tracking RMS error of a success [rad/s]; ``None``:
+        success is reaching the run-out in the lane (v0/v1).
+    :param observe_pendulum_pitch: append the pendulum pitch α and its rate (indices 13, 14).
     :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
 
-    ``reset(options=...)`` also accepts ``omega_ref`` [rad/s] within [0, 30].
+    ``reset(options=...)`` also accepts ``omega_ref`` and ``omega_ref_after`` [rad/s] within
+    [0, 30] (the latter only with a change).
 
     **Version history**
 
-    * v1: the shipped shell calibration, whose steer-direction law (rest angle, amplitude term) is
-      fitted on the real ``steer_free`` trials; the hydroelastic shell carries the same restoring
-      couple.
-    * v0: superseded; the earlier linear steer law about φ = 0, hydroelastic without the couple
-      (default ``calibration`` = ``assets/calibration/v0_linear.yaml``). Same task otherwise.
+    * v2: the command changes at mid-ramp and success requires tracking it (tolerance 0.5 rad/s
+      after 1.5 s settling) on an 8° ramp of 6 m, ω_ref ∈ (2, 4.5) rad/s with a change of at least
+      1 rad/s, time limit 12 s; the pendulum pitch and its rate are observed. Zero torque no
+      longer succeeds.
+    * v1: superseded. The paper's 16° ramp of 4 m, one command ω_ref ∈ (4, 8) rad/s, success =
+      reaching the run-out (zero torque succeeded in every episode); the shipped shell calibration
+      with the fitted steer-direction law.
+    * v0: superseded; as v1 with the earlier linear steer law about φ = 0 and a hydroelastic shell
+      without the couple (``calibration`` = ``assets/calibration/v0_linear.yaml``).
     """
 
     name = "RampDescent"
     ramp = True
     reward_terms = ("speed", "lateral", "heading", "ctrl", "success", "off_ramp")
     command_names = ("omega_ref", "heading_error")
-    command_options = ("omega_ref",)
-    command_option_bounds = {"omega_ref": (0.0, 30.0)}  # the bounds of omega_ref_range_rad_s
+    # ω_ref bounds [rad/s]: those of omega_ref_range_rad_s
+    command_option_bounds = {"omega_ref": (0.0, 30.0), "omega_ref_after": (0.0, 30.0)}
 
     def __init__(
         self,
         lane_half_width_m: float = 1.0,
-        omega_ref_range_rad_s: tuple[float, float] = (4.0, 8.0),
+        omega_ref_range_rad_s: tuple[float, float] = (2.0, 4.5),
+        omega_ref_change_min_rad_s: float | None = 1.0,
+        settle_time_s: float = 1.5,
+        tracking_tolerance_rad_s: float | None = 0.5,
+        observe_pendulum_pitch: bool = True,
         reward_weights: Mapping[str, float] | None = None,
     ):
         self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
         self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
+        lo, hi = self.omega_ref_range_rad_s
+        if omega_ref_change_min_rad_s is None:
+            self.omega_ref_change_min_rad_s = None
+        else:
+            self.omega_ref_change_min_rad_s = positive("omega_ref_change_min_rad_s", omega_ref_change_min_rad_s, 30.0)
+            if self.omega_ref_change_min_rad_s > hi - lo:
+                raise ValueError(
+                    f"omega_ref_change_min_rad_s: value {omega_ref_change_min_rad_s!r} exceeds the width "
+                    f"{hi - lo:g} rad/s of omega_ref_range_rad_s {self.omega_ref_range_rad_s}; allowed: (0, {hi - lo:g}]"
+                )
+        self.settle_time_s = finite_number("settle_time_s", settle_time_s, "[0, 60] s")
+        if not 0.0 <= self.settle_time_s <= 60.0:
+            raise ValueError(f"settle_time_s: value {settle_time_s!r} outside allowed [0, 60] s")
+        self.tracking_tolerance_rad_s = (
+            None if tracking_tolerance_rad_s is None
+            else positive("tracking_tolerance_rad_s", tracking_tolerance_rad_s, 30.0)
+        )
         self.reward_weights = make_weights(RampRewardWeights, reward_weights)
-        self.omega_ref = 0.0
+        self.command_options = ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
+        if not isinstance(observe_pendulum_pitch, bool):
+            raise ValueError(f"observe_pendulum_pitch: value {observe_pendulum_pitch!r} must be a bool")
+        self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if observe_pendulum_pitch else ()
+        self.omega_ref = self.omega_ref_start = self.omega_ref_after = 0.0
         self.ramp_end_x_m = float("inf")
         self.control_period_s = 0.0
+        self._change_x_m = float("inf")
+        self._changed = False
+        self._since_change_s = 0.0
+        self._sq_err_sum = 0.0
+        self._n_judged = 0
+        self._reached = False
+
+    def _draw_after(self, start: float, rng: np.random.Generator) -> float:
+        """The lower-half command: uniform over the range minus (start − d, start + d)."""
+        lo, hi = self.omega_ref_range_rad_s
+        d = self.omega_ref_change_min_rad_s
+        below = max(0.0, start - d - lo)  # length of [lo, start − d]
+        above = max(0.0, hi - (start + d))  # length of [start + d, hi]
+        u = float(rng.uniform(0.0, below + above))
+        if below + above == 0.0:  # start in the middle of a range exactly 2d wide
+            return lo if start - lo >= hi - start else hi
+        return lo + u if u < below else start + d + (u - below)
 
     def reset(self, state: Any, rng: np.random.Generator, options: Mapping[str, Any], scene: Scene) -> None:
         lo, hi = self.omega_ref_range_rad_s
-        self.omega_ref = float(rng.uniform(lo, hi))
+        self.omega_ref_start = float(rng.uniform(lo, hi))
         if "omega_ref" in options:
-            self.omega_ref = finite_option(options, "omega_ref")
+            self.omega_ref_start = finite_option(options, "omega_ref")
+        if self.omega_ref_change_min_rad_s is None:
+            self.omega_ref_after = self.omega_ref_start
+            self._change_x_m = float("inf")
+        else:
+            self.omega_ref_after = self._draw_after(self.omega_ref_start, rng)
+            if "omega_ref_after" in options:
+                self.omega_ref_after = finite_option(options, "omega_ref_after")
+            # the change happens halfway down the ramp (x_W is horizontal; the ramp starts at x = 0)
+            self._change_x_m = 0.5 * scene.ramp_end_x_m
+        self.omega_ref = self.omega_ref_start
         self.ramp_end_x_m = scene.ramp_end_x_m
         self.control_period_s = scene.control_period_s
+        self._changed = False
+        self._since_change_s = 0.0
+        self._sq_err_sum = 0.0
+        self._n_judged = 0
+        self._reached = False
 
     def command(self, state: Any) -> list[float]:
         return [self.omega_ref, wrap_angle(-state.heading)]
 
+    def tracking_rmse_rad_s(self) -> float:
+        """RMS of ω_d − ω_ref over the judged on-ramp samples so far [rad/s]; NaN before the first."""
+        return math.sqrt(self._sq_err_sum / self._n_judged) if self._n_judged else math.nan
+
     def step(self, state: Any, action: tuple[float, float], rng: np.random.Generator):
         reached, off = ramp_status(state.position_m, self.ramp_end_x_m, self.lane_half_width_m)
+        # Judge the sample against the command that was in force during the step, then switch.
+        self._since_change_s += self.control_period_s
+        if not reached and self._since_change_s > self.settle_time_s + 1e-9:
+            e = state.omega_d - self.omega_ref
+            self._sq_err_sum += e * e
+            self._n_judged += 1
         terms = ramp_descent_terms(
             self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref,
-            float(state.position_m[1]), state.heading, action, reached, off,
+            float(state.position_m[1]), state.heading, action, False, off,
         )
-        return terms, reached or off, reached
+        if self.tracking_tolerance_rad_s is None:
+            success = reached
+        else:
+            success = reached and not off and self._n_judged > 0 and (
+                self.tracking_rmse_rad_s() <= self.tracking_tolerance_rad_s)
+        if success:
+            terms["success"] = self.reward_weights.success
+        if not self._changed and float(state.position_m[0]) >= self._change_x_m:
+            self._changed = True
+            self.omega_ref = self.omega_ref_after
+            self._since_change_s = 0.0
+        self._reached = reached
+        return terms, reached or off, success
 
     def info(self) -> dict[str, Any]:
-        return {"omega_ref": self.omega_ref}
+        return {
+            "omega_ref": self.omega_ref, "omega_ref_start": self.omega_ref_start,
+            "omega_ref_after": self.omega_ref_after, "reached_runout": self._reached,
+            # 0.0 until the first judged sample (info values stay comparable: no NaN)
+            "tracking_rmse_rad_s": self.tracking_rmse_rad_s() if self._n_judged else 0.0,
+            "tracking_samples": self._n_judged,
+        }

@@ -42,6 +42,8 @@ class Task:
     :cvar command_names: command components appended to the measured observation.
     :cvar command_options: command values settable through ``reset(options=...)``.
     :cvar command_option_bounds: allowed [low, high] of each command option (unit in its docs).
+    :cvar extra_names: measured components observed after the command
+        (:data:`~sphere_env.tasks.observation.EXTRA_COMPONENTS`).
     """
 
     name: str = "Task"
@@ -50,12 +52,13 @@ class Task:
     command_names: tuple[str, ...] = ()
     command_options: tuple[str, ...] = ()
     command_option_bounds: Mapping[str, tuple[float, float]] = {}
+    extra_names: tuple[str, ...] = ()
 
     # ---- layout ---------------------------------------------------------------------------------
     def observation_layout(self, observe_pressure: bool = False) -> ObservationLayout:
-        """The observation's components in order: measured, then this task's command, then the
-        privileged pressure if observed."""
-        return ObservationLayout(self.command_names, observe_pressure)
+        """The observation's components in order: measured, then this task's command and extra
+        measured components, then the privileged pressure if observed."""
+        return ObservationLayout(self.command_names, observe_pressure, self.extra_names)
 
     # ---- episode --------------------------------------------------------------------------------
     def initial_state(self) -> dict[str, Any]:

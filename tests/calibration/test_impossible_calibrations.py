@@ -75,7 +75,7 @@ def test_env_with_calibration_123_is_a_named_error():
     import sphere_env  # noqa: F401
 
     with pytest.raises(ValueError, match="calibration"):
-        gym.make("sphere_env/RampDescent-v1", shell_model="point", calibration=123)
+        gym.make("sphere_env/RampDescent-v2", shell_model="point", calibration=123)
 
 
 def test_fitted_curves_in_hz_are_not_turned_into_a_calibration(tmp_path):

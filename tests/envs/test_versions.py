@@ -36,4 +36,4 @@ def test_v0_is_v1_with_the_v0_calibration(task):
 def test_every_version_is_registered():
     for env_id in sphere_env.ENV_IDS:
         assert env_id in gym.registry
-    assert {"sphere_env/RampDescent-v1", "sphere_env/Roll-v1"} <= set(sphere_env.ENV_IDS)
+    assert {"sphere_env/RampDescent-v2", "sphere_env/RampDescent-v1", "sphere_env/Roll-v1"} <= set(sphere_env.ENV_IDS)

@@ -34,7 +34,7 @@ class FailsLater:
 
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
-    cfg = resolve_config("sphere_env/RampDescent-v1", "ppo",
+    cfg = resolve_config("sphere_env/RampDescent-v2", "ppo",
                          overrides={"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 32,
                                     "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
     return train(cfg, tmp_path_factory.mktemp("tiny") / "run", progress_bar=False)
@@ -107,9 +107,9 @@ def test_truncated_model_refused(tiny_run, tmp_path, capsys):
 
 def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys):
     _refused(capsys, ["--controller", str(tiny_run), "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o"),
-                      *GRID], "trained on 'sphere_env/RampDescent-v1'", "--allow-env-mismatch")
+                      *GRID], "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch")
     assert not (tmp_path / "o").exists()
-    SweepSpec(controllers=[str(tiny_run)], env_id="sphere_env/RampDescent-v1", pressures_kpa=[8.5],
+    SweepSpec(controllers=[str(tiny_run)], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
               shell_models=["point"], seeds=[0]).validate()
 
 

@@ -36,10 +36,12 @@ def test_layouts_are_exported_by_the_tasks():
 
 
 def test_ramp_task_command_reward_and_termination():
-    task = RampDescentTask(lane_half_width_m=0.5, omega_ref_range_rad_s=(5.0, 5.0))
+    # The v0/v1 settings: one command, success = reaching the run-out.
+    task = RampDescentTask(lane_half_width_m=0.5, omega_ref_range_rad_s=(5.0, 5.0), omega_ref_change_min_rad_s=None,
+                           tracking_tolerance_rad_s=None)
     scene = Scene(control_period_s=0.02, incline_deg=16.0, ramp_end_x_m=3.0)
     task.reset(fake_state(), np.random.default_rng(0), {}, scene)
-    assert task.omega_ref == 5.0 and task.info() == {"omega_ref": 5.0}
+    assert task.omega_ref == 5.0 and task.info()["omega_ref"] == 5.0 and task.info()["omega_ref_after"] == 5.0
     assert task.command(fake_state(heading=0.3)) == pytest.approx([5.0, -0.3])
     terms, done, success = task.step(fake_state(omega_d=5.0, position_m=np.array([1.0, 0.1, 0.3])), (0.0, 0.0), None)
     assert not done and not success and terms["speed"] == pytest.approx(0.02)  # full speed term × period
