@@ -2,6 +2,7 @@
 
     sphere-env train --env sphere_env/RampDescent-v1 --algo ppo
     sphere-env evaluate --controller zero pd ppo=runs/<run>
+    sphere-env enjoy runs/<run> --meshcat
     sphere-env calibrate report
     sphere-env demo
 
@@ -16,8 +17,8 @@ import argparse
 import importlib
 import importlib.util
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,8 @@ COMMANDS = {
     "evaluate": Command("sphere_env.evaluation.evaluate",
                         "evaluate controllers or trained policies over seeds x pressures x friction",
                         (("matplotlib", "eval"), ("tqdm", "eval"))),
+    "enjoy": Command("sphere_env.evaluation.enjoy", "watch a trained run in Meshcat or record it as MP4s",
+                     (("stable_baselines3", "train"), ("torch", "train"))),
     "calibrate": Command("sphere_env.calibration.__main__",
                          "fit and validate the shell and friction models against robot logs",
                          (("matplotlib", "eval"),)),
