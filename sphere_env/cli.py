@@ -3,6 +3,7 @@
     sphere-env train --env sphere_env/RampDescent-v1 --algo ppo
     sphere-env evaluate --controller zero pd ppo=runs/<run>
     sphere-env enjoy runs/<run> --meshcat
+    sphere-env export runs/<run>
     sphere-env calibrate report
     sphere-env demo
 
@@ -37,6 +38,9 @@ COMMANDS = {
                         (("matplotlib", "eval"), ("tqdm", "eval"))),
     "enjoy": Command("sphere_env.evaluation.enjoy", "watch a trained run in Meshcat or record it as MP4s",
                      (("stable_baselines3", "train"), ("torch", "train"))),
+    "export": Command("sphere_env.evaluation.export",
+                      "export a trained policy (VecNormalize folded in) to ONNX or TorchScript for the robot",
+                      (("stable_baselines3", "train"), ("torch", "train"))),
     "calibrate": Command("sphere_env.calibration.__main__",
                          "fit and validate the shell and friction models against robot logs",
                          (("matplotlib", "eval"),)),
