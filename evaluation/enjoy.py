@@ -39,7 +39,7 @@ from sphere_env.models.shell import SHELL_MODELS
 
 #: Env kwargs the enjoy command sets itself (refused in ``--env-kwargs``) and the option for each.
 OWN_KWARGS = {"shell_model": "--shell-model", "friction_model": "the run's config", "randomization": "off",
-              "render_mode": "--meshcat / --video", "meshcat": "--meshcat", "record_replay": "-"}
+              "render_mode": "--meshcat / --video", "meshcat": "--meshcat", "record_replay": "not used by enjoy"}
 
 
 @dataclass
@@ -92,7 +92,10 @@ class EnjoySpec:
         if env_id != cfg.env_id and not self.allow_env_mismatch:
             raise ValueError(f"env: {self.run!r} was trained on {cfg.env_id!r}, not on {env_id!r}; pass "
                              "--allow-env-mismatch to run it there anyway")
-        check_spec(f"{path}@{which}", None)  # the model and its statistics load
+        try:
+            check_spec(f"{path}@{which}", None)  # the model and its statistics load
+        except ValueError as err:
+            raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
         try:
             extra = dict(self.env_kwargs)
         except (TypeError, ValueError):

@@ -54,9 +54,9 @@ def record_episode(env: Any, folder: str | Path, name: str, run: Callable[[Any],
         result = run(rec)
         if not rec.recording:
             raise RuntimeError(f"video: no frames were recorded for {name!r} (was the env reset?)")
-        video_stem = rec._video_name  # "<name>-episode-<k>", set by RecordVideo.start_recording
-        rec.stop_recording()  # writes <scratch>/<video_stem>.mp4
-        os.replace(scratch / f"{video_stem}.mp4", folder / f"{name}.mp4")
+        rec.stop_recording()  # writes <scratch>/<name>-episode-<k>.mp4
+        (written,) = scratch.glob("*.mp4")
+        os.replace(written, folder / f"{name}.mp4")
     finally:
         rec.recorded_frames = []  # a failed episode: drop its frames (no "unable to save" warning)
         rec.recording = False

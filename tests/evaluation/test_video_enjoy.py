@@ -99,7 +99,7 @@ def _broken_copy(run, tmp_path, remove=None, truncate=None):
     ("no_config", ["run:", "config.yaml"]),
     ("no_model", ["run:", "model.zip", "is missing"]),
     ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
-    ("truncated_model", ["model.zip", "truncated"]),
+    ("truncated_model", ["run:", "model.zip", "truncated"]),
     ("not_a_folder", ["run:", "is not a folder"]),
     ("bad_which", ["run:", "@best"]),
     ("no_best", ["run:", "best_model.zip"]),
