@@ -5,6 +5,7 @@
     python -m evaluation.evaluate --controller mypkg.ctrl:policy --friction majd viscous
     python -m evaluation.evaluate --controller zero --pme-log my_ramp_log.csv --pme-log-pressure 8
     python -m evaluation.evaluate ... --ray-address local      # or auto / ray://host:10001
+    python -m evaluation.evaluate --controller pd --shell-models point --seeds 0 --video out/videos
 
 Every cell is a controlled experiment: the env's randomization is off, the pressure is fixed
 through ``reset(options={"pressure_kpa": p})``, and the seed fixes the episode's command (ω_ref),
@@ -16,6 +17,9 @@ Writes into ``--out``: ``episodes.csv`` (one row per episode, metrics of
 :mod:`sphere_env.evaluation.metrics`), ``traces.npz``, ``report.md`` (tables), ``plots/*.png`` (drive
 velocity vs time per pressure and model; error bars per pressure and model as in the paper's
 Figs. 13–14; success and tracking error vs pressure; PME) and ``replay_*.html`` (Meshcat).
+``--video FOLDER`` also renders every episode of the grid (``rgb_array``, in the workers) into
+``FOLDER/<controller>_<shell model>_<pressure>kPa_s<seed>.mp4`` through ``RecordVideo``
+(:mod:`sphere_env.evaluation.video`; the ``video`` extra); rendering leaves the episodes unchanged.
 Everything is validated first (grid, env kwargs, controllers: model files load, the policy's training
 env id matches ``--env`` unless ``--allow-env-mismatch``, each controller returns 2 numbers); outputs
 are then written into a temporary folder beside ``--out`` and moved into place at the end, replacing
@@ -157,17 +161,18 @@ _ENVS: dict[str, Any] = {}
 _CONTROLLERS: dict[tuple[str, str], Any] = {}
 
 
-def _env(job: Mapping[str, Any], record_replay: bool = False):
+def _env(job: Mapping[str, Any], record_replay: bool = False, render_mode: str | None = None):
     import gymnasium as gym
 
     import sphere_env  # noqa: F401
 
-    key = json.dumps([job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], record_replay],
-                     sort_keys=True, default=str)
+    key = json.dumps([job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], record_replay,
+                      render_mode], sort_keys=True, default=str)
     env = _ENVS.get(key)
     if env is None:
         env = gym.make(job["env_id"], shell_model=job["shell_model"], friction_model=job["friction"],
-                       randomization="off", record_replay=record_replay, **job["env_kwargs"])
+                       randomization="off", record_replay=record_replay, render_mode=render_mode,
+                       **job["env_kwargs"])
         if not record_replay:
             _ENVS[key] = env
     return env
@@ -225,7 +230,20 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
 
 
 def _run_job(job: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    if job.get("video_dir"):  # render the episode into <video_dir>/<video_name>.mp4
+        from sphere_env.evaluation.video import record_episode
+
+        env = _env(job, render_mode="rgb_array")
+        return record_episode(env, job["video_dir"], job["video_name"], lambda rec: rollout(job, env=rec))
     return rollout(job)
+
+
+def video_name_of(job: Mapping[str, Any], spec: SweepSpec) -> str:
+    """An episode's video file stem (the friction preset is named only when the grid has several)."""
+    from sphere_env.evaluation.video import video_name
+
+    return video_name(job["controller"], job["shell_model"], job["pressure_kpa"], job["seed"],
+                      job["friction"] if len(spec.frictions) > 1 else "")
 
 
 # ---- executors -----------------------------------------------------------------------------------------
@@ -573,21 +591,29 @@ def parse_replay(text: str, spec: SweepSpec) -> dict[str, Any]:
 def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_address: str | None = None,
              replays: Sequence[str] = ("",), pme_log: str | Path | None = None, pme_log_pressure: float | None = None,
              pme_reference: str = "hydroelastic", plots: bool = True, progress: bool = False,
-             extra_report: str = "") -> dict[str, Any]:
-    """Run the sweep and write CSV, traces, report, plots and replays into ``out``.
+             extra_report: str = "", video: str | Path | None = None) -> dict[str, Any]:
+    """Run the sweep and write CSV, traces, report, plots and replays into ``out``, and with
+    ``video`` one MP4 per episode into that folder (moved into place when the sweep succeeded).
 
     :returns: dict with ``rows``, ``pme``, ``files`` (name -> path), ``wall_s``.
     """
+    from sphere_env.evaluation.video import check_video_support, staged_videos
+
     out = Path(out)
     check_out_dir(out)
+    if video is not None:
+        video = check_video_support(video)
+        if ray_address is not None:
+            raise ValueError("video: not available with --ray-address (Ray workers may not share this file "
+                             "system); record videos with the local process pool")
     spec.validate()
     if pme_reference not in (*SHELL_MODELS, "log"):
         raise ValueError(f"pme_reference: value {pme_reference!r}; allowed: {[*SHELL_MODELS, 'log']}")
     replay_jobs = [parse_replay(r, spec) for r in replays]
     log = load_user_log(pme_log) if pme_log else None
-    with _staging(out) as work:
+    with _staging(out) as work, staged_videos(video) as video_work:
         res = _sweep(spec, work, workers, ray_address, replay_jobs, log, pme_log_pressure, pme_reference, plots,
-                     progress, extra_report)
+                     progress, extra_report, video, video_work)
     res["files"] = {k: out / v.relative_to(work) if v.is_relative_to(work) else v for k, v in res["files"].items()}
     return res
 
@@ -629,11 +655,17 @@ def _staging(out: Path):
 
 
 def _sweep(spec: SweepSpec, out: Path, workers, ray_address, replay_jobs, log, pme_log_pressure, pme_reference,
-           plots, progress, extra_report) -> dict[str, Any]:
+           plots, progress, extra_report, video: Path | None = None, video_work: Path | None = None) -> dict[str, Any]:
     if plots:
         (out / "plots").mkdir()
+    jobs = spec.jobs()
+    videos: dict[str, Path] = {}
+    if video_work is not None:
+        for job in jobs:
+            job["video_dir"], job["video_name"] = str(video_work), video_name_of(job, spec)
+            videos[f"video {job['video_name']}"] = video / f"{job['video_name']}.mp4"
     t0 = time.perf_counter()
-    results = run_jobs(spec.jobs(), workers, ray_address, progress)
+    results = run_jobs(jobs, workers, ray_address, progress)
     wall = time.perf_counter() - t0
     rows = [r for r, _ in results]
     traces = [t for _, t in results]
@@ -666,6 +698,7 @@ def _sweep(spec: SweepSpec, out: Path, workers, ray_address, replay_jobs, log, p
     for rj in replay_jobs:
         name = f"replay_{rj['controller']}_{rj['shell_model']}_{rj['pressure_kpa']:g}kPa_s{rj['seed']}.html"
         files[f"replay {rj['controller']} {rj['shell_model']} {rj['pressure_kpa']:g} kPa"] = save_replay(rj, out / name)
+    files.update(videos)
     executor = f"Ray at {ray_address}" if ray_address else (
         f"process pool of {workers or max(len(os.sched_getaffinity(0)), 1)} workers" if (workers or 2) > 1 else "in-process")
     files["report"] = write_report(out, spec, rows, agg_model, agg_ctrl, pmes, files, wall, executor, extra_report)
@@ -720,6 +753,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--pme-reference", default="hydroelastic", help="reference model of the PME plot")
     parser.add_argument("--allow-env-mismatch", action="store_true",
                         help="evaluate trained policies on an env id other than the one they were trained on")
+    parser.add_argument("--video", type=Path, default=None,
+                        help="folder for one MP4 per episode (<controller>_<shell model>_<p>kPa_s<seed>.mp4)")
     args = parser.parse_args(argv)
 
     out = args.out or Path("out/eval") / time.strftime("%Y%m%d-%H%M%S")
@@ -729,7 +764,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                          shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
                          env_kwargs=env_kwargs, allow_env_mismatch=args.allow_env_mismatch)
         res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log, args.pme_log_pressure,
-                       args.pme_reference, progress=True)
+                       args.pme_reference, progress=True, video=args.video)
     except ValueError as err:
         parser.exit(2, f"evaluation.evaluate: error: {err}\n")
     print((out / "report.md").read_text())

@@ -2,6 +2,8 @@
 
     sphere-env train --env sphere_env/RampDescent-v2 --algo ppo
     sphere-env evaluate --controller zero pd ppo=runs/<run>
+    sphere-env enjoy runs/<run> --meshcat
+    sphere-env export runs/<run>
     sphere-env calibrate report
     sphere-env demo
 
@@ -16,8 +18,8 @@ import argparse
 import importlib
 import importlib.util
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 
 @dataclass(frozen=True)
@@ -34,6 +36,11 @@ COMMANDS = {
     "evaluate": Command("sphere_env.evaluation.evaluate",
                         "evaluate controllers or trained policies over seeds x pressures x friction",
                         (("matplotlib", "eval"), ("tqdm", "eval"))),
+    "enjoy": Command("sphere_env.evaluation.enjoy", "watch a trained run in Meshcat or record it as MP4s",
+                     (("stable_baselines3", "train"), ("torch", "train"))),
+    "export": Command("sphere_env.evaluation.export",
+                      "export a trained policy (VecNormalize folded in) to ONNX or TorchScript for the robot",
+                      (("stable_baselines3", "train"), ("torch", "train"))),
     "calibrate": Command("sphere_env.calibration.__main__",
                          "fit and validate the shell and friction models against robot logs",
                          (("matplotlib", "eval"),)),

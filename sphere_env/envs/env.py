@@ -570,6 +570,21 @@ class SphereEnv(gym.Env, EzPickle):
         info.update(self.task.info())
         return info
 
+    def action_layout(self) -> list[dict[str, Any]]:
+        """The action components as :meth:`step` applies them: ``index``, ``name``, the normalized
+        ``range`` [-1, 1], the motor ``torque_limit_nm`` at ±1 [N m], the URDF ``joint``, the joint
+        torque ``joint_torque_sign`` × a × limit, and the sign convention in words."""
+        return [
+            {"index": 0, "name": "steer", "range": [-1.0, 1.0], "torque_limit_nm": float(self.steer_torque_limit_nm),
+             "joint": "steer", "joint_torque_sign": 1.0,
+             "meaning": "steer motor torque / limit; +1 leans the pendulum toward +θ (URDF steer axis +x_PC), "
+                        "which turns the robot left (heading ψ increases)"},
+            {"index": 1, "name": "drive", "range": [-1.0, 1.0], "torque_limit_nm": float(self.drive_torque_limit_nm),
+             "joint": "drive", "joint_torque_sign": -1.0,
+             "meaning": "drive motor torque / limit; +1 drives forward (ω_d > 0); the URDF drive axis is −y_PC, "
+                        "so the joint torque is −a · limit"},
+        ]
+
     # ---- rendering / replay -----------------------------------------------------------------------
     def render(self):
         """``human``: Meshcat (published as the sim advances; see the logged URL).

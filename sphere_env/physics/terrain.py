@@ -1,4 +1,9 @@
-"""Ground geometry of the twin: an inclined plane, or a finite ramp with a flat run-out."""
+"""Ground geometry of the twin: an inclined plane, or a finite ramp with a flat run-out.
+
+The visible ground carries a grid of dark lines (:data:`GRID_SPACING_M`), visual only (no collision
+role), so that motion shows in camera frames and Meshcat even when the camera follows the robot: a
+plain ground looks the same wherever the robot is.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +13,37 @@ import numpy as np
 from pydrake.geometry import Box, HalfSpace, ProximityProperties
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.symbolic import Expression, Variable, if_then_else
+
+GROUND_RGBA = np.array([0.55, 0.5, 0.45, 1.0])
+RUNOUT_RGBA = np.array([0.45, 0.5, 0.55, 1.0])
+#: Grid on the visible ground: line spacing, width and colour (lines sit on the surface).
+GRID_SPACING_M = 0.5
+GRID_LINE_WIDTH_M = 0.025
+GRID_RGBA = np.array([0.22, 0.2, 0.18, 1.0])
+_GRID_LINE_HEIGHT_M = 0.004  # a thin box whose lower half is inside the ground slab
+
+
+def register_grid(plant, R_WS: RotationMatrix, p_WSo: np.ndarray, x_range_m: tuple[float, float],
+                  y_range_m: tuple[float, float], name: str) -> int:
+    """Visual grid lines on a flat surface patch: frame S (rotation ``R_WS``, origin ``p_WSo`` on the
+    surface, z_S its normal), lines along x_S and y_S every :data:`GRID_SPACING_M` over
+    ``x_range_m`` × ``y_range_m`` (in S) [m]. Lines at multiples of the spacing from S's origin, so
+    the grid is fixed in the world. Returns the number of lines."""
+    world = plant.world_body()
+    s, w, h = GRID_SPACING_M, GRID_LINE_WIDTH_M, _GRID_LINE_HEIGHT_M
+    (x0, x1), (y0, y1) = x_range_m, y_range_m
+    n = 0
+    for k in range(math.ceil(x0 / s), math.floor(x1 / s) + 1):  # lines across x_S (along y_S)
+        p_S = np.array([k * s, (y0 + y1) / 2, 0.0])
+        plant.RegisterVisualGeometry(world, RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(w, y1 - y0, h),
+                                     f"{name}_grid_x{n}", GRID_RGBA)
+        n += 1
+    for k in range(math.ceil(y0 / s), math.floor(y1 / s) + 1):  # lines along x_S
+        p_S = np.array([(x0 + x1) / 2, k * s, 0.0])
+        plant.RegisterVisualGeometry(world, RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(x1 - x0, w, h),
+                                     f"{name}_grid_y{n}", GRID_RGBA)
+        n += 1
+    return n
 
 
 class Terrain:
@@ -47,9 +83,9 @@ class Terrain:
             X = RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3)))
             plant.RegisterCollisionGeometry(world, X, HalfSpace(), "ground", props)
             plant.RegisterVisualGeometry(
-                world, RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1), "ground_vis",
-                np.array([0.55, 0.5, 0.45, 1.0]),
+                world, RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1), "ground_vis", GROUND_RGBA,
             )
+            register_grid(plant, self.R_WG, np.zeros(3), (-15.0, 15.0), (-15.0, 15.0), "ground")
             return
         # Ramp + flat run-out = union of two half-spaces: the terrain height is the max of the two
         # planes, so each half-space lies below the other's surface where that one is active.
@@ -59,6 +95,9 @@ class Terrain:
         plant.RegisterCollisionGeometry(world, RigidTransform(end), HalfSpace(), "runout", props)
         L, thick, margin = self.ramp_length_m, 0.1, 2.0
         X_ramp = RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2)
-        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 6, thick), "ramp_vis", np.array([0.55, 0.5, 0.45, 1.0]))
+        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 6, thick), "ramp_vis", GROUND_RGBA)
         X_run = RigidTransform(end + np.array([15.0, 0.0, -thick / 2]))
-        plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", np.array([0.45, 0.5, 0.55, 1.0]))
+        plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", RUNOUT_RGBA)
+        # Grid lines: the ramp's measured along the slope from its top, the run-out's from its start.
+        register_grid(plant, self.R_WG, np.zeros(3), (-margin, L), (-3.0, 3.0), "ramp")
+        register_grid(plant, RotationMatrix(), end, (0.0, 30.0), (-3.0, 3.0), "runout")

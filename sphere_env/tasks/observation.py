@@ -36,6 +36,14 @@ EXTRA_COMPONENTS: dict[str, tuple[str, str, float]] = {
                        "pendulum, pitch_joint); the PD baseline's β = −α", 0.005),
     "pendulum_pitch_rate": ("rad/s", "pendulum pitch rate α̇ (pitch_joint.velocity)", 0.05),
 }
+#: Unit and meaning of the task command components and the privileged pressure, by name (a task
+#: may add its own command names; :meth:`ObservationLayout.describe` reports those without a unit).
+OTHER_COMPONENTS: dict[str, tuple[str, str]] = {
+    "omega_ref": ("rad/s", "command: target drive velocity ω_ref"),
+    "heading_error": ("rad", "command: heading error wrap(ψ_ref − ψ)"),
+    "yaw_rate_ref": ("rad/s", "command: target heading rate ψ̇_ref"),
+    "pressure_kpa": ("kPa", "privileged: shell inflation pressure"),
+}
 #: Observation index of each measured component (the same in every task).
 MEASURED_INDEX: dict[str, int] = {c[0]: i for i, c in enumerate(MEASURED_COMPONENTS)}
 
@@ -86,6 +94,15 @@ class ObservationLayout:
 
     def __repr__(self) -> str:
         return f"ObservationLayout({list(self.names)})"
+
+    def describe(self) -> list[dict[str, Any]]:
+        """One record per component in observation order: ``index``, ``name``, ``unit`` (None when
+        the task's command is not in :data:`OTHER_COMPONENTS`; see the task's docstring) and ``meaning``."""
+        known = ({c[0]: (c[1], c[2]) for c in MEASURED_COMPONENTS} | {n: (c[0], c[1]) for n, c in EXTRA_COMPONENTS.items()}
+                 | OTHER_COMPONENTS)
+        return [{"index": i, "name": n, "unit": known.get(n, (None,))[0],
+                 "meaning": known.get(n, (None, "task command (see the task's docstring)"))[1]}
+                for i, n in enumerate(self.names)]
 
 #: Default 1-σ measurement noise per measured component, in the component's unit. Scaled by the
 #: env's ``observation_noise_scale`` (0 = noise off). Assumed encoder/IMU-grade values.

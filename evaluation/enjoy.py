@@ -1,0 +1,273 @@
+"""Watch a trained policy: roll out a training run folder on its env, live in Meshcat or as MP4s.
+
+    python -m evaluation.enjoy runs/ppo_RampDescent-v1_<time>_s0 --meshcat
+    python -m evaluation.enjoy runs/<run>@best --episodes 3 --pressure 5 --shell-model hydroelastic \\
+        --video out/videos
+    sphere-env enjoy runs/<run> --stochastic --seed 4
+
+The run folder is what ``training/train.py`` writes (``config.yaml``, ``model.zip``,
+``vecnormalize.pkl``; ``<run>@best`` takes ``best/``). The policy is loaded as the evaluation loads a
+``<run>`` controller (:class:`sphere_env.evaluation.controller_specs.PolicyController`: its
+VecNormalize statistics and training env kwargs come with it) and each episode is rolled out as one
+evaluation cell (:func:`sphere_env.evaluation.evaluate.rollout`): randomization off, the pressure
+fixed (default: the calibration's nominal pressure), episode ``k`` seeded with ``seed + k``.
+
+``--meshcat`` shows the episodes live (the URL is printed; paced at ``--realtime-rate``).
+``--video FOLDER`` renders them (``rgb_array``) into ``FOLDER/<label>_<shell model>_<p>kPa_s<seed>.mp4``
+through ``RecordVideo`` (the ``video`` extra), moved into place when every episode has finished.
+
+Refused before anything runs, with the field named: a run folder without ``config.yaml``, without its
+model, or without the VecNormalize statistics it was trained with; a model that does not load; an env
+id other than the run's (unless ``--allow-env-mismatch``); an unknown shell model; a pressure outside
+the calibrated range; fewer than one episode; a negative seed; a video folder that is a file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sphere_env.models.shell import SHELL_MODELS
+
+#: Env kwargs the enjoy command sets itself (refused in ``--env-kwargs``) and the option for each.
+OWN_KWARGS = {"shell_model": "--shell-model", "friction_model": "the run's config", "randomization": "off",
+              "render_mode": "--meshcat / --video", "meshcat": "--meshcat", "record_replay": "not used by enjoy"}
+
+
+@dataclass
+class EnjoySpec:
+    """What to watch. ``run`` is a run folder, optionally ``@best``; ``None`` fields take the run's
+    own values (env id, shell model) or the calibration's nominal pressure [kPa]."""
+
+    run: str
+    episodes: int = 1
+    pressure_kpa: float | None = None
+    shell_model: str | None = None
+    seed: int = 0
+    deterministic: bool = True
+    env_id: str | None = None
+    allow_env_mismatch: bool = False
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    label: str | None = None
+
+    def resolve(self) -> dict[str, Any]:
+        """Validate everything (ValueError naming the field) and return the resolved settings:
+        ``folder``, ``which``, ``config``, ``env_id``, ``shell_model``, ``friction``,
+        ``pressure_kpa``, ``env_kwargs``, ``label``."""
+        import gymnasium as gym
+        from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of
+        from sphere_env.training.train import load_config
+
+        import sphere_env  # noqa: F401 - registers the ids
+        from sphere_env.models.shell import ShellCalibration
+
+        path, _, which = str(self.run).partition("@")
+        if which not in ("", "best", "model"):
+            raise ValueError(f"run: {self.run!r}: use <run folder> or <run folder>@best")
+        folder = Path(path)
+        if not folder.is_dir():
+            raise ValueError(f"run: {path!r} is not a folder (a training run folder holds config.yaml, model.zip, "
+                             "vecnormalize.pkl)")
+        cfg = load_config(folder)  # "run: ... has no config.yaml" / cannot be read
+        which = which or "model"
+        model_dir = folder / "best" if which == "best" else folder
+        model = model_dir / ("best_model.zip" if which == "best" else "model.zip")
+        if not model.is_file():
+            raise ValueError(f"run: {str(model)!r} is missing (training unfinished?)")
+        stats = model_dir / "vecnormalize.pkl"
+        if cfg.normalize is not None and not stats.is_file():
+            raise ValueError(f"run: {str(stats)!r} is missing: the policy was trained on VecNormalize-d "
+                             "observations and cannot act without those statistics")
+        env_id = self.env_id or cfg.env_id
+        if env_id not in gym.registry:
+            raise ValueError(f"env: unknown env id {env_id!r}")
+        if env_id != cfg.env_id and not self.allow_env_mismatch:
+            raise ValueError(f"env: {self.run!r} was trained on {cfg.env_id!r}, not on {env_id!r}; pass "
+                             "--allow-env-mismatch to run it there anyway")
+        try:
+            check_spec(f"{path}@{which}", None)  # the model and its statistics load
+        except ValueError as err:
+            raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
+        try:
+            extra = dict(self.env_kwargs)
+        except (TypeError, ValueError):
+            raise ValueError(f"env_kwargs: value {self.env_kwargs!r} must be a mapping of env kwargs") from None
+        for k in extra:
+            if k in OWN_KWARGS:
+                raise ValueError(f"env_kwargs.{k}: set by the enjoy command itself ({OWN_KWARGS[k]}); not allowed "
+                                 "in --env-kwargs")
+        env_kwargs = {**env_kwargs_of(f"{path}@{which}"), **extra}
+        shell = self.shell_model or cfg.env_kwargs.get("shell_model", "injected")
+        if shell not in SHELL_MODELS:
+            raise ValueError(f"shell_model: unknown model {shell!r}; allowed: {list(SHELL_MODELS)}")
+        cal = ShellCalibration.load(env_kwargs.get("calibration"))
+        pressure = cal.nominal_pressure_kpa if self.pressure_kpa is None else self.pressure_kpa
+        if isinstance(pressure, bool) or not isinstance(pressure, (int, float)) or not math.isfinite(pressure):
+            raise ValueError(f"pressure_kpa: value {pressure!r} must be a finite number [kPa]")
+        cal.check_pressure(float(pressure), "pressure_kpa")
+        if isinstance(self.episodes, bool) or not isinstance(self.episodes, (int, np.integer)) or self.episodes < 1:
+            raise ValueError(f"episodes: value {self.episodes!r} must be an integer >= 1")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ValueError(f"seed: value {self.seed!r} must be an integer >= 0")
+        label = self.label or (folder.name if which == "model" else f"{folder.name}@best")
+        return {"folder": folder, "which": which, "config": cfg, "env_id": env_id, "shell_model": shell,
+                "friction": cfg.env_kwargs.get("friction_model", "majd"), "pressure_kpa": float(pressure),
+                "env_kwargs": env_kwargs, "label": label}
+
+
+class Paced:
+    """Wraps a controller: publishes to Meshcat before each action and waits so that simulated time
+    runs at ``realtime_rate`` × wall time (0: no waiting)."""
+
+    def __init__(self, controller: Callable, env: Any, realtime_rate: float):
+        self.controller, self.env, self.rate = controller, env, realtime_rate
+        self._t0 = time.perf_counter()
+        self._steps = 0
+
+    def reset(self) -> None:
+        if hasattr(self.controller, "reset"):
+            self.controller.reset()
+        self._t0 = time.perf_counter()
+        self._steps = 0
+
+    def __call__(self, obs, info=None):
+        u = self.env.unwrapped
+        u.twin.publish()
+        if self.rate > 0:
+            wait = self._steps * u.control_period_s / self.rate - (time.perf_counter() - self._t0)
+            if wait > 0:
+                time.sleep(wait)
+        self._steps += 1
+        return self.controller(obs, info)
+
+
+def make_policy(folder: Path, which: str, deterministic: bool, seed: int) -> Callable:
+    """The run's policy as a controller ``(obs, info) -> action``; stochastic actions are seeded."""
+    from sphere_env.evaluation.controller_specs import PolicyController
+
+    policy = PolicyController(folder, which)
+    if deterministic:
+        return policy
+    policy.model.set_random_seed(seed)
+
+    def sample(obs, info=None):
+        action, _ = policy.model.predict(policy.normalize(obs), deterministic=False)
+        return np.asarray(action, dtype=np.float32)
+
+    return sample
+
+
+def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = None, realtime_rate: float = 1.0,
+          wait_for_enter: bool = False, say: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    """Roll out ``spec.episodes`` episodes; returns one row of metrics per episode (the evaluation's
+    columns). ``video``: folder for the MP4s; ``meshcat``: live view."""
+    import gymnasium as gym
+    from sphere_env.evaluation.evaluate import rollout
+    from sphere_env.evaluation.video import (
+        check_video_support,
+        record_episode,
+        staged_videos,
+        video_name,
+    )
+
+    if video is not None:
+        video = check_video_support(video)
+    if not (isinstance(realtime_rate, (int, float)) and math.isfinite(realtime_rate) and realtime_rate >= 0):
+        raise ValueError(f"realtime_rate: value {realtime_rate!r} must be a number >= 0 (0: as fast as possible)")
+    r = spec.resolve()
+    import torch
+
+    torch.set_num_threads(1)
+    render_mode = "rgb_array" if video is not None else ("human" if meshcat else None)
+    try:
+        env = gym.make(r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off",
+                       render_mode=render_mode, meshcat=bool(meshcat), **r["env_kwargs"])
+    except TypeError as err:
+        raise ValueError(f"env_kwargs: {err}") from None
+    rows = []
+    try:
+        controller = make_policy(r["folder"], r["which"], spec.deterministic, spec.seed)
+        if meshcat:
+            say(f"Meshcat: {env.unwrapped.meshcat.web_url()}")
+            controller = Paced(controller, env, realtime_rate)
+        with staged_videos(video) as video_work:
+            for k in range(spec.episodes):
+                job = {"controller": r["label"], "spec": str(spec.run), "env_id": r["env_id"],
+                       "shell_model": r["shell_model"], "friction": r["friction"], "pressure_kpa": r["pressure_kpa"],
+                       "seed": spec.seed + k, "env_kwargs": r["env_kwargs"]}
+                if video_work is not None:
+                    name = video_name(r["label"], r["shell_model"], r["pressure_kpa"], spec.seed + k)
+                    row, _ = record_episode(env, video_work, name,
+                                            lambda rec, job=job: rollout(job, env=rec, controller=controller))
+                    row["video"] = str(Path(video) / f"{name}.mp4")
+                else:
+                    row, _ = rollout(job, env=env, controller=controller)
+                if meshcat:
+                    env.unwrapped.twin.publish()  # the last state
+                rows.append(row)
+                say(f"episode {k}: seed {row['seed']}, {row['pressure_kpa']:g} kPa, {row['shell_model']}: "
+                    f"return {row['return']:.3f}, {row['length']} steps, success {bool(row['is_success'])}, "
+                    f"tracking RMSE {row['tracking_rmse_rad_s']:.3f} rad/s"
+                    + (f", truncated ({row['truncation_reason']})" if row["truncation_reason"] else ""))
+        for row in rows:
+            if "video" in row:
+                say(f"video: {row['video']}")
+        if meshcat and wait_for_enter:
+            input(f"Meshcat still serving at {env.unwrapped.meshcat.web_url()}; press Enter to quit ")
+    finally:
+        env.close()
+    return rows
+
+
+def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    from sphere_env.evaluation.evaluate import parse_env_kwargs
+
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best "
+                                    "for its best model")
+    parser.add_argument("--episodes", type=int, default=1, help="number of episodes (seeds seed, seed+1, ...)")
+    parser.add_argument("--pressure", type=float, default=None,
+                        help="inflation pressure [kPa] (default: the calibration's nominal pressure)")
+    parser.add_argument("--shell-model", default=None, help=f"{' | '.join(SHELL_MODELS)} (default: the run's)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    det = parser.add_mutually_exclusive_group()
+    det.add_argument("--deterministic", dest="deterministic", action="store_true", default=True,
+                     help="the policy's deterministic action (default)")
+    det.add_argument("--stochastic", dest="deterministic", action="store_false",
+                     help="sample actions from the policy's distribution")
+    parser.add_argument("--meshcat", action="store_true", help="show the episodes live in Meshcat (URL printed)")
+    parser.add_argument("--realtime-rate", type=float, default=1.0,
+                        help="with --meshcat: simulated seconds per wall-clock second (0: as fast as possible)")
+    parser.add_argument("--video", type=Path, default=None,
+                        help="folder for one MP4 per episode (<label>_<shell model>_<p>kPa_s<seed>.mp4)")
+    parser.add_argument("--label", default=None, help="controller name in the video file names (default: the run "
+                                                      "folder's name)")
+    parser.add_argument("--env", default=None, help="env id (default: the run's)")
+    parser.add_argument("--allow-env-mismatch", action="store_true",
+                        help="run the policy on an env id other than the one it was trained on")
+    parser.add_argument("--env-kwargs", default="{}", help="YAML mapping of extra env kwargs, e.g. "
+                                                            "'{render_size: [640, 480]}'")
+    args = parser.parse_args(argv)
+    try:
+        spec = EnjoySpec(run=args.run, episodes=args.episodes, pressure_kpa=args.pressure, shell_model=args.shell_model,
+                         seed=args.seed, deterministic=args.deterministic, env_id=args.env,
+                         allow_env_mismatch=args.allow_env_mismatch, env_kwargs=parse_env_kwargs(args.env_kwargs),
+                         label=args.label)
+        return enjoy(spec, meshcat=args.meshcat, video=args.video, realtime_rate=args.realtime_rate,
+                     wait_for_enter=args.meshcat and sys.stdin.isatty())
+    except ValueError as err:
+        parser.exit(2, f"evaluation.enjoy: error: {err}\n")
+
+
+if __name__ == "__main__":
+    from sphere_env.evaluation.enjoy import main as _main
+
+    _main()

@@ -1,0 +1,357 @@
+"""Export a trained policy for the robot: raw observation in, deterministic action out, with the
+run's VecNormalize statistics folded in, as ONNX (default) or TorchScript, and its layout beside it.
+
+    python -m evaluation.export runs/ppo_RampDescent-v1_<time>_s0            # -> <run>/export/
+    python -m evaluation.export runs/<run>@best --format torchscript --out deploy/
+    sphere-env export runs/<run>
+
+Writes into ``--out`` (default ``<run>/export``, ``<run>/export_best`` for ``@best``):
+
+``policy.onnx`` or ``policy.pt``
+    input ``observation`` (batch, n_obs) float32, the env's raw observation; output ``action``
+    (batch, 2) float32 in [-1, 1]. Inside: VecNormalize's
+    clip((obs − mean) / sqrt(var + eps), −clip_obs, clip_obs) (in float64, as VecNormalize computes
+    it), the policy network, and SB3's deterministic action (PPO: the Gaussian mean clipped to the
+    action box, as ``predict`` does; SAC: tanh of the mean).
+``policy.json``
+    the observation layout (index, name, unit, meaning, and the normalization statistics), the
+    action layout (normalized range, motor torque limits [N m], joints and sign conventions), env
+    id and kwargs, shell model, control frequency [Hz], the algorithm, the check below and the
+    software versions.
+
+Before anything is written, the exported file is run (onnxruntime, or the TorchScript module) on
+observations recorded from env rollouts of the run's own policy at the calibration's lowest,
+nominal and highest pressures, and compared with ``model.predict(vecnormalize.normalize_obs(obs),
+deterministic=True)``; a largest difference above ``--tol`` (default 1e-5) refuses the export.
+Both files are written to temporary names and moved into place at the end.
+
+ONNX needs the ``export`` extra (onnx, onnxscript for ``torch.onnx.export``; onnxruntime for the
+check: about 120 MB); TorchScript needs nothing beyond torch (recent torch marks TorchScript deprecated; it still works and
+loads in C++ with ``torch::jit::load``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FORMATS = {"onnx": "policy.onnx", "torchscript": "policy.pt"}
+ONNX_PACKAGES = ("onnx", "onnxscript", "onnxruntime")
+DEFAULT_TOL = 1e-5
+#: Steps recorded per check episode (one episode per pressure: lowest, nominal, highest).
+CHECK_STEPS = 100
+
+
+def _policy_module(model: Any, vecnormalize: Any, algo: str):
+    """A torch module: raw observation (batch, n_obs) float32 -> deterministic action (batch, 2)."""
+    import torch
+
+    class DeterministicPolicy(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            policy = model.policy
+            n_obs = int(np.prod(model.observation_space.shape))
+            if vecnormalize is not None and vecnormalize.norm_obs:
+                rms = vecnormalize.obs_rms
+                mean, var = np.asarray(rms.mean, np.float64), np.asarray(rms.var, np.float64)
+                eps, clip = float(vecnormalize.epsilon), float(vecnormalize.clip_obs)
+            else:  # identity
+                mean, var, eps, clip = np.zeros(n_obs), np.ones(n_obs), 0.0, math.inf
+            self.register_buffer("obs_mean", torch.tensor(mean, dtype=torch.float64))
+            self.register_buffer("obs_std", torch.tensor(np.sqrt(var + eps), dtype=torch.float64))
+            self.clip_obs = clip
+            low, high = model.action_space.low, model.action_space.high
+            self.register_buffer("action_low", torch.tensor(low, dtype=torch.float32))
+            self.register_buffer("action_high", torch.tensor(high, dtype=torch.float32))
+            self.algo = algo
+            if algo == "ppo":
+                self.features = policy.pi_features_extractor
+                self.latent = policy.mlp_extractor.policy_net
+                self.head = policy.action_net
+            else:
+                self.features = policy.actor.features_extractor
+                self.latent = policy.actor.latent_pi
+                self.head = policy.actor.mu
+
+        def forward(self, observation: torch.Tensor) -> torch.Tensor:
+            x = (observation.to(torch.float64) - self.obs_mean) / self.obs_std
+            if math.isfinite(self.clip_obs):
+                x = torch.clamp(x, -self.clip_obs, self.clip_obs)
+            mean = self.head(self.latent(self.features(x.to(torch.float32))))
+            if self.algo == "sac":  # squashed Gaussian: tanh of the mean; the box is [-1, 1]
+                return torch.tanh(mean)
+            return torch.maximum(torch.minimum(mean, self.action_high), self.action_low)
+
+    return DeterministicPolicy().eval()
+
+
+def check_supported(model: Any, algo: str) -> None:
+    """Refuse policies this exporter does not reproduce (ValueError naming the field)."""
+    from gymnasium import spaces
+
+    obs_space, act_space, policy = model.observation_space, model.action_space, model.policy
+    problems = [
+        (algo not in ("ppo", "sac"), f"algo: {algo!r} cannot be exported; allowed: ['ppo', 'sac']"),
+        (not (isinstance(obs_space, spaces.Box) and len(obs_space.shape) == 1),
+         f"policy: observation space {obs_space} is not a flat Box"),
+        (not isinstance(act_space, spaces.Box), f"policy: action space {act_space} is not a Box"),
+        (algo == "ppo" and policy.squash_output,
+         "policy: PPO with squash_output (gSDE) cannot be exported; train without squash_output"),
+        (type(policy).__name__ not in ("ActorCriticPolicy", "SACPolicy", "MlpPolicy"),
+         f"policy: {type(policy).__name__} cannot be exported; allowed: MlpPolicy"),
+    ]
+    for failed, message in problems:
+        if failed:
+            raise ValueError(message)
+
+
+def check_format(fmt: str) -> None:
+    import importlib.util
+
+    if fmt not in FORMATS:
+        raise ValueError(f"format: unknown value {fmt!r}; allowed: {list(FORMATS)}")
+    if fmt == "onnx":
+        missing = [m for m in ONNX_PACKAGES if importlib.util.find_spec(m) is None]
+        if missing:
+            raise ValueError(f"format: onnx needs {', '.join(missing)}; install them with "
+                             "pip install \"sphere_env[export]\", or use --format torchscript")
+
+
+def record_observations(controller: Any, env: Any, pressures_kpa: Sequence[float], steps: int = CHECK_STEPS,
+                        seed: int = 0) -> np.ndarray:
+    """Raw observations of rollouts of ``controller`` (one episode per pressure, up to ``steps``
+    steps each; seeds ``seed``, ``seed + 1``, ...), stacked (n, n_obs) float32."""
+    out = []
+    for k, p in enumerate(pressures_kpa):
+        obs, info = env.reset(seed=seed + k, options={"pressure_kpa": float(p)})
+        out.append(obs)
+        for _ in range(steps - 1):
+            obs, _, terminated, truncated, info = env.step(np.clip(controller(obs, info), -1.0, 1.0))
+            out.append(obs)
+            if terminated or truncated:
+                break
+    return np.asarray(out, dtype=np.float32)
+
+
+def sb3_actions(controller: Any, obs: np.ndarray) -> np.ndarray:
+    """``model.predict(vecnormalize.normalize_obs(obs), deterministic=True)``, batched."""
+    action, _ = controller.model.predict(controller.normalize(obs), deterministic=True)
+    return np.asarray(action, dtype=np.float32)
+
+
+def _write_onnx(module, n_obs: int, path: Path) -> None:
+    """``torch.onnx.export`` (the torch.export-based exporter) with a dynamic batch dimension. Its
+    notes about unrelated operator libraries (torchvision) and deprecations are silenced."""
+    import logging
+    import warnings
+
+    import torch
+
+    example = torch.zeros(1, n_obs, dtype=torch.float32)
+    batch = torch.export.Dim("batch", min=1)
+    log = logging.getLogger("torch.onnx")
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", (FutureWarning, DeprecationWarning, UserWarning))
+            program = torch.onnx.export(module, (example,), input_names=["observation"], output_names=["action"],
+                                        dynamic_shapes={"observation": {0: batch}}, dynamo=True, verbose=False)
+    finally:
+        log.setLevel(level)
+    program.save(str(path))
+
+
+def _write_torchscript(module, example: np.ndarray, path: Path) -> None:
+    """``torch.jit.trace`` + ``torch.jit.save`` (loadable with ``torch::jit::load`` in C++). Recent torch
+    marks TorchScript deprecated in favour of torch.export; the warning is silenced here and ONNX is
+    the default format."""
+    import warnings
+
+    import torch
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        torch.jit.save(torch.jit.trace(module, torch.as_tensor(example)), str(path))
+
+
+def run_exported(path: Path, fmt: str, obs: np.ndarray) -> np.ndarray:
+    """Actions of an exported file on a batch of raw observations."""
+    if fmt == "onnx":
+        import onnxruntime as ort
+
+        session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+        (action,) = session.run(["action"], {"observation": np.asarray(obs, np.float32)})
+        return np.asarray(action)
+    import warnings
+
+    import torch
+
+    with warnings.catch_warnings():  # torch >= 2.10 marks TorchScript deprecated; it still loads
+        warnings.simplefilter("ignore", DeprecationWarning)
+        module = torch.jit.load(str(path))
+    with torch.no_grad():
+        return module(torch.as_tensor(np.asarray(obs, np.float32))).numpy()
+
+
+def _versions(fmt: str) -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    from sphere_env.provenance import software_versions
+
+    out = software_versions()
+    for pkg in ONNX_PACKAGES if fmt == "onnx" else ():
+        try:
+            out[pkg] = version(pkg)
+        except PackageNotFoundError:
+            out[pkg] = "absent"
+    return out
+
+
+def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: float = DEFAULT_TOL,
+           env_id: str | None = None, allow_env_mismatch: bool = False) -> dict[str, Path]:
+    """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``."""
+    import gymnasium as gym
+    import torch
+    from sphere_env.evaluation.controller_specs import PolicyController
+    from sphere_env.evaluation.enjoy import EnjoySpec
+
+    from sphere_env.models.shell import ShellCalibration
+
+    check_format(fmt)
+    if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol: value {tol!r} must be a number > 0")
+    r = EnjoySpec(run, env_id=env_id, allow_env_mismatch=allow_env_mismatch).resolve()
+    out = Path(out) if out is not None else r["folder"] / ("export_best" if r["which"] == "best" else "export")
+    for p in (out, *out.parents):
+        if p.exists() and not p.is_dir():
+            raise ValueError(f"out: {str(out)!r} cannot be an output folder: {str(p)!r} is a file")
+    torch.set_num_threads(1)
+    controller = PolicyController(r["folder"], r["which"])
+    cfg = r["config"]
+    check_supported(controller.model, cfg.algo)
+    module = _policy_module(controller.model, controller.vecnormalize, cfg.algo)
+
+    env = gym.make(r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off",
+                   **r["env_kwargs"])
+    try:
+        u = env.unwrapped
+        lo, hi = ShellCalibration.load(r["env_kwargs"].get("calibration")).pressure_range_kpa
+        nominal = ShellCalibration.load(r["env_kwargs"].get("calibration")).nominal_pressure_kpa
+        obs = record_observations(controller, env, (lo, nominal, hi))
+        observation_layout = u.observation_layout.describe()
+        action_layout = u.action_layout()
+        control_hz = 1.0 / u.control_period_s
+    finally:
+        env.close()
+    expected = sb3_actions(controller, obs)
+
+    created = [p for p in (out, *out.parents) if not p.exists()]
+    out.mkdir(parents=True, exist_ok=True)
+    name = FORMATS[fmt]
+    tmp, tmp_json = (_temp_beside(out / n) for n in (name, "policy.json"))
+    try:
+        if fmt == "onnx":
+            _write_onnx(module, obs.shape[1], tmp)
+        else:
+            _write_torchscript(module, obs[:2], tmp)
+        got = run_exported(tmp, fmt, obs)
+        diff = float(np.max(np.abs(got - expected)))
+        if not diff <= tol:
+            raise ValueError(f"check: the exported policy's actions differ from the SB3 policy's by up to {diff:.3g} "
+                             f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written")
+        vn = controller.vecnormalize
+        stats = None
+        if vn is not None and vn.norm_obs:
+            mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
+            for rec, m, v in zip(observation_layout, mean, var):
+                rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
+            stats = {"epsilon": float(vn.epsilon), "clip_obs": float(vn.clip_obs),
+                     "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64"}
+        layout = {
+            "format": fmt,
+            "file": name,
+            "input": {"name": "observation", "shape": ["batch", int(obs.shape[1])], "dtype": "float32",
+                      "meaning": "the env's raw observation (normalization is inside the file)"},
+            "output": {"name": "action", "shape": ["batch", 2], "dtype": "float32", "range": [-1.0, 1.0]},
+            "deterministic_action": ("Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
+                                     if cfg.algo == "ppo" else "tanh of the Gaussian mean (SB3 predict, "
+                                     "deterministic=True)"),
+            "observation": observation_layout,
+            "observation_normalization": stats,
+            "action": action_layout,
+            "env_id": r["env_id"],
+            "shell_model": r["shell_model"],
+            "env_kwargs": r["env_kwargs"],
+            "control_frequency_hz": control_hz,
+            "algo": cfg.algo,
+            "run": str(r["folder"].resolve()),
+            "model": "best/best_model.zip" if r["which"] == "best" else "model.zip",
+            "num_timesteps": int(controller.model.num_timesteps),
+            "check": {"observations": len(obs), "pressures_kpa": [lo, nominal, hi],
+                      "max_abs_action_diff": diff, "tol": tol,
+                      "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit"},
+            "versions": _versions(fmt),
+            "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        }
+        tmp_json.write_text(json.dumps(layout, indent=2, ensure_ascii=False, default=str) + "\n")
+        policy_path, layout_path = out / name, out / "policy.json"
+        os.replace(tmp, policy_path)
+        os.replace(tmp_json, layout_path)
+    except BaseException:
+        for t in (tmp, tmp_json):
+            with contextlib.suppress(OSError):
+                t.unlink()
+        for p in created:  # folders made for the output, innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
+        raise
+    for other in set(FORMATS.values()) - {name}:  # an earlier export in the other format: policy.json no longer describes it
+        with contextlib.suppress(FileNotFoundError):
+            (out / other).unlink()
+    return {"policy": policy_path, "layout": layout_path, "max_abs_action_diff": diff}
+
+
+def _temp_beside(path: Path) -> Path:
+    """An empty temporary file beside ``path``, with the permissions a new file gets (umask)."""
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(name, 0o666 & ~umask)
+    return Path(name)
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best")
+    parser.add_argument("--format", default="onnx", help=f"{' | '.join(FORMATS)} (default onnx)")
+    parser.add_argument("--out", type=Path, default=None, help="output folder (default <run>/export)")
+    parser.add_argument("--tol", type=float, default=DEFAULT_TOL,
+                        help="largest allowed |exported - SB3| action difference in the check")
+    parser.add_argument("--env", default=None, help="env id for the check rollouts and the layout (default: the run's)")
+    parser.add_argument("--allow-env-mismatch", action="store_true", help="use an env id the run was not trained on")
+    args = parser.parse_args(argv)
+    try:
+        res = export(args.run, args.format, args.out, args.tol, args.env, args.allow_env_mismatch)
+    except ValueError as err:
+        parser.exit(2, f"evaluation.export: error: {err}\n")
+    print(f"policy: {res['policy'].resolve()}\nlayout: {res['layout'].resolve()}\n"
+          f"check: max |exported - SB3| action difference {res['max_abs_action_diff']:.2e}")
+    return res
+
+
+if __name__ == "__main__":
+    from sphere_env.evaluation.export import main as _main
+
+    _main()

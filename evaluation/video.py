@@ -1,0 +1,95 @@
+"""MP4 videos of episodes through :class:`gymnasium.wrappers.RecordVideo` (needs the ``video`` extra,
+moviepy), written atomically into a video folder.
+
+One file per episode, named by controller, shell model, pressure and seed
+(``ppo_injected_8.5kPa_s0.mp4``); a frame at the reset and one per step, at the env's control
+frequency (``metadata["render_fps"]``). Videos are first written into a staging folder beside the
+video folder and moved into place only when every episode has finished: a failure leaves the
+folder as it was.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+
+def check_video_support(folder: str | Path) -> Path:
+    """Refuse a video folder that is a file (or lies under one), or a missing moviepy, before any
+    episode runs. Returns the folder as a Path."""
+    folder = Path(folder)
+    for p in (folder, *folder.parents):
+        if p.exists() and not p.is_dir():
+            raise ValueError(f"video: {str(folder)!r} cannot be a video folder: {str(p)!r} is a file")
+    try:
+        import moviepy  # noqa: F401
+    except ImportError:
+        raise ValueError("video: writing MP4s needs moviepy; install it with pip install \"sphere_env[video]\"") from None
+    return folder
+
+
+def video_name(controller: str, shell_model: str, pressure_kpa: float, seed: int, extra: str = "") -> str:
+    """File stem of an episode's video: ``<controller>_<shell model>[_<extra>]_<pressure>kPa_s<seed>``
+    (characters other than letters, digits, ``.``, ``-``, ``@`` and ``_`` become ``-``)."""
+    parts = [controller, shell_model, *([extra] if extra else []), f"{pressure_kpa:g}kPa", f"s{seed}"]
+    return re.sub(r"[^A-Za-z0-9.@_-]", "-", "_".join(str(p) for p in parts))
+
+
+def record_episode(env: Any, folder: str | Path, name: str, run: Callable[[Any], Any]) -> Any:
+    """Run one episode, ``run(wrapped_env)``, with ``env`` (``render_mode="rgb_array"``) wrapped in
+    ``RecordVideo`` and write ``folder/<name>.mp4``. Returns what ``run`` returns. ``env`` is not
+    closed (a worker reuses it); a failing episode writes no file."""
+    from gymnasium.wrappers import RecordVideo
+
+    folder = Path(folder)
+    scratch = folder / f".{name}.frames"  # RecordVideo's own folder (it warns when reusing one)
+    rec = RecordVideo(env, str(scratch), episode_trigger=lambda _: True, name_prefix=name, disable_logger=True)
+    try:
+        result = run(rec)
+        if not rec.recording:
+            raise RuntimeError(f"video: no frames were recorded for {name!r} (was the env reset?)")
+        rec.stop_recording()  # writes <scratch>/<name>-episode-<k>.mp4
+        (written,) = scratch.glob("*.mp4")
+        os.replace(written, folder / f"{name}.mp4")
+    finally:
+        rec.recorded_frames = []  # a failed episode: drop its frames (no "unable to save" warning)
+        rec.recording = False
+        shutil.rmtree(scratch, ignore_errors=True)
+    return result
+
+
+@contextlib.contextmanager
+def staged_videos(folder: Path | None) -> Iterator[Path | None]:
+    """A fresh staging folder beside ``folder`` (None: no videos, yields None). On success its MP4s
+    move into ``folder`` (same names replaced, other files kept); on failure it is removed, and so
+    are the parents created for it."""
+    if folder is None:
+        yield None
+        return
+    folder = Path(folder)
+    created = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{folder.name}.partial-", dir=folder.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    work.chmod(0o777 & ~umask)  # mkdtemp makes it private; the folder it becomes should not be
+    try:
+        yield work
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        for p in created[1:]:  # parents made for the staging folder, innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
+        raise
+    if not folder.exists():
+        work.rename(folder)
+        return
+    for p in work.glob("*.mp4"):
+        os.replace(p, folder / p.name)
+    shutil.rmtree(work, ignore_errors=True)
