@@ -23,7 +23,7 @@ __version__ = "0.1.0"
 #: The task settings of RampDescent-v0/v1: the paper's 16° ramp of 4 m, one command, success =
 #: reaching the run-out.
 _RAMP_V1 = {"incline_deg": 16.0, "ramp_length_m": 4.0, "omega_ref_range_rad_s": (4.0, 8.0),
-            "omega_ref_change_min_rad_s": None, "tracking_tolerance_rad_s": None, "observe_pendulum_pitch": False}
+            "omega_ref_change_min_rad_s": None, "tracking_tolerance_rad_s": None, "extended_observation": False}
 ENV_IDS = {
     "sphere_env/RampDescent-v2": ("sphere_env.envs.factories:make_ramp_descent", 600, {}),
     "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, {}),

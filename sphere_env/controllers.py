@@ -161,7 +161,7 @@ def controller_for(env: Any, name: str = "pd") -> Callable:
         raise ValueError(f"name: unknown controller {name!r}; allowed: ['pd', 'zero']")
     u = env.unwrapped
     layout = u.observation_layout
-    if layout.command != slice(CMD_SPEED, CMD_HEADING + 1) or layout.command_names[0] != "omega_ref":
+    if layout.command.start != CMD_SPEED or len(layout.command_names) < 2 or layout.command_names[0] != "omega_ref":
         raise ValueError(f"env: observation layout {layout} has no [omega_ref, heading] command for the PD baseline")
     return PendulumPDController(
         **pd_preset(env),

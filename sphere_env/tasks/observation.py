@@ -41,6 +41,7 @@ EXTRA_COMPONENTS: dict[str, tuple[str, str, float]] = {
 OTHER_COMPONENTS: dict[str, tuple[str, str]] = {
     "omega_ref": ("rad/s", "command: target drive velocity ω_ref"),
     "heading_error": ("rad", "command: heading error wrap(ψ_ref − ψ)"),
+    "lateral_error": ("m", "command: cross-track error −y back to the lane's centre line"),
     "yaw_rate_ref": ("rad/s", "command: target heading rate ψ̇_ref"),
     "pressure_kpa": ("kPa", "privileged: shell inflation pressure"),
 }

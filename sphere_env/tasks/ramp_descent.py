@@ -51,8 +51,8 @@ class RampDescentTask(Task):
                  forward** (the URDF drive axis is −y, so the joint torque is −a·limit)
     ===  ======  =========================================================================
 
-    **Observation space** ``Box(-inf, inf, (15,), float32)`` (16 with ``observe_pressure``; 13/14
-    without ``observe_pendulum_pitch``, as in v0/v1):
+    **Observation space** ``Box(-inf, inf, (16,), float32)`` (17 with ``observe_pressure``; v0/v1:
+    13/14, without ``lateral_error`` and the pendulum pitch):
 
     ===  =============  ======  ================================================================
     idx  name           unit    meaning (real-robot channel)
@@ -68,11 +68,13 @@ class RampDescentTask(Task):
     8-10 gravity_xyz    -       unit gravity direction in the pipe frame (IMU)
     11   omega_ref      rad/s   command: target drive velocity now (changes at mid-ramp)
     12   heading_error  rad     command: wrap(0 − ψ), heading error to the fall line (shell_yaw)
-    13   pendulum_pitch rad     pendulum pitch α against the vertical, + lifted backward (IMU on
+    13   lateral_error  m       command: −y, offset from the lane's centre line (the fall line
+                                through the start) back to it; a path tracker's cross-track error
+    14   pendulum_pitch rad     pendulum pitch α against the vertical, + lifted backward (IMU on
                                 the pendulum, pitch_joint); a policy needs it to know where gravity
                                 pulls the pendulum, which 2, 4 and 8-10 give only in combination
-    14   ..._rate       rad/s   α̇ (pitch_joint.velocity)
-    15   pressure_kpa   kPa     privileged, only with ``observe_pressure=True``
+    15   ..._rate       rad/s   α̇ (pitch_joint.velocity)
+    16   pressure_kpa   kPa     privileged, only with ``observe_pressure=True``
     ===  =============  ======  ================================================================
 
     Measured components 0–10, 13, 14 get Gaussian noise of ``observation_noise_scale`` × the defaults in
@@ -106,7 +108,8 @@ class RampDescentTask(Task):
     :param settle_time_s: samples this long after the start and after the change are not judged [s].
     :param tracking_tolerance_rad_s: largest tracking RMS error of a success [rad/s]; ``None``:
         success is reaching the run-out in the lane (v0/v1).
-    :param observe_pendulum_pitch: append the pendulum pitch α and its rate (indices 13, 14).
+    :param extended_observation: observe the lane's cross-track error (index 13) and the pendulum
+        pitch α and its rate (14, 15), as v2 does.
     :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
 
     ``reset(options=...)`` also accepts ``omega_ref`` and ``omega_ref_after`` [rad/s] within
@@ -116,7 +119,8 @@ class RampDescentTask(Task):
 
     * v2: the command changes at mid-ramp and success requires tracking it (tolerance 0.5 rad/s
       after 1.5 s settling) on an 8° ramp of 6 m, ω_ref ∈ (2, 4.5) rad/s with a change of at least
-      1 rad/s, time limit 12 s; the pendulum pitch and its rate are observed. Zero torque no
+      1 rad/s, time limit 12 s; the lane's cross-track error, the pendulum pitch and its rate are
+      observed. Zero torque no
       longer succeeds.
     * v1: superseded. The paper's 16° ramp of 4 m, one command ω_ref ∈ (4, 8) rad/s, success =
       reaching the run-out (zero torque succeeded in every episode); the shipped shell calibration
@@ -128,7 +132,7 @@ class RampDescentTask(Task):
     name = "RampDescent"
     ramp = True
     reward_terms = ("speed", "lateral", "heading", "ctrl", "success", "off_ramp")
-    command_names = ("omega_ref", "heading_error")
+    command_names = ("omega_ref", "heading_error")  # v0/v1; v2 adds "lateral_error"
     # ω_ref bounds [rad/s]: those of omega_ref_range_rad_s
     command_option_bounds = {"omega_ref": (0.0, 30.0), "omega_ref_after": (0.0, 30.0)}
 
@@ -139,7 +143,7 @@ class RampDescentTask(Task):
         omega_ref_change_min_rad_s: float | None = 1.0,
         settle_time_s: float = 1.5,
         tracking_tolerance_rad_s: float | None = 0.5,
-        observe_pendulum_pitch: bool = True,
+        extended_observation: bool = True,
         reward_weights: Mapping[str, float] | None = None,
     ):
         self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
@@ -163,9 +167,11 @@ class RampDescentTask(Task):
         )
         self.reward_weights = make_weights(RampRewardWeights, reward_weights)
         self.command_options = ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
-        if not isinstance(observe_pendulum_pitch, bool):
-            raise ValueError(f"observe_pendulum_pitch: value {observe_pendulum_pitch!r} must be a bool")
-        self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if observe_pendulum_pitch else ()
+        if not isinstance(extended_observation, bool):
+            raise ValueError(f"extended_observation: value {extended_observation!r} must be a bool")
+        self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if extended_observation else ()
+        self.command_names = ("omega_ref", "heading_error", "lateral_error") if extended_observation else (
+            "omega_ref", "heading_error")
         self.omega_ref = self.omega_ref_start = self.omega_ref_after = 0.0
         self.ramp_end_x_m = float("inf")
         self.control_period_s = 0.0
@@ -211,6 +217,8 @@ class RampDescentTask(Task):
         self._reached = False
 
     def command(self, state: Any) -> list[float]:
+        if len(self.command_names) == 3:
+            return [self.omega_ref, wrap_angle(-state.heading), -float(state.position_m[1])]
         return [self.omega_ref, wrap_angle(-state.heading)]
 
     def tracking_rmse_rad_s(self) -> float:

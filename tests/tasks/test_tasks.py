@@ -22,9 +22,13 @@ def test_tasks_and_controllers_import_no_drake():
 
 def test_layouts_are_exported_by_the_tasks():
     measured = [c[0] for c in MEASURED_COMPONENTS]
-    ramp = RampDescentTask().observation_layout()
+    ramp = RampDescentTask(extended_observation=False).observation_layout()  # v0/v1
     assert ramp.names == (*measured, "omega_ref", "heading_error")
     assert ramp["omega_d"] == 6 and ramp["omega_ref"] == 11 and ramp.command == slice(11, 13)
+    v2 = RampDescentTask().observation_layout(observe_pressure=True)
+    assert v2.names == (*measured, "omega_ref", "heading_error", "lateral_error", "pendulum_pitch",
+                        "pendulum_pitch_rate", "pressure_kpa")
+    assert v2.command == slice(11, 14) and v2.extra == slice(14, 16)
     roll = RollTask(command_mode="yaw_rate").observation_layout(observe_pressure=True)
     assert roll.names[-3:] == ("omega_ref", "yaw_rate_ref", "pressure_kpa") and len(roll) == 14
     with pytest.raises(KeyError, match="heading_error"):
@@ -38,7 +42,7 @@ def test_layouts_are_exported_by_the_tasks():
 def test_ramp_task_command_reward_and_termination():
     # The v0/v1 settings: one command, success = reaching the run-out.
     task = RampDescentTask(lane_half_width_m=0.5, omega_ref_range_rad_s=(5.0, 5.0), omega_ref_change_min_rad_s=None,
-                           tracking_tolerance_rad_s=None)
+                           tracking_tolerance_rad_s=None, extended_observation=False)
     scene = Scene(control_period_s=0.02, incline_deg=16.0, ramp_end_x_m=3.0)
     task.reset(fake_state(), np.random.default_rng(0), {}, scene)
     assert task.omega_ref == 5.0 and task.info()["omega_ref"] == 5.0 and task.info()["omega_ref_after"] == 5.0
