@@ -10,7 +10,7 @@
    ``reached_runout_rate``, ``mean_return`` and ``tracking_rmse_rad_s`` over the whole grid, plus
    timings) and print where the run folder, report, plots and Meshcat replays are.
 
-    python -m evaluation.demo [--train-steps 120000] [--out out/demo] [--publish]
+    python -m evaluation.demo [--train-steps 200000] [--out out/demo] [--publish]
 
 ``--publish`` copies the report and plots into ``evaluation/results/demo/`` (what the README shows).
 The uncontrolled-descent table of ``python -m evaluation.scripts.uncontrolled_descent`` is still
@@ -28,7 +28,7 @@ from pathlib import Path
 from sphere_env.files import write_text_atomic
 
 ENV_ID = "sphere_env/RampDescent-v2"
-DEFAULT_TRAIN_STEPS = 120_000
+DEFAULT_TRAIN_STEPS = 200_000
 PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
 
