@@ -41,24 +41,37 @@ class Terrain:
             return tuple(if_then_else(p_W[0] < self._x_runout, nr, nz) for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
         return self._n_ramp if p_W[0] < self._x_runout else (0.0, 0.0, 1.0)
 
-    def register(self, plant, props: ProximityProperties) -> None:
-        world = plant.world_body()
+    def geometries(self) -> list[tuple[str, RigidTransform, object, np.ndarray | None]]:
+        """The ground as (name, X_WG, shape, rgba): collision geometries have ``rgba = None``,
+        visual ones a colour."""
         if self.ramp_length_m is None:
-            X = RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3)))
-            plant.RegisterCollisionGeometry(world, X, HalfSpace(), "ground", props)
-            plant.RegisterVisualGeometry(
-                world, RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1), "ground_vis",
-                np.array([0.55, 0.5, 0.45, 1.0]),
-            )
-            return
+            return [
+                ("ground", RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), None),
+                ("ground_vis", RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1),
+                 np.array([0.55, 0.5, 0.45, 1.0])),
+            ]
         # Ramp + flat run-out = union of two half-spaces: the terrain height is the max of the two
         # planes, so each half-space lies below the other's surface where that one is active.
         # (Half-spaces are much cheaper than boxes for hydroelastic contact.)
         end = self.ramp_end_W
-        plant.RegisterCollisionGeometry(world, RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), "ramp", props)
-        plant.RegisterCollisionGeometry(world, RigidTransform(end), HalfSpace(), "runout", props)
         L, thick, margin = self.ramp_length_m, 0.1, 2.0
-        X_ramp = RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2)
-        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 6, thick), "ramp_vis", np.array([0.55, 0.5, 0.45, 1.0]))
-        X_run = RigidTransform(end + np.array([15.0, 0.0, -thick / 2]))
-        plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", np.array([0.45, 0.5, 0.55, 1.0]))
+        return [
+            ("ramp", RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), None),
+            ("runout", RigidTransform(end), HalfSpace(), None),
+            ("ramp_vis", RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2),
+             Box(L + margin, 6, thick), np.array([0.55, 0.5, 0.45, 1.0])),
+            ("runout_vis", RigidTransform(end + np.array([15.0, 0.0, -thick / 2])), Box(30, 6, thick),
+             np.array([0.45, 0.5, 0.55, 1.0])),
+        ]
+
+    def register(self, plant, props: ProximityProperties, body=None) -> dict:
+        """Register the ground with the plant on ``body`` (default: the world body, i.e. anchored
+        geometry). Returns {name: GeometryId}."""
+        body = plant.world_body() if body is None else body
+        ids = {}
+        for name, X_WG, shape, rgba in self.geometries():
+            if rgba is None:
+                ids[name] = plant.RegisterCollisionGeometry(body, X_WG, shape, name, props)
+            else:
+                ids[name] = plant.RegisterVisualGeometry(body, X_WG, shape, name, rgba)
+        return ids

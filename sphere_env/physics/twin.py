@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-from pydrake.geometry import ProximityProperties, RoleAssign
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, ProximityProperties, RoleAssign
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import CoulombFriction
@@ -115,6 +115,11 @@ class Twin:
         self.planar, self.steer, self.drive = d.planar, d.steer, d.drive
         self.shell_geometry, self.shell_source_id = d.shell_geometry, d.shell_source_id
         self.visualizer = d.visualizer
+        self._ground_ids = d.ground_ids
+        self._kinematics_ports, self._kinematics_switch = d.kinematics_ports, d.kinematics_switch
+        self._switch_context = (None if d.kinematics_switch is None
+                                else d.kinematics_switch.GetMyMutableContextFromRoot(self.context))
+        self._select_kinematics()
         self._layout = d.layout
         self._gain_source, self._gain_context, self._motor_port = d.gain_source, d.gain_context, d.motor_port
         self._motor_port.FixValue(self.context, np.zeros(2))
@@ -126,6 +131,52 @@ class Twin:
         self._camera: RgbCamera | None = None
         self._apply_pressure_to_context()
         self.reset()
+
+    # ---- incline ---------------------------------------------------------------------------------
+    @property
+    def incline_deg(self) -> float:
+        """The current ground incline [deg] (``config.incline_deg``)."""
+        return float(self.config.incline_deg)
+
+    @property
+    def inclines_deg(self) -> tuple[float, ...]:
+        """Inclines [deg] this twin can switch to with :meth:`set_incline`."""
+        return self.config.inclines_deg or (self.incline_deg,)
+
+    def set_incline(self, incline_deg: float) -> None:
+        """Move the ground to another of :attr:`inclines_deg` (no rebuild); takes effect on the
+        next step, use :meth:`reset` to start on it.
+
+        The ground geometries get the new incline's poses in the SceneGraph context (Drake's
+        ``ChangeShape``; a twin with several inclines carries its ground on a body welded to the
+        world, since anchored geometry cannot be moved in a context), the shell-kinematics system
+        of that incline is selected, and the terrain (normal, ramp end) follows. The results are
+        bit-identical to a twin built at that incline.
+        """
+        inc = check_param("incline_deg", incline_deg)
+        if inc not in self.inclines_deg:
+            raise ValueError(f"incline_deg: value {incline_deg!r} is not one this twin was built for; allowed: "
+                             f"{list(self.inclines_deg)} (TwinConfig.inclines_deg)")
+        if inc == self.incline_deg:
+            return
+        self.config = replace(self.config, incline_deg=inc)
+        self.terrain = Terrain(inc, self.config.ramp_length_m)
+        self._place_ground()
+        self._select_kinematics()
+
+    def _place_ground(self) -> None:
+        """Put the ground geometries at the current terrain's poses in the SceneGraph context."""
+        for name, X_BG, shape, _ in self.terrain.geometries():
+            self.scene_graph.ChangeShape(self.sg_context, self.shell_source_id, self._ground_ids[name], shape, X_BG)
+        # ChangeShape re-adds the geometry to the proximity engine without the filter that keeps
+        # geometries of one body from colliding with each other: declare it again.
+        self.scene_graph.collision_filter_manager(self.sg_context).Apply(
+            CollisionFilterDeclaration().ExcludeWithin(GeometrySet(list(self._ground_ids.values()))))
+
+    def _select_kinematics(self) -> None:
+        if self._kinematics_switch is not None:
+            self._kinematics_switch.get_port_selector_input_port().FixValue(
+                self._switch_context, self._kinematics_ports[self.incline_deg])
 
 
     # ---- pressure --------------------------------------------------------------------------------
@@ -180,7 +231,7 @@ class Twin:
         (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
         for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
         cached per shell (modulus, dissipation), LRU, and restored in ≈2 ms when they recur; the
-        current ground friction is re-applied after a restore. Results are bit-identical to a
+        current ground friction and incline are re-applied after a restore. Results are bit-identical to a
         fresh re-mesh.
         """
         self._apply_gains()
@@ -190,17 +241,20 @@ class Twin:
         key = self.shell.hydroelastic(self._pressure_kpa)
         entry = self._geometry_cache.get(key)
         if entry is not None:
-            snap, mu = entry
+            snap, mu, incline = entry
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
             self._geometry_cache.move_to_end(key)
-            if mu != self._ground_friction:  # the snapshot holds the ground μ of its time
+            if incline != self.incline_deg:  # the snapshot holds the ground pose of its time
+                self._place_ground()
+            if mu != self._ground_friction:  # and the ground μ of its time
                 self._assign_ground_friction(self._ground_friction)
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
             shell_properties(self.config, self.shell, self._pressure_kpa), RoleAssign.kReplace,
         )
-        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(), self._ground_friction)
+        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(), self._ground_friction,
+                                     self.incline_deg)
         if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:
             self._geometry_cache.popitem(last=False)
 
@@ -235,11 +289,9 @@ class Twin:
     def _assign_ground_friction(self, mu: float) -> None:
         mu_g = ground_coefficient(mu)
         inspector = self.scene_graph.model_inspector()
-        for gid in inspector.GetAllGeometryIds():
-            if inspector.GetFrameId(gid) != inspector.world_frame_id():
-                continue  # only ground geometries (welded to the world)
+        for gid in self._ground_ids.values():
             if inspector.GetProximityProperties(gid) is None:
-                continue
+                continue  # visual ground
             props = ProximityProperties(inspector.GetProximityProperties(gid))
             props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu_g, mu_g))
             self.scene_graph.AssignRole(self.sg_context, self.shell_source_id, gid, props, RoleAssign.kReplace)
