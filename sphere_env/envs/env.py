@@ -44,7 +44,7 @@ from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_
 #: Default motor torque limits at the joints [N m] (the registry's nominal values).
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
 DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
-#: Distinct inclines get distinct twins (terrain is geometry); inclines are rounded to this.
+#: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
 INCLINE_RESOLUTION_DEG = 1.0
 #: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
@@ -333,7 +333,7 @@ class SphereEnv(gym.Env, EzPickle):
         for name, val in self.randomization.sample(rng).items():
             params[name] = clip_parameter(name, val, rng_p)
         if "incline_deg" in params and params["incline_deg"] != self.incline_deg:
-            # Sampled inclines snap to a 1° grid: each distinct incline is its own twin (terrain).
+            # Sampled inclines snap to a 1° grid: a finite set of terrains (built once per twin).
             params["incline_deg"] = self._quantize_incline(params["incline_deg"])
         sched = self.randomization.pressure_schedule
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(rng, 1))
