@@ -119,6 +119,14 @@ class Twin:
         self._kinematics_ports, self._kinematics_switch = d.kinematics_ports, d.kinematics_switch
         self._switch_context = (None if d.kinematics_switch is None
                                 else d.kinematics_switch.GetMyMutableContextFromRoot(self.context))
+        self._ground_geometries: dict[float, list] = {}  # incline -> Terrain.geometries(), built once
+        # The ground in the context: its incline and μ. Setters change the targets (config
+        # incline, _ground_friction) and mark it dirty; _sync_ground brings the context there
+        # before the next reset, step or render, so a cached shell restored in between (which
+        # brings the ground of its time) costs one update, not two.
+        self._ground_incline = self.incline_deg
+        self._ground_mu_in_context = float(self.config.ground_friction)
+        self._ground_dirty = False
         self._select_kinematics()
         self._layout = d.layout
         self._gain_source, self._gain_context, self._motor_port = d.gain_source, d.gain_context, d.motor_port
@@ -161,17 +169,28 @@ class Twin:
             return
         self.config = replace(self.config, incline_deg=inc)
         self.terrain = Terrain(inc, self.config.ramp_length_m)
-        self._place_ground()
         self._select_kinematics()
+        self._ground_dirty = True  # the ground moves before the next reset, step or render
 
-    def _place_ground(self) -> None:
-        """Put the ground geometries at the current terrain's poses in the SceneGraph context."""
-        for name, X_BG, shape, _ in self.terrain.geometries():
+    def _sync_ground(self) -> None:
+        """Bring the context's ground to the current incline and μ (see ``_ground_dirty``)."""
+        self._ground_dirty = False
+        if self._ground_mu_in_context != self._ground_friction:
+            self._assign_ground_friction(self._ground_friction)
+            self._ground_mu_in_context = self._ground_friction
+        inc = self.config.incline_deg
+        if self._ground_incline == inc:
+            return
+        geometries = self._ground_geometries.get(inc)
+        if geometries is None:
+            geometries = self._ground_geometries[inc] = self.terrain.geometries()
+        for name, X_BG, shape, _ in geometries:
             self.scene_graph.ChangeShape(self.sg_context, self.shell_source_id, self._ground_ids[name], shape, X_BG)
         # ChangeShape re-adds the geometry to the proximity engine without the filter that keeps
         # geometries of one body from colliding with each other: declare it again.
         self.scene_graph.collision_filter_manager(self.sg_context).Apply(
             CollisionFilterDeclaration().ExcludeWithin(GeometrySet(list(self._ground_ids.values()))))
+        self._ground_incline = inc
 
     def _select_kinematics(self) -> None:
         if self._kinematics_switch is not None:
@@ -244,17 +263,16 @@ class Twin:
             snap, mu, incline = entry
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
             self._geometry_cache.move_to_end(key)
-            if incline != self.incline_deg:  # the snapshot holds the ground pose of its time
-                self._place_ground()
-            if mu != self._ground_friction:  # and the ground μ of its time
-                self._assign_ground_friction(self._ground_friction)
+            # The snapshot holds the ground (pose, μ) of its time: synced before the next step.
+            self._ground_incline, self._ground_mu_in_context = incline, mu
+            self._ground_dirty = True
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
             shell_properties(self.config, self.shell, self._pressure_kpa), RoleAssign.kReplace,
         )
-        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(), self._ground_friction,
-                                     self.incline_deg)
+        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(),
+                                     self._ground_mu_in_context, self._ground_incline)
         if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:
             self._geometry_cache.popitem(last=False)
 
@@ -276,15 +294,15 @@ class Twin:
         self.pendulum.SetSpatialInertiaInBodyFrame(self.plant_context, M)
 
     def set_ground_friction(self, mu: float) -> None:
-        """Set the effective shell–ground Coulomb friction [-] (static = dynamic) in the context.
+        """Set the effective shell–ground Coulomb friction [-] (static = dynamic); pushed into the
+        context before the next reset, step or render.
 
         Drake combines the two geometries' coefficients as 2 μ_s μ_g / (μ_s + μ_g); the shell keeps
         μ_s = :data:`~sphere_env.params.SHELL_FRICTION`, so the ground's value is solved for:
         μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s (the registry's bounds).
         """
-        mu = check_param("ground_friction", mu)
-        self._assign_ground_friction(mu)
-        self._ground_friction = mu
+        self._ground_friction = check_param("ground_friction", mu)
+        self._ground_dirty = True  # pushed before the next reset, step or render
 
     def _assign_ground_friction(self, mu: float) -> None:
         mu_g = ground_coefficient(mu)
@@ -443,6 +461,7 @@ class Twin:
             self.planar.set_angular_velocity(pc, initial.angular_velocity_rad_s[0])
         if pressure_kpa is not None:
             self.set_pressure(pressure_kpa)
+        self._sync_ground()
         self._motor_port.FixValue(self.context, np.zeros(2))
         self.simulator.Initialize()
         return self.state()
@@ -528,6 +547,8 @@ class Twin:
 
     def advance_unchecked(self, duration_s: float, motor_torque_nm: np.ndarray) -> None:
         """:meth:`advance` without input validation; ``motor_torque_nm`` must be a finite float64 (2,)."""
+        if self._ground_dirty:
+            self._sync_ground()
         self._motor_port.FixValue(self.context, motor_torque_nm)
         self.simulator.AdvanceTo(self.context.get_time() + duration_s)
 
@@ -551,6 +572,7 @@ class Twin:
     def publish(self) -> None:
         """Send the current pose to Meshcat now (no-op without a Meshcat)."""
         if self.visualizer is not None:
+            self._sync_ground()
             self.visualizer.ForcedPublish(self.visualizer.GetMyContextFromRoot(self.context))
 
     def start_recording(self) -> None:
@@ -578,6 +600,7 @@ class Twin:
         camera following the robot from behind-left. The first call adds the render engine to
         this twin's SceneGraph context (and clears the hydroelastic shell cache, whose states
         would lack it)."""
+        self._sync_ground()
         if self._camera is None:
             self._camera = RgbCamera(self.scene_graph, self.sg_context, width, height)
             self._geometry_cache.clear()
