@@ -1,7 +1,9 @@
 """The one sphere_env Gymnasium environment: a twin composed with a task.
 
 :class:`SphereEnv` owns one :class:`~sphere_env.physics.Twin` per distinct (quantized) incline,
-built once and reused by every reset; parameters (pressure, friction scales, ground friction,
+built once and reused by every reset (hydroelastic: one twin for every incline the randomization
+can draw, which moves its ground between episodes, so its cached shells serve all inclines);
+parameters (pressure, friction scales, ground friction,
 payload) change through :meth:`Twin.apply`. It turns actions into motor torques, samples the
 randomization, assembles observations and steps the physics; a :class:`~sphere_env.tasks.Task`
 supplies the command, reward terms, termination and default initial state. The registered ids
@@ -42,7 +44,7 @@ from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_
 #: Default motor torque limits at the joints [N m] (the registry's nominal values).
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
 DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
-#: Distinct inclines get distinct twins (terrain is geometry); inclines are rounded to this.
+#: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
 INCLINE_RESOLUTION_DEG = 1.0
 #: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
@@ -231,6 +233,10 @@ class SphereEnv(gym.Env, EzPickle):
 
         # ---- physics ----
         self._twins: OrderedDict[float, Twin] = OrderedDict()
+        self._shared_twin: Twin | None = None
+        shared = self._shared_inclines()
+        if len(shared) > 1:
+            self._shared_twin = self._build_twin(float(self.incline_deg), shared)
         self.twin = self._get_twin(self.incline_deg)
         # Friction and injected shell torques are explicit: refuse gains that diverge at this step
         # (at the largest friction scales the randomization can draw).
@@ -251,36 +257,70 @@ class SphereEnv(gym.Env, EzPickle):
     def _quantize_incline(self, incline_deg: float) -> float:
         return round(float(incline_deg) / INCLINE_RESOLUTION_DEG) * INCLINE_RESOLUTION_DEG
 
+    def _shared_inclines(self) -> tuple[float, ...]:
+        """Inclines [deg] one hydroelastic twin serves: the env's and every 1° grid value the
+        randomization can draw. Each hydroelastic twin caches up to
+        :attr:`Twin.GEOMETRY_CACHE_SIZE` re-meshed shells (≈1.8 MB each), so one twin per incline
+        would multiply that memory; point and injected twins cache nothing and keep one twin per
+        incline. Without Meshcat only (its ground is drawn once)."""
+        term = next((t for t in self.randomization.terms if t.parameter == "incline_deg"), None)
+        if self.shell_model != "hydroelastic" or self.meshcat is not None or term is None:
+            return ()
+        d, rec = term.distribution, PARAMETERS["incline_deg"]
+        if d.kind == "fixed":
+            values = [d.value]
+        elif d.kind == "choice":
+            values = list(d.values)
+        elif d.kind == "uniform":
+            values = range(math.floor(d.low), math.ceil(d.high) + 1)
+        else:  # normal, clipped to the parameter's bounds
+            values = range(math.floor(rec.low), math.ceil(rec.high) + 1)
+        grid = {self._quantize_incline(clip_parameter("incline_deg", v, (0.0, 0.0))) for v in values}
+        return tuple(sorted(v for v in grid | {float(self.incline_deg)} if rec.contains(v)))
+
     def _get_twin(self, incline_deg: float) -> Twin:
+        """The twin for an incline: the shared twin if it has that incline (moved there), else the
+        incline's own twin, built on first use (LRU, at most ``_MAX_TWINS``)."""
+        shared = self._shared_twin
+        if shared is not None and incline_deg in shared.inclines_deg:
+            return shared
         twin = self._twins.get(incline_deg)
         if twin is not None:
             self._twins.move_to_end(incline_deg)
             return twin
-        cfg = TwinConfig(
-            fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
-            drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
-            time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
-        )
-        twin = Twin(cfg, meshcat=self.meshcat)
+        twin = self._build_twin(incline_deg)
         self._twins[incline_deg] = twin
         if len(self._twins) > _MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
+
+    def _build_twin(self, incline_deg: float, inclines_deg: tuple[float, ...] = ()) -> Twin:
+        cfg = TwinConfig(
+            fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
+            drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
+            time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
+            inclines_deg=inclines_deg,
+        )
+        return Twin(cfg, meshcat=self.meshcat)
 
     @property
     def ramp_end_x_m(self) -> float:
         """x_W where the current episode's ramp ends [m]; ``inf`` on flat ground."""
         return self.twin.ramp_end_x_m
 
+    def _all_twins(self) -> list[Twin]:
+        return ([self._shared_twin] if self._shared_twin is not None else []) + list(self._twins.values())
+
     @property
     def cached_twin_count(self) -> int:
-        """Twins built for distinct inclines and kept for reuse."""
-        return len(self._twins)
+        """Twins built and kept for reuse (the shared hydroelastic twin, if any, and one per other
+        incline drawn)."""
+        return len(self._all_twins())
 
     @property
     def cached_shell_count(self) -> int:
         """Hydroelastic shells (one per distinct pressure) cached over all the env's twins."""
-        return sum(t.cached_shell_count for t in self._twins.values())
+        return sum(t.cached_shell_count for t in self._all_twins())
 
     # ---- parameters ----------------------------------------------------------------------------
     def _sample_params(self, fixed: Mapping[str, Any], rng: np.random.Generator) -> dict[str, Any]:
@@ -294,7 +334,7 @@ class SphereEnv(gym.Env, EzPickle):
         for name, val in self.randomization.sample(rng).items():
             params[name] = clip_parameter(name, val, rng_p)
         if "incline_deg" in params and params["incline_deg"] != self.incline_deg:
-            # Sampled inclines snap to a 1° grid: each distinct incline is its own twin (terrain).
+            # Sampled inclines snap to a 1° grid: a finite set of terrains (built once per twin).
             params["incline_deg"] = self._quantize_incline(params["incline_deg"])
         sched = self.randomization.pressure_schedule
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(rng, 1))
@@ -358,9 +398,7 @@ class SphereEnv(gym.Env, EzPickle):
         """Refuse an initial sphere centre more than MAX_INITIAL_PENETRATION_M inside the ground."""
         if init.position_m is None:
             return
-        twin = self._twins.get(incline_deg)
-        terrain = twin.terrain if twin is not None else Terrain(incline_deg, self.ramp_length_m)
-        clearance = ground_clearance_m(terrain, init.position_m)
+        clearance = ground_clearance_m(Terrain(incline_deg, self.ramp_length_m), init.position_m)
         radius = self.twin.robot.radius_m
         if clearance < radius - MAX_INITIAL_PENETRATION_M:
             raise ValueError(
@@ -408,6 +446,7 @@ class SphereEnv(gym.Env, EzPickle):
         if twin is not self.twin and self.record_replay:
             self.twin.stop_recording()
         self.twin = twin
+        twin.set_incline(params["incline_deg"])
         twin.apply(params)
         twin.reset(init)
         self._p0 = self._p_applied = params["pressure_kpa"]
@@ -607,6 +646,7 @@ class SphereEnv(gym.Env, EzPickle):
 
     def close(self) -> None:
         self._twins.clear()
+        self._shared_twin = None
         self.meshcat = None
 
     # ---- copies ------------------------------------------------------------------------------------

@@ -54,6 +54,11 @@ class TwinConfig:
         for point/injected and ``lagged`` (honours Hunt–Crossley dissipation) for hydroelastic.
     :param bare_plant: build without the friction/injected-torque system: the benchmark's
         bare-Drake floor (no joint friction, no injected shell torques).
+    :param inclines_deg: inclines [deg] the twin can switch among with
+        :meth:`~sphere_env.physics.Twin.set_incline` without a rebuild (``incline_deg`` is always
+        one of them; stored sorted, without duplicates). Each adds one shell-kinematics system to
+        the diagram (the ground normal is a constant of its expressions); the ground geometry
+        moves in the context. Empty: ``incline_deg`` only.
     """
 
     fixture: str = "free"
@@ -70,6 +75,7 @@ class TwinConfig:
     resolution_hint_m: float | None = None
     contact_approximation: str | None = None
     bare_plant: bool = False
+    inclines_deg: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if self.fixture not in FIXTURES:
@@ -78,6 +84,13 @@ class TwinConfig:
         inc = check_param("incline_deg", self.incline_deg)
         if self.fixture in ("steer_plane", "stand") and inc != 0.0:
             raise ValueError(f"incline_deg: value {inc} not allowed for fixture {self.fixture!r}; allowed: 0")
+        if isinstance(self.inclines_deg, (str, bytes)) or not hasattr(self.inclines_deg, "__iter__"):
+            raise ValueError(f"inclines_deg: value {self.inclines_deg!r} must be a sequence of inclines [deg]")
+        incs = {check_param("incline_deg", v, "inclines_deg") for v in self.inclines_deg}
+        if incs and self.fixture in ("steer_plane", "stand") and incs != {0.0}:
+            raise ValueError(f"inclines_deg: value {tuple(self.inclines_deg)!r} not allowed for fixture "
+                             f"{self.fixture!r}; allowed: () or (0,)")
+        object.__setattr__(self, "inclines_deg", tuple(sorted(incs | {inc})) if incs else ())
         if self.ramp_length_m is not None:
             check_param("ramp_length_m", self.ramp_length_m)
         check_param("time_step_s", self.time_step_s)

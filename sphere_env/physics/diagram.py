@@ -23,10 +23,10 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
-from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint
+from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
+from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, PortSwitch, SymbolicVectorSystem
 
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import BoundShell
@@ -61,6 +61,11 @@ class TwinDiagram:
     gain_context: Any
     motor_port: Any  # [τ_steer, τ_drive] N m
     visualizer: Any  # MeshcatVisualizer or None
+    ground_ids: dict  # ground geometry name -> GeometryId (Terrain.geometries)
+    # incline [deg] -> PortSwitch input index of its shell-kinematics system, and the PortSwitch;
+    # empty / None unless the config has several inclines and a shell couple
+    kinematics_ports: dict
+    kinematics_switch: Any
 
 
 def ground_coefficient(mu: float) -> float:
@@ -128,8 +133,16 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     AddContactMaterial(friction=CoulombFriction(mu_g, mu_g), properties=ground_props)
     if hydro:
         AddRigidHydroelasticProperties(ground_props)
+    ground_ids = {}
     if cfg.fixture != "stand":
-        terrain.register(plant, ground_props)
+        ground = None  # the world body: anchored ground geometry
+        if len(cfg.inclines_deg) > 1:
+            # Anchored geometry cannot be moved in a context (SceneGraph.ChangeShape leaves the
+            # world pose the contact queries use at its old value), geometry on a body welded to
+            # the world can: its world pose is recomputed from its pose in the body at every update.
+            ground = plant.AddRigidBody("ground", plant.AddModelInstance("ground"), SpatialInertia.Zero())
+            plant.WeldFrames(world, ground.body_frame())
+        ground_ids = terrain.register(plant, ground_props, ground)
     (shell_geometry,) = plant.GetCollisionGeometriesForBody(body("bedliner"))
     shell_source_id = plant.get_source_id()
     scene_graph.AssignRole(
@@ -157,7 +170,8 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
 
     # Friction + injected shell forces, evaluated in C++. A bare plant (benchmark floor) leaves
     # the applied-generalized-force port unconnected, i.e. zero.
-    gain_source = None
+    gain_source = switch = None
+    kinematics_ports: dict = {}
     if not cfg.bare_plant:
         x, g, out, kinematics = build_force_expressions(
             layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model in ("injected", "hydroelastic"),
@@ -170,7 +184,25 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
         gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
         mux = builder.AddSystem(Multiplexer([nq + nv, len(k), len(g)] if len(k) else [nq + nv, len(g)]))
         builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
-        if len(k):  # stage 1: φ, φ̇, axis, ŷ, ω_d computed once per step
+        if len(k) and len(cfg.inclines_deg) > 1:
+            # One stage-1 system per incline (the ground normal is a constant of the expressions,
+            # exactly as for a single incline); a PortSwitch passes the current incline's on.
+            # Only the selected input is evaluated.
+            switch = builder.AddNamedSystem("shell_kinematics_switch", PortSwitch(len(k)))
+            for inc in cfg.inclines_deg:
+                if inc == cfg.incline_deg:
+                    x_i, k_exprs = x, kinematics[1]
+                else:
+                    x_i, _, _, kin_i = build_force_expressions(
+                        layout, cfg.steer_friction, cfg.drive_friction, True, Terrain(inc, cfg.ramp_length_m).normal_at)
+                    k_exprs = kin_i[1]
+                kin = builder.AddNamedSystem(f"shell_kinematics_{inc:g}deg", SymbolicVectorSystem(input=x_i, output=k_exprs))
+                builder.Connect(plant.get_state_output_port(), kin.get_input_port())
+                port = switch.DeclareInputPort(f"incline_{inc:g}deg")
+                builder.Connect(kin.get_output_port(), port)
+                kinematics_ports[inc] = port.get_index()
+            builder.Connect(switch.get_output_port(), mux.get_input_port(1))
+        elif len(k):  # stage 1: φ, φ̇, axis, ŷ, ω_d computed once per step
             kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(input=x, output=kinematics[1]))
             builder.Connect(plant.get_state_output_port(), kin.get_input_port())
             builder.Connect(kin.get_output_port(), mux.get_input_port(1))
@@ -206,5 +238,6 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
         plant_context=plant_context, sg_context=sg_context, model_instance=model_instance, pc=pc, pipe=pipe,
         pendulum=pendulum, planar=planar, steer=steer, drive=drive, shell_geometry=shell_geometry,
         shell_source_id=shell_source_id, layout=layout, gain_source=gain_source, gain_context=gain_context,
-        motor_port=motor_port, visualizer=visualizer,
+        motor_port=motor_port, visualizer=visualizer, ground_ids=ground_ids, kinematics_ports=kinematics_ports,
+        kinematics_switch=switch,
     )

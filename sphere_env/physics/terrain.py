@@ -23,27 +23,22 @@ GRID_RGBA = np.array([0.22, 0.2, 0.18, 1.0])
 _GRID_LINE_HEIGHT_M = 0.004  # a thin box whose lower half is inside the ground slab
 
 
-def register_grid(plant, R_WS: RotationMatrix, p_WSo: np.ndarray, x_range_m: tuple[float, float],
-                  y_range_m: tuple[float, float], name: str) -> int:
-    """Visual grid lines on a flat surface patch: frame S (rotation ``R_WS``, origin ``p_WSo`` on the
-    surface, z_S its normal), lines along x_S and y_S every :data:`GRID_SPACING_M` over
-    ``x_range_m`` × ``y_range_m`` (in S) [m]. Lines at multiples of the spacing from S's origin, so
-    the grid is fixed in the world. Returns the number of lines."""
-    world = plant.world_body()
+def grid_geometries(R_WS: RotationMatrix, p_WSo: np.ndarray, x_range_m: tuple[float, float],
+                    y_range_m: tuple[float, float], name: str) -> list[tuple[str, RigidTransform, object, np.ndarray]]:
+    """Visual grid lines on a flat surface patch, as (name, X_WG, shape, rgba): frame S (rotation
+    ``R_WS``, origin ``p_WSo`` on the surface, z_S its normal), lines along x_S and y_S every
+    :data:`GRID_SPACING_M` over ``x_range_m`` × ``y_range_m`` (in S) [m]. Lines at multiples of the
+    spacing from S's origin, so the grid is fixed in the world."""
     s, w, h = GRID_SPACING_M, GRID_LINE_WIDTH_M, _GRID_LINE_HEIGHT_M
     (x0, x1), (y0, y1) = x_range_m, y_range_m
-    n = 0
+    out = []
     for k in range(math.ceil(x0 / s), math.floor(x1 / s) + 1):  # lines across x_S (along y_S)
         p_S = np.array([k * s, (y0 + y1) / 2, 0.0])
-        plant.RegisterVisualGeometry(world, RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(w, y1 - y0, h),
-                                     f"{name}_grid_x{n}", GRID_RGBA)
-        n += 1
+        out.append((f"{name}_grid_x{len(out)}", RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(w, y1 - y0, h), GRID_RGBA))
     for k in range(math.ceil(y0 / s), math.floor(y1 / s) + 1):  # lines along x_S
         p_S = np.array([(x0 + x1) / 2, k * s, 0.0])
-        plant.RegisterVisualGeometry(world, RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(x1 - x0, w, h),
-                                     f"{name}_grid_y{n}", GRID_RGBA)
-        n += 1
-    return n
+        out.append((f"{name}_grid_y{len(out)}", RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(x1 - x0, w, h), GRID_RGBA))
+    return out
 
 
 class Terrain:
@@ -77,27 +72,39 @@ class Terrain:
             return tuple(if_then_else(p_W[0] < self._x_runout, nr, nz) for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
         return self._n_ramp if p_W[0] < self._x_runout else (0.0, 0.0, 1.0)
 
-    def register(self, plant, props: ProximityProperties) -> None:
-        world = plant.world_body()
+    def geometries(self) -> list[tuple[str, RigidTransform, object, np.ndarray | None]]:
+        """The ground as (name, X_WG, shape, rgba): collision geometries have ``rgba = None``,
+        visual ones a colour."""
         if self.ramp_length_m is None:
-            X = RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3)))
-            plant.RegisterCollisionGeometry(world, X, HalfSpace(), "ground", props)
-            plant.RegisterVisualGeometry(
-                world, RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1), "ground_vis", GROUND_RGBA,
-            )
-            register_grid(plant, self.R_WG, np.zeros(3), (-15.0, 15.0), (-15.0, 15.0), "ground")
-            return
+            return [
+                ("ground", RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), None),
+                ("ground_vis", RigidTransform(self.R_WG, -0.05 * self.n_ramp), Box(30, 30, 0.1), GROUND_RGBA),
+                *grid_geometries(self.R_WG, np.zeros(3), (-15.0, 15.0), (-15.0, 15.0), "ground"),
+            ]
         # Ramp + flat run-out = union of two half-spaces: the terrain height is the max of the two
         # planes, so each half-space lies below the other's surface where that one is active.
         # (Half-spaces are much cheaper than boxes for hydroelastic contact.)
         end = self.ramp_end_W
-        plant.RegisterCollisionGeometry(world, RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), "ramp", props)
-        plant.RegisterCollisionGeometry(world, RigidTransform(end), HalfSpace(), "runout", props)
         L, thick, margin = self.ramp_length_m, 0.1, 2.0
-        X_ramp = RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2)
-        plant.RegisterVisualGeometry(world, X_ramp, Box(L + margin, 6, thick), "ramp_vis", GROUND_RGBA)
-        X_run = RigidTransform(end + np.array([15.0, 0.0, -thick / 2]))
-        plant.RegisterVisualGeometry(world, X_run, Box(30, 6, thick), "runout_vis", RUNOUT_RGBA)
-        # Grid lines: the ramp's measured along the slope from its top, the run-out's from its start.
-        register_grid(plant, self.R_WG, np.zeros(3), (-margin, L), (-3.0, 3.0), "ramp")
-        register_grid(plant, RotationMatrix(), end, (0.0, 30.0), (-3.0, 3.0), "runout")
+        return [
+            ("ramp", RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), None),
+            ("runout", RigidTransform(end), HalfSpace(), None),
+            ("ramp_vis", RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2),
+             Box(L + margin, 6, thick), GROUND_RGBA),
+            ("runout_vis", RigidTransform(end + np.array([15.0, 0.0, -thick / 2])), Box(30, 6, thick), RUNOUT_RGBA),
+            # Grid lines: the ramp's measured along the slope from its top, the run-out's from its start.
+            *grid_geometries(self.R_WG, np.zeros(3), (-margin, L), (-3.0, 3.0), "ramp"),
+            *grid_geometries(RotationMatrix(), end, (0.0, 30.0), (-3.0, 3.0), "runout"),
+        ]
+
+    def register(self, plant, props: ProximityProperties, body=None) -> dict:
+        """Register the ground with the plant on ``body`` (default: the world body, i.e. anchored
+        geometry). Returns {name: GeometryId}."""
+        body = plant.world_body() if body is None else body
+        ids = {}
+        for name, X_WG, shape, rgba in self.geometries():
+            if rgba is None:
+                ids[name] = plant.RegisterCollisionGeometry(body, X_WG, shape, name, props)
+            else:
+                ids[name] = plant.RegisterVisualGeometry(body, X_WG, shape, name, rgba)
+        return ids

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-from pydrake.geometry import ProximityProperties, RoleAssign
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, ProximityProperties, RoleAssign
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import CoulombFriction
@@ -115,6 +115,19 @@ class Twin:
         self.planar, self.steer, self.drive = d.planar, d.steer, d.drive
         self.shell_geometry, self.shell_source_id = d.shell_geometry, d.shell_source_id
         self.visualizer = d.visualizer
+        self._ground_ids = d.ground_ids
+        self._kinematics_ports, self._kinematics_switch = d.kinematics_ports, d.kinematics_switch
+        self._switch_context = (None if d.kinematics_switch is None
+                                else d.kinematics_switch.GetMyMutableContextFromRoot(self.context))
+        self._ground_geometries: dict[float, list] = {}  # incline -> Terrain.geometries(), built once
+        # The ground in the context: its incline and μ. Setters change the targets (config
+        # incline, _ground_friction) and mark it dirty; _sync_ground brings the context there
+        # before the next reset, step or render, so a cached shell restored in between (which
+        # brings the ground of its time) costs one update, not two.
+        self._ground_incline = self.incline_deg
+        self._ground_mu_in_context = float(self.config.ground_friction)
+        self._ground_dirty = False
+        self._select_kinematics()
         self._layout = d.layout
         self._gain_source, self._gain_context, self._motor_port = d.gain_source, d.gain_context, d.motor_port
         self._motor_port.FixValue(self.context, np.zeros(2))
@@ -126,6 +139,63 @@ class Twin:
         self._camera: RgbCamera | None = None
         self._apply_pressure_to_context()
         self.reset()
+
+    # ---- incline ---------------------------------------------------------------------------------
+    @property
+    def incline_deg(self) -> float:
+        """The current ground incline [deg] (``config.incline_deg``)."""
+        return float(self.config.incline_deg)
+
+    @property
+    def inclines_deg(self) -> tuple[float, ...]:
+        """Inclines [deg] this twin can switch to with :meth:`set_incline`."""
+        return self.config.inclines_deg or (self.incline_deg,)
+
+    def set_incline(self, incline_deg: float) -> None:
+        """Move the ground to another of :attr:`inclines_deg` (no rebuild); takes effect on the
+        next step, use :meth:`reset` to start on it.
+
+        The ground geometries get the new incline's poses in the SceneGraph context (Drake's
+        ``ChangeShape``; a twin with several inclines carries its ground on a body welded to the
+        world, since anchored geometry cannot be moved in a context), the shell-kinematics system
+        of that incline is selected, and the terrain (normal, ramp end) follows. The results are
+        bit-identical to a twin built at that incline.
+        """
+        inc = check_param("incline_deg", incline_deg)
+        if inc not in self.inclines_deg:
+            raise ValueError(f"incline_deg: value {incline_deg!r} is not one this twin was built for; allowed: "
+                             f"{list(self.inclines_deg)} (TwinConfig.inclines_deg)")
+        if inc == self.incline_deg:
+            return
+        self.config = replace(self.config, incline_deg=inc)
+        self.terrain = Terrain(inc, self.config.ramp_length_m)
+        self._select_kinematics()
+        self._ground_dirty = True  # the ground moves before the next reset, step or render
+
+    def _sync_ground(self) -> None:
+        """Bring the context's ground to the current incline and μ (see ``_ground_dirty``)."""
+        self._ground_dirty = False
+        if self._ground_mu_in_context != self._ground_friction:
+            self._assign_ground_friction(self._ground_friction)
+            self._ground_mu_in_context = self._ground_friction
+        inc = self.config.incline_deg
+        if self._ground_incline == inc:
+            return
+        geometries = self._ground_geometries.get(inc)
+        if geometries is None:
+            geometries = self._ground_geometries[inc] = self.terrain.geometries()
+        for name, X_BG, shape, _ in geometries:
+            self.scene_graph.ChangeShape(self.sg_context, self.shell_source_id, self._ground_ids[name], shape, X_BG)
+        # ChangeShape re-adds the geometry to the proximity engine without the filter that keeps
+        # geometries of one body from colliding with each other: declare it again.
+        self.scene_graph.collision_filter_manager(self.sg_context).Apply(
+            CollisionFilterDeclaration().ExcludeWithin(GeometrySet(list(self._ground_ids.values()))))
+        self._ground_incline = inc
+
+    def _select_kinematics(self) -> None:
+        if self._kinematics_switch is not None:
+            self._kinematics_switch.get_port_selector_input_port().FixValue(
+                self._switch_context, self._kinematics_ports[self.incline_deg])
 
 
     # ---- pressure --------------------------------------------------------------------------------
@@ -180,7 +250,7 @@ class Twin:
         (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
         for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
         cached per shell (modulus, dissipation), LRU, and restored in ≈2 ms when they recur; the
-        current ground friction is re-applied after a restore. Results are bit-identical to a
+        current ground friction and incline are re-applied after a restore. Results are bit-identical to a
         fresh re-mesh.
         """
         self._apply_gains()
@@ -190,17 +260,19 @@ class Twin:
         key = self.shell.hydroelastic(self._pressure_kpa)
         entry = self._geometry_cache.get(key)
         if entry is not None:
-            snap, mu = entry
+            snap, mu, incline = entry
             self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
             self._geometry_cache.move_to_end(key)
-            if mu != self._ground_friction:  # the snapshot holds the ground μ of its time
-                self._assign_ground_friction(self._ground_friction)
+            # The snapshot holds the ground (pose, μ) of its time: synced before the next step.
+            self._ground_incline, self._ground_mu_in_context = incline, mu
+            self._ground_dirty = True
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
             shell_properties(self.config, self.shell, self._pressure_kpa), RoleAssign.kReplace,
         )
-        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(), self._ground_friction)
+        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(),
+                                     self._ground_mu_in_context, self._ground_incline)
         if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:
             self._geometry_cache.popitem(last=False)
 
@@ -222,24 +294,22 @@ class Twin:
         self.pendulum.SetSpatialInertiaInBodyFrame(self.plant_context, M)
 
     def set_ground_friction(self, mu: float) -> None:
-        """Set the effective shell–ground Coulomb friction [-] (static = dynamic) in the context.
+        """Set the effective shell–ground Coulomb friction [-] (static = dynamic); pushed into the
+        context before the next reset, step or render.
 
         Drake combines the two geometries' coefficients as 2 μ_s μ_g / (μ_s + μ_g); the shell keeps
         μ_s = :data:`~sphere_env.params.SHELL_FRICTION`, so the ground's value is solved for:
         μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s (the registry's bounds).
         """
-        mu = check_param("ground_friction", mu)
-        self._assign_ground_friction(mu)
-        self._ground_friction = mu
+        self._ground_friction = check_param("ground_friction", mu)
+        self._ground_dirty = True  # pushed before the next reset, step or render
 
     def _assign_ground_friction(self, mu: float) -> None:
         mu_g = ground_coefficient(mu)
         inspector = self.scene_graph.model_inspector()
-        for gid in inspector.GetAllGeometryIds():
-            if inspector.GetFrameId(gid) != inspector.world_frame_id():
-                continue  # only ground geometries (welded to the world)
+        for gid in self._ground_ids.values():
             if inspector.GetProximityProperties(gid) is None:
-                continue
+                continue  # visual ground
             props = ProximityProperties(inspector.GetProximityProperties(gid))
             props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu_g, mu_g))
             self.scene_graph.AssignRole(self.sg_context, self.shell_source_id, gid, props, RoleAssign.kReplace)
@@ -391,6 +461,7 @@ class Twin:
             self.planar.set_angular_velocity(pc, initial.angular_velocity_rad_s[0])
         if pressure_kpa is not None:
             self.set_pressure(pressure_kpa)
+        self._sync_ground()
         self._motor_port.FixValue(self.context, np.zeros(2))
         self.simulator.Initialize()
         return self.state()
@@ -476,6 +547,8 @@ class Twin:
 
     def advance_unchecked(self, duration_s: float, motor_torque_nm: np.ndarray) -> None:
         """:meth:`advance` without input validation; ``motor_torque_nm`` must be a finite float64 (2,)."""
+        if self._ground_dirty:
+            self._sync_ground()
         self._motor_port.FixValue(self.context, motor_torque_nm)
         self.simulator.AdvanceTo(self.context.get_time() + duration_s)
 
@@ -499,6 +572,7 @@ class Twin:
     def publish(self) -> None:
         """Send the current pose to Meshcat now (no-op without a Meshcat)."""
         if self.visualizer is not None:
+            self._sync_ground()
             self.visualizer.ForcedPublish(self.visualizer.GetMyContextFromRoot(self.context))
 
     def start_recording(self) -> None:
@@ -526,6 +600,7 @@ class Twin:
         camera following the robot from behind-left. The first call adds the render engine to
         this twin's SceneGraph context (and clears the hydroelastic shell cache, whose states
         would lack it)."""
+        self._sync_ground()
         if self._camera is None:
             self._camera = RgbCamera(self.scene_graph, self.sg_context, width, height)
             self._geometry_cache.clear()

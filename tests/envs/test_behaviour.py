@@ -219,3 +219,25 @@ def test_cached_hydroelastic_pressure_is_identical_to_a_fresh_one():
         fresh.set_pressure(p)
         assert run(cached) == run(fresh)
     assert cached.cached_shell_count == 1 + 2  # the built shell + one per distinct pressure
+
+
+def test_hydroelastic_shell_cache_stays_within_one_twins_budget(make, monkeypatch):
+    """Full randomization (pressure, incline, ground μ, friction scales, payload): one twin serves
+    every incline drawn, so the cached shells never exceed one twin's budget, however many
+    inclines and pressures the resets draw. (A budget of 6 shells keeps the re-meshing short.)"""
+    monkeypatch.setattr(Twin, "GEOMETRY_CACHE_SIZE", 6)
+    env = make("sphere_env/RampDescent-v0", shell_model="hydroelastic", randomization="full")
+    u = env.unwrapped
+    inclines, pressures, mus = set(), set(), set()
+    for i in range(30):
+        _, info = env.reset(seed=i)
+        inclines.add(info["params"]["incline_deg"])
+        pressures.add(info["params"]["pressure_kpa"])
+        mus.add(info["params"]["ground_friction"])
+        assert u.cached_twin_count == 1
+        assert u.cached_shell_count <= 6
+    assert len(inclines) >= 7 and len(pressures) > 6 and len(mus) == 30
+    assert u.cached_shell_count == 6
+    # An incline outside the randomization's grid gets its own twin; the shared one is kept.
+    env.reset(options={"incline_deg": 13.37})
+    assert u.cached_twin_count == 2 and u.twin.incline_deg == 13.37

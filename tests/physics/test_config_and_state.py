@@ -23,6 +23,9 @@ from .conftest import record
         (dict(time_step_s=0.0), "time_step_s"),
         (dict(contact_approximation="magic"), "contact_approximation"),
         (dict(fixture="stand", incline_deg=10), "incline_deg"),
+        (dict(inclines_deg=(12, 40)), "inclines_deg"),
+        (dict(inclines_deg="12"), "inclines_deg"),
+        (dict(fixture="stand", inclines_deg=(0, 5)), "inclines_deg"),
     ],
 )
 def test_bad_config_names_the_field(kwargs, field):
