@@ -607,8 +607,9 @@ def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str):
 
 
 def validate_with_env(cfg: TrainConfig) -> None:
-    """Build one training env and the model on it in-process, and the evaluation env at each
-    evaluation pressure; errors become ValueErrors naming the field."""
+    """Build one training env and the model on it in-process, and check the evaluation env at each
+    evaluation pressure (the same env with the evaluation spec set when only the randomization
+    differs: one Drake build); errors become ValueErrors naming the field."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     env = _make_checked(cfg.env_id, cfg.make_kwargs(), "env_kwargs")
@@ -617,18 +618,30 @@ def validate_with_env(cfg: TrainConfig) -> None:
         check_trained_agent(cfg, env)
     venv = DummyVecEnv([lambda env=env: env])
     try:
-        with warnings.catch_warnings():  # e.g. PPO's batch-size hint for this 1-env stand-in
-            warnings.simplefilter("ignore")
-            algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
-    except (ValueError, TypeError, AssertionError, KeyError) as err:
-        raise ValueError(f"hyperparams: {cfg.algo.upper()} refused the values: {err}") from None
+        try:
+            with warnings.catch_warnings():  # e.g. PPO's batch-size hint for this 1-env stand-in
+                warnings.simplefilter("ignore")
+                algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
+        except (ValueError, TypeError, AssertionError, KeyError) as err:
+            raise ValueError(f"hyperparams: {cfg.algo.upper()} refused the values: {err}") from None
+        if cfg.eval_freq <= 0:
+            return
+        train_kw, eval_kw = cfg.make_kwargs(), cfg.make_kwargs(evaluation=True)
+        same_env = {k: v for k, v in train_kw.items() if k != "randomization"} == \
+            {k: v for k, v in eval_kw.items() if k != "randomization"}
+        if same_env:
+            eval_env = env
+            try:
+                env.unwrapped.set_randomization(eval_kw.get("randomization", "default"))
+            except ValueError as err:
+                raise _env_error(err, "eval_env_kwargs") from None
+        else:
+            eval_env = _make_checked(cfg.env_id, eval_kw, "eval_env_kwargs")
+        for p in cfg.eval_pressures_kpa or [None]:
+            _try_episode_start(eval_env, cfg.eval_seed, "eval_env_kwargs", None if p is None else {"pressure_kpa": p})
+        eval_env.close()
     finally:
         venv.close()
-    if cfg.eval_freq > 0:
-        env = _make_checked(cfg.env_id, cfg.make_kwargs(evaluation=True), "eval_env_kwargs")
-        for p in cfg.eval_pressures_kpa or [None]:
-            _try_episode_start(env, cfg.eval_seed, "eval_env_kwargs", None if p is None else {"pressure_kpa": p})
-        env.close()
 
 
 def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
