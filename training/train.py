@@ -1,21 +1,37 @@
 """Train a stable-baselines3 agent (PPO or SAC) on a sphere_env id; one self-describing run folder.
 
     python -m training.train --env sphere_env/RampDescent-v1 --algo ppo
-    python -m training.train --env sphere_env/Roll-v1 --algo sac --n-timesteps 2e5 --seed 3
-    python -m training.train --env sphere_env/RampDescent-v1 --algo ppo \\
-        --params n_envs:2 learning_rate:lin_3e-4 "randomization:{pressure_kpa: [3, 10]}"
-    python -m training.train --resume runs/ppo_RampDescent-v1_...   # continue from the last checkpoint
+    python -m training.train --env sphere_env/Roll-v1 --algo sac -n 2e5 --seed 3
+    python -m training.train --env sphere_env/RampDescent-v1 --algo ppo -conf my.yml \\
+        --hyperparams n_envs:4 learning_rate:lin_3e-4 \\
+        --env-kwargs shell_model:"'hydroelastic'" randomization:"{'pressure_kpa': [3, 10]}"
+    python -m training.train -i runs/<run>/model.zip -n 1e5      # a new run from a trained model
+    python -m training.train --resume runs/<run> -n 1e6           # continue from the last checkpoint
+    python -m training.train --seeds 0 1 2 --ray-address auto     # a sweep (sphere_env.training.sweep)
+
+The flags are rl-zoo3's (``-conf/--conf-file``, ``-params/--hyperparams key:value``,
+``--env-kwargs``, ``--eval-env-kwargs``, ``-n``, ``--seed``, ``--eval-freq``, ``--eval-episodes``,
+``--save-freq``, ``-f/--log-folder``, ``-tb/--tensorboard-log``, ``-i/--trained-agent``), and the
+hyperparameter files are rl-zoo3 files (:mod:`sphere_env.training.config`). ``key:value`` values
+are Python literals as in rl-zoo3; text that is not one stays a string. ``--env-kwargs`` are merged
+key by key over the file's ``env_kwargs`` (rl-zoo3 replaces the mapping). Everything is validated
+before a file is written.
+
+The best model is chosen on fixed evaluation episodes: randomization off (``--eval-env-kwargs``
+changes the evaluation env), the pressures ``--eval-pressures-kpa`` (default the calibration's low,
+nominal and high) in turn, episode k with seed ``seed + 10000 + k`` (:class:`EvaluationEpisodes`).
 
 A run folder holds::
 
-    config.yaml              resolved config: env kwargs, randomization spec, hyperparameters,
-                             seeds, versions (drake, torch, sb3, sphere_env, ...) and the command
+    config.yaml              resolved config: env kwargs (randomization spec as given and resolved),
+                             evaluation env kwargs and pressures, hyperparameters, seeds, versions
+                             (drake, torch, sb3, sphere_env, ...) and the command
     model.zip                final model          vecnormalize.pkl   its VecNormalize statistics
-    best/best_model.zip      best on the eval env best/vecnormalize.pkl
+    best/best_model.zip      best on the evaluation episodes, best/vecnormalize.pkl
     checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_, SAC: _replay_buffer_)
     learning_curve.csv/.png  training episodes and evaluations against env steps
     monitor/                 Monitor CSVs (info keywords: pressure_kpa, is_success)
-    eval/evaluations.npz     EvalCallback log          tb/  TensorBoard logs
+    eval/evaluations.npz     EvalCallback log          tb/  TensorBoard logs (or -tb)
 """
 
 from __future__ import annotations

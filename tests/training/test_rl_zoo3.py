@@ -12,8 +12,8 @@ import pytest
 
 pytest.importorskip("rl_zoo3")
 
-from sphere_env.resources import hyperparams_path  # noqa: E402
-from sphere_env.training.train import load_config, main  # noqa: E402
+from sphere_env.resources import hyperparams_path
+from sphere_env.training.train import load_config, main
 
 RAMP = "sphere_env/RampDescent-v1"
 
@@ -23,7 +23,7 @@ def test_rl_zoo3_trains_with_the_shipped_yaml_and_this_trainer_continues_it(tmp_
     cmd = [sys.executable, "-m", "rl_zoo3.train", "--gym-packages", "sphere_env", "--env", RAMP, "--algo", "ppo",
            "-conf", str(hyperparams_path("ppo")), "-n", "128", "--eval-freq", "-1", "-f", str(tmp_path / "logs"),
            "--seed", "0", "-params", "n_envs:1", "n_steps:64", "batch_size:64", "n_epochs:1"]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "'randomization': {'pressure_kpa': {'distribution': 'uniform'}}" in done.stdout  # read from env_kwargs
     run = tmp_path / "logs" / "ppo" / "sphere_env-RampDescent-v1_1"
