@@ -333,7 +333,8 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
     ax.set_ylabel("episode return")
     ax.set_title(run_dir.name, fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # a tiny run may have neither a finished episode nor an evaluation
+        ax.legend(fontsize=8)
     fig.tight_layout()
     png = run_dir / "learning_curve.png"
     fig.savefig(png, dpi=110)

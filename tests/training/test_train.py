@@ -192,7 +192,7 @@ def test_training_improves_evaluation_return(tmp_path):
     The command range is narrowed to slow speeds (always brake), so a few updates show the trend."""
     from sphere_env.evaluation.controller_specs import PolicyController
 
-    overrides = {"n_timesteps": IMPROVE_STEPS, "env_kwargs": TASK, "randomization": "off"}  # shipped layout
+    overrides = {"n_timesteps": IMPROVE_STEPS, "env_kwargs": {**TASK, "randomization": "off"}}  # shipped layout
     cfg = resolve_config(RAMP, "ppo", overrides=overrides, seed=0, eval_freq=10**6, eval_episodes=1)
     run = train(cfg, tmp_path / "run", progress_bar=False)
 
