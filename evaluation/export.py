@@ -1,7 +1,7 @@
 """Export a trained policy for the robot: raw observation in, deterministic action out, with the
 run's VecNormalize statistics folded in, as ONNX (default) or TorchScript, and its layout beside it.
 
-    python -m evaluation.export runs/ppo_RampDescent-v1_<time>_s0            # -> <run>/export/
+    python -m evaluation.export runs/ppo_RampDescent-v2_<time>_s0            # -> <run>/export/
     python -m evaluation.export runs/<run>@best --format torchscript --out deploy/
     sphere-env export runs/<run>
 

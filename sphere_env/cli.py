@@ -30,7 +30,7 @@ class Command:
 
 
 COMMANDS = {
-    "train": Command("sphere_env.training.train", "train a PPO/SAC policy (stable-baselines3)",
+    "train": Command("sphere_env.training.train", "train a PPO/SAC policy (stable-baselines3; rl-zoo3 flags and YAML, sweeps on Ray)",
                      (("stable_baselines3", "train"), ("torch", "train"), ("tensorboard", "train"),
                       ("matplotlib", "train"))),
     "evaluate": Command("sphere_env.evaluation.evaluate",

@@ -50,3 +50,13 @@ def test_arguments_reach_the_module_parser(capsys):
         cli.main(["train", "--algo", "dqn"])
     assert exc.value.code == 2
     assert "dqn" in capsys.readouterr().err
+
+
+def test_train_takes_rl_zoo3_flags(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["train", "--help"])
+    out = capsys.readouterr().out
+    for flag in ("-conf", "--conf-file", "-params", "--hyperparams", "--env-kwargs", "--eval-env-kwargs", "-f",
+                 "--log-folder", "-i", "--trained-agent", "-tb", "--tensorboard-log", "--save-freq", "--eval-freq",
+                 "--eval-episodes", "-n", "--n-timesteps", "--seed", "--ray-address", "--seeds"):
+        assert f" {flag}" in out, flag

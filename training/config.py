@@ -4,23 +4,35 @@ Everything that can be wrong with a configuration (algorithm, env id, hyperparam
 values, env kwargs, randomization ranges) is refused here, in the main process, before any
 worker starts, with a ``ValueError`` whose message begins with the offending field.
 
-A hyperparameter file maps env ids to mappings of SB3 constructor arguments plus these keys
-(rl-zoo3 conventions):
+A hyperparameter file is an rl-zoo3 file: it maps env ids to mappings of SB3 constructor
+arguments plus these keys, and the shipped files hold nothing else, so
+``python -m rl_zoo3.train --gym-packages sphere_env --env <id> -conf <file>`` reads them as they are:
 
 ==================  ==========================================================================
-``n_envs``          parallel envs (by default ``SubprocVecEnv``, one process each, when > 1)
-``n_threads``       optional: step the ``n_envs`` envs in the main process with this many threads
-                    (:class:`sphere_env.training.vec_env.ThreadedVecEnv`); ``auto``: one per usable
-                    core. The shipped PPO sections use ``auto`` (fastest measured layout)
-``n_workers``       optional: host the ``n_envs`` envs on this many processes
-                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`); excludes ``n_threads``
+``n_envs``          parallel envs
 ``n_timesteps``     total environment steps (``!!float 3e5`` is fine)
 ``policy``          SB3 policy name (``MlpPolicy``)
 ``normalize``       ``true``/``false`` or a mapping of ``VecNormalize`` arguments
-``env_kwargs``      keyword arguments of ``gymnasium.make`` (see the env docstrings)
-``randomization``   the env's randomization spec (:mod:`sphere_env.tasks.randomization`);
-                    overrides ``env_kwargs["randomization"]``
+``env_kwargs``      keyword arguments of ``gymnasium.make`` (see the env docstrings), including
+                    ``randomization``: the env's spec (:mod:`sphere_env.tasks.randomization`)
 ==================  ==========================================================================
+
+Two more keys choose how this trainer steps the envs; rl-zoo3 does not know them (it would pass
+them to the algorithm and fail), so they belong in ``--hyperparams`` overrides or in files meant
+for this trainer only. Without either, the envs are stepped by threads of the training process
+(``n_threads: auto``, the fastest measured layout):
+
+==================  ==========================================================================
+``n_threads``       step the ``n_envs`` envs in the main process with this many threads
+                    (:class:`sphere_env.training.vec_env.ThreadedVecEnv`); ``auto``: one per usable
+                    core; ``null``: one process per env (``SubprocVecEnv``)
+``n_workers``       host the ``n_envs`` envs on this many processes
+                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`); excludes ``n_threads``
+==================  ==========================================================================
+
+A top-level ``randomization`` key (the former layout) is refused with a message saying where it
+moved; rl-zoo3 keys this trainer does not implement (``env_wrapper``, ``frame_stack``, ...) are
+refused too.
 
 ``learning_rate`` and ``clip_range`` accept ``"lin_<value>"`` (linear decay to 0);
 ``policy_kwargs`` may be a mapping or rl-zoo3's ``"dict(...)"`` string.
@@ -34,7 +46,7 @@ import math
 import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import yaml
 
@@ -42,7 +54,12 @@ from sphere_env.resources import hyperparams_path
 
 ALGOS = ("ppo", "sac")
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
-SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "randomization")
+SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs")
+#: rl-zoo3 section keys (popped by its ExpManager) that this trainer does not implement.
+ZOO_ONLY_KEYS = ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type",
+                 "noise_std")
+#: The former top-level key and where it lives now.
+MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
 #: Constructor arguments the trainer sets itself (refused in the YAML).
 RESERVED = ("self", "env", "tensorboard_log", "verbose", "seed", "device", "_init_setup_model")
 VECNORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
@@ -80,16 +97,24 @@ class TrainConfig:
     n_threads: int | str | None = None  # threads stepping the envs in-process (ThreadedVecEnv); "auto"
     policy: str = "MlpPolicy"
     normalize: dict[str, Any] | None = field(default_factory=dict)  # None: no VecNormalize
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    randomization: Any = "default"
+    env_kwargs: dict[str, Any] = field(default_factory=dict)  # incl. "randomization"
     hyperparams: dict[str, Any] = field(default_factory=dict)  # algorithm constructor arguments
-    eval_freq: int = 10_000  # env steps between evaluations (summed over workers)
-    eval_episodes: int = 5
-    eval_randomization: Any = None  # None: the training randomization
-    checkpoint_freq: int = 20_000  # env steps between checkpoints
+    eval_freq: int = 10_000  # env steps between evaluations (summed over workers); <= 0: none
+    eval_episodes: int = 6  # per evaluation, cycling over eval_pressures_kpa
+    eval_env_kwargs: dict[str, Any] = field(default_factory=lambda: {"randomization": "off"})  # over env_kwargs
+    eval_pressures_kpa: list[float] | None = None  # resolved: a list; []: the eval env draws its own
+    checkpoint_freq: int = 20_000  # env steps between checkpoints; <= 0: only the final one
     device: str = "cpu"
     torch_threads: int = 1
     hyperparams_file: str = ""
+    tensorboard_log: str | None = None  # None: <run>/tb
+    trained_agent: str | None = None  # model.zip the run continues from (-i)
+
+    @property
+    def randomization(self) -> Any:
+        """The training env's randomization spec (``env_kwargs["randomization"]``; the env's default
+        when absent)."""
+        return self.env_kwargs.get("randomization", "default")
 
     def as_dict(self) -> dict[str, Any]:
         return copy.deepcopy(asdict(self))
@@ -104,11 +129,12 @@ class TrainConfig:
         return self.seed + 10_000
 
     def make_kwargs(self, evaluation: bool = False) -> dict[str, Any]:
-        """kwargs for ``gymnasium.make`` (env kwargs + randomization)."""
-        rnd = self.randomization
-        if evaluation and self.eval_randomization is not None:
-            rnd = self.eval_randomization
-        return {**copy.deepcopy(self.env_kwargs), "randomization": copy.deepcopy(rnd)}
+        """kwargs for ``gymnasium.make``: the env kwargs, with the evaluation overrides on top for
+        the evaluation env."""
+        kwargs = copy.deepcopy(self.env_kwargs)
+        if evaluation:
+            kwargs.update(copy.deepcopy(self.eval_env_kwargs))
+        return kwargs
 
     def algo_kwargs(self) -> dict[str, Any]:
         """Hyperparameters turned into constructor arguments (schedules, policy_kwargs, tuples)."""
@@ -400,25 +426,41 @@ def resolve_config(
     overrides: Mapping[str, Any] | None = None,
     seed: int = 0,
     eval_freq: int | None = None,
-    eval_episodes: int = 5,
-    eval_randomization: Any = None,
+    eval_episodes: int = 6,
+    eval_env_kwargs: Mapping[str, Any] | None = None,
+    eval_pressures_kpa: Sequence[float] | None = None,
     checkpoint_freq: int | None = None,
     device: str = "cpu",
     torch_threads: int = 1,
+    env_kwargs: Mapping[str, Any] | None = None,
+    tensorboard_log: str | Path | None = None,
+    trained_agent: str | Path | None = None,
     build_env: bool = True,
 ) -> TrainConfig:
-    """Read the YAML section for ``env_id``, apply ``overrides`` (same keys as the YAML) and
-    validate everything. Builds one env in-process (``build_env``) so env kwargs and randomization
-    are checked by the env itself, and the model once on it so hyperparameter values are too.
+    """Read the YAML section for ``env_id``, apply ``overrides`` (same keys as the YAML, rl-zoo3's
+    ``--hyperparams``) and ``env_kwargs`` (merged key by key over the section's), and validate
+    everything. Builds one env in-process (``build_env``) so env kwargs and randomization are
+    checked by the env itself, the model once on it so hyperparameter values are too, and the
+    evaluation env at every evaluation pressure.
+
+    The evaluation env takes ``env_kwargs`` with ``eval_env_kwargs`` on top (default
+    ``{"randomization": "off"}``; given ones are merged over that default). Its episodes cycle over
+    ``eval_pressures_kpa`` (default: the calibration's low, nominal and high pressures; ``[]``: the
+    eval env's own randomization decides), episode k at pressure ``k mod len`` with seed
+    ``eval_seed + k``, the same episodes at every evaluation. ``eval_freq``/``checkpoint_freq`` <= 0
+    turn evaluations / periodic checkpoints off (rl-zoo3's negative values).
 
     :raises ValueError: naming the field (``algo``, ``env``, ``hyperparams.<key>``,
-        ``env_kwargs.<kwarg>``, ``randomization.<parameter>``, ``n_envs``, ...).
+        ``env_kwargs.<kwarg>``, ``env_kwargs.randomization.<parameter>``, ``eval_env_kwargs...``,
+        ``eval_pressures_kpa``, ``n_envs``, ...).
     """
     cls = algo_class(algo)
     check_env_id(env_id)
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
+    _refuse_moved_keys(section, f"the section {env_id!r} of {str(path)!r}")
     overrides = dict(overrides or {})
+    _refuse_moved_keys(overrides, "--hyperparams")
     # An override choosing one layout replaces the file's other one (n_threads vs n_workers).
     for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
         if overrides.get(key) is not None and other not in overrides:
@@ -431,18 +473,18 @@ def resolve_config(
     for key, val in section.items():
         if key in SPECIAL_KEYS:
             continue
+        if key in ZOO_ONLY_KEYS:
+            raise ValueError(f"hyperparams.{key}: an rl-zoo3 key this trainer does not implement; "
+                             f"train with python -m rl_zoo3.train for it, or remove it")
         if key not in allowed:
             raise ValueError(
                 f"hyperparams.{key}: unknown hyperparameter for {cls.__name__}; "
                 f"allowed: {sorted(allowed - {'policy'}) + list(SPECIAL_KEYS)}"
             )
         hyper[key] = _number_or_str(val)
-    env_kwargs = section.get("env_kwargs") or {}
-    if not isinstance(env_kwargs, Mapping):
-        raise ValueError(f"env_kwargs: value {env_kwargs!r} must be a mapping")
-    env_kwargs = dict(env_kwargs)
-    randomization = section.get("randomization", env_kwargs.pop("randomization", "default"))
-    env_kwargs.pop("randomization", None)
+    kwargs = _mapping("env_kwargs", section.get("env_kwargs") or {})
+    kwargs.update(copy.deepcopy(_mapping("env_kwargs", env_kwargs or {})))
+    eval_kwargs = {"randomization": "off", **copy.deepcopy(_mapping("eval_env_kwargs", eval_env_kwargs or {}))}
     policy = section.get("policy", "MlpPolicy")
     if not isinstance(policy, str):
         raise ValueError(f"policy: value {policy!r} must be a policy name such as 'MlpPolicy'")
@@ -452,7 +494,8 @@ def resolve_config(
         n_workers = _int("n_workers", n_workers)
         if n_workers > n_envs:
             raise ValueError(f"n_workers: value {n_workers} must be <= n_envs={n_envs}")
-    n_threads = section.get("n_threads")
+    # Default layout: threads of this process (fastest measured); an explicit null: one process per env.
+    n_threads = section.get("n_threads", "auto" if n_workers is None else None)
     if isinstance(n_threads, str) and n_threads != "auto":
         raise ValueError(f"n_threads: value {n_threads!r} must be an integer >= 1 or 'auto'")
     if n_threads is not None and n_threads != "auto":
@@ -471,13 +514,16 @@ def resolve_config(
     cfg = TrainConfig(
         env_id=env_id, algo=algo, seed=_int("seed", seed, 0), n_timesteps=n_timesteps, n_envs=n_envs,
         n_workers=n_workers, n_threads=n_threads,
-        policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=env_kwargs,
-        randomization=randomization, hyperparams=hyper,
-        eval_freq=_int("eval_freq", eval_freq if eval_freq is not None else max(n_timesteps // 10, chunk)),
+        policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=kwargs,
+        hyperparams=hyper,
+        eval_freq=_period("eval_freq", eval_freq, max(n_timesteps // 10, chunk)),
         eval_episodes=_int("eval_episodes", eval_episodes),
-        eval_randomization=eval_randomization,
-        checkpoint_freq=_int("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None else max(n_timesteps // 5, chunk)),
+        eval_env_kwargs=eval_kwargs,
+        eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, eval_pressures_kpa),
+        checkpoint_freq=_period("checkpoint_freq", checkpoint_freq, max(n_timesteps // 5, chunk)),
         device=device, torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
+        tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
+        trained_agent=None if trained_agent is None else str(trained_agent),
     )
     cfg.algo_kwargs()  # schedules and policy_kwargs parse
     if build_env:
@@ -485,57 +531,177 @@ def resolve_config(
     return cfg
 
 
-def _prefixed(err: Exception, prefix: str) -> ValueError:
+def _refuse_moved_keys(section: Mapping[str, Any], where: str) -> None:
+    for key, now in MOVED_KEYS.items():
+        if key in section:
+            raise ValueError(
+                f"{key}: a top-level key in {where}; it moved to {now} (rl-zoo3's layout, which passes "
+                f"env_kwargs to gymnasium.make): in a YAML section write 'env_kwargs: {{{key}: ...}}', on the "
+                f"command line '--env-kwargs {key}:...'")
+
+
+def _mapping(field_name: str, value: Any) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{field_name}: value {value!r} must be a mapping of env kwargs")
+    return dict(value)
+
+
+def _period(field_name: str, value: Any, default: int) -> int:
+    """Steps between evaluations/checkpoints; rl-zoo3's negative values (off) become 0."""
+    if value is None:
+        return default
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
+        return 0
+    return _int(field_name, value)
+
+
+def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None) -> list[float]:
+    """The evaluation pressures [kPa]: given (each within the calibrated range) or the
+    calibration's low, nominal and high pressures."""
+    from sphere_env.models.shell import ShellCalibration
+
+    try:
+        cal = ShellCalibration.load(kwargs.get("calibration"))
+    except ValueError as err:
+        raise ValueError(f"env_kwargs.calibration: {err}") from None
+    if pressures is None:
+        lo, hi = cal.pressure_range_kpa
+        return [float(lo), float(cal.nominal_pressure_kpa), float(hi)]
+    if isinstance(pressures, (str, bytes)) or not isinstance(pressures, Sequence):
+        raise ValueError(f"eval_pressures_kpa: value {pressures!r} must be a list of pressures [kPa]")
+    return [cal.check_pressure(p, "eval_pressures_kpa") for p in pressures]
+
+
+def _env_error(err: Exception, prefix: str) -> ValueError:
+    """An env's ValueError as one naming the configuration field (``env_kwargs.<kwarg>``)."""
     msg = str(err)
-    if msg.startswith(("randomization", "options")):
-        return ValueError(msg)
-    return ValueError(f"{prefix}{msg}")
+    return ValueError(f"{prefix}.{msg}" if not msg.startswith(("options", prefix)) else msg)
 
 
-def _try_episode_start(env, seed: int, where: str) -> None:
+def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | None = None) -> None:
     """Reset and step the env once, so values that only fail when sampled (a pressure schedule,
     a distribution) are refused here rather than inside a worker."""
     import numpy as np
 
     try:
-        env.reset(seed=seed)
+        env.reset(seed=seed, options=dict(options) if options else None)
         env.step(np.zeros(env.action_space.shape, dtype=env.action_space.dtype))
     except Exception as err:  # noqa: BLE001 - whatever the env raises, the configuration is at fault
         env.close()
         msg = str(err)
         if msg.startswith("randomization"):
-            raise ValueError(where + msg[len("randomization"):]) from None
+            raise ValueError(f"{where}.{msg}") from None
         raise ValueError(f"{where}: the env failed its first reset/step with this configuration: "
                          f"{type(err).__name__}: {msg}") from None
 
 
-def validate_with_env(cfg: TrainConfig) -> None:
-    """Build one env and the model on it in-process; errors become ValueErrors naming the field."""
+def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str):
     import gymnasium as gym
+
+    try:
+        return gym.make(env_id, **kwargs)
+    except ValueError as err:
+        raise _env_error(err, where) from None
+    except TypeError as err:
+        raise ValueError(f"{where}: {err}") from None
+
+
+def validate_with_env(cfg: TrainConfig) -> None:
+    """Build one training env and the model on it in-process, and check the evaluation env at each
+    evaluation pressure (the same env with the evaluation spec set when only the randomization
+    differs: one Drake build); errors become ValueErrors naming the field."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    for rnd, where in ((cfg.randomization, "randomization"), (cfg.eval_randomization, "eval_randomization")):
-        if rnd is None:
-            continue
-        kwargs = {**cfg.env_kwargs, "randomization": rnd}
+    env = _make_checked(cfg.env_id, cfg.make_kwargs(), "env_kwargs")
+    _try_episode_start(env, cfg.seed, "env_kwargs")
+    if cfg.trained_agent is not None:
+        check_trained_agent(cfg, env)
+    venv = DummyVecEnv([lambda env=env: env])
+    try:
         try:
-            env = gym.make(cfg.env_id, **kwargs)
-        except ValueError as err:
-            msg = str(err)
-            if msg.startswith("randomization"):
-                raise ValueError(where + msg[len("randomization"):]) from None
-            raise ValueError(f"env_kwargs.{msg}") from None
-        except TypeError as err:
-            raise ValueError(f"env_kwargs: {err}") from None
-        _try_episode_start(env, cfg.seed, where)
-        if rnd is cfg.randomization:
-            venv = DummyVecEnv([lambda env=env: env])
+            with warnings.catch_warnings():  # e.g. PPO's batch-size hint for this 1-env stand-in
+                warnings.simplefilter("ignore")
+                algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
+        except (ValueError, TypeError, AssertionError, KeyError) as err:
+            raise ValueError(f"hyperparams: {cfg.algo.upper()} refused the values: {err}") from None
+        if cfg.eval_freq <= 0:
+            return
+        train_kw, eval_kw = cfg.make_kwargs(), cfg.make_kwargs(evaluation=True)
+        same_env = {k: v for k, v in train_kw.items() if k != "randomization"} == \
+            {k: v for k, v in eval_kw.items() if k != "randomization"}
+        if same_env:
+            eval_env = env
             try:
-                with warnings.catch_warnings():  # e.g. PPO's batch-size hint for this 1-env stand-in
-                    warnings.simplefilter("ignore")
-                    algo_class(cfg.algo)(cfg.policy, venv, device="cpu", **cfg.algo_kwargs())
-            except (ValueError, TypeError, AssertionError, KeyError) as err:
-                raise ValueError(f"hyperparams: {cfg.algo.upper()} refused the values: {err}") from None
-            venv.close()
+                env.unwrapped.set_randomization(eval_kw.get("randomization", "default"))
+            except ValueError as err:
+                raise _env_error(err, "eval_env_kwargs") from None
         else:
-            env.close()
+            eval_env = _make_checked(cfg.env_id, eval_kw, "eval_env_kwargs")
+        for p in cfg.eval_pressures_kpa or [None]:
+            _try_episode_start(eval_env, cfg.eval_seed, "eval_env_kwargs", None if p is None else {"pressure_kpa": p})
+        eval_env.close()
+    finally:
+        venv.close()
+
+
+def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
+    """The model zip ``cfg.trained_agent`` and the VecNormalize statistics saved with it (None
+    without normalization). Statistics are looked for where this trainer and rl-zoo3 put them:
+    ``vecnormalize.pkl`` beside the zip (a run's ``model.zip``, ``best/best_model.zip``),
+    ``checkpoints/rl_model_vecnormalize_<n>_steps.pkl`` for ``rl_model_<n>_steps.zip``, and
+    rl-zoo3's ``<dir>/<env id with / as ->/vecnormalize.pkl``.
+
+    :raises ValueError: ``trained_agent: ...`` (missing, unreadable, statistics missing).
+    """
+    import re
+
+    path = Path(str(cfg.trained_agent))
+    if path.is_dir() and (path / "model.zip").exists():
+        path = path / "model.zip"
+    if path.suffix != ".zip" or not path.is_file():
+        raise ValueError(f"trained_agent: {str(path)!r} is not a saved model (.zip file, or a run folder with model.zip)")
+    if cfg.normalize is None:
+        return path, None
+    candidates = [path.parent / "vecnormalize.pkl", path.parent / cfg.env_id.replace("/", "-") / "vecnormalize.pkl"]
+    m = re.fullmatch(r"(.+)_(\d+)_steps\.zip", path.name)
+    if m:
+        candidates.insert(0, path.parent / f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl")
+    for c in candidates:
+        if c.is_file():
+            return path, c
+    raise ValueError(f"trained_agent: no VecNormalize statistics for {str(path)!r} (looked for "
+                     f"{[str(c) for c in candidates]}); the config normalizes observations, so the model "
+                     "cannot continue without them (or set normalize: false)")
+
+
+def check_trained_agent(cfg: TrainConfig, env) -> None:
+    """Load ``cfg.trained_agent`` and its statistics; refuse them unless they fit ``env``'s spaces."""
+    import pickle
+
+    path, stats = trained_agent_files(cfg)
+    try:
+        model = algo_class(cfg.algo).load(path, device="cpu")
+    except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
+        raise ValueError(f"trained_agent: {str(path)!r} cannot be loaded as {cfg.algo.upper()}: "
+                         f"{type(err).__name__}: {err}") from None
+    for name in ("observation_space", "action_space"):
+        have, want = getattr(model, name), getattr(env, name)
+        if have.shape != want.shape:
+            raise ValueError(f"trained_agent: {str(path)!r} has {name} shape {have.shape}; "
+                             f"{cfg.env_id} with these env_kwargs has {want.shape}")
+    if stats is not None:
+        try:
+            with open(stats, "rb") as f:
+                vn = pickle.load(f)
+        except Exception as err:  # noqa: BLE001
+            raise ValueError(f"trained_agent: {str(stats)!r} cannot be read: {type(err).__name__}: {err}") from None
+        shape = getattr(getattr(vn, "obs_rms", None), "mean", None)
+        if shape is None or np_shape(shape) != env.observation_space.shape:
+            raise ValueError(f"trained_agent: {str(stats)!r} does not hold VecNormalize statistics for "
+                             f"observations of shape {env.observation_space.shape}")
+
+
+def np_shape(x: Any) -> tuple[int, ...]:
+    import numpy as np
+
+    return tuple(np.shape(x))

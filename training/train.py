@@ -1,21 +1,37 @@
 """Train a stable-baselines3 agent (PPO or SAC) on a sphere_env id; one self-describing run folder.
 
     python -m training.train --env sphere_env/RampDescent-v2 --algo ppo
-    python -m training.train --env sphere_env/Roll-v1 --algo sac --n-timesteps 2e5 --seed 3
-    python -m training.train --env sphere_env/RampDescent-v2 --algo ppo \\
-        --params n_envs:2 learning_rate:lin_3e-4 "randomization:{pressure_kpa: [3, 10]}"
-    python -m training.train --resume runs/ppo_RampDescent-v2_...   # continue from the last checkpoint
+    python -m training.train --env sphere_env/Roll-v1 --algo sac -n 2e5 --seed 3
+    python -m training.train --env sphere_env/RampDescent-v2 --algo ppo -conf my.yml \\
+        --hyperparams n_envs:4 learning_rate:lin_3e-4 \\
+        --env-kwargs shell_model:"'hydroelastic'" randomization:"{'pressure_kpa': [3, 10]}"
+    python -m training.train -i runs/<run>/model.zip -n 1e5      # a new run from a trained model
+    python -m training.train --resume runs/<run> -n 1e6           # continue from the last checkpoint
+    python -m training.train --seeds 0 1 2 --ray-address auto     # a sweep (sphere_env.training.sweep)
+
+The flags are rl-zoo3's (``-conf/--conf-file``, ``-params/--hyperparams key:value``,
+``--env-kwargs``, ``--eval-env-kwargs``, ``-n``, ``--seed``, ``--eval-freq``, ``--eval-episodes``,
+``--save-freq``, ``-f/--log-folder``, ``-tb/--tensorboard-log``, ``-i/--trained-agent``), and the
+hyperparameter files are rl-zoo3 files (:mod:`sphere_env.training.config`). ``key:value`` values
+are Python literals as in rl-zoo3; text that is not one stays a string. ``--env-kwargs`` are merged
+key by key over the file's ``env_kwargs`` (rl-zoo3 replaces the mapping). Everything is validated
+before a file is written.
+
+The best model is chosen on fixed evaluation episodes: randomization off (``--eval-env-kwargs``
+changes the evaluation env), the pressures ``--eval-pressures-kpa`` (default the calibration's low,
+nominal and high) in turn, episode k with seed ``seed + 10000 + k`` (:class:`EvaluationEpisodes`).
 
 A run folder holds::
 
-    config.yaml              resolved config: env kwargs, randomization spec, hyperparameters,
-                             seeds, versions (drake, torch, sb3, sphere_env, ...) and the command
+    config.yaml              resolved config: env kwargs (randomization spec as given and resolved),
+                             evaluation env kwargs and pressures, hyperparameters, seeds, versions
+                             (drake, torch, sb3, sphere_env, ...) and the command
     model.zip                final model          vecnormalize.pkl   its VecNormalize statistics
-    best/best_model.zip      best on the eval env best/vecnormalize.pkl
+    best/best_model.zip      best on the evaluation episodes, best/vecnormalize.pkl
     checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_, SAC: _replay_buffer_)
     learning_curve.csv/.png  training episodes and evaluations against env steps
     monitor/                 Monitor CSVs (info keywords: pressure_kpa, is_success)
-    eval/evaluations.npz     EvalCallback log          tb/  TensorBoard logs
+    eval/evaluations.npz     EvalCallback log          tb/  TensorBoard logs (or -tb)
 """
 
 from __future__ import annotations
@@ -27,11 +43,12 @@ import math
 import re
 import sys
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from functools import partial
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import gymnasium as gym
 import numpy as np
 import yaml
 
@@ -45,12 +62,62 @@ EVAL_SEED_OFFSET = 10_000
 
 
 # ---- env factories (module level: picklable for SubprocVecEnv) -------------------------------------
-def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file: str | None = None,
-             torch_threads: int = 1):
-    """Build one Monitor-wrapped env seeded with ``seed`` (called inside the worker)."""
-    import gymnasium as gym
-    from stable_baselines3.common.monitor import Monitor
+_ENV_MONITOR = None
 
+
+def _monitor_class():
+    """SB3's ``Monitor`` that passes assignments to settable properties of the wrapped env (such as
+    ``SphereEnv.randomization``) through, so ``venv.set_attr("randomization", spec)`` reaches the env,
+    validated, on every VecEnv (SB3's ``set_attr`` assigns on the outermost wrapper, where the value
+    would otherwise be stored and ignored). Built on first use: stable-baselines3 is an extra."""
+    global _ENV_MONITOR
+    if _ENV_MONITOR is None:
+        from stable_baselines3.common.monitor import Monitor
+
+        class EnvMonitor(Monitor):
+            def __setattr__(self, name: str, value: Any) -> None:
+                env = self.__dict__.get("env")
+                if env is not None and name not in self.__dict__ and not hasattr(type(self), name) \
+                        and isinstance(getattr(type(env.unwrapped), name, None), property):
+                    env.set_wrapper_attr(name, value)
+                else:
+                    super().__setattr__(name, value)
+
+        _ENV_MONITOR = EnvMonitor
+    return _ENV_MONITOR
+
+
+class EvaluationEpisodes(gym.Wrapper):
+    """Fixed evaluation episodes: the k-th reset since :meth:`restart_evaluation` runs at pressure
+    ``pressures_kpa[k % len]`` (a reset option, so no randomization moves it) with seed
+    ``seed + k`` (fixing the command), whatever seed the caller passes. Every evaluation round thus
+    plays the same episodes, and best-model selection compares policies on them. An empty
+    ``pressures_kpa`` keeps the seeds and leaves the pressure to the env."""
+
+    def __init__(self, env: gym.Env, pressures_kpa: Sequence[float], seed: int):
+        super().__init__(env)
+        self.pressures_kpa = [float(p) for p in pressures_kpa]
+        self.first_seed = int(seed)
+        self.episode = 0
+
+    def restart_evaluation(self) -> None:
+        """The next reset plays the first evaluation episode again."""
+        self.episode = 0
+
+    def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
+        k = self.episode
+        self.episode += 1
+        opts = dict(options or {})
+        if self.pressures_kpa:
+            opts.setdefault("pressure_kpa", self.pressures_kpa[k % len(self.pressures_kpa)])
+        return self.env.reset(seed=self.first_seed + k, options=opts or None)
+
+
+def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file: str | None = None,
+             torch_threads: int = 1, eval_pressures_kpa: Sequence[float] | None = None):
+    """Build one Monitor-wrapped env seeded with ``seed`` (called inside the worker).
+    ``eval_pressures_kpa`` (a list, possibly empty) makes it an evaluation env
+    (:class:`EvaluationEpisodes`)."""
     import sphere_env  # noqa: F401 - registers the ids
 
     try:
@@ -60,7 +127,12 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file
     except ImportError:  # pragma: no cover
         pass
     env = gym.make(env_id, **dict(env_kwargs))
-    env = Monitor(env, filename=monitor_file, info_keywords=MONITOR_KEYWORDS, override_existing=False)
+    if eval_pressures_kpa is not None:
+        env = EvaluationEpisodes(env, eval_pressures_kpa, seed)
+    # A new file gets SB3's header (what stable_baselines3.common.monitor.load_results reads); a
+    # resumed run appends to its file.
+    fresh = monitor_file is None or not Path(monitor_file + ".monitor.csv").exists()
+    env = _monitor_class()(env, filename=monitor_file, info_keywords=MONITOR_KEYWORDS, override_existing=fresh)
     env.reset(seed=seed)
     env.action_space.seed(seed)
     return env
@@ -78,7 +150,7 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
         mon.mkdir(parents=True, exist_ok=True)
     if evaluation:
         fns = [partial(make_env, cfg.env_id, kwargs, cfg.eval_seed,
-                       None if mon is None else str(mon / "eval"), cfg.torch_threads)]
+                       None if mon is None else str(mon / "eval"), cfg.torch_threads, cfg.eval_pressures_kpa or [])]
         return DummyVecEnv(fns)
     fns = [partial(make_env, cfg.env_id, kwargs, s, None if mon is None else str(mon / f"train_{rank}"),
                    cfg.torch_threads) for rank, s in enumerate(cfg.worker_seeds)]
@@ -118,6 +190,14 @@ def wrap_normalize(cfg: TrainConfig, venv, evaluation: bool = False, stats: Path
 def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
 
+    class FixedEpisodesEvalCallback(EvalCallback):
+        """EvalCallback whose every evaluation plays the same episodes (:class:`EvaluationEpisodes`)."""
+
+        def _on_step(self) -> bool:
+            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
+                self.eval_env.env_method("restart_evaluation")
+            return super()._on_step()
+
     class SaveVecNormalize(BaseCallback):
         """On a new best evaluation: save the VecNormalize statistics beside best_model.zip."""
 
@@ -151,12 +231,19 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
             self._f.close()
 
     n = cfg.n_envs
-    ckpt = CheckpointCallback(save_freq=max(cfg.checkpoint_freq // n, 1), save_path=str(run_dir / "checkpoints"),
-                              name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=cfg.normalize is not None,
-                              save_replay_buffer=cfg.algo == "sac")
-    ev = EvalCallback(eval_env, callback_on_new_best=SaveVecNormalize(), n_eval_episodes=cfg.eval_episodes,
-                      eval_freq=max(cfg.eval_freq // n, 1), log_path=str(run_dir / "eval"),
-                      best_model_save_path=str(run_dir / "best"), deterministic=True, verbose=0)
+    callbacks: list[BaseCallback] = [EpisodeLog()]
+    if cfg.checkpoint_freq > 0:
+        callbacks.insert(0, CheckpointCallback(
+            save_freq=max(cfg.checkpoint_freq // n, 1), save_path=str(run_dir / "checkpoints"),
+            name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=cfg.normalize is not None,
+            save_replay_buffer=cfg.algo == "sac"))
+    if eval_env is None:
+        return CallbackList(callbacks)
+    ev = FixedEpisodesEvalCallback(
+        eval_env, callback_on_new_best=SaveVecNormalize(), n_eval_episodes=cfg.eval_episodes,
+        eval_freq=max(cfg.eval_freq // n, 1), log_path=str(run_dir / "eval"),
+        best_model_save_path=str(run_dir / "best"), deterministic=True, verbose=0)
+    callbacks.insert(len(callbacks) - 1, ev)
     old = run_dir / "eval" / "evaluations.npz"
     if old.exists():  # resume: keep earlier evaluations in the log
         d = np.load(old)
@@ -166,7 +253,7 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
         if "successes" in d:
             ev.evaluations_successes = [list(r) for r in d["successes"]]
         ev.best_mean_reward = float(np.max(np.mean(d["results"], axis=1))) if len(d["results"]) else -np.inf
-    return CallbackList([ckpt, ev, EpisodeLog()])
+    return CallbackList(callbacks)
 
 
 # ---- checkpoints -----------------------------------------------------------------------------------
@@ -246,7 +333,8 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
     ax.set_ylabel("episode return")
     ax.set_title(run_dir.name, fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # a tiny run may have neither a finished episode nor an evaluation
+        ax.legend(fontsize=8)
     fig.tight_layout()
     png = run_dir / "learning_curve.png"
     fig.savefig(png, dpi=110)
@@ -256,7 +344,7 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
 
 # ---- training ----------------------------------------------------------------------------------------
 def default_run_dir(cfg: TrainConfig, root: Path = RUNS) -> Path:
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+    stamp = datetime.now(UTC).strftime("%Y%m%d-%H%M%S")
     return root / f"{cfg.algo}_{cfg.env_id.split('/')[-1]}_{stamp}_s{cfg.seed}"
 
 
@@ -275,7 +363,7 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     data["monitor_info_keywords"] = list(MONITOR_KEYWORDS)
     data["versions"] = software_versions()
     data["command"] = list(command) if command is not None else []
-    data["created_utc"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    data["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
     data.update(extra or {})
     return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(_plain(data), sort_keys=False))
 
@@ -310,6 +398,10 @@ def load_config(run_dir: str | Path) -> TrainConfig:
     fields = TrainConfig.__dataclass_fields__
     if not isinstance(data, Mapping) or not {"env_id", "algo"} <= set(data):
         raise ValueError(f"run: {str(path)!r} is not a training config (needs env_id and algo)")
+    data = dict(data)
+    if "randomization" in data and "randomization" not in (data.get("env_kwargs") or {}):
+        # run folders written before randomization moved into env_kwargs
+        data["env_kwargs"] = {**(data.get("env_kwargs") or {}), "randomization": data["randomization"]}
     try:
         return TrainConfig(**{k: v for k, v in data.items() if k in fields})
     except TypeError as err:
@@ -470,7 +562,7 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
         extra["resume_commands"] = [*previous.get("resume_commands", []),
                                     {"command": list(command) if command is not None else [],
                                      "from_steps": start_steps,
-                                     "utc": datetime.now(timezone.utc).isoformat(timespec="seconds")}]
+                                     "utc": datetime.now(UTC).isoformat(timespec="seconds")}]
         extra["resumed_from_steps"] = start_steps
     try:
         write_config(cfg, run_dir, command, extra=extra or None)
@@ -491,18 +583,35 @@ def _train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] 
     venv = make_vec_env(cfg, run_dir)
     try:
         stats = _ckpt_file(run_dir, "vecnormalize", start_steps) if resume and cfg.normalize is not None else None
+        agent = None
+        if not resume and cfg.trained_agent is not None:
+            from sphere_env.training.config import trained_agent_files
+
+            agent, stats = trained_agent_files(cfg)
         venv = wrap_normalize(cfg, venv, stats=stats)
-        eval_env = wrap_normalize(cfg, make_vec_env(cfg, run_dir, evaluation=True), evaluation=True)
+        eval_env = None
+        if cfg.eval_freq > 0:
+            eval_env = wrap_normalize(cfg, make_vec_env(cfg, run_dir, evaluation=True), evaluation=True)
+        tb = cfg.tensorboard_log or str(run_dir / "tb")
         if resume:
-            model = cls.load(ckpt[1], env=venv, device=cfg.device, tensorboard_log=str(run_dir / "tb"))
+            model = cls.load(ckpt[1], env=venv, device=cfg.device, tensorboard_log=tb)
             rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
             if cfg.algo == "sac" and rb.exists():
                 model.load_replay_buffer(rb)
             elif cfg.algo == "sac":
                 _say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
+        elif agent is not None:
+            # As rl-zoo3's -i: the saved network with the configuration's other hyperparameters
+            # (schedules, batch sizes, ...), and a fresh step count up to n_timesteps.
+            kwargs = {k: v for k, v in cfg.algo_kwargs().items() if k != "policy_kwargs"}
+            model = cls.load(agent, env=venv, device=cfg.device, verbose=verbose, tensorboard_log=tb, **kwargs)
+            model.set_random_seed(cfg.seed)
+            rb = agent.parent / "replay_buffer.pkl"
+            if cfg.algo == "sac" and rb.exists():
+                model.load_replay_buffer(rb)
         else:
             model = cls(cfg.policy, venv, seed=cfg.seed, device=cfg.device, verbose=verbose,
-                        tensorboard_log=str(run_dir / "tb"), **cfg.algo_kwargs())
+                        tensorboard_log=tb, **cfg.algo_kwargs())
         t0 = time.perf_counter()
         model.learn(total_timesteps=cfg.n_timesteps - start_steps, callback=_callbacks(cfg, run_dir, eval_env),
                     progress_bar=progress_bar, reset_num_timesteps=not resume, tb_log_name=cfg.algo)
@@ -521,66 +630,168 @@ def _train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] 
     return model
 
 
-def _parse_params(items: Sequence[str]) -> dict[str, Any]:
-    """rl-zoo3's ``--params key:value`` (value parsed as YAML)."""
-    out = {}
+class StoreDict(argparse.Action):
+    """rl-zoo3's ``key:value ...`` arguments as a dict: each value is read as a Python literal
+    (``ast.literal_eval``: numbers, strings in quotes, True/False/None, lists, tuples, dicts); text
+    that is not a literal stays a string (``learning_rate:lin_5e-4``, ``policy_kwargs:"dict(...)"``),
+    as rl-zoo3 users write it. A value that opens a mapping or list but is not a Python literal
+    (YAML flow style ``{base: full}``) is refused: write ``{'base': 'full'}``."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        try:
+            setattr(namespace, self.dest, {**(getattr(namespace, self.dest) or {}), **parse_key_values(values, self.dest)})
+        except ValueError as err:
+            parser.exit(2, f"{parser.prog}: error: {err}\n")
+
+
+def parse_key_values(items: Sequence[str], field_name: str = "hyperparams") -> dict[str, Any]:
+    """``["key:value", ...]`` as rl-zoo3's StoreDict reads them (see :class:`StoreDict`)."""
+    import ast
+
+    out: dict[str, Any] = {}
     for item in items:
-        if ":" not in item:
-            raise ValueError(f"params: {item!r} must be key:value")
-        key, val = item.split(":", 1)
-        out[key.strip()] = yaml.safe_load(val)
+        key, sep, text = item.partition(":")
+        key = key.strip()
+        if not sep or not key:
+            hint = " (a hyperparameter file goes to -conf/--conf-file)" if item.endswith((".yml", ".yaml")) else ""
+            raise ValueError(f"{field_name}: {item!r} must be key:value{hint}")
+        try:
+            val = ast.literal_eval(text.strip())
+        except (ValueError, SyntaxError):
+            if text.strip().startswith(("{", "[", "(")):
+                raise ValueError(f"{field_name}.{key}: value {text!r} is not a Python literal (values are read as in "
+                                 "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'})") from None
+            val = text.strip()
+        out[key] = val
     return out
 
 
-def main(argv: Sequence[str] | None = None) -> Path:
+def _parse_params(items: Sequence[str]) -> dict[str, Any]:
+    """``--hyperparams key:value ...`` (:func:`parse_key_values`)."""
+    return parse_key_values(items, "hyperparams")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line: rl-zoo3's ``train.py`` flags for what this trainer does, plus its own."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", default="sphere_env/RampDescent-v2", help="registered env id")
     parser.add_argument("--algo", default="ppo", help="ppo or sac")
-    parser.add_argument("--hyperparams", type=Path, default=None, help="YAML file (default training/hyperparams/<algo>.yml)")
-    parser.add_argument("--params", nargs="*", default=[], help="overrides key:value, e.g. n_envs:2 learning_rate:1e-3")
-    parser.add_argument("--n-timesteps", type=float, default=None, help="total env steps (overrides the YAML)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--run-dir", type=Path, default=None, help="run folder (default runs/<algo>_<env>_<time>_s<seed>)")
+    parser.add_argument("-conf", "--conf-file", type=Path, default=None,
+                        help="hyperparameter YAML (default: the shipped training/hyperparams/<algo>.yml)")
+    parser.add_argument("-params", "--hyperparams", "--params", dest="hyperparams", nargs="+", action=StoreDict,
+                        default={}, metavar="KEY:VALUE",
+                        help="override hyperparameters, e.g. n_envs:4 learning_rate:1e-3 (values as Python literals)")
+    parser.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, metavar="KEY:VALUE",
+                        help="env kwargs merged over the YAML's env_kwargs, e.g. shell_model:'hydroelastic' "
+                             "randomization:\"{'base': 'full'}\"")
+    parser.add_argument("--eval-env-kwargs", nargs="+", action=StoreDict, default={}, metavar="KEY:VALUE",
+                        help="evaluation env kwargs over the training ones (default randomization:'off')")
+    parser.add_argument("-n", "--n-timesteps", type=float, default=None, help="total env steps (overrides the YAML)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (-1: draw one, as rl-zoo3)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=None,
+                        help="train one run per seed (a sweep: one folder per trial, aggregate learning curve)")
+    parser.add_argument("--trial", action="append", default=None, metavar="'KEY:VALUE ...'",
+                        help="a sweep configuration: --hyperparams overrides in one quoted string; repeat for more")
+    parser.add_argument("--ray-address", default=None,
+                        help="run the sweep's trials as Ray tasks: 'local' (start one), 'auto', or ray://host:port")
+    parser.add_argument("-f", "--log-folder", type=Path, default=RUNS, help="folder of the run folders (default runs/)")
+    parser.add_argument("--run-dir", type=Path, default=None,
+                        help="exact run (or sweep) folder (default <log-folder>/<algo>_<env>_<time>_s<seed>)")
     parser.add_argument("--resume", type=Path, default=None, help="continue this run folder from its last checkpoint")
-    parser.add_argument("--eval-freq", type=int, default=None, help="env steps between evaluations")
-    parser.add_argument("--eval-episodes", type=int, default=5)
-    parser.add_argument("--checkpoint-freq", type=int, default=None, help="env steps between checkpoints")
-    parser.add_argument("--torch-threads", type=int, default=1)
+    parser.add_argument("-i", "--trained-agent", type=Path, default=None,
+                        help="start from this model.zip (with its VecNormalize statistics) in a new run folder")
+    parser.add_argument("--eval-freq", type=int, default=None, help="env steps between evaluations (<= 0: none)")
+    parser.add_argument("--eval-episodes", type=int, default=6,
+                        help="episodes per evaluation, cycling over --eval-pressures-kpa (default 6)")
+    parser.add_argument("--eval-pressures-kpa", type=float, nargs="*", default=None,
+                        help="evaluation pressures (default: the calibration's low, nominal, high; "
+                             "none given: the eval env's randomization draws them)")
+    parser.add_argument("--save-freq", "--checkpoint-freq", dest="save_freq", type=int, default=None,
+                        help="env steps between checkpoints (<= 0: only the final one)")
+    parser.add_argument("-tb", "--tensorboard-log", type=Path, default=None, help="TensorBoard folder (default <run>/tb)")
+    parser.add_argument("--torch-threads", "--num-threads", dest="torch_threads", type=int, default=1)
+    parser.add_argument("--device", default="cpu", help="torch device (default cpu)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("-v", "--verbose", type=int, default=0)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> Path:
+    parser = build_parser()
     args = parser.parse_args(argv)
     command = [sys.executable, "-m", "sphere_env.training.train",
                *(argv if argv is not None else sys.argv[1:])]
     try:
         if args.resume is not None:
-            cfg = load_config(args.resume)
-            if args.n_timesteps is not None:
-                cfg.n_timesteps = _int("n_timesteps", args.n_timesteps)
-            cfg = resolve_config(cfg.env_id, cfg.algo, cfg.hyperparams_file or None, overrides=_stored_overrides(cfg),
-                                 seed=cfg.seed, eval_freq=cfg.eval_freq, eval_episodes=cfg.eval_episodes,
-                                 eval_randomization=cfg.eval_randomization, checkpoint_freq=cfg.checkpoint_freq,
-                                 device=cfg.device, torch_threads=cfg.torch_threads)
-            run = train(cfg, args.resume, resume=True, progress_bar=not args.no_progress, verbose=args.verbose,
-                        command=command)
+            run = _resume(args, command)
+        elif args.seeds is not None or args.trial is not None or args.ray_address is not None:
+            from sphere_env.training.sweep import run_sweep
+
+            run = run_sweep(sweep_configs(args), args.run_dir or default_sweep_dir(args), ray_address=args.ray_address,
+                            command=command)
         else:
-            overrides = _parse_params(args.params)
-            if args.n_timesteps is not None:
-                overrides["n_timesteps"] = args.n_timesteps
-            cfg = resolve_config(args.env, args.algo, args.hyperparams, overrides, seed=args.seed,
-                                 eval_freq=args.eval_freq, eval_episodes=args.eval_episodes,
-                                 checkpoint_freq=args.checkpoint_freq, torch_threads=args.torch_threads)
-            run = train(cfg, args.run_dir, progress_bar=not args.no_progress, verbose=args.verbose, command=command)
+            cfg = _config_from_args(args, args.hyperparams, args.seed)
+            run = train(cfg, args.run_dir or default_run_dir(cfg, args.log_folder),
+                        progress_bar=not args.no_progress, verbose=args.verbose, command=command)
     except ValueError as err:
         parser.exit(2, f"training.train: error: {err}\n")
     print(f"run folder: {run.resolve()}")
     return run
 
 
+def _seed(seed: int) -> int:
+    """rl-zoo3's ``--seed -1``: draw a seed."""
+    return int(np.random.default_rng().integers(2**31 - 1)) if seed < 0 else seed
+
+
+def _config_from_args(args: argparse.Namespace, hyperparams: Mapping[str, Any], seed: int) -> TrainConfig:
+    overrides = dict(hyperparams)
+    if args.n_timesteps is not None:
+        overrides["n_timesteps"] = args.n_timesteps
+    return resolve_config(
+        args.env, args.algo, args.conf_file, overrides, seed=_seed(seed), eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes, eval_env_kwargs=args.eval_env_kwargs,
+        eval_pressures_kpa=args.eval_pressures_kpa, checkpoint_freq=args.save_freq, device=args.device,
+        torch_threads=args.torch_threads, env_kwargs=args.env_kwargs, tensorboard_log=args.tensorboard_log,
+        trained_agent=args.trained_agent)
+
+
+def sweep_configs(args: argparse.Namespace) -> list[TrainConfig]:
+    """One validated config per trial: every ``--trial`` (or the plain overrides) × every seed."""
+    if args.trained_agent is not None or args.tensorboard_log is not None:
+        raise ValueError("seeds: a sweep does not take -i/--trained-agent or --tensorboard-log (each trial "
+                         "writes its own run folder)")
+    trials = [dict(args.hyperparams)] if not args.trial else [
+        {**args.hyperparams, **parse_key_values(t.split(), "trial")} for t in args.trial]
+    seeds = args.seeds if args.seeds is not None else [args.seed]
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds: value {seeds} repeats a seed")
+    return [_config_from_args(args, h, s) for h in trials for s in seeds]
+
+
+def default_sweep_dir(args: argparse.Namespace) -> Path:
+    stamp = datetime.now(UTC).strftime("%Y%m%d-%H%M%S")
+    return args.log_folder / f"sweep_{args.algo}_{args.env.split('/')[-1]}_{stamp}"
+
+
+def _resume(args: argparse.Namespace, command: Sequence[str]) -> Path:
+    cfg = load_config(args.resume)
+    if args.n_timesteps is not None:
+        cfg.n_timesteps = _int("n_timesteps", args.n_timesteps)
+    cfg = resolve_config(cfg.env_id, cfg.algo, cfg.hyperparams_file or None, overrides=_stored_overrides(cfg),
+                         seed=cfg.seed, eval_freq=cfg.eval_freq, eval_episodes=cfg.eval_episodes,
+                         eval_env_kwargs=cfg.eval_env_kwargs, eval_pressures_kpa=cfg.eval_pressures_kpa,
+                         checkpoint_freq=cfg.checkpoint_freq, device=cfg.device, torch_threads=cfg.torch_threads,
+                         tensorboard_log=cfg.tensorboard_log)
+    return train(cfg, args.resume, resume=True, progress_bar=not args.no_progress, verbose=args.verbose,
+                 command=command)
+
+
 def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
     """A stored config as YAML-section overrides (so a resume re-validates exactly what ran)."""
     return {"n_envs": cfg.n_envs, "n_workers": cfg.n_workers, "n_threads": cfg.n_threads, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
             "normalize": cfg.normalize if cfg.normalize is not None else False,
-            "env_kwargs": cfg.env_kwargs, "randomization": cfg.randomization, **cfg.hyperparams}
+            "env_kwargs": cfg.env_kwargs, **cfg.hyperparams}
 
 
 if __name__ == "__main__":

@@ -595,7 +595,7 @@ def _interface_cases(work) -> list[dict]:
         cases.append(dict(category=category, name=name, fn=fn, expect=expect))
 
     tiny = ["--n-timesteps", "10", "--no-progress", "--params", "n_envs:1", "n_steps:32", "batch_size:32",
-            "n_epochs:1", "env_kwargs:{shell_model: point}"]
+            "n_epochs:1", "--env-kwargs", "shell_model:'point'"]
     train_bad = [
         (["--params", "ent_coef:abc"], "hyperparams.ent_coef"), (["--params", "n_epochs:0"], "hyperparams.n_epochs"),
         (["--params", "gamma:2.0"], "hyperparams.gamma"), (["--params", "gae_lambda:-0.5"], "hyperparams.gae_lambda"),
@@ -607,15 +607,18 @@ def _interface_cases(work) -> list[dict]:
         (["--params", "vf_coef:.nan"], "hyperparams.vf_coef"), (["--params", "policy_kwargs:5"], "hyperparams.policy_kwargs"),
         (["--params", "learning_rat:1e-3"], "hyperparams.learning_rat"), (["--params", "n_envs:0"], "n_envs"),
         (["--params", "n_envs:abc"], "n_envs"), (["--params", "noequals"], "params"),
-        (["--params", "randomization:{pressure_kpa: [14, 3]}"], "randomization.pressure_kpa"),
-        (["--params", "randomization:{pressure_kpa: {distribution: uniform}, "
-                      "pressure_schedule: {rate_kpa_per_s: [0.5, -0.5]}}"], "randomization"),
-        (["--params", "env_kwargs:[1, 2]"], "env_kwargs"), (["--params", "env_kwargs:{shell_model: jelly}"], "shell_model"),
-        (["--params", "normalize:{norm_ob: true}"], "normalize.norm_ob"), (["--algo", "dqn"], "algo"),
+        (["--env-kwargs", "randomization:{'pressure_kpa': [14, 3]}"], "env_kwargs.randomization.pressure_kpa"),
+        (["--env-kwargs", "randomization:{'pressure_kpa': {'distribution': 'uniform'}, "
+                          "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}"], "env_kwargs.randomization"),
+        (["--params", "randomization:'off'"], "randomization: a top-level key"),
+        (["--params", "env_kwargs:[1, 2]"], "env_kwargs"), (["--env-kwargs", "shell_model:'jelly'"], "shell_model"),
+        (["--params", "env_kwargs:{shell_model: jelly}"], "hyperparams.env_kwargs"),
+        (["--params", "normalize:{'norm_ob': True}"], "normalize.norm_ob"), (["--algo", "dqn"], "algo"),
         (["--env", "sphere_env/Nope-v0"], "env"), (["--n-timesteps", "0"], "n_timesteps"),
         (["--n-timesteps", "nan"], "n_timesteps"), (["--eval-episodes", "0"], "eval_episodes"),
-        (["--checkpoint-freq", "0"], "checkpoint_freq"), (["--torch-threads", "0"], "torch_threads"),
-        (["--seed", "-1"], "seed"),
+        (["--save-freq", "x"], "--save-freq"), (["--torch-threads", "0"], "torch_threads"),
+        (["--seed", "x"], "--seed"), (["--eval-pressures-kpa", "2"], "eval_pressures_kpa"),
+        (["-i", "missing.zip"], "trained_agent"),
         (["--resume", str(inputs / "broken_config_run"), "--n-timesteps", "nan"], "n_timesteps"),
         (["--algo", "sac", "--params", "ent_coef:auto_-1"], "hyperparams.ent_coef"),
         (["--algo", "sac", "--params", "train_freq:[1, hour]"], "hyperparams.train_freq"),
@@ -623,11 +626,12 @@ def _interface_cases(work) -> list[dict]:
     ]
     def train_argv(argv, d):
         algo = argv[argv.index("--algo") + 1] if "--algo" in argv else "ppo"
-        params = (tiny[tiny.index("--params") + 1:] if algo == "ppo" else ["env_kwargs:{shell_model: point}"])
+        params = tiny[tiny.index("--params") + 1:tiny.index("--env-kwargs")] if algo == "ppo" else []
         extra = argv[argv.index("--params") + 1:] if "--params" in argv else []
         other = argv[:argv.index("--params")] if "--params" in argv else argv
-        return ["--n-timesteps", "10", "--no-progress", *other, "--params", *params, *extra,
-                "--run-dir", str(d / "run")]
+        # the tiny env kwargs first: a case's own --env-kwargs are merged over them
+        return ["--n-timesteps", "10", "--no-progress", *tiny[tiny.index("--env-kwargs"):], *other,
+                *(["--params", *params, *extra] if params or extra else []), "--run-dir", str(d / "run")]
 
     for argv, expect in train_bad:
         add("train CLI", " ".join(argv), lambda d, argv=argv: train(train_argv(argv, d)), expect)

@@ -183,8 +183,7 @@ class SphereEnv(gym.Env, EzPickle):
         self.time_step_s = dt_plant
         self.steer_torque_limit_nm = check_param("steer_torque_limit_nm", steer_torque_limit_nm)
         self.drive_torque_limit_nm = check_param("drive_torque_limit_nm", drive_torque_limit_nm)
-        spec = RandomizationSpec.parse(randomization, ramp=task.ramp)
-        self.randomization = spec.resolved(self.calibration.pressure_range_kpa)
+        self._randomization = self._check_randomization(randomization, steer_check=False)
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
         self.observe_pressure = observe_pressure
@@ -240,8 +239,7 @@ class SphereEnv(gym.Env, EzPickle):
         self.twin = self._get_twin(self.incline_deg)
         # Friction and injected shell torques are explicit: refuse gains that diverge at this step
         # (at the largest friction scales the randomization can draw).
-        problem = self.twin.explicit_stability_problem(
-            _max_of(self.randomization, "steer_friction_scale"), _max_of(self.randomization, "drive_friction_scale"))
+        problem = self._stability_problem(self._randomization)
         if problem:
             raise ValueError(problem)
         self._tau = np.zeros(2)
@@ -252,6 +250,43 @@ class SphereEnv(gym.Env, EzPickle):
         self._copied_mid_episode = False
         self._episode_updates = False
         self._reward_keys = {k: f"reward_{k}" for k in task.reward_terms}
+
+    # ---- randomization -------------------------------------------------------------------------
+    @property
+    def randomization(self) -> RandomizationSpec:
+        """The randomization spec in force (resolved: pressure bounds filled in from the calibration).
+        Assigning to it is :meth:`set_randomization` (validated, effective from the next reset)."""
+        return self._randomization
+
+    @randomization.setter
+    def randomization(self, spec: Any) -> None:
+        self.set_randomization(spec)
+
+    def set_randomization(self, spec: Any) -> RandomizationSpec:
+        """Replace the randomization spec; it takes effect from the next ``reset()`` (the running
+        episode keeps its parameters). ``spec`` takes every form of the ``randomization`` kwarg and
+        is validated exactly like it: on a ``ValueError`` (naming the field) nothing changes.
+        Copies (``copy.deepcopy``, ``pickle``) carry the new spec. Through a vector env:
+        ``venv.env_method("set_randomization", spec)``. Returns the resolved spec."""
+        resolved = self._check_randomization(spec)
+        self._randomization = resolved
+        self._ezpickle_kwargs["randomization"] = resolved
+        return resolved
+
+    def _check_randomization(self, spec: Any, steer_check: bool = True) -> RandomizationSpec:
+        """Parse and resolve ``spec`` as the ``randomization`` kwarg; pure (raises, changes nothing)."""
+        resolved = RandomizationSpec.parse(spec, ramp=self.task.ramp).resolved(self.calibration.pressure_range_kpa)
+        if steer_check:  # the constructor checks once its twin exists
+            problem = self._stability_problem(resolved)
+            if problem:
+                raise ValueError(f"randomization: {problem}")
+        return resolved
+
+    def _stability_problem(self, spec: RandomizationSpec) -> str | None:
+        """Friction and injected shell torques are explicit: the largest friction scales ``spec`` can
+        draw must not diverge at this time step."""
+        return self.twin.explicit_stability_problem(
+            _max_of(spec, "steer_friction_scale"), _max_of(spec, "drive_friction_scale"))
 
     # ---- twins ---------------------------------------------------------------------------------
     def _quantize_incline(self, incline_deg: float) -> float:

@@ -19,7 +19,7 @@ from sphere_env.training.config import algo_class
 import sphere_env  # noqa: F401
 from sphere_env.controllers import controller_for
 
-ENV = "sphere_env/RampDescent-v1"
+ENV = "sphere_env/RampDescent-v2"
 
 
 def recorded_observations(env_kwargs) -> np.ndarray:

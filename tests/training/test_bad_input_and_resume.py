@@ -33,13 +33,13 @@ TINY = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs
         ("batch_size:12.5", "hyperparams.batch_size"),
         ("vf_coef:.nan", "hyperparams.vf_coef"),
         ("policy_kwargs:[64, 64]", "hyperparams.policy_kwargs"),
-        ("randomization:{pressure_kpa: {distribution: uniform}, pressure_schedule: {rate_kpa_per_s: [0.5, -0.5]}}",
-         "randomization"),
+        (("env_kwargs:{'randomization': {'pressure_kpa': {'distribution': 'uniform'}, "
+          "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}}"), "env_kwargs.randomization"),
     ],
 )
 def test_bad_hyperparameters_refused_before_anything_is_written(tmp_path, capsys, param, field):
     with pytest.raises(SystemExit) as exc:
-        main(["--params", param, "--run-dir", str(tmp_path / "run"), "--n-timesteps", "10", "--no-progress"])
+        main(["--hyperparams", param, "--run-dir", str(tmp_path / "run"), "--n-timesteps", "10", "--no-progress"])
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert field in err, err
@@ -124,7 +124,7 @@ def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, cap
     assert latest_checkpoint(run)[0] >= 32 and (run / "model.zip").exists()
     shutil.rmtree(run / "checkpoints")
     (run / "model.zip").unlink()
-    main(["--run-dir", str(run), "--n-timesteps", "32", "--no-progress", "--params", "n_envs:1", "n_steps:32",
-          "batch_size:32", "n_epochs:1", "env_kwargs:{shell_model: point}"])
+    main(["--run-dir", str(run), "--n-timesteps", "32", "--no-progress", "--hyperparams", "n_envs:1", "n_steps:32",
+          "batch_size:32", "n_epochs:1", "--env-kwargs", "shell_model:'point'"])
     assert "starting over" in capsys.readouterr().err
     assert (run / "model.zip").exists()

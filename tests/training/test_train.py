@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 import sphere_env  # noqa: F401
+from sphere_env.resources import hyperparams_path
 from sphere_env.training import train as train_mod
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import latest_checkpoint, load_config, main, train
@@ -44,10 +45,19 @@ def no_workers(monkeypatch):
         (["--params", "n_threads:9"], "n_threads"),
         (["--params", "n_threads:many"], "n_threads"),
         (["--params", "n_threads:2", "n_workers:2"], "n_threads"),
-        (["--params", "randomization:{pressure_kpa: [1, 50]}"], "randomization.pressure_kpa"),
-        (["--params", "randomization:{ground_friction: [0.9, 0.5]}"], "randomization.ground_friction"),
-        (["--params", "env_kwargs:{shell_model: jelly}"], "shell_model"),
-        (["--params", "normalize:{norm_ob: true}"], "normalize.norm_ob"),
+        (["--env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "env_kwargs.randomization.pressure_kpa"),
+        (["--env-kwargs", "randomization:{'ground_friction': [0.9, 0.5]}"], "env_kwargs.randomization.ground_friction"),
+        (["--env-kwargs", "shell_model:'jelly'"], "env_kwargs.shell_model"),
+        (["--hyperparams", "env_kwargs:{'shell_model': 'jelly'}"], "env_kwargs.shell_model"),
+        (["--hyperparams", "normalize:{'norm_ob': True}"], "normalize.norm_ob"),
+        (["--hyperparams", "env_kwargs:{shell_model: jelly}"], "hyperparams.env_kwargs"),  # YAML style: not Python
+        (["--hyperparams", "frame_stack:4"], "hyperparams.frame_stack"),  # rl-zoo3 key not implemented here
+        (["--hyperparams", "ppo.yml"], "-conf/--conf-file"),
+        (["--eval-env-kwargs", "shell_model:'jelly'"], "eval_env_kwargs.shell_model"),
+        (["--eval-env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "eval_env_kwargs.randomization.pressure_kpa"),
+        (["--eval-pressures-kpa", "3", "20"], "eval_pressures_kpa"),
+        (["-i", "no/such/model.zip"], "trained_agent"),
+        (["--seeds", "1", "1"], "seeds"),
     ],
 )
 def test_bad_configs_refused_before_workers(no_workers, tmp_path, capsys, argv, field):
@@ -70,8 +80,49 @@ def test_layout_overrides_replace_the_files_layout():
 
 
 def test_bad_randomization_message_names_field():
-    with pytest.raises(ValueError, match=r"^randomization\.pressure_kpa"):
-        resolve_config(RAMP, "ppo", overrides={"randomization": {"pressure_kpa": [1.0, 50.0]}})
+    with pytest.raises(ValueError, match=r"^env_kwargs\.randomization\.pressure_kpa"):
+        resolve_config(RAMP, "ppo", env_kwargs={"randomization": {"pressure_kpa": [1.0, 50.0]}})
+
+
+def test_top_level_randomization_refused_with_where_it_moved(no_workers, tmp_path, capsys):
+    """The former layout (randomization beside env_kwargs) fails loudly, in a file or an override."""
+    conf = tmp_path / "old.yml"
+    conf.write_text(f"{RAMP}:\n  n_envs: 1\n  randomization: off\n")
+    for argv in (["-conf", str(conf)], ["--hyperparams", "randomization:'off'"]):
+        with pytest.raises(SystemExit):
+            main(["--env", RAMP, *argv, "--run-dir", str(tmp_path / "run"), "--no-progress"])
+        err = capsys.readouterr().err
+        assert "randomization: a top-level key" in err and "env_kwargs.randomization" in err, err
+    assert not (tmp_path / "run").exists()
+
+
+def test_key_values_read_as_python_literals_like_rl_zoo3():
+    parsed = train_mod.parse_key_values(["n_envs:4", "learning_rate:lin_5e-4", "gamma:0.99", "use_sde:True",
+                                         "policy_kwargs:dict(net_arch=[64])", "env_kwargs:{'randomization': 'off'}",
+                                         "shell_model:'point'", "target_kl:None"])
+    assert parsed == {"n_envs": 4, "learning_rate": "lin_5e-4", "gamma": 0.99, "use_sde": True,
+                      "policy_kwargs": "dict(net_arch=[64])", "env_kwargs": {"randomization": "off"},
+                      "shell_model": "point", "target_kl": None}
+
+
+def test_rl_zoo3_flags_reach_the_config(tmp_path):
+    """-conf, --hyperparams, --env-kwargs, --eval-env-kwargs, --eval-*, --save-freq, -tb, -n, --seed."""
+    args = train_mod.build_parser().parse_args([
+        "--env", RAMP, "-conf", str(hyperparams_path("ppo")), "-params", "n_envs:1", "n_steps:64",
+        "--env-kwargs", "shell_model:'point'", "randomization:{'pressure_kpa': [4.0, 6.0]}",
+        "--eval-env-kwargs", "observation_noise_scale:0.5", "--eval-freq", "-1", "--save-freq", "128",
+        "--eval-episodes", "4", "--eval-pressures-kpa", "5", "7", "-tb", str(tmp_path / "tb"), "-n", "512",
+        "--seed", "3"])
+    cfg = train_mod._config_from_args(args, args.hyperparams, args.seed)
+    assert (cfg.n_envs, cfg.hyperparams["n_steps"], cfg.n_timesteps, cfg.seed) == (1, 64, 512, 3)
+    assert cfg.env_kwargs == {"shell_model": "point", "friction_model": "majd",
+                              "randomization": {"pressure_kpa": [4.0, 6.0]}}  # merged over the YAML's
+    assert cfg.make_kwargs(evaluation=True) == {**cfg.env_kwargs, "randomization": "off",
+                                                "observation_noise_scale": 0.5}
+    assert (cfg.eval_freq, cfg.checkpoint_freq, cfg.eval_episodes, cfg.eval_pressures_kpa) == (0, 128, 4, [5.0, 7.0])
+    assert cfg.tensorboard_log == str(tmp_path / "tb")
+    default = resolve_config(RAMP, "ppo", build_env=False)
+    assert default.eval_pressures_kpa == [3.0, 4.31, 14.0] and default.eval_env_kwargs == {"randomization": "off"}
 
 
 def _first_obs(env_kwargs, seed=7, n=40):
@@ -141,7 +192,7 @@ def test_training_improves_evaluation_return(tmp_path):
     The command range is narrowed to slow speeds (always brake), so a few updates show the trend."""
     from sphere_env.evaluation.controller_specs import PolicyController
 
-    overrides = {"n_timesteps": IMPROVE_STEPS, "env_kwargs": TASK, "randomization": "off"}  # shipped layout
+    overrides = {"n_timesteps": IMPROVE_STEPS, "env_kwargs": {**TASK, "randomization": "off"}}  # shipped layout
     cfg = resolve_config(RAMP, "ppo", overrides=overrides, seed=0, eval_freq=10**6, eval_episodes=1)
     run = train(cfg, tmp_path / "run", progress_bar=False)
 
@@ -167,3 +218,57 @@ def test_training_improves_evaluation_return(tmp_path):
     after = score(trained)
     print(f"evaluation return: untrained {before:.3f}, trained {after:.3f}")
     assert after > before + 0.1, (before, after)
+
+
+TINY1 = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs": {"shell_model": "point"}}
+
+
+@pytest.mark.slow
+def test_evaluations_play_the_fixed_pressure_grid_without_randomization(tmp_path):
+    """Training draws pressures; every evaluation plays the calibration's low, nominal and high
+    pressures in order (randomization off), the same episodes each time."""
+    tiny = {k: v for k, v in TINY1.items() if k != "env_kwargs"}
+    cfg = resolve_config(RAMP, "ppo", overrides={**tiny, "n_timesteps": 256}, env_kwargs={"shell_model": "point"},
+                         eval_freq=128, eval_episodes=3, checkpoint_freq=256)
+    assert cfg.randomization == {"pressure_kpa": {"distribution": "uniform"}}  # the shipped training spec
+    run = train(cfg, tmp_path / "run", progress_bar=False)
+    import pandas as pd
+
+    ev = pd.read_csv(run / "monitor" / "eval.monitor.csv", skiprows=1)
+    assert ev["pressure_kpa"].tolist() == [3.0, 4.31, 14.0] * 2
+    tr = pd.read_csv(run / "monitor" / "train_0.monitor.csv", skiprows=1)
+    assert len(tr) >= 2 and not set(tr["pressure_kpa"]) & {3.0, 4.31, 14.0}
+    stored = yaml.safe_load((run / "config.yaml").read_text())
+    assert stored["eval_pressures_kpa"] == [3.0, 4.31, 14.0] and stored["eval_env_kwargs"] == {"randomization": "off"}
+
+
+def test_evaluation_episodes_repeat_after_restart():
+    env = train_mod.EvaluationEpisodes(gym.make(RAMP, shell_model="point", randomization="default"), [5.0, 9.0], 100)
+    first = [env.reset(seed=k)[0] for k in range(3)]  # the caller's seeds are ignored
+    env.restart_evaluation()
+    again = [env.reset()[0] for _ in range(3)]
+    np.testing.assert_array_equal(np.array(first), np.array(again))
+    env.restart_evaluation()
+    assert [env.reset()[1]["pressure_kpa"] for _ in range(3)] == [5.0, 9.0, 5.0]
+
+
+@pytest.mark.slow
+def test_trained_agent_continues_with_its_vecnormalize(tmp_path):
+    """-i: a new run folder starting from the saved network and VecNormalize statistics."""
+    import pickle
+
+    from stable_baselines3 import PPO
+
+    common = ["--env", RAMP, "--hyperparams", "n_envs:1", "n_steps:32", "batch_size:32", "n_epochs:1",
+              "--env-kwargs", "shell_model:'point'", "--eval-freq", "-1", "--no-progress"]
+    first = main([*common, "-n", "64", "--run-dir", str(tmp_path / "a")])
+    second = main([*common, "-n", "32", "--run-dir", str(tmp_path / "b"), "-i", str(first / "model.zip")])
+    vn_a = pickle.loads((first / "vecnormalize.pkl").read_bytes())
+    vn_b = pickle.loads((second / "vecnormalize.pkl").read_bytes())
+    assert vn_b.obs_rms.count == vn_a.obs_rms.count + 1 + 32  # continued (+ the first reset, 32 steps)
+    a, b = PPO.load(first / "model.zip"), PPO.load(second / "model.zip")
+    assert b.num_timesteps == 32
+    changed = [not np.array_equal(x, y) for x, y in zip(a.policy.state_dict().values(), b.policy.state_dict().values())]
+    assert any(changed)
+    assert yaml.safe_load((second / "config.yaml").read_text())["trained_agent"] == str(first / "model.zip")
+    assert not (second / "eval").exists()  # --eval-freq -1: no evaluations

@@ -1,0 +1,35 @@
+"""The shipped hyperparameter files train with rl-zoo3 as they are, and this trainer continues an
+rl-zoo3 model (-i) with its VecNormalize statistics. Skipped where rl_zoo3 is not installed: it is
+not a declared dependency (its pytablewriter → typepy chain needs python-dateutil < 3, which
+conflicts with the pinned 4.0)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("rl_zoo3")
+
+from sphere_env.resources import hyperparams_path
+from sphere_env.training.train import load_config, main
+
+RAMP = "sphere_env/RampDescent-v1"
+
+
+@pytest.mark.slow
+def test_rl_zoo3_trains_with_the_shipped_yaml_and_this_trainer_continues_it(tmp_path):
+    cmd = [sys.executable, "-m", "rl_zoo3.train", "--gym-packages", "sphere_env", "--env", RAMP, "--algo", "ppo",
+           "-conf", str(hyperparams_path("ppo")), "-n", "128", "--eval-freq", "-1", "-f", str(tmp_path / "logs"),
+           "--seed", "0", "-params", "n_envs:1", "n_steps:64", "batch_size:64", "n_epochs:1"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "'randomization': {'pressure_kpa': {'distribution': 'uniform'}}" in done.stdout  # read from env_kwargs
+    run = tmp_path / "logs" / "ppo" / "sphere_env-RampDescent-v1_1"
+    model = run / "sphere_env-RampDescent-v1.zip"
+    assert model.exists() and (run / "sphere_env-RampDescent-v1" / "vecnormalize.pkl").exists()
+
+    ours = main(["--env", RAMP, "-i", str(model), "-n", "64", "--eval-freq", "-1", "--run-dir", str(tmp_path / "ours"),
+                 "--hyperparams", "n_envs:1", "n_steps:64", "batch_size:64", "n_epochs:1", "--no-progress"])
+    assert (ours / "model.zip").exists() and load_config(ours).trained_agent == str(model)
