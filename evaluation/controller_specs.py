@@ -129,6 +129,14 @@ class PolicyController:
                 self.vecnormalize = pickle.load(f)  # only obs_rms/clip_obs are used: no venv needed
             self.vecnormalize.training = False
 
+    def check_env(self, env: Any, label: str = "") -> None:
+        """Refuse an env whose observations the policy cannot read (another layout or size), with a
+        ValueError naming both shapes."""
+        want, got = self.model.observation_space.shape, env.observation_space.shape
+        if want != got:
+            raise ValueError(f"controller: {label or 'policy'!r} takes observations of shape {want}, the env "
+                             f"{getattr(env.spec, 'id', '?')!r} gives {got}: another observation layout")
+
     def reset(self) -> None:
         pass
 
@@ -182,5 +190,7 @@ def make_controller(spec: str, env: Any) -> Callable:
         return controller_for(env, spec)
     rf = run_folder(spec)
     if rf is not None:
-        return PolicyController(*rf)
+        policy = PolicyController(*rf)
+        policy.check_env(env, spec)
+        return policy
     return load_callable(spec)

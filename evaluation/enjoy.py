@@ -149,11 +149,14 @@ class Paced:
         return self.controller(obs, info)
 
 
-def make_policy(folder: Path, which: str, deterministic: bool, seed: int) -> Callable:
-    """The run's policy as a controller ``(obs, info) -> action``; stochastic actions are seeded."""
+def make_policy(folder: Path, which: str, deterministic: bool, seed: int, env: Any = None) -> Callable:
+    """The run's policy as a controller ``(obs, info) -> action``; stochastic actions are seeded.
+    With ``env``, a policy that cannot read its observations is refused."""
     from sphere_env.evaluation.controller_specs import PolicyController
 
     policy = PolicyController(folder, which)
+    if env is not None:
+        policy.check_env(env, str(folder))
     if deterministic:
         return policy
     policy.model.set_random_seed(seed)
@@ -194,7 +197,7 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
         raise ValueError(f"env_kwargs: {err}") from None
     rows = []
     try:
-        controller = make_policy(r["folder"], r["which"], spec.deterministic, spec.seed)
+        controller = make_policy(r["folder"], r["which"], spec.deterministic, spec.seed, env)
         if meshcat:
             say(f"Meshcat: {env.unwrapped.meshcat.web_url()}")
             controller = Paced(controller, env, realtime_rate)

@@ -16,7 +16,7 @@ def tiny_run(tmp_path_factory, algo: str):
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
 
-    cfg = resolve_config("sphere_env/RampDescent-v1", algo,
+    cfg = resolve_config("sphere_env/RampDescent-v2", algo,
                          overrides={**TINY[algo], "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
     return train(cfg, tmp_path_factory.mktemp(f"tiny_{algo}") / "run", progress_bar=False)
 

@@ -104,7 +104,7 @@ def _broken_copy(run, tmp_path, remove=None, truncate=None):
     ("not_a_folder", ["run:", "is not a folder"]),
     ("bad_which", ["run:", "@best"]),
     ("no_best", ["run:", "best_model.zip"]),
-    ("other_env", ["env:", "trained on 'sphere_env/RampDescent-v1'", "--allow-env-mismatch"]),
+    ("other_env", ["env:", "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch"]),
     ("shell", ["shell_model:", "jelly"]),
     ("pressure", ["pressure_kpa", "99"]),
     ("episodes", ["episodes:", "0"]),
@@ -141,7 +141,8 @@ def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, n
     assert sorted(p.name for p in tmp_path.iterdir() if p.name != "copy") == ["f"]  # nothing written
 
 
-def test_enjoy_on_another_env_when_allowed(tiny_ppo_run):
-    (row,) = enjoy(EnjoySpec(str(tiny_ppo_run), env_id="sphere_env/RampDescent-v0", allow_env_mismatch=True),
-                   say=lambda _: None)
-    assert row["env_id"] == "sphere_env/RampDescent-v0" and row["length"] > 0
+def test_enjoy_on_another_env_with_another_layout_is_refused_even_when_allowed(tiny_ppo_run):
+    # v0 observes 13 numbers, the v2 policy reads 16
+    with pytest.raises(ValueError, match=r"controller: .*shape \(16,\).*\(13,\)"):
+        enjoy(EnjoySpec(str(tiny_ppo_run), env_id="sphere_env/RampDescent-v0", allow_env_mismatch=True),
+              say=lambda _: None)
