@@ -4,8 +4,8 @@
    pressure randomized uniformly over the calibrated range at every reset
    (training/hyperparams/ppo.yml, budget shortened by ``--train-steps``).
 2. Evaluate the trained policy against the baselines — zero torque (the paper's uncontrolled
-   descent) and the hand-written PD controller — over the low, nominal and high calibrated
-   pressures × all three shell models × 3 seeds, randomization off.
+   descent) and the tuned PD controller — at the low, middle and high calibrated pressures
+   (3, 8.5, 14 kPa) × all three shell models × 3 seeds, randomization off.
 3. Write ``summary.json`` into the output folder (per controller: ``success_rate``,
    ``reached_runout_rate``, ``mean_return`` and ``tracking_rmse_rad_s`` over the whole grid, plus
    timings) and print where the run folder, report, plots and Meshcat replays are.
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     cal = ShellCalibration.load()
     lo, hi = cal.pressure_range_kpa
-    pressures = [lo, cal.nominal_pressure_kpa, hi]
+    pressures = [lo, round((lo + hi) / 2, 3), hi]  # 3, 8.5, 14 kPa: both ends and the middle
     n = args.train_steps
     print(f"[1/3] Training PPO on {ENV_ID} for {n} env steps, pressure ~ U[{lo:g}, {hi:g}] kPa per episode ...",
           flush=True)
@@ -70,7 +70,7 @@ def main(argv: list[str] | None = None) -> dict:
                      seeds=args.seeds)
     t0 = time.perf_counter()
     res = evaluate(spec, args.out, workers=args.workers,
-                   replays=[f"ppo,hydroelastic,{cal.nominal_pressure_kpa}", f"zero,hydroelastic,{cal.nominal_pressure_kpa}"],
+                   replays=[f"ppo,hydroelastic,{pressures[1]}", f"zero,hydroelastic,{pressures[1]}"],
                    progress=True,
                    extra_report=(f"Policy: PPO trained {timing['num_timesteps']} env steps in {t_train:.0f} s "
                                  f"({timing['steps_per_s']:.0f} env steps/s, 2 workers), run folder `{run_dir}`."))
