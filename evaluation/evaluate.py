@@ -33,13 +33,11 @@ the reference's on-ramp samples, and optionally against a user log: a CSV with c
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
 import json
 import math
 import os
 import shutil
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +45,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from sphere_env.files import staged_folder
 from sphere_env.parallel import run_parallel
 from sphere_env.models.shell import SHELL_MODELS
 
@@ -625,25 +624,9 @@ def check_out_dir(out: Path) -> None:
             raise ValueError(f"out: {str(out)!r} cannot be an output folder: {str(p)!r} is a file")
 
 
-@contextlib.contextmanager
-def _staging(out: Path):
-    """A fresh temporary folder beside ``out``; on success its contents replace what an earlier sweep
-    wrote into ``out`` (:data:`OUTPUT_NAMES`, ``replay_*.html``), on failure it is removed and
-    ``out`` is left as it was (folders created for it are removed too)."""
-    created = [p for p in (out, *out.parents) if not p.exists()]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=out.parent))
-    try:
-        yield work
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        for p in created[1:]:  # parents made for the staging folder, innermost first
-            with contextlib.suppress(OSError):
-                p.rmdir()
-        raise
-    if not out.exists():
-        work.rename(out)
-        return
+def _replace_outputs(work: Path, out: Path) -> None:
+    """Replace what an earlier sweep wrote into ``out`` (:data:`OUTPUT_NAMES`, ``replay_*.html``)
+    by the contents of ``work``."""
     for p in [*(out / n for n in OUTPUT_NAMES), *out.glob("replay_*.html")]:
         if p.is_dir():
             shutil.rmtree(p)
@@ -651,7 +634,13 @@ def _staging(out: Path):
             p.unlink()
     for p in work.iterdir():
         p.rename(out / p.name)
-    work.rmdir()
+
+
+def _staging(out: Path):
+    """A fresh temporary folder beside ``out``; on success its contents replace what an earlier sweep
+    wrote into ``out``, on failure it is removed and ``out`` is left as it was
+    (:func:`sphere_env.files.staged_folder`)."""
+    return staged_folder(out, _replace_outputs)
 
 
 def _sweep(spec: SweepSpec, out: Path, workers, ray_address, replay_jobs, log, pme_log_pressure, pme_reference,

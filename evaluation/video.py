@@ -14,10 +14,11 @@ import contextlib
 import os
 import re
 import shutil
-import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
+
+from sphere_env.files import staged_folder
 
 
 def check_video_support(folder: str | Path) -> Path:
@@ -64,6 +65,11 @@ def record_episode(env: Any, folder: str | Path, name: str, run: Callable[[Any],
     return result
 
 
+def _move_videos(work: Path, folder: Path) -> None:
+    for p in work.glob("*.mp4"):
+        os.replace(p, folder / p.name)
+
+
 @contextlib.contextmanager
 def staged_videos(folder: Path | None) -> Iterator[Path | None]:
     """A fresh staging folder beside ``folder`` (None: no videos, yields None). On success its MP4s
@@ -72,24 +78,5 @@ def staged_videos(folder: Path | None) -> Iterator[Path | None]:
     if folder is None:
         yield None
         return
-    folder = Path(folder)
-    created = [p for p in (folder, *folder.parents) if not p.exists()]
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{folder.name}.partial-", dir=folder.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    work.chmod(0o777 & ~umask)  # mkdtemp makes it private; the folder it becomes should not be
-    try:
+    with staged_folder(folder, _move_videos) as work:
         yield work
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        for p in created[1:]:  # parents made for the staging folder, innermost first
-            with contextlib.suppress(OSError):
-                p.rmdir()
-        raise
-    if not folder.exists():
-        work.rename(folder)
-        return
-    for p in work.glob("*.mp4"):
-        os.replace(p, folder / p.name)
-    shutil.rmtree(work, ignore_errors=True)

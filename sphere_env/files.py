@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import tempfile
 from pathlib import Path
+from typing import Callable, Iterator
 
 
 def write_text_atomic(path: str | Path, text: str) -> Path:
@@ -22,3 +25,31 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+@contextlib.contextmanager
+def staged_folder(folder: str | Path, publish: Callable[[Path, Path], None]) -> Iterator[Path]:
+    """A fresh temporary folder beside ``folder`` to write into. On success it becomes ``folder``
+    when that does not exist yet; otherwise ``publish(work, folder)`` moves what it should into
+    ``folder`` and the rest is removed. On failure it is removed, and so are the parents created for
+    it: ``folder`` is left as it was."""
+    folder = Path(folder)
+    created = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{folder.name}.partial-", dir=folder.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    work.chmod(0o777 & ~umask)  # mkdtemp makes it private; the folder it becomes should not be
+    try:
+        yield work
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        for p in created[1:]:  # parents made for the staging folder, innermost first
+            with contextlib.suppress(OSError):
+                p.rmdir()
+        raise
+    if not folder.exists():
+        work.rename(folder)
+        return
+    publish(work, folder)
+    shutil.rmtree(work, ignore_errors=True)
