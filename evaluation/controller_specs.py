@@ -80,6 +80,9 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
             raise ValueError(f"controller: {spec!r}: {model} cannot be loaded ({type(err).__name__}: {err}); "
                              "a truncated or corrupt model file") from None
         vn = model.parent / "vecnormalize.pkl"
+        if cfg.normalize is not None and not vn.exists():
+            raise ValueError(f"controller: {spec!r}: {vn} is missing: the policy was trained on VecNormalize-d "
+                             "observations and cannot be evaluated without their statistics")
         if vn.exists():
             try:
                 with open(vn, "rb") as f:

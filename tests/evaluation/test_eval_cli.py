@@ -105,6 +105,16 @@ def test_truncated_model_refused(tiny_run, tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_missing_vecnormalize_refused(tiny_run, tmp_path, capsys):
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(tiny_run, run)
+    (run / "vecnormalize.pkl").unlink()
+    _refused(capsys, ["--controller", str(run), "--out", str(tmp_path / "o"), *GRID], "vecnormalize.pkl", "is missing")
+    assert not (tmp_path / "o").exists()
+
+
 def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys):
     _refused(capsys, ["--controller", str(tiny_run), "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o"),
                       *GRID], "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch")
