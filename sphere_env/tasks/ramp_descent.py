@@ -170,6 +170,7 @@ class RampDescentTask(Task):
         if not isinstance(extended_observation, bool):
             raise ValueError(f"extended_observation: value {extended_observation!r} must be a bool")
         self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if extended_observation else ()
+        self._observe_lateral = extended_observation
         self.command_names = ("omega_ref", "heading_error", "lateral_error") if extended_observation else (
             "omega_ref", "heading_error")
         self.omega_ref = self.omega_ref_start = self.omega_ref_after = 0.0
@@ -217,7 +218,7 @@ class RampDescentTask(Task):
         self._reached = False
 
     def command(self, state: Any) -> list[float]:
-        if len(self.command_names) == 3:
+        if self._observe_lateral:
             return [self.omega_ref, wrap_angle(-state.heading), -float(state.position_m[1])]
         return [self.omega_ref, wrap_angle(-state.heading)]
 
