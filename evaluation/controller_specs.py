@@ -24,6 +24,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from sphere_env.wrappers import ACTION_COMBINERS
+
 BASELINES = ("zero", "pd")
 
 
@@ -131,17 +133,28 @@ class PolicyController:
             with open(vn, "rb") as f:
                 self.vecnormalize = pickle.load(f)  # only obs_rms/clip_obs are used: no venv needed
             self.vecnormalize.training = False
+        self.env_wrapper = list(self.config.env_wrapper)
+        unknown = [path for item in self.env_wrapper for path in item if path not in ACTION_COMBINERS]
+        if unknown:
+            raise ValueError(f"run: {str(run_dir)!r} was trained inside env_wrapper {unknown}, whose action "
+                             f"evaluation cannot reproduce on the bare env; allowed: {sorted(ACTION_COMBINERS)}")
+        self._combiners: list[Any] | None = [] if not self.env_wrapper else None
 
     def check_env(self, env: Any, label: str = "") -> None:
         """Refuse an env whose observations the policy cannot read (another layout or size), with a
-        ValueError naming both shapes."""
+        ValueError naming both shapes; bind the run's action combination (e.g. the PD of a residual
+        policy, :mod:`sphere_env.wrappers`) to ``env``."""
         want, got = self.model.observation_space.shape, env.observation_space.shape
         if want != got:
             raise ValueError(f"controller: {label or 'policy'!r} takes observations of shape {want}, the env "
                              f"{getattr(env.spec, 'id', '?')!r} gives {got}: another observation layout")
+        # wrappers listed innermost first: the agent's action passes the outermost first
+        self._combiners = [ACTION_COMBINERS[path](env, **kwargs)
+                           for item in reversed(self.env_wrapper) for path, kwargs in item.items()]
 
     def reset(self) -> None:
-        pass
+        for c in self._combiners or ():
+            c.reset()
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float32)
@@ -149,9 +162,18 @@ class PolicyController:
             return obs
         return self.vecnormalize.normalize_obs(obs)
 
+    def act(self, obs, info: dict | None = None, deterministic: bool = True) -> np.ndarray:
+        """The action sent to the env: the network's, passed through the run's action combination."""
+        if self._combiners is None:
+            raise RuntimeError("controller: a policy trained inside env_wrapper acts only after check_env(env)")
+        action, _ = self.model.predict(self.normalize(obs), deterministic=deterministic)
+        action = np.asarray(action, dtype=np.float32)
+        for c in self._combiners:
+            action = c(obs, info, action)
+        return action
+
     def __call__(self, obs, info: dict | None = None) -> np.ndarray:
-        action, _ = self.model.predict(self.normalize(obs), deterministic=True)
-        return np.asarray(action, dtype=np.float32)
+        return self.act(obs, info, deterministic=True)
 
 
 def env_kwargs_of(spec: str) -> dict[str, Any]:

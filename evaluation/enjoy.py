@@ -162,8 +162,9 @@ def make_policy(folder: Path, which: str, deterministic: bool, seed: int, env: A
     policy.model.set_random_seed(seed)
 
     def sample(obs, info=None):
-        action, _ = policy.model.predict(policy.normalize(obs), deterministic=False)
-        return np.asarray(action, dtype=np.float32)
+        return policy.act(obs, info, deterministic=False)
+
+    sample.reset = policy.reset  # type: ignore[attr-defined]
 
     return sample
 

@@ -32,7 +32,8 @@ for this trainer only. Without either, the envs are stepped by threads of the tr
 
 A top-level ``randomization`` key (the former layout) is refused with a message saying where it
 moved; rl-zoo3 keys this trainer does not implement (``env_wrapper``, ``frame_stack``, ...) are
-refused too.
+refused too. ``env_wrapper`` is read as rl-zoo3 reads it: a class path, ``{path: {kwargs}}``, or a
+list of these (applied in order, the first innermost), e.g. ``sphere_env.wrappers.PDResidualAction``.
 
 ``learning_rate`` and ``clip_range`` accept ``"lin_<value>"`` (linear decay to 0);
 ``policy_kwargs`` may be a mapping or rl-zoo3's ``"dict(...)"`` string.
@@ -54,9 +55,9 @@ from sphere_env.resources import hyperparams_path
 
 ALGOS = ("ppo", "sac")
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
-SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs")
+SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
 #: rl-zoo3 section keys (popped by its ExpManager) that this trainer does not implement.
-ZOO_ONLY_KEYS = ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type",
+ZOO_ONLY_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type",
                  "noise_std")
 #: The former top-level key and where it lives now.
 MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
@@ -109,6 +110,8 @@ class TrainConfig:
     hyperparams_file: str = ""
     tensorboard_log: str | None = None  # None: <run>/tb
     trained_agent: str | None = None  # model.zip the run continues from (-i)
+    # gymnasium wrappers around each env, innermost first: [{"module.Class": {kwargs}}] (rl-zoo3's env_wrapper)
+    env_wrapper: list[dict[str, dict[str, Any]]] = field(default_factory=list)
 
     @property
     def randomization(self) -> Any:
@@ -506,6 +509,7 @@ def resolve_config(
         raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers}; "
                          "set one of them to null (threads in this process, or worker processes)")
     n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000))
+    env_wrapper = parse_env_wrappers(section.get("env_wrapper"))
     hyper = check_hyperparams(algo, hyper)
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
     # default evaluation and checkpoint periods are never shorter, so a tiny budget (--n-timesteps 10)
@@ -524,6 +528,7 @@ def resolve_config(
         device=device, torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
         tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
         trained_agent=None if trained_agent is None else str(trained_agent),
+        env_wrapper=env_wrapper,
     )
     cfg.algo_kwargs()  # schedules and policy_kwargs parse
     if build_env:
@@ -595,15 +600,69 @@ def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | 
                          f"{type(err).__name__}: {msg}") from None
 
 
-def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str):
+def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str,
+                  env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]] = ()):
     import gymnasium as gym
 
     try:
-        return gym.make(env_id, **kwargs)
+        env = gym.make(env_id, **kwargs)
     except ValueError as err:
         raise _env_error(err, where) from None
     except TypeError as err:
         raise ValueError(f"{where}: {err}") from None
+    try:
+        return apply_env_wrappers(env, env_wrapper)
+    except (ValueError, TypeError) as err:
+        env.close()
+        raise ValueError(f"env_wrapper: {err}") from None
+
+
+def wrapper_class(path: str) -> type:
+    """The gymnasium wrapper class at ``path`` (``module.Class``), or a ValueError naming it."""
+    import importlib
+
+    import gymnasium as gym
+
+    module, _, name = path.rpartition(".")
+    try:
+        cls = getattr(importlib.import_module(module), name) if module else None
+    except ImportError as err:
+        raise ValueError(f"env_wrapper: {path!r} cannot be imported: {err}") from None
+    except AttributeError:
+        cls = None
+    if not (isinstance(cls, type) and issubclass(cls, gym.Wrapper)):
+        raise ValueError(f"env_wrapper: {path!r} is not a gymnasium.Wrapper class; allowed: 'module.Class' "
+                         "paths such as 'sphere_env.wrappers.PDResidualAction'")
+    return cls
+
+
+def parse_env_wrappers(value: Any) -> list[dict[str, dict[str, Any]]]:
+    """rl-zoo3's ``env_wrapper`` value (a class path, ``{path: kwargs}``, a list of these, or
+    null) as ``[{path: kwargs}]``; every class is imported and checked."""
+    if value is None:
+        return []
+    out = []
+    for item in value if isinstance(value, list) else [value]:
+        if isinstance(item, str):
+            path, kwargs = item, {}
+        elif isinstance(item, Mapping) and len(item) == 1:
+            path, kwargs = next(iter(item.items()))
+            kwargs = {} if kwargs is None else kwargs
+            if not isinstance(path, str) or not isinstance(kwargs, Mapping):
+                raise ValueError(f"env_wrapper: entry {dict(item)!r} must map a class path to a mapping of kwargs")
+        else:
+            raise ValueError(f"env_wrapper: entry {item!r} must be a class path or {{path: {{kwargs}}}}")
+        wrapper_class(path)
+        out.append({path: copy.deepcopy(dict(kwargs))})
+    return out
+
+
+def apply_env_wrappers(env: Any, env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]]) -> Any:
+    """``env`` inside the ``env_wrapper`` entries (the first innermost)."""
+    for item in env_wrapper:
+        (path, kwargs), = item.items()
+        env = wrapper_class(path)(env, **dict(kwargs))
+    return env
 
 
 def validate_with_env(cfg: TrainConfig) -> None:
@@ -612,7 +671,7 @@ def validate_with_env(cfg: TrainConfig) -> None:
     differs: one Drake build); errors become ValueErrors naming the field."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    env = _make_checked(cfg.env_id, cfg.make_kwargs(), "env_kwargs")
+    env = _make_checked(cfg.env_id, cfg.make_kwargs(), "env_kwargs", cfg.env_wrapper)
     _try_episode_start(env, cfg.seed, "env_kwargs")
     if cfg.trained_agent is not None:
         check_trained_agent(cfg, env)
@@ -636,7 +695,7 @@ def validate_with_env(cfg: TrainConfig) -> None:
             except ValueError as err:
                 raise _env_error(err, "eval_env_kwargs") from None
         else:
-            eval_env = _make_checked(cfg.env_id, eval_kw, "eval_env_kwargs")
+            eval_env = _make_checked(cfg.env_id, eval_kw, "eval_env_kwargs", cfg.env_wrapper)
         for p in cfg.eval_pressures_kpa or [None]:
             _try_episode_start(eval_env, cfg.eval_seed, "eval_env_kwargs", None if p is None else {"pressure_kpa": p})
         eval_env.close()

@@ -114,10 +114,11 @@ class EvaluationEpisodes(gym.Wrapper):
 
 
 def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file: str | None = None,
-             torch_threads: int = 1, eval_pressures_kpa: Sequence[float] | None = None):
-    """Build one Monitor-wrapped env seeded with ``seed`` (called inside the worker).
-    ``eval_pressures_kpa`` (a list, possibly empty) makes it an evaluation env
-    (:class:`EvaluationEpisodes`)."""
+             torch_threads: int = 1, eval_pressures_kpa: Sequence[float] | None = None,
+             env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]] = ()):
+    """Build one Monitor-wrapped env seeded with ``seed`` (called inside the worker), inside the
+    ``env_wrapper`` entries (``TrainConfig.env_wrapper``). ``eval_pressures_kpa`` (a list, possibly
+    empty) makes it an evaluation env (:class:`EvaluationEpisodes`)."""
     import sphere_env  # noqa: F401 - registers the ids
 
     try:
@@ -126,7 +127,9 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file
         torch.set_num_threads(torch_threads)
     except ImportError:  # pragma: no cover
         pass
-    env = gym.make(env_id, **dict(env_kwargs))
+    from sphere_env.training.config import apply_env_wrappers
+
+    env = apply_env_wrappers(gym.make(env_id, **dict(env_kwargs)), env_wrapper)
     if eval_pressures_kpa is not None:
         env = EvaluationEpisodes(env, eval_pressures_kpa, seed)
     # A new file gets SB3's header (what stable_baselines3.common.monitor.load_results reads); a
@@ -150,10 +153,11 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
         mon.mkdir(parents=True, exist_ok=True)
     if evaluation:
         fns = [partial(make_env, cfg.env_id, kwargs, cfg.eval_seed,
-                       None if mon is None else str(mon / "eval"), cfg.torch_threads, cfg.eval_pressures_kpa or [])]
+                       None if mon is None else str(mon / "eval"), cfg.torch_threads, cfg.eval_pressures_kpa or [],
+                       cfg.env_wrapper)]
         return DummyVecEnv(fns)
     fns = [partial(make_env, cfg.env_id, kwargs, s, None if mon is None else str(mon / f"train_{rank}"),
-                   cfg.torch_threads) for rank, s in enumerate(cfg.worker_seeds)]
+                   cfg.torch_threads, None, cfg.env_wrapper) for rank, s in enumerate(cfg.worker_seeds)]
     if cfg.n_threads is not None and cfg.n_envs > 1:
         from sphere_env.training.vec_env import ThreadedVecEnv
 
@@ -791,7 +795,7 @@ def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
     """A stored config as YAML-section overrides (so a resume re-validates exactly what ran)."""
     return {"n_envs": cfg.n_envs, "n_workers": cfg.n_workers, "n_threads": cfg.n_threads, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
             "normalize": cfg.normalize if cfg.normalize is not None else False,
-            "env_kwargs": cfg.env_kwargs, **cfg.hyperparams}
+            "env_kwargs": cfg.env_kwargs, "env_wrapper": cfg.env_wrapper or None, **cfg.hyperparams}
 
 
 if __name__ == "__main__":

@@ -1,0 +1,110 @@
+"""Gymnasium wrappers for training on the sphere_env tasks.
+
+``PDResidualAction`` turns a task into residual control over the tuned PD baseline (residual
+reinforcement learning: Johannink et al., ICRA 2019; Silver et al., 2018): the agent's action is a
+correction added to the PD's action, so learning starts from a controller that already works and only
+has to improve on it. It is named in a hyperparameter file the way rl-zoo3 names wrappers::
+
+    env_wrapper:
+      - sphere_env.wrappers.PDResidualAction: {scale: 0.5}
+
+A policy trained this way acts on the robot only together with the same PD: evaluation applies the
+same combination (:class:`ResidualCombiner`), and a run trained with it cannot be exported as a
+stand-alone network.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import gymnasium as gym
+import numpy as np
+
+from sphere_env.checks import finite_number
+
+
+class ResidualCombiner:
+    """Applied action = clip(base(obs, info) + ``scale`` · clip(residual, −1, 1), −1, 1).
+
+    :param base: a controller ``(obs, info) -> action`` with ``reset()`` (e.g. the PD baseline).
+    :param scale: weight of the residual, in (0, 2] (1: the residual alone can reach the torque
+        limits).
+    """
+
+    def __init__(self, base: Any, scale: float):
+        self.base = base
+        self.scale = check_scale(scale)
+        self.base_action = np.zeros(2, dtype=np.float32)  # the base controller's last action
+
+    def reset(self) -> None:
+        self.base.reset()
+
+    def __call__(self, obs, info: Mapping[str, Any] | None, residual) -> np.ndarray:
+        """The applied action for this step (calls the stateful base controller once)."""
+        r = np.clip(np.asarray(residual, dtype=np.float64).reshape(-1), -1.0, 1.0)
+        self.base_action = np.asarray(self.base(obs, info), dtype=np.float32)
+        a = self.base_action.astype(np.float64) + self.scale * r
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+
+def check_scale(scale: Any) -> float:
+    """``scale`` as a float in (0, 2], or a ValueError naming the field."""
+    val = finite_number("scale", scale, "(0, 2]")
+    if not 0.0 < val <= 2.0:
+        raise ValueError(f"scale: value {scale!r} outside allowed (0, 2]")
+    return val
+
+
+def pd_residual_combiner(env: gym.Env, scale: float = 0.5) -> ResidualCombiner:
+    """The combination :class:`PDResidualAction` applies to ``env``: its PD baseline preset
+    (:func:`sphere_env.controllers.controller_for`) plus ``scale`` × the residual."""
+    from sphere_env.controllers import controller_for
+
+    return ResidualCombiner(controller_for(env, "pd"), scale)
+
+
+class PDResidualAction(gym.Wrapper):
+    """Residual control over the task's PD baseline.
+
+    The action space stays ``Box(-1, 1, (2,))`` ([steer, drive], normalized as the task's): the
+    action is a residual, scaled by ``scale`` and added to the PD's action; the sum is clipped to the
+    torque limits. With a zero residual the episode is exactly the PD's. ``info`` gains
+    ``base_action`` (the PD's) and ``applied_action`` (what the robot received), both normalized.
+
+    :param env: a sphere_env task env with a PD preset (RampDescent, Roll).
+    :param scale: weight of the residual, in (0, 2].
+    """
+
+    def __init__(self, env: gym.Env, scale: float = 0.5):
+        self.combiner = pd_residual_combiner(env, scale)
+        super().__init__(env)
+        self._obs: Any = None
+        self._info: dict[str, Any] = {}
+
+    @property
+    def scale(self) -> float:
+        return self.combiner.scale
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        self.combiner.reset()
+        self._obs, self._info = self.env.reset(seed=seed, options=options)
+        return self._obs, self._info
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != (2,) or not all(math.isfinite(x) for x in a):
+            raise ValueError(f"action: value {action!r} must be 2 finite numbers [steer, drive] in [-1, 1]")
+        if self._obs is None:
+            raise gym.error.ResetNeeded("PDResidualAction: call reset() before step()")
+        applied = self.combiner(self._obs, self._info, a)
+        obs, reward, terminated, truncated, info = self.env.step(applied)
+        info["base_action"] = self.combiner.base_action
+        info["applied_action"] = applied
+        self._obs, self._info = obs, info
+        return obs, reward, terminated, truncated, info
+
+
+#: Wrappers a training run may name (``env_wrapper``) whose action combination evaluation can
+#: reproduce on the bare env: class path -> builder of the combiner (env, **kwargs).
+ACTION_COMBINERS = {"sphere_env.wrappers.PDResidualAction": pd_residual_combiner}

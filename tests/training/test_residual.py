@@ -1,0 +1,145 @@
+"""Residual control over the PD baseline (``sphere_env.wrappers.PDResidualAction``, rl-zoo3's
+``env_wrapper`` key): a zero residual reproduces the PD's episode exactly; the residual moves the
+applied torques by ``scale``; a run trained inside the wrapper is evaluated with the same PD, gives in
+evaluation the actions it took in its wrapped env, and is not exported alone; bad wrapper entries
+are refused by name."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sphere_env  # noqa: F401
+from sphere_env.controllers import controller_for
+from sphere_env.wrappers import PDResidualAction
+
+ENV = "sphere_env/RampDescent-v2"
+
+
+def _episode(env, act, seed=3, pressure=6.0, steps=120):
+    obs, info = env.reset(seed=seed, options={"pressure_kpa": pressure})
+    out = []
+    for _ in range(steps):
+        obs, r, term, trunc, info = env.step(act(obs, info))
+        out.append((obs.copy(), r))
+        if term or trunc:
+            break
+    return out
+
+
+@pytest.mark.parametrize("shell", ["point", "injected"])
+def test_zero_residual_reproduces_the_pd_episode(shell):
+    bare = gym.make(ENV, shell_model=shell, randomization="off")
+    pd = controller_for(bare, "pd")
+    pd.reset()
+    want = _episode(bare, pd)
+    wrapped = PDResidualAction(gym.make(ENV, shell_model=shell, randomization="off"), scale=0.5)
+    got = _episode(wrapped, lambda obs, info: np.zeros(2, np.float32))
+    assert len(got) == len(want) > 50
+    for (o1, r1), (o2, r2) in zip(want, got):
+        np.testing.assert_array_equal(o1, o2)
+        assert r1 == r2
+
+
+def test_residual_adds_scale_times_the_action_to_the_pd_torques():
+    env = PDResidualAction(gym.make(ENV, shell_model="point", randomization="off"), scale=0.25)
+    env.reset(seed=1, options={"pressure_kpa": 8.0})
+    residual = np.array([0.4, -0.8], np.float32)
+    for _ in range(20):
+        _, _, _, _, info = env.step(residual)
+        want = np.clip(info["base_action"] + 0.25 * residual, -1, 1)
+        np.testing.assert_allclose(info["applied_action"], want, atol=1e-6)
+        # joint torques: +drive is forward, about the URDF's −y drive axis (τ_drive = −a·limit)
+        limits = np.array([env.unwrapped.steer_torque_limit_nm, -env.unwrapped.drive_torque_limit_nm])
+        np.testing.assert_allclose(info["motor_torque_nm"], want * limits, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("scale", [0.0, -0.5, 2.5, float("nan"), "big", True])
+def test_bad_scale_is_refused_by_name(scale):
+    with pytest.raises(ValueError, match="scale"):
+        PDResidualAction(gym.make(ENV, shell_model="point"), scale=scale)
+
+
+def test_bad_residual_action_is_refused_before_stepping():
+    env = PDResidualAction(gym.make(ENV, shell_model="point"), scale=0.5)
+    env.reset(seed=0)
+    t = env.unwrapped.twin.context.get_time()
+    for bad in ([np.nan, 0.0], [0.0], [0.1, 0.2, 0.3]):
+        with pytest.raises(ValueError, match="action"):
+            env.step(np.asarray(bad, np.float32))
+    assert env.unwrapped.twin.context.get_time() == t
+
+
+@pytest.mark.parametrize("value, needle", [
+    ("sphere_env.wrappers.NoSuchWrapper", "NoSuchWrapper"),
+    ("no_such_module.Wrapper", "no_such_module"),
+    ("sphere_env.controllers.PendulumPDController", "not a gymnasium.Wrapper"),
+    ([{"sphere_env.wrappers.PDResidualAction": [0.5]}], "mapping of kwargs"),
+    ([{"sphere_env.wrappers.PDResidualAction": {"scale": 7}}], "scale"),
+    ([{"sphere_env.wrappers.PDResidualAction": {"gain": 1}}], "gain"),
+])
+def test_bad_env_wrapper_is_refused_by_name(value, needle):
+    from sphere_env.training.config import resolve_config
+
+    with pytest.raises(ValueError, match="env_wrapper") as err:
+        resolve_config(ENV, "ppo", overrides={"env_wrapper": value, "env_kwargs": {"shell_model": "point"}})
+    assert needle in str(err.value)
+
+
+@pytest.mark.parametrize("value", [
+    "sphere_env.wrappers.PDResidualAction",
+    {"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}},
+    [{"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}],
+])
+def test_env_wrapper_accepts_rl_zoo3_forms(value):
+    from sphere_env.training.config import parse_env_wrappers
+
+    (entry,) = parse_env_wrappers(value)
+    assert list(entry) == ["sphere_env.wrappers.PDResidualAction"]
+
+
+@pytest.fixture(scope="module")
+def residual_run(tmp_path_factory):
+    from sphere_env.training.config import resolve_config
+    from sphere_env.training.train import train
+
+    from sphere_env.resources import hyperparams_path
+
+    cfg = resolve_config(ENV, "ppo", hyperparams_path("ppo_residual"),
+                         overrides={"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128,
+                                    "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
+    assert cfg.env_wrapper == [{"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}]
+    return train(cfg, tmp_path_factory.mktemp("residual") / "run", progress_bar=False)
+
+
+def test_evaluation_applies_the_runs_pd_as_training_did(residual_run):
+    """The controller built from a residual run gives, on the bare env, the action the wrapped env
+    applied for the same network output: PD + 0.5 × residual, step by step over an episode."""
+    from sphere_env.evaluation.controller_specs import PolicyController, make_controller
+
+    bare = gym.make(ENV, shell_model="injected", randomization="off")
+    controller = make_controller(str(residual_run), bare)
+    policy = PolicyController(residual_run)
+    wrapped = PDResidualAction(gym.make(ENV, shell_model="injected", randomization="off"), scale=0.5)
+    controller.reset()
+    obs_b, info_b = bare.reset(seed=5, options={"pressure_kpa": 9.0})
+    obs_w, _ = wrapped.reset(seed=5, options={"pressure_kpa": 9.0})
+    for _ in range(60):
+        a_bare = controller(obs_b, info_b)
+        residual, _ = policy.model.predict(policy.normalize(obs_w), deterministic=True)
+        obs_w, _, term, trunc, info_w = wrapped.step(residual)
+        np.testing.assert_array_equal(a_bare, info_w["applied_action"])
+        obs_b, _, _, _, info_b = bare.step(a_bare)
+        np.testing.assert_array_equal(obs_b, obs_w)
+        if term or trunc:
+            break
+
+
+def test_residual_run_is_not_exported_alone(residual_run, tmp_path):
+    from sphere_env.evaluation.export import export
+
+    out = tmp_path / "export"
+    with pytest.raises(ValueError, match="env_wrapper"):
+        export(str(residual_run), out=out)
+    assert not out.exists()
