@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from sphere_env.wrappers import ACTION_COMBINERS
+from sphere_env.wrappers import ACTION_COMBINERS, TRAINING_ONLY_WRAPPERS
 
 BASELINES = ("zero", "pd")
 
@@ -133,11 +133,14 @@ class PolicyController:
             with open(vn, "rb") as f:
                 self.vecnormalize = pickle.load(f)  # only obs_rms/clip_obs are used: no venv needed
             self.vecnormalize.training = False
-        self.env_wrapper = list(self.config.env_wrapper)
+        # the wrappers that change the action (innermost first); training-only ones choose episodes
+        self.env_wrapper = [item for item in self.config.env_wrapper
+                            if not set(item) <= set(TRAINING_ONLY_WRAPPERS)]
         unknown = [path for item in self.env_wrapper for path in item if path not in ACTION_COMBINERS]
         if unknown:
             raise ValueError(f"run: {str(run_dir)!r} was trained inside env_wrapper {unknown}, whose action "
-                             f"evaluation cannot reproduce on the bare env; allowed: {sorted(ACTION_COMBINERS)}")
+                             f"evaluation cannot reproduce on the bare env; allowed: "
+                             f"{sorted(ACTION_COMBINERS) + list(TRAINING_ONLY_WRAPPERS)}")
         self._combiners: list[Any] | None = [] if not self.env_wrapper else None
 
     def check_env(self, env: Any, label: str = "") -> None:

@@ -239,10 +239,10 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
     torch.set_num_threads(1)
     controller = PolicyController(r["folder"], r["which"])
     cfg = r["config"]
-    if cfg.env_wrapper:
+    if controller.env_wrapper:
         raise ValueError(f"run: {str(r['folder'])!r} was trained inside env_wrapper "
-                         f"{[p for item in cfg.env_wrapper for p in item]}: its network gives a correction to "
-                         "another controller, not the robot's action, so it is not exported alone")
+                         f"{[p for item in controller.env_wrapper for p in item]}: its network gives a correction "
+                         "to another controller, not the robot's action, so it is not exported alone")
     check_supported(controller.model, cfg.algo)
     module = _policy_module(controller.model, controller.vecnormalize, cfg.algo)
 

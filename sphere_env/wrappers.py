@@ -1,5 +1,9 @@
 """Gymnasium wrappers for training on the sphere_env tasks.
 
+``ShellModelMixture`` trains one policy across shell contact models: each episode runs on a shell
+model drawn from a list, so a policy cannot overfit one model's rolling resistance (the three
+models differ most there; see ``evaluation/results/command_span.md``).
+
 ``PDResidualAction`` turns a task into residual control over the tuned PD baseline (residual
 reinforcement learning: Johannink et al., ICRA 2019; Silver et al., 2018): the agent's action is a
 correction added to the PD's action, so learning starts from a controller that already works and only
@@ -16,7 +20,7 @@ stand-alone network.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import gymnasium as gym
 import numpy as np
@@ -105,6 +109,83 @@ class PDResidualAction(gym.Wrapper):
         return obs, reward, terminated, truncated, info
 
 
+class ShellModelMixture(gym.Wrapper):
+    """Each episode on a shell model drawn uniformly from ``shell_models``.
+
+    Holds one env per shell model, built like the wrapped one (same id and ``gym.make`` kwargs but
+    ``shell_model``); ``reset`` draws the model from the wrapper's generator (seeded by
+    ``reset(seed=...)``, which also seeds every held env) and delegates to that env. Spaces are the
+    same for all models. ``set_randomization`` reaches every held env. ``info["shell_model"]`` says
+    which model ran.
+
+    :param env: a sphere_env env made by ``gymnasium.make``; its own shell model must be one of
+        ``shell_models``.
+    :param shell_models: distinct names from ``point``, ``injected``, ``hydroelastic``.
+    """
+
+    def __init__(self, env: gym.Env, shell_models: Sequence[str] = ("point", "injected")):
+        from sphere_env.models.shell import SHELL_MODELS
+
+        if isinstance(shell_models, str) or not isinstance(shell_models, Sequence) or not shell_models:
+            raise ValueError(f"shell_models: value {shell_models!r} must be a non-empty list; allowed items: "
+                             f"{list(SHELL_MODELS)}")
+        models = list(shell_models)
+        bad = [m for m in models if m not in SHELL_MODELS]
+        if bad or len(set(models)) != len(models):
+            raise ValueError(f"shell_models: value {shell_models!r} must list distinct shell models; allowed: "
+                             f"{list(SHELL_MODELS)}")
+        own = env.unwrapped.shell_model
+        if own not in models:
+            raise ValueError(f"shell_models: value {shell_models!r} does not include the env's own shell model {own!r}")
+        if env.spec is None:
+            raise ValueError("env: ShellModelMixture needs an env made by gymnasium.make (it builds its siblings "
+                             "from the env's spec)")
+        super().__init__(env)
+        self.shell_models = models
+        self.envs = {own: env}
+        for m in models:
+            if m not in self.envs:
+                self.envs[m] = gym.make(env.spec.id, **{**env.spec.kwargs, "shell_model": m})
+        self._rng = np.random.default_rng()
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        if seed is not None:
+            seeds = np.random.SeedSequence(seed).spawn(len(self.envs) + 1)
+            self._rng = np.random.default_rng(seeds[0])
+            for child, held in zip(seeds[1:], self.envs.values()):
+                held.reset(seed=int(child.generate_state(1)[0]))
+        self.env = self.envs[self.shell_models[int(self._rng.integers(len(self.shell_models)))]]
+        return self.env.reset(options=options)
+
+    @property
+    def randomization(self) -> Any:
+        """The randomization spec in force (the same in every held env); assigning to it is
+        :meth:`set_randomization`."""
+        return self.env.unwrapped.randomization
+
+    @randomization.setter
+    def randomization(self, spec: Any) -> None:
+        self.set_randomization(spec)
+
+    def set_randomization(self, spec: Any) -> None:
+        """``SphereEnv.set_randomization`` on every held env; if one refuses ``spec`` (a ValueError
+        naming the field), the others get their previous spec back, so nothing changes."""
+        before = [(held.unwrapped, held.unwrapped.randomization) for held in self.envs.values()]
+        try:
+            for held, _ in before:
+                held.set_randomization(spec)
+        except ValueError:
+            for held, old in before:
+                held.set_randomization(old)
+            raise
+
+    def close(self) -> None:
+        for held in self.envs.values():
+            held.close()
+
+
 #: Wrappers a training run may name (``env_wrapper``) whose action combination evaluation can
 #: reproduce on the bare env: class path -> builder of the combiner (env, **kwargs).
 ACTION_COMBINERS = {"sphere_env.wrappers.PDResidualAction": pd_residual_combiner}
+#: Wrappers that only choose which episodes a run trains on: evaluation needs nothing of them.
+TRAINING_ONLY_WRAPPERS = ("sphere_env.wrappers.ShellModelMixture",)

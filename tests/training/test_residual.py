@@ -109,7 +109,8 @@ def residual_run(tmp_path_factory):
     cfg = resolve_config(ENV, "ppo", hyperparams_path("ppo_residual"),
                          overrides={"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128,
                                     "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
-    assert cfg.env_wrapper == [{"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}]
+    assert cfg.env_wrapper == [{"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}},
+                              {"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}]
     return train(cfg, tmp_path_factory.mktemp("residual") / "run", progress_bar=False)
 
 
@@ -143,3 +144,65 @@ def test_residual_run_is_not_exported_alone(residual_run, tmp_path):
     with pytest.raises(ValueError, match="env_wrapper"):
         export(str(residual_run), out=out)
     assert not out.exists()
+
+
+# ---- ShellModelMixture ---------------------------------------------------------------------------
+def _mixture_run(seed, n_episodes=12, steps=5):
+    from sphere_env.wrappers import ShellModelMixture
+
+    env = ShellModelMixture(gym.make(ENV, shell_model="injected", randomization="default"), ["point", "injected"])
+    out = []
+    for k in range(n_episodes):
+        obs, info = env.reset(seed=seed if k == 0 else None)
+        for _ in range(steps):
+            obs, _, _, _, info = env.step(np.array([0.1, 0.3], np.float32))
+        out.append((info["shell_model"], info["pressure_kpa"], obs.copy()))
+    env.close()
+    return out
+
+
+def test_shell_model_mixture_draws_both_models_reproducibly_under_a_seed():
+    a, b = _mixture_run(4), _mixture_run(4)
+    assert {m for m, _, _ in a} == {"point", "injected"}
+    for (m1, p1, o1), (m2, p2, o2) in zip(a, b):
+        assert (m1, p1) == (m2, p2)
+        np.testing.assert_array_equal(o1, o2)
+    assert [m for m, _, _ in _mixture_run(5)] != [m for m, _, _ in a]
+
+
+@pytest.mark.parametrize("models", [[], "point", ["point", "rigid"], ["point", "point", "injected"], ["point"]])
+def test_shell_model_mixture_refuses_bad_lists_by_name(models):
+    from sphere_env.wrappers import ShellModelMixture
+
+    with pytest.raises(ValueError, match="shell_models"):
+        ShellModelMixture(gym.make(ENV, shell_model="injected"), models)
+
+
+def test_shell_model_mixture_sets_the_randomization_of_every_model_or_none():
+    from sphere_env.wrappers import ShellModelMixture
+
+    env = ShellModelMixture(gym.make(ENV, shell_model="injected", randomization="off"), ["point", "injected"])
+    before = [e.unwrapped.randomization for e in env.envs.values()]
+    with pytest.raises(ValueError, match="pressure_kpa"):
+        env.set_randomization({"pressure_kpa": [1.0, 2.0]})
+    assert [e.unwrapped.randomization for e in env.envs.values()] == before
+    env.set_randomization({"pressure_kpa": [5.0, 6.0]})
+    for _ in range(4):
+        _, info = env.reset()
+        assert 5.0 <= info["pressure_kpa"] <= 6.0
+    assert all(e.unwrapped.randomization != b for e, b in zip(env.envs.values(), before))
+
+
+def test_trainer_venv_set_attr_randomization_reaches_every_shell_model():
+    from functools import partial
+
+    from sphere_env.training.train import make_env
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    wrappers = [{"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}}]
+    venv = DummyVecEnv([partial(make_env, ENV, {"shell_model": "point", "randomization": "off"}, 0,
+                                env_wrapper=wrappers)])
+    venv.set_attr("randomization", {"pressure_kpa": [7.0, 7.5]})
+    (mixture,) = venv.get_attr("envs")
+    assert all(7.0 <= e.unwrapped.randomization.terms[0].distribution.low for e in mixture.values())
+    venv.close()
