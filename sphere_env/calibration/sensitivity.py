@@ -144,3 +144,28 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
     d = d0 * scale
     return {"pressure_kpa": p, "target_zeta": target, "dissipation_s_per_m": d, "k_d": d / c_inject,
             "zeta_sim": zeta_at(scale) + target, "time_step_s": step}
+
+
+def match_dissipation_at_step(calibration: str | Path | None, time_step_s: float,
+                              pressure_kpa: float | None = None, **kwargs: Any) -> dict[str, float]:
+    """k_d for another plant step: the Hunt–Crossley dissipation at which the locked-steer decay at
+    ``time_step_s`` has the damping ratio the calibration's own k_d gives at its
+    ``fitted_time_step_s`` (at ``pressure_kpa``, default the nominal). Drake's discrete contact adds
+    numerical damping that grows with the step; this keeps the damping the calibration was fitted
+    with (its steer couple included). Returns :func:`match_dissipation`'s record plus
+    ``reference_time_step_s`` and ``reference_zeta``. ``kwargs`` go to :func:`match_dissipation`.
+    """
+    base = ShellCalibration.load(calibration)
+    if base.fitted_time_step_s is None:
+        raise ValueError(f"calibration file {base.source!r}: field 'hydroelastic.fitted_time_step_s' is missing: "
+                         "the step its k_d holds at is needed as the reference")
+    from sphere_env.params import check as check_param
+
+    step = check_param("time_step_s", time_step_s)
+    p = base.nominal_pressure_kpa if pressure_kpa is None else base.check_pressure(pressure_kpa)
+    ref = decay_case({"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
+                      "modulus_scale": 1.0, "dissipation_scale": 1.0, "phi0_rad": kwargs.get("phi0_rad", 0.15),
+                      "duration_s": kwargs.get("duration_s", 6.0), "time_step_s": base.fitted_time_step_s,
+                      "case": "reference"})
+    out = match_dissipation(calibration, p, target_zeta=ref["zeta"], time_step_s=step, **kwargs)
+    return dict(out, reference_time_step_s=base.fitted_time_step_s, reference_zeta=ref["zeta"])
