@@ -31,14 +31,15 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     pressure_kpa, modulus_scale, dissipation_scale, phi0_rad, duration_s, time_step_s, case."""
     from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
-    base = ShellCalibration.load(job.get("calibration"))
+    step = job.get("time_step_s", TwinConfig.time_step_s)
+    base = ShellCalibration.load(job.get("calibration")).for_time_step(step)  # k_d of that step, if refitted
     robot = RobotParameters.from_urdf()
     p = float(job["pressure_kpa"])
     m0, d0 = base.bind(robot).hydroelastic(p)
     m, d = m0 * job["modulus_scale"], d0 * job["dissipation_scale"]
     twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
                            drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
-                           time_step_s=job.get("time_step_s", TwinConfig.time_step_s)))
+                           time_step_s=step))
     twin.set_calibration(ShellCalibration.from_dict(
         calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>"), p)
     twin.reset(InitialState(roll=job.get("phi0_rad", 0.15)))
@@ -125,14 +126,14 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
 
     from scipy.optimize import brentq
 
-    base = ShellCalibration.load(calibration)
+    step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
+    base = ShellCalibration.load(calibration).for_time_step(step)  # decay_case scales this step's k_d
     robot = RobotParameters.from_urdf()
     p = base.check_pressure(pressure_kpa)
     target = float(base.zeta(p)) if target_zeta is None else float(target_zeta)
     shell = base.bind(robot)
     _, d0 = shell.hydroelastic(p)
     _, c_inject = shell.injected_gains(p)
-    step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
 
     def zeta_at(scale: float) -> float:
         job = {"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,

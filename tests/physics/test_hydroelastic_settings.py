@@ -85,7 +85,7 @@ def test_shipped_k_d_refit_keeps_the_damping_at_a_10_ms_step(make_twin, caplog):
     """The shipped calibration's 10 ms k_d gives the locked-steer decay at the nominal pressure the
     damping ratio its 5 ms k_d gives at 5 ms (within 3%), and no step warning; the 5 ms k_d at
     10 ms would over-damp it by far more (Drake's numerical contact damping grows with the step)."""
-    kw = dict(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none", drive_friction="none")
+    kw = {"fixture": "locked_steer", "shell_model": "hydroelastic", "steer_friction": "none", "drive_friction": "none"}
     at_5 = make_twin(time_step_s=0.005, **kw)
     with caplog.at_level("WARNING", logger="sphere_env"):
         at_10 = make_twin(time_step_s=0.01, **kw)
