@@ -7,8 +7,8 @@ plant step a k_d refitted at that step) and run at the pressures ``--pressures``
 
 accuracy (deterministic)
   * **ω**: locked-steer free decay from φ = 0.15 rad on flat ground, no joint friction, 6 s
-    sampled every 10 ms (the decay :func:`sphere_env.calibration.sensitivity.match_dissipation`
-    fits k_d on): ω_n against the same decay on a 0.02 m mesh (shipped step and k_d);
+    sampled every 10 ms (the decay the calibration CLI's k_d matching, ``kd-step``, runs): ω_n
+    against the same decay on a 0.02 m mesh (shipped step and k_d);
   * **ζ** of the same decay against the calibration's ζ(p), and against the shipped setting's ζ;
   * **ramp**: 6 s from rest down the 16° ramp (4 m, flat run-out), Majd friction on both joints,
     nominal pressure: RMSE of ω_d against the shipped setting at a 0.5 ms step, in % of its peak
@@ -26,7 +26,7 @@ speed (one process, all candidates interleaved round by round, best round kept)
 A candidate with a plant step for which its calibration holds no k_d gets k_d refitted so that its
 locked-steer decay at the nominal pressure keeps the ζ it has at the calibration's
 ``fitted_time_step_s`` (the damping the steer couple was fitted to the robot's logs with;
-:func:`sphere_env.calibration.sensitivity.match_dissipation_at_step`, the ``kd-step`` command); the
+the same matching as the calibration CLI's ``kd-step``, done here on :func:`rock`); the
 shipped calibration holds its 10 ms refit in ``hydroelastic.k_d_by_time_step``.
 
     python -m evaluation.scripts.hydro_tradeoff [--rounds 3] [--env-seconds 3] [--quick]
@@ -103,12 +103,17 @@ def contact_polygons(twin: Twin) -> int:
                for i in range(results.num_hydroelastic_contacts()))
 
 
-def rock(calibration: Path, pressure_kpa: float, step_s: float) -> dict:
+def rock(calibration: Path, pressure_kpa: float, step_s: float, k_d: float | None = None) -> dict:
     """Locked-steer free decay (the protocol k_d is matched on): ω_n, ζ and the contact polygons
-    at its end."""
+    at its end. ``k_d``: use this k_d at ``step_s`` instead of the calibration's."""
     twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
                            drive_friction="none", calibration=calibration, pressure_kpa=pressure_kpa,
                            time_step_s=step_s))
+    if k_d is not None:
+        raw = copy.deepcopy(dict(twin.calibration.raw))
+        raw["hydroelastic"].pop("k_d_by_time_step", None)
+        raw["hydroelastic"].update(k_d=float(k_d), fitted_time_step_s=float(step_s))
+        twin.set_calibration(ShellCalibration.from_dict(raw, source="<k_d trial>"))
     twin.reset(InitialState(roll=0.15))
     n = round(6.0 / SAMPLE_S)
     phi = [twin.state().phi]
@@ -117,6 +122,17 @@ def rock(calibration: Path, pressure_kpa: float, step_s: float) -> dict:
         phi.append(twin.state().phi)
     fit = fit_free_decay(SAMPLE_S * np.arange(n + 1), np.array(phi))
     return {"omega_n": fit.omega_n, "zeta": fit.zeta, "polygons": contact_polygons(twin)}
+
+
+def refit_k_d(calibration: Path, pressure_kpa: float, step_s: float) -> float:
+    """k_d at which the locked-steer decay at ``step_s`` has the ζ that the calibration's own k_d
+    gives at its ``fitted_time_step_s`` (both at ``pressure_kpa``)."""
+    from scipy.optimize import brentq
+
+    cal = ShellCalibration.load(calibration)
+    target = rock(calibration, pressure_kpa, cal.fitted_time_step_s)["zeta"]
+    return brentq(lambda k: rock(calibration, pressure_kpa, step_s, k_d=k)["zeta"] - target,
+                  0.05 * cal.k_d, 3.0 * cal.k_d, xtol=0.005 * cal.k_d)
 
 
 def ramp_trace(calibration: Path, step_s: float, seconds: float = 6.0) -> np.ndarray:
@@ -163,8 +179,6 @@ def time_env(env, rng: np.random.Generator, seconds: float, pressure_kpa: float 
 
 
 def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
-    from sphere_env.calibration.sensitivity import match_dissipation_at_step
-
     names = list(cands)
     base_name, base_path = names[0], paths[names[0]]
     cal = ShellCalibration.load(base_path)
@@ -182,9 +196,9 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
         row: dict = {"candidate": name, "time_step_s": step, "resolution_hint_m": used.resolution_hint_m,
                      "low_pressure_mesh": used.low_pressure_mesh, "k_d": used.k_d}
         if used.fitted_time_step_s is not None and not math.isclose(step, used.fitted_time_step_s):
-            m = match_dissipation_at_step(paths[name], step)  # keeps the candidate's own ζ at p0 and 5 ms
-            paths[name] = candidate_calibration(dict(cal.raw), *mesh, m["k_d"], step, paths[name])
-            row["k_d"] = m["k_d"]
+            k_d = refit_k_d(paths[name], p0, step)  # keeps the candidate's own ζ at p0 and 5 ms
+            paths[name] = candidate_calibration(dict(cal.raw), *mesh, k_d, step, paths[name])
+            row["k_d"] = k_d
         per = {}
         for p in pressures:
             r = rock(paths[name], p, step)
@@ -315,9 +329,8 @@ def report(acc: dict, spd: dict, pressures, args, info: dict) -> tuple[str, dict
         "",
         (f"k_d refit: at a step other than the calibration's `fitted_time_step_s` (5 ms), k_d is matched so that "
         f"the locked-steer decay at {acc['nominal_pressure_kpa']:g} kPa keeps the ζ the same mesh has at 5 ms "
-        "(`sphere_env.calibration.sensitivity.match_dissipation_at_step`, as `python -m sphere_env.calibration "
-        "kd-step`): the damping the steer couple was fitted to the robot's logs with. ζ(p) itself is not met at "
-        "8.5 and 14 kPa by any setting: with one k_d the hydroelastic decay's ζ falls with pressure faster than "
+        "(the matching of the calibration CLI's `kd-step`): the damping the steer couple was fitted to the "
+        "robot's logs with. ζ(p) itself is not met at 8.5 and 14 kPa by any setting: with one k_d the hydroelastic decay's ζ falls with pressure faster than "
         "the calibration's curve (−35%/−37% at the shipped setting)."),
         "",
     ])
