@@ -5,6 +5,7 @@ Commands
   steer-fit    steer-plane logs at one pressure -> injected / hydroelastic parameters -> calibration YAML
   friction     stand-swing logs -> friction law parameters -> preset YAML + overlay plot (+ leave-one-out)
   sensitivity  hydroelastic ±50 % sweep (paper Fig. 11) on a process pool
+  kd-step      hydroelastic k_d refitted at another plant step -> calibration YAML (k_d_by_time_step)
   events       free-motion events (release or push, then free decay) in a long log [-> manifest entries]
   validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
   report       regenerate evaluation/results/validation/ from the real logs
@@ -162,6 +163,28 @@ def cmd_sensitivity(args) -> int:
     return 0
 
 
+def cmd_kd_step(args) -> int:
+    from sphere_env.calibration.decay import write_yaml
+    from sphere_env.calibration.sensitivity import match_dissipation_at_step
+    from sphere_env.models.shell import ShellCalibration
+
+    cal = ShellCalibration.load(args.calibration)  # validated before anything runs
+    if args.pressure_kpa is not None:
+        cal.check_pressure(args.pressure_kpa, "--pressure-kpa")
+    m = match_dissipation_at_step(args.calibration, args.time_step_s, args.pressure_kpa)
+    hyd = dict(cal.raw["hydroelastic"])
+    steps = [e for e in hyd.get("k_d_by_time_step", []) if not math.isclose(e["time_step_s"], m["time_step_s"])]
+    hyd["k_d_by_time_step"] = sorted(steps + [{"time_step_s": m["time_step_s"], "k_d": round(m["k_d"], 5)}],
+                                     key=lambda e: e["time_step_s"])
+    raw = dict(cal.raw, hydroelastic=hyd)
+    ShellCalibration.from_dict(raw, source=str(args.out))  # validated before writing
+    write_yaml(args.out, raw)
+    print(f"k_d at time_step_s={m['time_step_s']:g} s: {m['k_d']:.5f} (locked-steer decay at {m['pressure_kpa']:g} kPa: "
+          f"zeta {m['zeta_sim']:.4f}, the calibration's k_d {cal.k_d:g} gives {m['reference_zeta']:.4f} at its "
+          f"{m['reference_time_step_s']:g} s) -> {args.out}")
+    return 0
+
+
 def cmd_validate(args) -> int:
     from sphere_env.calibration.validate import (
         markdown_table, parse_tolerances, plot_overlays, tolerance_failures, validate, write_records,
@@ -308,6 +331,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration-s", type=float, default=6.0)
     p.add_argument("--plot")
     p.set_defaults(func=cmd_sensitivity)
+
+    p = sub.add_parser("kd-step", help="hydroelastic k_d refitted at another plant step (k_d_by_time_step)")
+    p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
+    p.add_argument("--time-step-s", type=float, required=True, help="plant step [s] to refit k_d at")
+    p.add_argument("--pressure-kpa", type=float, default=None, help="pressure of the decays (default: nominal)")
+    p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the refit)")
+    p.set_defaults(func=cmd_kd_step)
 
     p = sub.add_parser("events", help="free-motion events in a long log; optionally write manifest entries")
     p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")

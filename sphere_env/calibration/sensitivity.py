@@ -31,14 +31,15 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     pressure_kpa, modulus_scale, dissipation_scale, phi0_rad, duration_s, time_step_s, case."""
     from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
-    base = ShellCalibration.load(job.get("calibration"))
+    step = job.get("time_step_s", TwinConfig.time_step_s)
+    base = ShellCalibration.load(job.get("calibration")).for_time_step(step)  # k_d of that step, if refitted
     robot = RobotParameters.from_urdf()
     p = float(job["pressure_kpa"])
     m0, d0 = base.bind(robot).hydroelastic(p)
     m, d = m0 * job["modulus_scale"], d0 * job["dissipation_scale"]
     twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
                            drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
-                           time_step_s=job.get("time_step_s", TwinConfig.time_step_s)))
+                           time_step_s=step))
     twin.set_calibration(ShellCalibration.from_dict(
         calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>"), p)
     twin.reset(InitialState(roll=job.get("phi0_rad", 0.15)))
@@ -125,14 +126,14 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
 
     from scipy.optimize import brentq
 
-    base = ShellCalibration.load(calibration)
+    step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
+    base = ShellCalibration.load(calibration).for_time_step(step)  # decay_case scales this step's k_d
     robot = RobotParameters.from_urdf()
     p = base.check_pressure(pressure_kpa)
     target = float(base.zeta(p)) if target_zeta is None else float(target_zeta)
     shell = base.bind(robot)
     _, d0 = shell.hydroelastic(p)
     _, c_inject = shell.injected_gains(p)
-    step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
 
     def zeta_at(scale: float) -> float:
         job = {"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
@@ -144,3 +145,28 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
     d = d0 * scale
     return {"pressure_kpa": p, "target_zeta": target, "dissipation_s_per_m": d, "k_d": d / c_inject,
             "zeta_sim": zeta_at(scale) + target, "time_step_s": step}
+
+
+def match_dissipation_at_step(calibration: str | Path | None, time_step_s: float,
+                              pressure_kpa: float | None = None, **kwargs: Any) -> dict[str, float]:
+    """k_d for another plant step: the Hunt–Crossley dissipation at which the locked-steer decay at
+    ``time_step_s`` has the damping ratio the calibration's own k_d gives at its
+    ``fitted_time_step_s`` (at ``pressure_kpa``, default the nominal). Drake's discrete contact adds
+    numerical damping that grows with the step; this keeps the damping the calibration was fitted
+    with (its steer couple included). Returns :func:`match_dissipation`'s record plus
+    ``reference_time_step_s`` and ``reference_zeta``. ``kwargs`` go to :func:`match_dissipation`.
+    """
+    base = ShellCalibration.load(calibration)
+    if base.fitted_time_step_s is None:
+        raise ValueError(f"calibration file {base.source!r}: field 'hydroelastic.fitted_time_step_s' is missing: "
+                         "the step its k_d holds at is needed as the reference")
+    from sphere_env.params import check as check_param
+
+    step = check_param("time_step_s", time_step_s)
+    p = base.nominal_pressure_kpa if pressure_kpa is None else base.check_pressure(pressure_kpa)
+    ref = decay_case({"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
+                      "modulus_scale": 1.0, "dissipation_scale": 1.0, "phi0_rad": kwargs.get("phi0_rad", 0.15),
+                      "duration_s": kwargs.get("duration_s", 6.0), "time_step_s": base.fitted_time_step_s,
+                      "case": "reference"})
+    out = match_dissipation(calibration, p, target_zeta=ref["zeta"], time_step_s=step, **kwargs)
+    return dict(out, reference_time_step_s=base.fitted_time_step_s, reference_zeta=ref["zeta"])

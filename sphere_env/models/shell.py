@@ -16,13 +16,30 @@ Calibration file, steer-law section (optional; absent = linear about φ = 0, the
                 amplitude_stiffness_nm_per_rad: K_a, amplitude_scale_rad: φ_a,   # saturating only
                 quadratic_stiffness_nm_per_rad2: K_2}                           # quadratic only
     hydroelastic: {..., couple_stiffness_factor: f_K, couple_damping_factor: f_C}  # default 0, 0
+
+Hydroelastic mesh (optional ``low_pressure_mesh``; absent = ``resolution_hint_m`` everywhere)::
+
+    hydroelastic: {resolution_hint_m: h, low_pressure_mesh: {below_kpa: p_c, resolution_hint_m: h_low}}
+
+Hunt–Crossley dissipation refitted at other plant steps (optional ``k_d_by_time_step``)::
+
+    hydroelastic: {k_d: k, fitted_time_step_s: dt, k_d_by_time_step: [{time_step_s: dt_2, k_d: k_2}, ...]}
+
+Drake's discrete hydroelastic contact adds numerical damping that grows with the step, so k_d
+holds at the step it was fitted at; each entry is k_d refitted at another step
+(:meth:`ShellCalibration.for_time_step` picks it, the twin does so for its own step).
+
+The compliant shell is meshed with ``h_low`` below ``p_c`` and with ``h`` from ``p_c`` up. A soft
+shell's contact patch is large (radius ≈ √(f_n / (π p))), so a coarser mesh resolves it as well as
+the fine one does at high pressure, at a fraction of the contact polygons (``README.md``, *Mesh
+resolution (hydroelastic)*).
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -167,9 +184,13 @@ CALIBRATION_KEYS: dict[str | None, tuple[str, ...]] = {
     "omega_n": ("model", "intercept_rad_s", "slope_rad_s_per_kpa", "ci95", "notes"),
     "zeta": ("model", "scale", "rate_per_kpa", "ci95", "notes"),
     "contact_volume": ("model", "pressure_kpa", "volume_m3", "notes"),
-    "hydroelastic": ("k_d", "resolution_hint_m", "fitted_time_step_s", "couple_stiffness_factor",
-                     "couple_damping_factor", "ci95", "notes"),
+    "hydroelastic": ("k_d", "resolution_hint_m", "low_pressure_mesh", "fitted_time_step_s", "k_d_by_time_step",
+                     "couple_stiffness_factor", "couple_damping_factor", "ci95", "notes"),
 }
+#: Keys of each ``hydroelastic.k_d_by_time_step`` entry.
+K_D_STEP_KEYS = ("time_step_s", "k_d")
+#: Keys of ``hydroelastic.low_pressure_mesh``.
+LOW_PRESSURE_MESH_KEYS = ("below_kpa", "resolution_hint_m")
 
 
 def _check_keys(data: Mapping[str, Any], path: str) -> None:
@@ -226,6 +247,10 @@ class ShellCalibration:
     couple_stiffness_factor: float = 0.0
     couple_damping_factor: float = 0.0
     stand_still_checked: bool = True
+    #: (below_kpa, resolution_hint_m) of the optional low-pressure mesh, or None.
+    low_pressure_mesh: tuple[float, float] | None = None
+    #: ((time step [s], k_d), ...) refitted at steps other than ``fitted_time_step_s``.
+    k_d_by_time_step: tuple[tuple[float, float], ...] = ()
 
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
@@ -304,6 +329,8 @@ class ShellCalibration:
             factors[key] = _number(hyd, key, "hydroelastic", p) if key in hyd else 0.0
             if factors[key] < 0:
                 raise ValueError(f"calibration file {p!r}: field 'hydroelastic.{key}' = {factors[key]!r} must be >= 0")
+        low_mesh = _low_pressure_mesh(hyd.get("low_pressure_mesh"), (lo, hi), p)
+        k_d_steps = _k_d_by_time_step(hyd.get("k_d_by_time_step"), hyd.get("fitted_time_step_s"), p)
         cal = cls(
             pressure_range_kpa=(lo, hi),
             nominal_pressure_kpa=float(nominal),
@@ -322,6 +349,8 @@ class ShellCalibration:
             raw=dict(data),
             steer_law=law,
             stand_still_checked=check_stand_still,
+            low_pressure_mesh=low_mesh,
+            k_d_by_time_step=k_d_steps,
             **factors,
         )
         for q in (lo, hi):
@@ -370,6 +399,34 @@ class ShellCalibration:
     def zeta(self, pressure_kpa):
         """Locked-steer damping ratio ζ(p) [-]."""
         return self.zeta_scale * np.exp(self.zeta_rate * np.asarray(pressure_kpa, dtype=float))
+
+    def for_time_step(self, time_step_s: float) -> ShellCalibration:
+        """This calibration with the k_d refitted at ``time_step_s`` (``k_d_by_time_step``) in force
+        and ``fitted_time_step_s`` set to that step; itself when the step is ``fitted_time_step_s``
+        or has no refit."""
+        fitted = self.fitted_time_step_s
+        if fitted is not None and math.isclose(fitted, time_step_s, rel_tol=1e-9):
+            return self
+        for step, k_d in self.k_d_by_time_step:
+            if math.isclose(step, time_step_s, rel_tol=1e-9):
+                # the fitted step's k_d moves into the table, so the result is a calibration as valid
+                # (and as reversible) as this one, raw mapping included
+                others = [(s, k) for s, k in self.k_d_by_time_step if s != step]
+                if fitted is not None:
+                    others.append((fitted, self.k_d))
+                hyd = dict(self.raw["hydroelastic"], k_d=k_d, fitted_time_step_s=step,
+                           k_d_by_time_step=[{"time_step_s": s, "k_d": k} for s, k in others])
+                return replace(self, k_d=k_d, fitted_time_step_s=step, k_d_by_time_step=tuple(others),
+                               raw=dict(self.raw, hydroelastic=hyd))
+        return self
+
+    def resolution_hint_at(self, pressure_kpa: float) -> float:
+        """Hydroelastic mesh resolution hint [m] at pressure p: ``low_pressure_mesh``'s below its
+        ``below_kpa``, else ``resolution_hint_m``."""
+        low = self.low_pressure_mesh
+        if low is not None and float(pressure_kpa) < low[0]:
+            return low[1]
+        return self.resolution_hint_m
 
     def volume_m3(self, pressure_kpa: float, weight_n: float, radius_m: float) -> float:
         """Sphere–plane intersection volume V(p) [m³]."""
@@ -482,6 +539,7 @@ class BoundShell:
         if shell_model == "hydroelastic":
             m, d = self.hydroelastic(pressure_kpa)
             out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d,
+                       resolution_hint_m=cal.resolution_hint_at(pressure_kpa),
                        couple_stiffness_factor=cal.couple_stiffness_factor,
                        couple_damping_factor=cal.couple_damping_factor)
         return out
@@ -492,6 +550,64 @@ def _default_robot():
     from sphere_env.models.rigid_body import RobotParameters
 
     return RobotParameters.from_urdf()
+
+
+def _low_pressure_mesh(sec: Any, pressure_range_kpa: tuple[float, float], path: str) -> tuple[float, float] | None:
+    """Parse the optional ``hydroelastic.low_pressure_mesh`` section: (below_kpa, resolution_hint_m)."""
+    if sec is None:
+        return None
+    where = "hydroelastic.low_pressure_mesh"
+    if not isinstance(sec, Mapping):
+        raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be a mapping "
+                         f"{{below_kpa: ..., resolution_hint_m: ...}}")
+    unknown = sorted(str(k) for k in sec if k not in LOW_PRESSURE_MESH_KEYS)
+    if unknown:
+        raise ValueError(f"calibration file {path!r}: field '{where}.{unknown[0]}' is not a calibration key; "
+                         f"allowed in '{where}': {list(LOW_PRESSURE_MESH_KEYS)}")
+    below = _number(sec, "below_kpa", where, path)
+    hint = _number(sec, "resolution_hint_m", where, path)
+    lo, hi = pressure_range_kpa
+    if not lo < below <= hi:
+        raise ValueError(f"calibration file {path!r}: field '{where}.below_kpa' = {below!r} must lie in "
+                         f"({lo}, {hi}] kPa (inside pressure_range_kpa, else the low-pressure mesh is never used)")
+    rlo, rhi = RESOLUTION_HINT_RANGE_M
+    if not rlo <= hint <= rhi:
+        raise ValueError(f"calibration file {path!r}: field '{where}.resolution_hint_m' = {hint!r} must lie in "
+                         f"[{rlo}, {rhi}] m (a mesh edge length on a shell of radius ~0.3 m)")
+    return below, hint
+
+
+def _k_d_by_time_step(sec: Any, fitted_step: Any, path: str) -> tuple[tuple[float, float], ...]:
+    """Parse the optional ``hydroelastic.k_d_by_time_step`` list: ((time_step_s, k_d), ...)."""
+    if sec is None:
+        return ()
+    where = "hydroelastic.k_d_by_time_step"
+    if not isinstance(sec, list):
+        raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be a list of "
+                         "{time_step_s: ..., k_d: ...}")
+    out: list[tuple[float, float]] = []
+    tlo, thi = FITTED_TIME_STEP_RANGE_S
+    for i, entry in enumerate(sec):
+        at = f"{where}[{i}]"
+        if not isinstance(entry, Mapping):
+            raise ValueError(f"calibration file {path!r}: field '{at}' = {entry!r} must be a mapping "
+                             "{time_step_s: ..., k_d: ...}")
+        unknown = sorted(str(k) for k in entry if k not in K_D_STEP_KEYS)
+        if unknown:
+            raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
+                             f"allowed: {list(K_D_STEP_KEYS)}")
+        step, k_d = _number(entry, "time_step_s", at, path), _number(entry, "k_d", at, path)
+        if not tlo <= step <= thi:
+            raise ValueError(f"calibration file {path!r}: field '{at}.time_step_s' = {step!r} must lie in "
+                             f"[{tlo}, {thi}] s (a plant time step)")
+        if k_d < 0:
+            raise ValueError(f"calibration file {path!r}: field '{at}.k_d' = {k_d!r} must be >= 0")
+        taken = [s for s, _ in out] + ([float(fitted_step)] if isinstance(fitted_step, (int, float)) else [])
+        if any(math.isclose(step, s, rel_tol=1e-9) for s in taken):
+            raise ValueError(f"calibration file {path!r}: field '{at}.time_step_s' = {step!r} has a k_d already "
+                             "(hydroelastic.fitted_time_step_s or an earlier entry); one k_d per step")
+        out.append((step, k_d))
+    return tuple(out)
 
 
 def _steer_law(sec: Any, path: str) -> SteerLaw:

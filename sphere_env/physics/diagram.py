@@ -74,10 +74,17 @@ def ground_coefficient(mu: float) -> float:
     return mu * SHELL_FRICTION / (2.0 * SHELL_FRICTION - mu)
 
 
+def hydroelastic_resolution_hint_m(config: TwinConfig, shell: BoundShell, pressure_kpa: float) -> float:
+    """The compliant shell's mesh resolution hint [m] at a pressure: ``config.resolution_hint_m``
+    if set, else the calibration's (which may be coarser at low pressure, ``low_pressure_mesh``)."""
+    return config.resolution_hint_m or shell.calibration.resolution_hint_at(pressure_kpa)
+
+
 def shell_properties(config: TwinConfig, shell: BoundShell, pressure_kpa: float) -> ProximityProperties:
     """The shell's proximity properties at a pressure: friction μ_s and, for ``hydroelastic``, the
-    compliant-hydroelastic modulus and Hunt–Crossley dissipation of the bound calibration."""
-    cfg, cal = config, shell.calibration
+    compliant-hydroelastic modulus, Hunt–Crossley dissipation and mesh resolution (the config's
+    ``resolution_hint_m`` if set, else the calibration's at this pressure) of the bound calibration."""
+    cfg = config
     props = ProximityProperties()
     if cfg.shell_model == "hydroelastic":
         modulus, dissipation = shell.hydroelastic(pressure_kpa)
@@ -86,7 +93,7 @@ def shell_properties(config: TwinConfig, shell: BoundShell, pressure_kpa: float)
             friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION),
             properties=props,
         )
-        hint = cfg.resolution_hint_m or cal.resolution_hint_m
+        hint = hydroelastic_resolution_hint_m(cfg, shell, pressure_kpa)
         AddCompliantHydroelasticProperties(resolution_hint=hint, hydroelastic_modulus=modulus, properties=props)
     else:
         AddContactMaterial(friction=CoulombFriction(SHELL_FRICTION, SHELL_FRICTION), properties=props)

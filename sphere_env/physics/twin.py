@@ -26,7 +26,12 @@ from sphere_env.models.shell import ShellCalibration
 from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.params import check as check_param
 from sphere_env.physics.config import FIXTURES, InitialState, TwinConfig, TwinState
-from sphere_env.physics.diagram import build_diagram, ground_coefficient, shell_properties
+from sphere_env.physics.diagram import (
+    build_diagram,
+    ground_coefficient,
+    hydroelastic_resolution_hint_m,
+    shell_properties,
+)
 from sphere_env.physics.forces import cross3, pipe_angle_expressions
 from sphere_env.physics.render import RgbCamera
 from sphere_env.physics.terrain import Terrain
@@ -85,7 +90,8 @@ class Twin:
     def __init__(self, config: TwinConfig | None = None, meshcat=None, **kwargs):
         config = replace(config, **kwargs) if config is not None and kwargs else (config or TwinConfig(**kwargs))
         self.config = config
-        self.calibration = ShellCalibration.load(config.calibration)
+        # k_d refitted at this step, if the calibration has one (Drake's contact damping depends on it)
+        self.calibration = ShellCalibration.load(config.calibration).for_time_step(config.time_step_s)
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
         self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
         p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
@@ -96,7 +102,8 @@ class Twin:
             _log.warning(
                 "time_step_s=%g s differs from the %g s at which the calibration's hydroelastic dissipation "
                 "was fitted; Drake's numerical contact damping depends on the step, so the shell's damping "
-                "ratio will differ (see evaluation/results/timestep_study.md). Refit k_d at this step.",
+                "ratio will differ (see evaluation/results/timestep_study.md). Refit k_d at this step "
+                "(hydroelastic.k_d_by_time_step; python -m sphere_env.calibration kd-step).",
                 config.time_step_s, fitted,
             )
         self.meshcat = meshcat
@@ -223,6 +230,7 @@ class Twin:
         """Use another shell calibration from now on (no rebuild), at ``pressure_kpa`` [kPa] or the
         current pressure. Validated first: on error nothing changes."""
         cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
+        cal = cal.for_time_step(self.config.time_step_s)
         p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa, "pressure_kpa")
         shell = cal.bind(self.robot)
         self.calibration, self.shell, self._pressure_kpa = cal, shell, p
@@ -249,7 +257,7 @@ class Twin:
         injected: new K_inject, C_inject gains. hydroelastic: new shell proximity properties
         (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
         for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
-        cached per shell (modulus, dissipation), LRU, and restored in ≈2 ms when they recur; the
+        cached per shell (modulus, dissipation, mesh resolution), LRU, and restored in ≈2 ms when they recur; the
         current ground friction and incline are re-applied after a restore. Results are bit-identical to a
         fresh re-mesh.
         """
@@ -257,7 +265,9 @@ class Twin:
         if self.config.shell_model != "hydroelastic":
             return
         idx = self._geometry_state_index()
-        key = self.shell.hydroelastic(self._pressure_kpa)
+        # a shell is its modulus, dissipation and mesh (the mesh may change with pressure)
+        key = (*self.shell.hydroelastic(self._pressure_kpa),
+               hydroelastic_resolution_hint_m(self.config, self.shell, self._pressure_kpa))
         entry = self._geometry_cache.get(key)
         if entry is not None:
             snap, mu, incline = entry
@@ -370,7 +380,7 @@ class Twin:
 
     @property
     def cached_shell_count(self) -> int:
-        """Hydroelastic shells (one per distinct modulus, dissipation) cached in this twin."""
+        """Hydroelastic shells (one per distinct modulus, dissipation, mesh) cached in this twin."""
         return len(self._geometry_cache)
 
     def clear_shell_cache(self) -> None:

@@ -42,6 +42,27 @@ def _variant(**changes):
     ({"nominal_pressure_kpa": True}, "nominal_pressure_kpa"),
     ({"hydroelastic__fitted_time_step_s": -0.005}, "hydroelastic.fitted_time_step_s"),
     ({"hydroelastic__resolution_hint_m": 1e6}, "hydroelastic.resolution_hint_m"),
+    ({"hydroelastic__k_d_by_time_step": {"time_step_s": 0.01, "k_d": 0.2}}, "hydroelastic.k_d_by_time_step"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 10.0, "k_d": 0.2}]},
+     r"hydroelastic.k_d_by_time_step\[0\].time_step_s"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": -0.2}]},
+     r"hydroelastic.k_d_by_time_step\[0\].k_d"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "kd": 0.2}]},
+     r"hydroelastic.k_d_by_time_step\[0\].kd"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.005, "k_d": 0.2}]},  # the fitted step's k_d is k_d
+     r"hydroelastic.k_d_by_time_step\[0\].time_step_s"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2}, {"time_step_s": 0.01, "k_d": 0.3}]},
+     r"hydroelastic.k_d_by_time_step\[1\].time_step_s"),
+    ({"hydroelastic__low_pressure_mesh": 0.1}, "hydroelastic.low_pressure_mesh"),
+    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 20.0, "resolution_hint_m": 0.1}},
+     "hydroelastic.low_pressure_mesh.below_kpa"),
+    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 3.0, "resolution_hint_m": 0.1}},
+     "hydroelastic.low_pressure_mesh.below_kpa"),
+    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 1e6}},
+     "hydroelastic.low_pressure_mesh.resolution_hint_m"),
+    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0}}, "hydroelastic.low_pressure_mesh.resolution_hint_m"),
+    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 0.1, "hint_m": 0.1}},
+     "hydroelastic.low_pressure_mesh.hint_m"),
     ({"nominal_pressure_kpaa": 6.0}, "nominal_pressure_kpaa"),
     ({"hydroelastic__k_dd": 0.3}, "hydroelastic.k_dd"),
     ({"omega_n__slope": 0.03}, "omega_n.slope"),
@@ -49,6 +70,28 @@ def _variant(**changes):
 def test_impossible_calibration_refused_naming_the_field(changes, field):
     with pytest.raises(ValueError, match=rf"field '{field}"):
         ShellCalibration.from_dict(_variant(**changes), source="bad.yaml")
+
+
+def test_low_pressure_mesh_applies_below_its_pressure_only():
+    cal = ShellCalibration.from_dict(_variant(hydroelastic__resolution_hint_m=0.05,
+                                              hydroelastic__low_pressure_mesh={"below_kpa": 5.0, "resolution_hint_m": 0.1}))
+    assert [cal.resolution_hint_at(p) for p in (3.0, 4.99, 5.0, 14.0)] == [0.1, 0.1, 0.05, 0.05]
+    plain = copy.deepcopy(BASE)
+    plain["hydroelastic"].pop("low_pressure_mesh", None)
+    uniform = ShellCalibration.from_dict(plain)
+    assert {uniform.resolution_hint_at(p) for p in (3.0, 14.0)} == {uniform.resolution_hint_m}
+
+
+def test_k_d_refit_at_a_time_step_is_used_at_that_step_only():
+    cal = ShellCalibration.from_dict(_variant(hydroelastic__k_d=0.3, hydroelastic__fitted_time_step_s=0.005,
+                                              hydroelastic__k_d_by_time_step=[{"time_step_s": 0.01, "k_d": 0.2}]))
+    at_10 = cal.for_time_step(0.01)
+    assert (at_10.k_d, at_10.fitted_time_step_s) == (0.2, 0.01)
+    assert cal.for_time_step(0.005) is cal and cal.for_time_step(0.002) is cal  # no refit there: unchanged
+    back = at_10.for_time_step(0.005)  # the fitted step's k_d moved into the table
+    assert (back.k_d, back.fitted_time_step_s) == (0.3, 0.005)
+    reloaded = ShellCalibration.from_dict(at_10.raw)  # its raw mapping is a valid calibration of the same laws
+    assert (reloaded.k_d, reloaded.fitted_time_step_s, reloaded.k_d_by_time_step) == (0.2, 0.01, ((0.005, 0.3),))
 
 
 def test_hz_message_says_rad_per_s():

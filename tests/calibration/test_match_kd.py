@@ -1,11 +1,14 @@
-"""k_d matching records the plant step it ran at (the calibration's fitted_time_step_s)."""
+"""k_d matching records the plant step it ran at (the calibration's fitted_time_step_s); ``kd-step``
+refits k_d at another step into the calibration (k_d_by_time_step)."""
 
 import logging
 
 import pytest
+import yaml
 
-from sphere_env.calibration.sensitivity import match_dissipation
-from sphere_env.models.shell import ShellCalibration
+from sphere_env.calibration.__main__ import main
+from sphere_env.calibration.sensitivity import decay_case, match_dissipation
+from sphere_env.models.shell import DEFAULT_CALIBRATION, ShellCalibration
 
 
 @pytest.mark.slow
@@ -19,3 +22,29 @@ def test_match_dissipation_reports_the_step_it_ran_at(caplog):
     # The twin warned that the 4 ms step differs from the calibration's: the decays really ran at 4 ms.
     assert cal.fitted_time_step_s == 0.005
     assert any("time_step_s=0.004 s differs" in r.getMessage() for r in caplog.records)
+
+
+def test_kd_step_refuses_a_bad_step_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "cal.yaml"
+    assert main(["kd-step", "--time-step-s", "0", "--out", str(out)]) == 2
+    assert "time_step_s: value 0" in capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_kd_step_writes_a_calibration_whose_k_d_at_that_step_keeps_the_damping(tmp_path):
+    """The written calibration holds the refit for the new step, and a twin built at that step
+    uses it: its locked-steer ζ at the nominal pressure is within 3% of the 5 ms one."""
+    src = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
+    src["hydroelastic"].pop("k_d_by_time_step", None)
+    base = tmp_path / "base.yaml"
+    base.write_text(yaml.safe_dump(src))
+    out = tmp_path / "refit.yaml"
+    assert main(["kd-step", "--calibration", str(base), "--time-step-s", "0.008", "--out", str(out)]) == 0
+    cal = ShellCalibration.load(out)
+    ((step, k_d),) = cal.k_d_by_time_step
+    assert step == 0.008 and k_d < cal.k_d  # coarser step: more numerical damping, less k_d
+    job = {"calibration": str(out), "pressure_kpa": cal.nominal_pressure_kpa, "modulus_scale": 1.0,
+           "dissipation_scale": 1.0, "case": "check"}
+    zeta = {dt: decay_case(dict(job, time_step_s=dt))["zeta"] for dt in (0.005, 0.008)}
+    assert zeta[0.008] == pytest.approx(zeta[0.005], rel=0.03)

@@ -1,0 +1,103 @@
+"""Hydroelastic speed settings: the shell's mesh follows the calibration's pressure-dependent
+resolution, and a twin at another plant step uses the calibration's k_d refitted at that step."""
+
+import pytest
+import yaml
+
+from sphere_env.models.shell import DEFAULT_CALIBRATION
+from sphere_env.physics import InitialState
+
+
+def _calibration(tmp_path, name, **hydroelastic):
+    data = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
+    data["hydroelastic"].pop("low_pressure_mesh", None)
+    data["hydroelastic"].update(hydroelastic)
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def _polygons_at_rest(twin, pressure_kpa):
+    """Contact polygons of the shell resting on flat ground after 0.2 s at a pressure."""
+    twin.reset(InitialState(), pressure_kpa=pressure_kpa)
+    twin.advance(0.2)
+    results = twin.plant.get_contact_results_output_port().Eval(twin.plant_context)
+    assert results.num_hydroelastic_contacts() == 1
+    return results.hydroelastic_contact_info(0).contact_surface().num_faces()
+
+
+def test_shell_is_meshed_coarser_below_the_low_pressure_mesh_pressure(make_twin, tmp_path):
+    law = _calibration(tmp_path, "law.yaml", resolution_hint_m=0.05,
+                       low_pressure_mesh={"below_kpa": 5.0, "resolution_hint_m": 0.1})
+    uniform = _calibration(tmp_path, "uniform.yaml", resolution_hint_m=0.05)
+    twin = make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0)
+    coarse = _polygons_at_rest(make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0,
+                                         resolution_hint_m=0.1), 3.0)
+    fine = _polygons_at_rest(make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0,
+                                       resolution_hint_m=0.05), 3.0)
+    assert coarse < fine / 2  # the two meshes are told apart
+    assert _polygons_at_rest(twin, 3.0) == coarse
+    assert twin.shell_parameters()["resolution_hint_m"] == 0.1
+    fine_8 = _polygons_at_rest(make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=8.0,
+                                         resolution_hint_m=0.05), 8.0)
+    assert _polygons_at_rest(twin, 8.0) == fine_8  # live pressure change re-meshes finer
+    assert _polygons_at_rest(twin, 3.0) == coarse  # and back (a cached shell)
+    # Another calibration with the same modulus and dissipation but another mesh is not served
+    # the cached shell of the first.
+    twin.set_calibration(uniform)
+    assert _polygons_at_rest(twin, 3.0) == fine
+
+
+@pytest.mark.slow
+def test_shipped_low_pressure_mesh_keeps_rocking_frequency(make_twin):
+    """Where the shipped calibration meshes the shell coarser (just below its ``below_kpa``, the
+    stiffest shell it is used for), the locked-steer frequency of the shipped twin is within 3% of
+    a 0.02 m mesh's."""
+    from sphere_env.calibration.decay import fit_free_decay
+
+    from .conftest import record
+
+    probe = make_twin(fixture="locked_steer", shell_model="hydroelastic")
+    below, hint = probe.calibration.low_pressure_mesh
+    assert hint > probe.calibration.resolution_hint_m
+    p = below - 0.01
+    w = {}
+    for h in (None, 0.02):
+        twin = make_twin(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
+                         drive_friction="none", pressure_kpa=p, resolution_hint_m=h)
+        twin.reset(InitialState(roll=0.15))
+        t, phi = record(twin, 4.0)
+        w[h] = fit_free_decay(t, phi).omega_n
+    assert w[None] == pytest.approx(w[0.02], rel=0.03), w
+
+
+def _locked_decay_zeta(twin):
+    from sphere_env.calibration.decay import fit_free_decay
+
+    from .conftest import record
+
+    twin.reset(InitialState(roll=0.15))
+    t, phi = record(twin, 6.0, chunk_s=0.01)
+    return fit_free_decay(t, phi).zeta
+
+
+def test_shipped_k_d_refit_keeps_the_damping_at_a_10_ms_step(make_twin, caplog):
+    """The shipped calibration's 10 ms k_d gives the locked-steer decay at the nominal pressure the
+    damping ratio its 5 ms k_d gives at 5 ms (within 3%), and no step warning; the 5 ms k_d at
+    10 ms would over-damp it by far more (Drake's numerical contact damping grows with the step)."""
+    kw = {"fixture": "locked_steer", "shell_model": "hydroelastic", "steer_friction": "none", "drive_friction": "none"}
+    at_5 = make_twin(time_step_s=0.005, **kw)
+    with caplog.at_level("WARNING", logger="sphere_env"):
+        at_10 = make_twin(time_step_s=0.01, **kw)
+    assert not [r for r in caplog.records if "time_step_s" in r.getMessage()]
+    assert at_10.calibration.k_d < at_5.calibration.k_d
+    zeta_5, zeta_10 = _locked_decay_zeta(at_5), _locked_decay_zeta(at_10)
+    assert zeta_10 == pytest.approx(zeta_5, rel=0.03)
+    from sphere_env.models.shell import ShellCalibration
+
+    raw = dict(at_5.calibration.raw)
+    raw["hydroelastic"] = {k: v for k, v in raw["hydroelastic"].items() if k != "k_d_by_time_step"}
+    unrefit = make_twin(time_step_s=0.01, **kw)
+    unrefit.set_calibration(ShellCalibration.from_dict(raw))  # the 5 ms k_d at 10 ms
+    assert unrefit.calibration.k_d == at_5.calibration.k_d
+    assert _locked_decay_zeta(unrefit) > 1.2 * zeta_5
