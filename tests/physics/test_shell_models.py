@@ -58,10 +58,9 @@ def test_hydroelastic_less_dissipation_less_damping(make_twin, tmp_path):
 
 @pytest.mark.slow
 def test_shipped_hydroelastic_mesh_is_converged(make_twin, tmp_path):
-    """At the shipped resolution hint of each pressure (coarser below ``low_pressure_mesh.below_kpa``),
-    the locked-steer frequency is within 3% of a 2.5x finer mesh at both ends of the pressure range
-    and just below the switch to the finer mesh; a coarse 0.2 m mesh rocks on its facets and is far
-    off. The contact alone is probed (the steer couple the hydroelastic model also carries does not
+    """At the shipped resolution hint, the locked-steer frequency is within 3% of a 2.5x finer
+    mesh over the pressure range; a coarse 0.2 m mesh rocks on its facets and is far off.
+    The contact alone is probed (the steer couple the hydroelastic model also carries does not
     depend on the mesh and would mask it)."""
     import yaml
 
@@ -72,10 +71,9 @@ def test_shipped_hydroelastic_mesh_is_converged(make_twin, tmp_path):
     contact_only = tmp_path / "contact_only.yaml"
     contact_only.write_text(yaml.safe_dump(data))
     probe = make_twin(fixture="locked_steer", shell_model="hydroelastic", calibration=contact_only)
+    shipped = probe.calibration.resolution_hint_m
     lo, hi = probe.calibration.pressure_range_kpa
-    below, _ = probe.calibration.low_pressure_mesh
-    for p in (lo, below - 0.01, hi):
-        shipped = probe.calibration.resolution_hint_at(p)
+    for p in (lo, hi):
         w = {}
         for hint in (shipped, shipped / 2.5, 0.2):
             twin = make_twin(fixture="locked_steer", shell_model="hydroelastic", drive_friction="none",
