@@ -156,7 +156,10 @@ class TrainCase:
         self.steps, self.wall, self.update_s, self.cpu_main = 0, 0.0, 0.0, 0.0
 
     def _learn(self) -> None:
-        self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
+        from sphere_env.training.train import unchecked_distributions
+
+        with unchecked_distributions():  # as the trainer runs
+            self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
 
     @property
     def processes(self):

@@ -272,3 +272,27 @@ def test_trained_agent_continues_with_its_vecnormalize(tmp_path):
     assert any(changed)
     assert yaml.safe_load((second / "config.yaml").read_text())["trained_agent"] == str(first / "model.zip")
     assert not (second / "eval").exists()  # --eval-freq -1: no evaluations
+
+
+def test_unchecked_distributions_train_the_same_network_and_restore_the_checks():
+    """Turning torch.distributions' argument checks off (the trainer's speed-up) changes no number
+    of a PPO run, and the previous setting is back afterwards."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from sphere_env.training.train import unchecked_distributions
+
+    def run():
+        venv = DummyVecEnv([lambda: gym.make("sphere_env/RampDescent-v2", shell_model="point")])
+        model = PPO("MlpPolicy", venv, n_steps=64, batch_size=32, n_epochs=2, seed=3, device="cpu")
+        model.learn(128)
+        return torch.nn.utils.parameters_to_vector(model.policy.parameters()).detach()
+
+    checked = run()
+    assert torch.distributions.Distribution._validate_args
+    with unchecked_distributions():
+        assert not torch.distributions.Distribution._validate_args
+        unchecked = run()
+    assert torch.distributions.Distribution._validate_args
+    assert torch.equal(checked, unchecked)
