@@ -116,7 +116,9 @@ class ShellModelMixture(gym.Wrapper):
     ``shell_model``); ``reset`` draws the model from the wrapper's generator (seeded by
     ``reset(seed=...)``, which also seeds every held env) and delegates to that env. Spaces are the
     same for all models. ``set_randomization`` reaches every held env. ``info["shell_model"]`` says
-    which model ran.
+    which model ran. Wrappers applied inside it (rl-zoo3 puts its ``Monitor`` there) see only the
+    episodes of the wrapped env's own model; this project's trainer wraps the mixture, so its
+    monitor files log every episode.
 
     :param env: a sphere_env env made by ``gymnasium.make``; its own shell model must be one of
         ``shell_models``.
