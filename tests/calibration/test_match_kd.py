@@ -48,3 +48,36 @@ def test_kd_step_writes_a_calibration_whose_k_d_at_that_step_keeps_the_damping(t
            "dissipation_scale": 1.0, "case": "check"}
     zeta = {dt: decay_case(dict(job, time_step_s=dt))["zeta"] for dt in (0.005, 0.008)}
     assert zeta[0.008] == pytest.approx(zeta[0.005], rel=0.03)
+
+
+def test_kd_pressure_refuses_pressures_not_spanning_the_range_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "cal.yaml"
+    assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "3", "20", "--out", str(out)]) == 2
+    assert "--pressures-kpa: value 20.0 is outside the calibrated range" in capsys.readouterr().err
+    assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "5", "5", "--out", str(out)]) == 2
+    assert "needs at least 2 distinct pressures" in capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_kd_pressure_writes_a_table_whose_decays_follow_zeta_curve(tmp_path):
+    """``kd-pressure`` at 8 ms fits k_d at 3 and 14 kPa into the step's k_d_by_time_step entry; a twin
+    built at 8 ms uses the table, and its locked-steer ζ at both pressures is ζ(p) within 2%."""
+    src = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
+    src["hydroelastic"].pop("k_d_by_time_step", None)
+    base = tmp_path / "base.yaml"
+    base.write_text(yaml.safe_dump(src))
+    out = tmp_path / "table.yaml"
+    assert main(["kd-pressure", "--calibration", str(base), "--time-step-s", "0.008", "--pressures-kpa", "3", "14",
+                 "--out", str(out)]) == 0
+    cal = ShellCalibration.load(out)
+    ((step, k_d),) = cal.k_d_by_time_step
+    ((table_step, table),) = cal.k_d_by_pressure_at_steps
+    assert step == table_step == 0.008 and [q for q, _ in table] == [3.0, 14.0]
+    assert k_d == pytest.approx(cal.for_time_step(0.008).k_d_at(cal.nominal_pressure_kpa), rel=1e-4)
+    assert table[1][1] > table[0][1]  # more k_d at high pressure: one k_d lets ζ fall too fast
+    for p in (3.0, 14.0):
+        job = {"calibration": str(out), "pressure_kpa": p, "modulus_scale": 1.0, "dissipation_scale": 1.0,
+               "time_step_s": 0.008, "case": "check"}
+        row = decay_case(job)
+        assert row["zeta"] == pytest.approx(row["zeta_curve"], rel=0.02), p
