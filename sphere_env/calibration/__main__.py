@@ -192,15 +192,14 @@ def cmd_kd_pressure(args) -> int:
     from sphere_env.models.shell import ShellCalibration, interpolate_k_d
 
     cal = ShellCalibration.load(args.calibration)  # validated before anything runs
-    for q in args.pressures_kpa or ():
-        cal.check_pressure(q, "--pressures-kpa")
-    if args.pressures_kpa is not None and len(set(args.pressures_kpa)) < 2:
-        raise ValueError(f"--pressures-kpa: value {args.pressures_kpa!r} needs at least 2 distinct pressures")
+    if args.pressures_kpa is not None:
+        for q in args.pressures_kpa:
+            cal.check_pressure(q, "--pressures-kpa")
+        lo, hi = cal.pressure_range_kpa
+        if len(set(args.pressures_kpa)) < 2 or min(args.pressures_kpa) > lo or max(args.pressures_kpa) < hi:
+            raise ValueError(f"--pressures-kpa: value {args.pressures_kpa!r} must hold at least 2 pressures spanning "
+                             f"the calibrated range [{lo}, {hi}] kPa (k_d is not extrapolated)")
     rows = match_dissipation_by_pressure(args.calibration, args.time_step_s, args.pressures_kpa)
-    lo, hi = cal.pressure_range_kpa
-    if rows[0]["pressure_kpa"] > lo or rows[-1]["pressure_kpa"] < hi:
-        raise ValueError(f"--pressures-kpa: {[r['pressure_kpa'] for r in rows]} must span the calibrated range "
-                         f"[{lo}, {hi}] kPa (k_d is not extrapolated)")
     step = rows[0]["time_step_s"]
     table = [{"pressure_kpa": r["pressure_kpa"], "k_d": round(r["k_d"], 5)} for r in rows]
     # the single k_d of the step is the table's value at the nominal pressure (the loader checks it)
@@ -208,6 +207,10 @@ def cmd_kd_pressure(args) -> int:
     hyd = dict(cal.raw["hydroelastic"])
     if cal.fitted_time_step_s is None or math.isclose(step, cal.fitted_time_step_s, rel_tol=1e-9):
         hyd.update(k_d=k_d_nominal, k_d_by_pressure=table, fitted_time_step_s=step)
+        # refits at other steps kept the damping of the k_d replaced here (as calibration_at drops them)
+        if hyd.pop("k_d_by_time_step", None):
+            print("dropped hydroelastic.k_d_by_time_step: its refits matched the replaced k_d; refit them "
+                  "(kd-step, kd-pressure)")
     else:
         steps = [e for e in hyd.get("k_d_by_time_step", []) if not math.isclose(e["time_step_s"], step)]
         hyd["k_d_by_time_step"] = sorted(

@@ -185,19 +185,17 @@ def default_k_d_pressures(cal: ShellCalibration) -> list[float]:
 
 
 def match_dissipation_by_pressure(calibration: str | Path | None, time_step_s: float,
-                                  pressures_kpa: Sequence[float] | None = None, zeta_fraction: float = 1.0,
+                                  pressures_kpa: Sequence[float] | None = None,
                                   **kwargs: Any) -> list[dict[str, float]]:
     """k_d against pressure at one plant step: at each pressure, the k_d at which the locked-steer
-    hydroelastic decay at ``time_step_s`` has ``zeta_fraction`` times the calibration's ζ(p)
-    (:func:`match_dissipation`, one root find per pressure; default pressures
-    :func:`default_k_d_pressures`). With one k_d the decay's ζ falls with pressure faster than ζ(p);
-    a k_d per pressure follows the curve. Returns :func:`match_dissipation`'s records, in increasing
-    pressure. ``kwargs`` go to :func:`match_dissipation`."""
+    hydroelastic decay at ``time_step_s`` has the calibration's ζ(p) (:func:`match_dissipation`, one
+    root find per pressure; default pressures :func:`default_k_d_pressures`). With one k_d the
+    decay's ζ falls with pressure faster than ζ(p); a k_d per pressure follows the curve. Returns
+    :func:`match_dissipation`'s records, in increasing pressure. ``kwargs`` go to
+    :func:`match_dissipation`."""
     from sphere_env.params import check as check_param
 
     step = check_param("time_step_s", time_step_s)
-    if not (math.isfinite(zeta_fraction) and 0.5 <= zeta_fraction <= 1.5):
-        raise ValueError(f"zeta_fraction: value {zeta_fraction!r} must lie in [0.5, 1.5] (a fraction of ζ(p))")
     cal = ShellCalibration.load(calibration)
     ps = default_k_d_pressures(cal) if pressures_kpa is None else sorted({float(q) for q in pressures_kpa})
     for q in ps:
@@ -205,5 +203,4 @@ def match_dissipation_by_pressure(calibration: str | Path | None, time_step_s: f
     # At a coarse step and high pressure ζ(p) may need several times the single-k_d dissipation
     # (about 3.4x at 10 ms and 14 kPa): a wider bracket than the one-pressure match's
     kwargs.setdefault("scale_bracket", (0.05, 8.0))
-    return [match_dissipation(calibration, q, target_zeta=zeta_fraction * float(cal.zeta(q)), time_step_s=step,
-                              **kwargs) for q in ps]
+    return [match_dissipation(calibration, q, time_step_s=step, **kwargs) for q in ps]

@@ -54,8 +54,9 @@ def test_kd_pressure_refuses_pressures_not_spanning_the_range_and_writes_nothing
     out = tmp_path / "cal.yaml"
     assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "3", "20", "--out", str(out)]) == 2
     assert "--pressures-kpa: value 20.0 is outside the calibrated range" in capsys.readouterr().err
-    assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "5", "5", "--out", str(out)]) == 2
-    assert "needs at least 2 distinct pressures" in capsys.readouterr().err
+    for bad in (["5", "5"], ["3", "10"]):  # one pressure; 10-14 kPa would be extrapolated
+        assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", *bad, "--out", str(out)]) == 2
+        assert "must hold at least 2 pressures spanning the calibrated range [3.0, 14.0] kPa" in capsys.readouterr().err
     assert not out.exists()
 
 
@@ -81,3 +82,17 @@ def test_kd_pressure_writes_a_table_whose_decays_follow_zeta_curve(tmp_path):
                "time_step_s": 0.008, "case": "check"}
         row = decay_case(job)
         assert row["zeta"] == pytest.approx(row["zeta_curve"], rel=0.02), p
+
+
+@pytest.mark.slow
+def test_kd_pressure_at_the_fitted_step_replaces_k_d_and_drops_its_refits(tmp_path, capsys):
+    """At the calibration's own fitted step the table goes to the top of the hydroelastic section and
+    the single k_d becomes its value at the nominal pressure; the k_d refits at other steps matched
+    the replaced k_d, so they are dropped (and the command says so)."""
+    out = tmp_path / "table.yaml"
+    assert main(["kd-pressure", "--time-step-s", "0.005", "--pressures-kpa", "3", "14", "--out", str(out)]) == 0
+    assert "dropped hydroelastic.k_d_by_time_step" in capsys.readouterr().out
+    cal = ShellCalibration.load(out)
+    assert cal.fitted_time_step_s == 0.005 and cal.k_d_by_time_step == ()
+    assert [q for q, _ in cal.k_d_by_pressure] == [3.0, 14.0]
+    assert cal.k_d == pytest.approx(cal.k_d_at(cal.nominal_pressure_kpa), rel=1e-4)
