@@ -126,13 +126,19 @@ class SweepSpec:
         for sd in self.seeds:
             if isinstance(sd, bool) or not isinstance(sd, (int, np.integer)) or sd < 0:
                 raise ValueError(f"seeds: value {sd!r} must be an integer >= 0")
-        try:
-            env = gym.make(self.env_id, shell_model="point", randomization="off", **self.env_kwargs)  # checks kwargs
-        except TypeError as err:
-            raise ValueError(f"env_kwargs: {err}") from None
+        envs: dict[str, Any] = {}
         try:
             for c in self.controllers:  # each controller acts once: the action must be 2 numbers
                 label, cspec = split_label(c)
+                # the env the controller's cells run in: a trained policy's own env kwargs, then the sweep's
+                kw = {**env_kwargs_of(cspec), **self.env_kwargs}
+                key = json.dumps(kw, sort_keys=True, default=str)
+                if key not in envs:
+                    try:
+                        envs[key] = gym.make(self.env_id, shell_model="point", randomization="off", **kw)
+                    except TypeError as err:
+                        raise ValueError(f"env_kwargs: {err}") from None
+                env = envs[key]
                 ctrl = make_controller(cspec, env)
                 if hasattr(ctrl, "reset"):
                     ctrl.reset()
@@ -144,7 +150,8 @@ class SweepSpec:
                                      f"{type(err).__name__}: {err}") from None
                 check_action(label, action)
         finally:
-            env.close()
+            for env in envs.values():
+                env.close()
         for fr in self.frictions:
             from sphere_env.models.friction import resolve_friction
 

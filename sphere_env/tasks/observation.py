@@ -43,6 +43,8 @@ OTHER_COMPONENTS: dict[str, tuple[str, str]] = {
     "heading_error": ("rad", "command: heading error wrap(ψ_ref − ψ)"),
     "lateral_error": ("m", "command: cross-track error −y back to the lane's centre line"),
     "yaw_rate_ref": ("rad/s", "command: target heading rate ψ̇_ref"),
+    "speed_error_integral": ("rad", "tracking state: ∫(ω_ref − ω_d) dt since the episode start, clipped to ±3 rad"),
+    "omega_d_rate": ("rad/s^2", "tracking state: ω̇_d, change of ω_d over the last control period / period"),
     "pressure_kpa": ("kPa", "privileged: shell inflation pressure"),
 }
 #: Observation index of each measured component (the same in every task).

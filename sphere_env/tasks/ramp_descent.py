@@ -14,6 +14,11 @@ from sphere_env.tasks.task import Scene, Task, finite_option
 from sphere_env.tasks.termination import ramp_status
 
 
+#: Bound of the observed speed-error integral ∫(ω_ref − ω_d) dt [rad] (anti-windup): the tuned PD's
+#: integral term saturates the pendulum lift reference at about 1.7 rad.
+SPEED_ERROR_INTEGRAL_LIMIT_RAD = 3.0
+
+
 class RampDescentTask(Task):
     """Descend a ramp along the fall line at a commanded drive speed ω_ref that changes midway.
 
@@ -77,6 +82,15 @@ class RampDescentTask(Task):
     16   pressure_kpa   kPa     privileged, only with ``observe_pressure=True``
     ===  =============  ======  ================================================================
 
+    With ``observe_tracking_state=True`` two components follow ``lateral_error`` (the pendulum pitch
+    and pressure move up by two; 18 components, 19 with the pressure): ``speed_error_integral``
+    [rad] = ∫(ω_ref − ω_d) dt since the episode start, clipped to ±3 rad, and ``omega_d_rate``
+    [rad/s²] = (ω_d − ω_d of the previous step) / control period (0 after a reset), both from the
+    twin's ω_d (no observation noise). They are the state a PI-D speed loop keeps: the tuned PD
+    baseline integrates the speed error and anticipates with ω̇_d, and without those two terms it
+    fails every point-contact episode of the evaluation grid (measured), so a memoryless policy
+    gets them as observations. A real robot computes both from its own ω_d the same way.
+
     Measured components 0–10, 13, 14 get Gaussian noise of ``observation_noise_scale`` × the defaults in
     :data:`sphere_env.tasks.observation.DEFAULT_NOISE_STD` (off by default).
 
@@ -110,6 +124,8 @@ class RampDescentTask(Task):
         success is reaching the run-out in the lane (v0/v1).
     :param extended_observation: observe the lane's cross-track error (index 13) and the pendulum
         pitch α and its rate (14, 15), as v2 does.
+    :param observe_tracking_state: observe the speed-error integral and ω̇_d after the command (see
+        above); default False. The shipped PPO configuration trains with it.
     :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
 
     ``reset(options=...)`` also accepts ``omega_ref`` and ``omega_ref_after`` [rad/s] within
@@ -144,6 +160,7 @@ class RampDescentTask(Task):
         settle_time_s: float = 1.5,
         tracking_tolerance_rad_s: float | None = 0.5,
         extended_observation: bool = True,
+        observe_tracking_state: bool = False,
         reward_weights: Mapping[str, float] | None = None,
     ):
         self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
@@ -169,10 +186,13 @@ class RampDescentTask(Task):
         self.command_options = ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
         if not isinstance(extended_observation, bool):
             raise ValueError(f"extended_observation: value {extended_observation!r} must be a bool")
+        if not isinstance(observe_tracking_state, bool):
+            raise ValueError(f"observe_tracking_state: value {observe_tracking_state!r} must be a bool")
         self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if extended_observation else ()
         self._observe_lateral = extended_observation
-        self.command_names = ("omega_ref", "heading_error", "lateral_error") if extended_observation else (
-            "omega_ref", "heading_error")
+        self._observe_tracking = observe_tracking_state
+        self.command_names = (("omega_ref", "heading_error", "lateral_error") if extended_observation else (
+            "omega_ref", "heading_error")) + (("speed_error_integral", "omega_d_rate") if observe_tracking_state else ())
         self.omega_ref = self.omega_ref_start = self.omega_ref_after = 0.0
         self.ramp_end_x_m = float("inf")
         self.control_period_s = 0.0
@@ -182,6 +202,9 @@ class RampDescentTask(Task):
         self._sq_err_sum = 0.0
         self._n_judged = 0
         self._reached = False
+        self._speed_error_integral_rad = 0.0  # ∫(ω_ref − ω_d) dt, clipped to ±SPEED_ERROR_INTEGRAL_LIMIT_RAD
+        self._omega_d_prev = 0.0
+        self._omega_d_rate = 0.0  # ω̇_d over the last control period [rad/s²]
 
     def _draw_after(self, start: float, rng: np.random.Generator) -> float:
         """The lower-half command: uniform over the range minus (start − d, start + d)."""
@@ -216,11 +239,17 @@ class RampDescentTask(Task):
         self._sq_err_sum = 0.0
         self._n_judged = 0
         self._reached = False
+        self._speed_error_integral_rad = 0.0
+        self._omega_d_prev = float(state.omega_d)
+        self._omega_d_rate = 0.0
 
     def command(self, state: Any) -> list[float]:
+        out = [self.omega_ref, wrap_angle(-state.heading)]
         if self._observe_lateral:
-            return [self.omega_ref, wrap_angle(-state.heading), -float(state.position_m[1])]
-        return [self.omega_ref, wrap_angle(-state.heading)]
+            out.append(-float(state.position_m[1]))
+        if self._observe_tracking:
+            out += [self._speed_error_integral_rad, self._omega_d_rate]
+        return out
 
     def tracking_rmse_rad_s(self) -> float:
         """RMS of ω_d − ω_ref over the judged on-ramp samples so far [rad/s]; NaN before the first."""
@@ -250,6 +279,14 @@ class RampDescentTask(Task):
             self.omega_ref = self.omega_ref_after
             self._since_change_s = 0.0
         self._reached = reached
+        if self._observe_tracking:
+            # the speed loop's state as a PI-D controller keeps it, against the command now in force
+            omega_d = float(state.omega_d)
+            self._omega_d_rate = (omega_d - self._omega_d_prev) / self.control_period_s
+            self._omega_d_prev = omega_d
+            lim = SPEED_ERROR_INTEGRAL_LIMIT_RAD
+            integral = self._speed_error_integral_rad + (self.omega_ref - omega_d) * self.control_period_s
+            self._speed_error_integral_rad = -lim if integral < -lim else (lim if integral > lim else integral)
         return terms, reached or off, success
 
     def info(self) -> dict[str, Any]:

@@ -39,6 +39,26 @@ def test_gymnasium_and_sb3_check_env(make, env_id, shell_model):
     assert env.action_space.shape == (2,) and env.action_space.dtype == np.float32
 
 
+def test_checkers_pass_with_the_tracking_state_observed(make):
+    """The configuration ppo.yml trains: the checkers, the space, and a deep copy that resets to
+    the same observation (the tracking state restarts with the episode)."""
+    import copy
+
+    from gymnasium.utils.env_checker import check_env as gym_check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = make("sphere_env/RampDescent-v2", shell_model="injected", observe_tracking_state=True)
+    gym_check_env(env.unwrapped, skip_render_check=True)
+    sb3_check_env(env, warn=True, skip_render_check=True)
+    obs, _ = env.reset(seed=3)
+    for _ in range(20):
+        obs, *_ = env.step(np.array([0.0, 0.5], dtype=np.float32))
+    layout = env.unwrapped.observation_layout
+    assert env.observation_space.contains(obs) and obs[layout["speed_error_integral"]] != 0.0
+    twin = copy.deepcopy(env)
+    assert np.array_equal(twin.reset(seed=4)[0], env.reset(seed=4)[0])
+
+
 def _same(a, b):
     if isinstance(a, dict):
         return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)

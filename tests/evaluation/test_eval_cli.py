@@ -150,3 +150,18 @@ def test_reused_out_holds_only_the_latest_sweep(tmp_path):
     assert (out / "notes.txt").read_text() == "mine"
     assert all(p.exists() and p.is_relative_to(out) for p in res["files"].values())
     assert "pd" in (out / "episodes.csv").read_text() and "zero" not in (out / "episodes.csv").read_text()
+
+
+def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baselines(tmp_path_factory):
+    """A policy trained with ``observe_tracking_state`` (18 observations) is checked and run in an env
+    built with its training kwargs, while the PD runs in the sweep's plain env (16)."""
+    cfg = resolve_config("sphere_env/RampDescent-v2", "ppo",
+                         overrides={"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 32,
+                                    "env_kwargs": {"shell_model": "point", "observe_tracking_state": True}},
+                         eval_episodes=1)
+    run = train(cfg, tmp_path_factory.mktemp("tracking") / "run", progress_bar=False)
+    spec = SweepSpec(controllers=["pd", f"ppo={run}"], pressures_kpa=[8.5], shell_models=["point"], seeds=[0])
+    spec.validate()
+    res = evaluate(spec, tmp_path_factory.mktemp("o") / "o", workers=1, replays=[])
+    rows = {a["controller"]: a for a in res["agg_controller"]}
+    assert rows["pd"]["episodes"] == rows["ppo"]["episodes"] == 1

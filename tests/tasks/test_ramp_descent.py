@@ -103,3 +103,43 @@ def test_zero_torque_does_not_succeed_where_pd_can(shell_model):
     assert not zero["is_success"] and zero["info"]["tracking_rmse_rad_s"] > 0.5
     assert pd["is_success"] and pd["info"]["reached_runout"]
     assert pd["info"]["tracking_rmse_rad_s"] < 0.5
+
+
+def test_tracking_state_integrates_the_speed_error_against_the_command_in_force():
+    task = RampDescentTask(observe_tracking_state=True)
+    assert task.command_names[-2:] == ("speed_error_integral", "omega_d_rate")
+    task.reset(fake_state(omega_d=0.0), np.random.default_rng(0), {"omega_ref": 2.0, "omega_ref_after": 4.0}, SCENE)
+    assert task.command(fake_state(omega_d=0.0))[-2:] == [0.0, 0.0]
+    _drive(task, 1.0, 0.0, 2.0, 10)  # 10 steps of (2 − 1) rad/s × 0.02 s
+    integral, rate = task.command(fake_state())[-2:]
+    assert integral == pytest.approx(0.2) and rate == pytest.approx(0.0)
+    _drive(task, 1.5, 2.0, 2.0, 1)  # ω_d rose by 0.5 rad/s in one period
+    assert task.command(fake_state())[-1] == pytest.approx(0.5 / 0.02)
+    assert task.command(fake_state())[-2] == pytest.approx(0.2 + 0.5 * 0.02)
+    _drive(task, 1.5, 3.1, 3.1, 1)  # crosses mid-ramp: the error is taken against the new 4 rad/s
+    assert task.command(fake_state())[-2] == pytest.approx(0.21 + 2.5 * 0.02)
+    _drive(task, -30.0, 3.2, 3.2, 10)  # winds up far beyond the clip
+    assert task.command(fake_state())[-2] == 3.0
+    task.reset(fake_state(omega_d=0.0), np.random.default_rng(0), {}, SCENE)  # a new episode starts afresh
+    assert task.command(fake_state())[-2:] == [0.0, 0.0]
+
+
+def test_tracking_state_observation_on_the_twin_matches_the_observed_speeds():
+    """On the real twin under the PD: the observed integral and rate follow from the observed ω_d and
+    ω_ref of consecutive steps; the default layout of v2 is unchanged."""
+    assert len(gym.make("sphere_env/RampDescent-v2").observation_space.low) == 16
+    env = gym.make("sphere_env/RampDescent-v2", shell_model="point", observe_tracking_state=True)
+    layout = env.unwrapped.observation_layout
+    assert env.observation_space.shape == (18,) and layout["speed_error_integral"] == 14
+    pd = controller_for(env, "pd")
+    obs, _ = env.reset(seed=0)
+    integral, prev = 0.0, float(obs[layout["omega_d"]])
+    for _ in range(100):
+        obs, *_ = env.step(pd(obs))
+        w = float(obs[layout["omega_d"]])
+        integral += (float(obs[layout["omega_ref"]]) - w) * 0.02
+        assert obs[layout["omega_d_rate"]] == pytest.approx((w - prev) / 0.02, rel=1e-4, abs=1e-3)
+        assert obs[layout["speed_error_integral"]] == pytest.approx(integral, rel=1e-4, abs=1e-5)
+        prev = w
+    with pytest.raises(ValueError, match="observe_tracking_state"):
+        gym.make("sphere_env/RampDescent-v2", observe_tracking_state=1)
