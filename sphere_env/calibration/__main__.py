@@ -6,6 +6,7 @@ Commands
   friction     stand-swing logs -> friction law parameters -> preset YAML + overlay plot (+ leave-one-out)
   sensitivity  hydroelastic ±50 % sweep (paper Fig. 11) on a process pool
   kd-step      hydroelastic k_d refitted at another plant step -> calibration YAML (k_d_by_time_step)
+  kd-pressure  hydroelastic k_d against pressure at a plant step, fitted to ζ(p) -> calibration YAML (k_d_by_pressure)
   events       free-motion events (release or push, then free decay) in a long log [-> manifest entries]
   validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
   report       regenerate evaluation/results/validation/ from the real logs
@@ -185,6 +186,46 @@ def cmd_kd_step(args) -> int:
     return 0
 
 
+def cmd_kd_pressure(args) -> int:
+    from sphere_env.calibration.decay import write_yaml
+    from sphere_env.calibration.sensitivity import match_dissipation_by_pressure
+    from sphere_env.models.shell import ShellCalibration, interpolate_k_d
+
+    cal = ShellCalibration.load(args.calibration)  # validated before anything runs
+    if args.pressures_kpa is not None:
+        for q in args.pressures_kpa:
+            cal.check_pressure(q, "--pressures-kpa")
+        lo, hi = cal.pressure_range_kpa
+        if len(set(args.pressures_kpa)) < 2 or min(args.pressures_kpa) > lo or max(args.pressures_kpa) < hi:
+            raise ValueError(f"--pressures-kpa: value {args.pressures_kpa!r} must hold at least 2 pressures spanning "
+                             f"the calibrated range [{lo}, {hi}] kPa (k_d is not extrapolated)")
+    rows = match_dissipation_by_pressure(args.calibration, args.time_step_s, args.pressures_kpa)
+    step = rows[0]["time_step_s"]
+    table = [{"pressure_kpa": r["pressure_kpa"], "k_d": round(r["k_d"], 5)} for r in rows]
+    # the single k_d of the step is the table's value at the nominal pressure (the loader checks it)
+    k_d_nominal = round(interpolate_k_d([(e["pressure_kpa"], e["k_d"]) for e in table], cal.nominal_pressure_kpa), 5)
+    hyd = dict(cal.raw["hydroelastic"])
+    if cal.fitted_time_step_s is None or math.isclose(step, cal.fitted_time_step_s, rel_tol=1e-9):
+        hyd.update(k_d=k_d_nominal, k_d_by_pressure=table, fitted_time_step_s=step)
+        # refits at other steps kept the damping of the k_d replaced here (as calibration_at drops them)
+        if hyd.pop("k_d_by_time_step", None):
+            print("dropped hydroelastic.k_d_by_time_step: its refits matched the replaced k_d; refit them "
+                  "(kd-step, kd-pressure)")
+    else:
+        steps = [e for e in hyd.get("k_d_by_time_step", []) if not math.isclose(e["time_step_s"], step)]
+        hyd["k_d_by_time_step"] = sorted(
+            steps + [{"time_step_s": step, "k_d": k_d_nominal, "k_d_by_pressure": table}],
+            key=lambda e: e["time_step_s"])
+    raw = dict(cal.raw, hydroelastic=hyd)
+    ShellCalibration.from_dict(raw, source=str(args.out))  # validated before writing
+    write_yaml(args.out, raw)
+    for r in rows:
+        print(f"time_step_s={step:g} s, {r['pressure_kpa']:g} kPa: k_d {r['k_d']:.5f} (locked-steer decay zeta "
+              f"{r['zeta_sim']:.4f}, zeta(p) {r['target_zeta']:.4f})")
+    print(f"k_d at the nominal {cal.nominal_pressure_kpa:g} kPa: {k_d_nominal:.5f} -> {args.out}")
+    return 0
+
+
 def cmd_validate(args) -> int:
     from sphere_env.calibration.validate import (
         markdown_table, parse_tolerances, plot_overlays, tolerance_failures, validate, write_records,
@@ -338,6 +379,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pressure-kpa", type=float, default=None, help="pressure of the decays (default: nominal)")
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the refit)")
     p.set_defaults(func=cmd_kd_step)
+
+    p = sub.add_parser("kd-pressure", help="hydroelastic k_d against pressure at a plant step, each fitted so "
+                       "the locked-steer decay has ζ(p) (k_d_by_pressure)")
+    p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
+    p.add_argument("--time-step-s", type=float, required=True, help="plant step [s] the decays run at")
+    p.add_argument("--pressures-kpa", type=float, nargs="+", default=None,
+                   help="pressures [kPa] to fit k_d at, spanning the calibrated range (default: its ends, the "
+                        "nominal, 5 even points and both sides of a low_pressure_mesh switch)")
+    p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the table)")
+    p.set_defaults(func=cmd_kd_pressure)
 
     p = sub.add_parser("events", help="free-motion events in a long log; optionally write manifest entries")
     p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")

@@ -170,3 +170,37 @@ def match_dissipation_at_step(calibration: str | Path | None, time_step_s: float
                       "case": "reference"})
     out = match_dissipation(calibration, p, target_zeta=ref["zeta"], time_step_s=step, **kwargs)
     return dict(out, reference_time_step_s=base.fitted_time_step_s, reference_zeta=ref["zeta"])
+
+
+def default_k_d_pressures(cal: ShellCalibration) -> list[float]:
+    """Pressures [kPa] a k_d table is fitted at by default: the range's ends, the nominal pressure,
+    five points evenly over the range, and both sides of a ``low_pressure_mesh`` switch (the mesh, and
+    with it Drake's contact damping, changes there, so k_d may step)."""
+    lo, hi = cal.pressure_range_kpa
+    points = [lo, hi, cal.nominal_pressure_kpa, *np.linspace(lo, hi, 5).tolist()]
+    if cal.low_pressure_mesh is not None:
+        below = cal.low_pressure_mesh[0]
+        points += [below, max(lo, below - 0.01)]
+    return sorted({round(float(q), 4) for q in points})
+
+
+def match_dissipation_by_pressure(calibration: str | Path | None, time_step_s: float,
+                                  pressures_kpa: Sequence[float] | None = None,
+                                  **kwargs: Any) -> list[dict[str, float]]:
+    """k_d against pressure at one plant step: at each pressure, the k_d at which the locked-steer
+    hydroelastic decay at ``time_step_s`` has the calibration's ζ(p) (:func:`match_dissipation`, one
+    root find per pressure; default pressures :func:`default_k_d_pressures`). With one k_d the
+    decay's ζ falls with pressure faster than ζ(p); a k_d per pressure follows the curve. Returns
+    :func:`match_dissipation`'s records, in increasing pressure. ``kwargs`` go to
+    :func:`match_dissipation`."""
+    from sphere_env.params import check as check_param
+
+    step = check_param("time_step_s", time_step_s)
+    cal = ShellCalibration.load(calibration)
+    ps = default_k_d_pressures(cal) if pressures_kpa is None else sorted({float(q) for q in pressures_kpa})
+    for q in ps:
+        cal.check_pressure(q, "pressures_kpa")
+    # At a coarse step and high pressure ζ(p) may need several times the single-k_d dissipation
+    # (about 3.4x at 10 ms and 14 kPa): a wider bracket than the one-pressure match's
+    kwargs.setdefault("scale_bracket", (0.05, 8.0))
+    return [match_dissipation(calibration, q, time_step_s=step, **kwargs) for q in ps]

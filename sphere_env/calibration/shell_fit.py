@@ -68,7 +68,7 @@ def calibration_at(
     ω_n = ``omega_n`` (intercept moved, slope kept), ζ = ``zeta`` (scale moved, rate kept),
     modulus = ``modulus_pa`` (V(p) becomes a table: the base V(p) times one factor so that
     f_n / V(p₀) = modulus), dissipation d = ``dissipation_s_per_m`` (k_d = d / C_inject(p₀); the k_d refits at other
-    plant steps, ``k_d_by_time_step``, are dropped).
+    plant steps, ``k_d_by_time_step``, and ``k_d_by_pressure`` are dropped).
     """
     r = robot or RobotParameters.from_urdf()
     raw = copy.deepcopy(dict(base.raw))
@@ -90,8 +90,10 @@ def calibration_at(
         cal = ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
         _, c_inject = cal.bind(r).injected_gains(p0)
         raw["hydroelastic"] = dict(raw["hydroelastic"], k_d=float(dissipation_s_per_m / c_inject))
-        # k_d refitted at other steps belonged to the old k_d
+        # k_d refitted at other steps, and any k_d against pressure, belonged to the old k_d: the
+        # dissipation given here is the one at p0, held at every pressure
         raw["hydroelastic"].pop("k_d_by_time_step", None)
+        raw["hydroelastic"].pop("k_d_by_pressure", None)
     return raw
 
 

@@ -71,7 +71,8 @@ class SphereEnv(gym.Env, EzPickle):
     :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (``docs/design.md``).
     :param friction_model: joint friction: a law/preset name for both joints (``"majd"`` default,
         ``"viscous"``, ``"coulomb"``, ``"none"``: the Table I presets) or ``{"steer": ..., "drive": ...}``.
-    :param calibration: path of a shell calibration YAML; ``None`` = the shipped one.
+    :param calibration: path of a shell calibration YAML, or the name of a shipped one
+        (``"hydroelastic_fast"``: hydroelastic RL at a 10 ms step); ``None`` = the shipped default.
     :param control_frequency_hz: policy rate [Hz], default 50; its period must be a multiple of
         ``time_step_s``.
     :param time_step_s: plant time step [s], default 0.005.
@@ -165,7 +166,8 @@ class SphereEnv(gym.Env, EzPickle):
         except (ValueError, TypeError) as err:
             raise ValueError(f"friction_model: {err}") from None
         if calibration is not None and not isinstance(calibration, (str, Path)):
-            raise ValueError(f"calibration: value {calibration!r} must be the path of a shell calibration YAML, or None")
+            raise ValueError(f"calibration: value {calibration!r} must be the path of a shell calibration YAML, the "
+                             "name of a shipped one, or None")
         try:
             self.calibration = ShellCalibration.load(calibration)
         except ValueError as err:

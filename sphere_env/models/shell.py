@@ -29,6 +29,18 @@ Drake's discrete hydroelastic contact adds numerical damping that grows with the
 holds at the step it was fitted at; each entry is k_d refitted at another step
 (:meth:`ShellCalibration.for_time_step` picks it, the twin does so for its own step).
 
+Hunt–Crossley dissipation factor against pressure (optional ``k_d_by_pressure``, at the fitted step
+or in a ``k_d_by_time_step`` entry for that step)::
+
+    hydroelastic: {k_d: k(p0), k_d_by_pressure: [{pressure_kpa: p_1, k_d: k_1}, ...],
+                   k_d_by_time_step: [{time_step_s: dt_2, k_d: k_2(p0), k_d_by_pressure: [...]}, ...]}
+
+With one k_d the hydroelastic decay's damping ratio falls with pressure faster than ζ(p) does
+(``evaluation/results/hydro_tradeoff.md``); a table lets k_d follow the pressure. k_d(p) is
+interpolated linearly between the points, which must span ``pressure_range_kpa``; the single
+``k_d`` beside a table must be the table's value at ``nominal_pressure_kpa`` (so one number still
+describes the step, for tools and readers). Without a table k_d is the same at every pressure.
+
 The compliant shell is meshed with ``h_low`` below ``p_c`` and with ``h`` from ``p_c`` up. A soft
 shell's contact patch is large (radius ≈ √(f_n / (π p))), so a coarser mesh resolves it as well as
 the fine one does at high pressure, at a fraction of the contact polygons (``README.md``, *Mesh
@@ -50,6 +62,29 @@ from sphere_env.models.mathbackend import NUMPY
 from sphere_env.resources import asset_path
 
 DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
+
+
+def shipped_calibrations() -> list[str]:
+    """Names of the calibrations shipped in ``assets/calibration`` (``"default"``, ``"hydroelastic_fast"``, ...)."""
+    from importlib import resources
+
+    folder = resources.files("sphere_env.assets").joinpath("calibration")
+    return sorted(p.name[: -len(".yaml")] for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def calibration_file(calibration: str | Path | None) -> Path:
+    """The file of a calibration given as a path, as the name of a shipped one (a bare name such as
+    ``"hydroelastic_fast"``: no folder, no suffix, and no such file in the working folder), or
+    ``None`` (the shipped default)."""
+    if calibration is None:
+        return DEFAULT_CALIBRATION
+    path = Path(calibration)
+    if isinstance(calibration, str) and path.name == calibration and not path.suffix and not path.exists():
+        if calibration in shipped_calibrations():
+            return asset_path("calibration", f"{calibration}.yaml")
+        raise ValueError(f"calibration: {calibration!r} is neither a file nor the name of a shipped calibration; "
+                         f"shipped: {shipped_calibrations()}")
+    return path
 
 SHELL_MODELS = ("point", "injected", "hydroelastic")
 
@@ -185,10 +220,15 @@ CALIBRATION_KEYS: dict[str | None, tuple[str, ...]] = {
     "zeta": ("model", "scale", "rate_per_kpa", "ci95", "notes"),
     "contact_volume": ("model", "pressure_kpa", "volume_m3", "notes"),
     "hydroelastic": ("k_d", "resolution_hint_m", "low_pressure_mesh", "fitted_time_step_s", "k_d_by_time_step",
-                     "couple_stiffness_factor", "couple_damping_factor", "ci95", "notes"),
+                     "k_d_by_pressure", "couple_stiffness_factor", "couple_damping_factor", "ci95", "notes"),
 }
 #: Keys of each ``hydroelastic.k_d_by_time_step`` entry.
-K_D_STEP_KEYS = ("time_step_s", "k_d")
+K_D_STEP_KEYS = ("time_step_s", "k_d", "k_d_by_pressure")
+#: Keys of each ``k_d_by_pressure`` point.
+K_D_PRESSURE_KEYS = ("pressure_kpa", "k_d")
+#: Relative tolerance between a step's single ``k_d`` and its ``k_d_by_pressure`` at the nominal
+#: pressure (files hold 5 significant digits).
+K_D_NOMINAL_REL_TOL = 1e-3
 #: Keys of ``hydroelastic.low_pressure_mesh``.
 LOW_PRESSURE_MESH_KEYS = ("below_kpa", "resolution_hint_m")
 
@@ -251,14 +291,18 @@ class ShellCalibration:
     low_pressure_mesh: tuple[float, float] | None = None
     #: ((time step [s], k_d), ...) refitted at steps other than ``fitted_time_step_s``.
     k_d_by_time_step: tuple[tuple[float, float], ...] = ()
+    #: ((pressure [kPa], k_d), ...) in force at ``fitted_time_step_s``, or () for one k_d at every pressure.
+    k_d_by_pressure: tuple[tuple[float, float], ...] = ()
+    #: ((time step [s], k_d_by_pressure table), ...) of the ``k_d_by_time_step`` entries that have one.
+    k_d_by_pressure_at_steps: tuple[tuple[float, tuple[tuple[float, float], ...]], ...] = ()
 
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path | None = None) -> "ShellCalibration":
         if path is not None and not isinstance(path, (str, Path)):
-            raise ValueError(f"calibration: value {path!r} must be the path of a calibration YAML file (or None "
-                             "for the shipped one)")
-        path = Path(path) if path is not None else DEFAULT_CALIBRATION
+            raise ValueError(f"calibration: value {path!r} must be the path of a calibration YAML file, the name "
+                             f"of a shipped one {shipped_calibrations()} (or None for the default)")
+        path = calibration_file(path)
         p = str(path)
         try:
             data = yaml.safe_load(Path(path).read_text())
@@ -330,7 +374,12 @@ class ShellCalibration:
             if factors[key] < 0:
                 raise ValueError(f"calibration file {p!r}: field 'hydroelastic.{key}' = {factors[key]!r} must be >= 0")
         low_mesh = _low_pressure_mesh(hyd.get("low_pressure_mesh"), (lo, hi), p)
-        k_d_steps = _k_d_by_time_step(hyd.get("k_d_by_time_step"), hyd.get("fitted_time_step_s"), p)
+        k_d_steps, k_d_tables = _k_d_by_time_step(hyd.get("k_d_by_time_step"), hyd.get("fitted_time_step_s"),
+                                                  (lo, hi), float(nominal), p)
+        k_d_table = _k_d_by_pressure(hyd.get("k_d_by_pressure"), "hydroelastic.k_d_by_pressure", (lo, hi), p)
+        if k_d_table:
+            _check_k_d_at_nominal(_number(hyd, "k_d", "hydroelastic", p), k_d_table, float(nominal),
+                                  "hydroelastic", p)
         cal = cls(
             pressure_range_kpa=(lo, hi),
             nominal_pressure_kpa=float(nominal),
@@ -351,6 +400,8 @@ class ShellCalibration:
             stand_still_checked=check_stand_still,
             low_pressure_mesh=low_mesh,
             k_d_by_time_step=k_d_steps,
+            k_d_by_pressure=k_d_table,
+            k_d_by_pressure_at_steps=k_d_tables,
             **factors,
         )
         for q in (lo, hi):
@@ -400,23 +451,40 @@ class ShellCalibration:
         """Locked-steer damping ratio ζ(p) [-]."""
         return self.zeta_scale * np.exp(self.zeta_rate * np.asarray(pressure_kpa, dtype=float))
 
+    def k_d_at(self, pressure_kpa: float) -> float:
+        """Hunt–Crossley dissipation factor k_d [-] at pressure p: ``k_d_by_pressure`` interpolated
+        linearly in pressure if the calibration has one for its step, else ``k_d``."""
+        if not self.k_d_by_pressure:
+            return self.k_d
+        return interpolate_k_d(self.k_d_by_pressure, pressure_kpa)
+
     def for_time_step(self, time_step_s: float) -> ShellCalibration:
-        """This calibration with the k_d refitted at ``time_step_s`` (``k_d_by_time_step``) in force
-        and ``fitted_time_step_s`` set to that step; itself when the step is ``fitted_time_step_s``
-        or has no refit."""
+        """This calibration with the k_d refitted at ``time_step_s`` (``k_d_by_time_step``, with its
+        ``k_d_by_pressure`` if it has one) in force and ``fitted_time_step_s`` set to that step;
+        itself when the step is ``fitted_time_step_s`` or has no refit."""
         fitted = self.fitted_time_step_s
         if fitted is not None and math.isclose(fitted, time_step_s, rel_tol=1e-9):
             return self
         for step, k_d in self.k_d_by_time_step:
             if math.isclose(step, time_step_s, rel_tol=1e-9):
-                # the fitted step's k_d moves into the table, so the result is a calibration as valid
-                # (and as reversible) as this one, raw mapping included
+                # the fitted step's k_d (and its pressure table) moves into the list, so the result is a
+                # calibration as valid (and as reversible) as this one, raw mapping included
+                tables = dict(self.k_d_by_pressure_at_steps)
+                table = tables.pop(step, ())
                 others = [(s, k) for s, k in self.k_d_by_time_step if s != step]
                 if fitted is not None:
                     others.append((fitted, self.k_d))
-                hyd = dict(self.raw["hydroelastic"], k_d=k_d, fitted_time_step_s=step,
-                           k_d_by_time_step=[{"time_step_s": s, "k_d": k} for s, k in others])
+                    if self.k_d_by_pressure:
+                        tables[fitted] = self.k_d_by_pressure
+                entries = [dict({"time_step_s": s, "k_d": k},
+                                **({"k_d_by_pressure": _table_raw(tables[s])} if s in tables else {}))
+                           for s, k in others]
+                hyd = {key: v for key, v in self.raw["hydroelastic"].items() if key != "k_d_by_pressure"}
+                hyd.update(k_d=k_d, fitted_time_step_s=step, k_d_by_time_step=entries)
+                if table:
+                    hyd["k_d_by_pressure"] = _table_raw(table)
                 return replace(self, k_d=k_d, fitted_time_step_s=step, k_d_by_time_step=tuple(others),
+                               k_d_by_pressure=table, k_d_by_pressure_at_steps=tuple(tables.items()),
                                raw=dict(self.raw, hydroelastic=hyd))
         return self
 
@@ -501,7 +569,8 @@ class BoundShell:
     def hydroelastic(self, pressure_kpa: float) -> tuple[float, float]:
         """(modulus [Pa], Hunt–Crossley dissipation [s/m]) at pressure p.
 
-        m_hydro = f_n / V(p) (eq. 10);  d = k_d · C_inject(p) (eq. 11 with the §III.D factor k_d).
+        m_hydro = f_n / V(p) (eq. 10);  d = k_d(p) · C_inject(p) (eq. 11 with the §III.D factor k_d,
+        which is one number unless the calibration has ``k_d_by_pressure``).
         C_inject is used by number as the dissipation in s/m, as the paper does.
         """
         key = float(pressure_kpa)
@@ -509,7 +578,7 @@ class BoundShell:
         if out is None:
             r, cal = self.robot, self.calibration
             modulus = r.weight_n / cal.volume_m3(key, r.weight_n, r.radius_m)
-            out = (modulus, cal.k_d * self.injected_gains(key)[1])
+            out = (modulus, cal.k_d_at(key) * self.injected_gains(key)[1])
             self._hydro[key] = out
         return out
 
@@ -538,7 +607,7 @@ class BoundShell:
                                "C_inject_Nms_per_rad": C, "steer_law": cal.steer_law.as_dict()}
         if shell_model == "hydroelastic":
             m, d = self.hydroelastic(pressure_kpa)
-            out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d,
+            out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d, k_d=cal.k_d_at(pressure_kpa),
                        resolution_hint_m=cal.resolution_hint_at(pressure_kpa),
                        couple_stiffness_factor=cal.couple_stiffness_factor,
                        couple_damping_factor=cal.couple_damping_factor)
@@ -577,15 +646,74 @@ def _low_pressure_mesh(sec: Any, pressure_range_kpa: tuple[float, float], path: 
     return below, hint
 
 
-def _k_d_by_time_step(sec: Any, fitted_step: Any, path: str) -> tuple[tuple[float, float], ...]:
-    """Parse the optional ``hydroelastic.k_d_by_time_step`` list: ((time_step_s, k_d), ...)."""
+def interpolate_k_d(table: tuple[tuple[float, float], ...], pressure_kpa: float) -> float:
+    """k_d of a ``k_d_by_pressure`` table at a pressure, linear between its points."""
+    return float(np.interp(float(pressure_kpa), [q for q, _ in table], [k for _, k in table]))
+
+
+def _table_raw(table: tuple[tuple[float, float], ...]) -> list[dict[str, float]]:
+    return [{"pressure_kpa": q, "k_d": k} for q, k in table]
+
+
+def _k_d_by_pressure(sec: Any, where: str, pressure_range_kpa: tuple[float, float],
+                     path: str) -> tuple[tuple[float, float], ...]:
+    """Parse an optional ``k_d_by_pressure`` list: ((pressure_kpa, k_d), ...), pressures increasing
+    and spanning the calibrated range (k_d is never extrapolated)."""
     if sec is None:
         return ()
+    shape = "a list of at least 2 {pressure_kpa: ..., k_d: ...} spanning pressure_range_kpa"
+    if not isinstance(sec, list) or len(sec) < 2:
+        raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be {shape}")
+    out: list[tuple[float, float]] = []
+    plo, phi_ = PLAUSIBLE_PRESSURE_KPA
+    for i, entry in enumerate(sec):
+        at = f"{where}[{i}]"
+        if not isinstance(entry, Mapping):
+            raise ValueError(f"calibration file {path!r}: field '{at}' = {entry!r} must be a mapping "
+                             "{pressure_kpa: ..., k_d: ...}")
+        unknown = sorted(str(k) for k in entry if k not in K_D_PRESSURE_KEYS)
+        if unknown:
+            raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
+                             f"allowed: {list(K_D_PRESSURE_KEYS)}")
+        q, k_d = _number(entry, "pressure_kpa", at, path), _number(entry, "k_d", at, path)
+        if not plo <= q <= phi_:
+            raise ValueError(f"calibration file {path!r}: field '{at}.pressure_kpa' = {q!r} must lie in "
+                             f"[{plo}, {phi_}] kPa (gauge)")
+        if out and not q > out[-1][0]:
+            raise ValueError(f"calibration file {path!r}: field '{at}.pressure_kpa' = {q!r} must be greater "
+                             f"than the previous point's {out[-1][0]!r} kPa (pressures increasing)")
+        if k_d < 0:
+            raise ValueError(f"calibration file {path!r}: field '{at}.k_d' = {k_d!r} must be >= 0")
+        out.append((q, k_d))
+    lo, hi = pressure_range_kpa
+    if out[0][0] > lo or out[-1][0] < hi:
+        raise ValueError(f"calibration file {path!r}: field '{where}' covers [{out[0][0]!r}, {out[-1][0]!r}] kPa; "
+                         f"it must span pressure_range_kpa [{lo}, {hi}] kPa (k_d is not extrapolated)")
+    return tuple(out)
+
+
+def _check_k_d_at_nominal(k_d: float, table: tuple[tuple[float, float], ...], nominal_kpa: float,
+                          where: str, path: str) -> None:
+    """A step's single k_d beside its pressure table must be the table's value at the nominal pressure."""
+    expected = interpolate_k_d(table, nominal_kpa)
+    if not math.isclose(k_d, expected, rel_tol=K_D_NOMINAL_REL_TOL):
+        raise ValueError(f"calibration file {path!r}: field '{where}.k_d' = {k_d!r} must equal its "
+                         f"k_d_by_pressure at nominal_pressure_kpa {nominal_kpa:g} kPa ({expected:.5g}, within "
+                         f"{100 * K_D_NOMINAL_REL_TOL:g}%)")
+
+
+def _k_d_by_time_step(sec: Any, fitted_step: Any, pressure_range_kpa: tuple[float, float], nominal_kpa: float,
+                      path: str) -> tuple[tuple[tuple[float, float], ...], tuple]:
+    """Parse the optional ``hydroelastic.k_d_by_time_step`` list: ((time_step_s, k_d), ...) and
+    ((time_step_s, k_d_by_pressure table), ...) of the entries that have a table."""
+    if sec is None:
+        return (), ()
     where = "hydroelastic.k_d_by_time_step"
     if not isinstance(sec, list):
         raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be a list of "
                          "{time_step_s: ..., k_d: ...}")
     out: list[tuple[float, float]] = []
+    tables: list[tuple[float, tuple[tuple[float, float], ...]]] = []
     tlo, thi = FITTED_TIME_STEP_RANGE_S
     for i, entry in enumerate(sec):
         at = f"{where}[{i}]"
@@ -606,8 +734,12 @@ def _k_d_by_time_step(sec: Any, fitted_step: Any, path: str) -> tuple[tuple[floa
         if any(math.isclose(step, s, rel_tol=1e-9) for s in taken):
             raise ValueError(f"calibration file {path!r}: field '{at}.time_step_s' = {step!r} has a k_d already "
                              "(hydroelastic.fitted_time_step_s or an earlier entry); one k_d per step")
+        table = _k_d_by_pressure(entry.get("k_d_by_pressure"), f"{at}.k_d_by_pressure", pressure_range_kpa, path)
+        if table:
+            _check_k_d_at_nominal(k_d, table, nominal_kpa, at, path)
+            tables.append((step, table))
         out.append((step, k_d))
-    return tuple(out)
+    return tuple(out), tuple(tables)
 
 
 def _steer_law(sec: Any, path: str) -> SteerLaw:

@@ -47,7 +47,8 @@ class TwinConfig:
     :param time_step_s: plant time step [s] (see ``evaluation/results/timestep_study.md``).
     :param ground_friction: effective Coulomb friction coefficient of shell and ground [-]
         (the shell keeps :data:`~sphere_env.params.SHELL_FRICTION`; the ground's is solved for).
-    :param calibration: path of a shell calibration YAML (``None`` = shipped default).
+    :param calibration: path of a shell calibration YAML, or the name of a shipped one
+        (``"hydroelastic_fast"``; ``None`` = shipped default).
     :param urdf: robot URDF path (``None`` = shipped model).
     :param resolution_hint_m: hydroelastic mesh resolution [m]; ``None`` = calibration's value.
     :param contact_approximation: Drake discrete contact approximation; ``None`` picks ``sap``

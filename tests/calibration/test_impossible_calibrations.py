@@ -63,6 +63,26 @@ def _variant(**changes):
     ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0}}, "hydroelastic.low_pressure_mesh.resolution_hint_m"),
     ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 0.1, "hint_m": 0.1}},
      "hydroelastic.low_pressure_mesh.hint_m"),
+    ({"hydroelastic__k_d_by_pressure": 0.3}, "hydroelastic.k_d_by_pressure"),
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.319}]}, "hydroelastic.k_d_by_pressure"),
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.319}, {"pressure_kpa": 10.0, "k_d": 0.319}]},
+     r"hydroelastic.k_d_by_pressure' covers \[3.0, 10.0\] kPa"),  # would be extrapolated to 14 kPa
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 14.0, "k_d": 0.319}, {"pressure_kpa": 3.0, "k_d": 0.319}]},
+     r"hydroelastic.k_d_by_pressure\[1\].pressure_kpa"),
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3000.0, "k_d": 0.319}, {"pressure_kpa": 14000.0, "k_d": 0.3}]},
+     r"hydroelastic.k_d_by_pressure\[0\].pressure_kpa"),  # Pa, not kPa
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": -0.1}, {"pressure_kpa": 14.0, "k_d": 0.319}]},
+     r"hydroelastic.k_d_by_pressure\[0\].k_d"),
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "kd": 0.3}, {"pressure_kpa": 14.0, "k_d": 0.319}]},
+     r"hydroelastic.k_d_by_pressure\[0\].kd"),
+    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.2}, {"pressure_kpa": 14.0, "k_d": 0.4}]},
+     r"hydroelastic.k_d' = 0.319 must equal its k_d_by_pressure at nominal_pressure_kpa 4.31 kPa \(0.2238"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2, "k_d_by_pressure": [
+        {"pressure_kpa": 3.0, "k_d": 0.1}, {"pressure_kpa": 14.0, "k_d": 0.3}]}]},
+     r"hydroelastic.k_d_by_time_step\[0\].k_d' = 0.2 must equal"),
+    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2, "k_d_by_pressure": [
+        {"pressure_kpa": 4.0, "k_d": 0.2}, {"pressure_kpa": 14.0, "k_d": 0.2}]}]},
+     r"hydroelastic.k_d_by_time_step\[0\].k_d_by_pressure' covers"),
     ({"nominal_pressure_kpaa": 6.0}, "nominal_pressure_kpaa"),
     ({"hydroelastic__k_dd": 0.3}, "hydroelastic.k_dd"),
     ({"omega_n__slope": 0.03}, "omega_n.slope"),
@@ -94,6 +114,52 @@ def test_k_d_refit_at_a_time_step_is_used_at_that_step_only():
     assert (reloaded.k_d, reloaded.fitted_time_step_s, reloaded.k_d_by_time_step) == (0.2, 0.01, ((0.005, 0.3),))
 
 
+def test_k_d_by_pressure_is_interpolated_at_its_step_and_moves_with_it():
+    table = [{"pressure_kpa": 3.0, "k_d": 0.2}, {"pressure_kpa": 4.31, "k_d": 0.25}, {"pressure_kpa": 14.0, "k_d": 0.6}]
+    cal = ShellCalibration.from_dict(_variant(hydroelastic__k_d_by_time_step=[
+        {"time_step_s": 0.01, "k_d": 0.25, "k_d_by_pressure": table}]))
+    assert [cal.k_d_at(p) for p in (3.0, 8.5, 14.0)] == [0.319] * 3  # at its fitted 5 ms: one k_d
+    at_10 = cal.for_time_step(0.01)
+    assert at_10.k_d == 0.25
+    assert at_10.k_d_at(3.0) == 0.2 and at_10.k_d_at(14.0) == pytest.approx(0.6)
+    assert at_10.k_d_at(9.155) == pytest.approx(0.425)  # halfway between 4.31 and 14 kPa
+    robot = _robot()
+    shell = at_10.bind(robot)
+    assert shell.hydroelastic(8.5)[1] == pytest.approx(at_10.k_d_at(8.5) * shell.injected_gains(8.5)[1])
+    reloaded = ShellCalibration.from_dict(at_10.raw)  # its raw mapping is a valid calibration of the same laws
+    assert reloaded.k_d_by_pressure == at_10.k_d_by_pressure and reloaded.k_d_by_time_step == ((0.005, 0.319),)
+    back = reloaded.for_time_step(0.005)  # the 10 ms table moved into the list and comes back
+    assert back.k_d_by_pressure == () and back.k_d == 0.319
+    assert back.for_time_step(0.01).k_d_by_pressure == at_10.k_d_by_pressure
+
+
+def test_default_calibration_has_one_k_d_at_every_pressure():
+    """No table in the shipped default.yaml: the hydroelastic dissipation is k_d · C_inject(p) with
+    the same k_d at every pressure and step (the registered envs' trajectories are unchanged)."""
+    robot = _robot()
+    for step in (0.005, 0.01):
+        cal = ShellCalibration.load().for_time_step(step)
+        assert cal.k_d_by_pressure == () and cal.k_d_by_pressure_at_steps == ()
+        shell = cal.bind(robot)
+        for p in (3.0, 4.31, 5.0, 8.5, 14.0):
+            assert cal.k_d_at(p) == cal.k_d
+            assert shell.hydroelastic(p)[1] == cal.k_d * shell.injected_gains(p)[1]
+
+
+def test_calibration_by_shipped_name():
+    assert ShellCalibration.load("hydroelastic_fast").source == str(asset_path("calibration", "hydroelastic_fast.yaml"))
+    assert ShellCalibration.load("default").raw == ShellCalibration.load().raw
+    with pytest.raises(ValueError, match=r"'hydroelastic_fst' is neither a file nor the name of a shipped "
+                                         r"calibration; shipped: \[.*'hydroelastic_fast'"):
+        ShellCalibration.load("hydroelastic_fst")
+
+
+def _robot():
+    from sphere_env.models.rigid_body import RobotParameters
+
+    return RobotParameters.from_urdf()
+
+
 def test_hz_message_says_rad_per_s():
     bad = _variant(omega_n__intercept_rad_s=BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi),
                    omega_n__slope_rad_s_per_kpa=0.0)
@@ -102,7 +168,7 @@ def test_hz_message_says_rad_per_s():
 
 
 def test_shipped_calibrations_still_load():
-    for name in ("default.yaml", "v0_linear.yaml", "free_robot_release.yaml"):
+    for name in ("default.yaml", "v0_linear.yaml", "free_robot_release.yaml", "hydroelastic_fast.yaml"):
         ShellCalibration.load(asset_path("calibration", name))
 
 
