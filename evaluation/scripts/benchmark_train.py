@@ -15,7 +15,10 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
   - **rollout steps/s** = env steps / (wall − update time): collection, policy forward pass and
     VecNormalize included; its ratio to cores × single-env rate (aim ≥ 80%);
   - **training steps/s** = env steps / wall, updates included; ratio (aim ≥ 50%);
-  - update share of the wall time, main-process CPU ms per env step.
+  - update share of the wall time, main-process CPU ms per env step;
+  - **main-process work per vectorized step** outside the env stepping (rollout wall time minus the
+    time inside the innermost VecEnv's ``step_wait``: policy forward pass, VecNormalize, rollout
+    buffer, callbacks), measured directly.
 * **1 core**: the shipped layout again with the whole process (threads and any worker processes)
   pinned to one core (``sched_setaffinity``), interleaved with the 2-core rows: the scaling figure.
 
@@ -26,6 +29,8 @@ per sample (measured), c the main process's work per vectorized step (fitted fro
 the GIL (outside Drake's ``AdvanceTo``, measured), which threads cannot overlap.
 
     python -m evaluation.scripts.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
+
+writes ``evaluation/results/benchmark_train.{md,json}`` (with the commit; ``--no-write``: print only).
 """
 
 from __future__ import annotations
@@ -36,7 +41,7 @@ import time
 
 import numpy as np
 
-ENV_ID = "sphere_env/RampDescent-v0"
+ENV_ID = "sphere_env/RampDescent-v2"  # the shipped PPO config's env (training/hyperparams/ppo.yml)
 ROLLOUT = 512  # samples per PPO update in the shipped RampDescent config (n_envs x n_steps)
 #: (label, overrides of the shipped YAML section); None keys cancel the YAML's value.
 LAYOUTS = {
@@ -53,6 +58,7 @@ TRAIN_COLUMNS = [
     ("rollout_steps_per_s", "rollout steps/s", "{:.0f}"), ("rollout_ratio_pct", "rollout / (cores × single) %", "{:.0f}"),
     ("train_steps_per_s", "training steps/s", "{:.0f}"), ("train_ratio_pct", "training / (cores × single) %", "{:.0f}"),
     ("update_share_pct", "update share %", "{:.0f}"), ("cpu_main_ms_per_step", "training process CPU ms/step", "{:.3f}"),
+    ("main_ms_per_vec_step", "main-process ms per vectorized step outside env stepping", "{:.3f}"),
 ]
 
 
@@ -95,8 +101,9 @@ class SingleEnv:
         from sphere_env.training.config import resolve_config
         from sphere_env.training.train import make_env
 
-        cfg = resolve_config(ENV_ID, "ppo", overrides={"env_kwargs": {"shell_model": shell_model}}, seed=seed,
-                             build_env=False)
+        # env_kwargs= merges over the YAML's env kwargs (an "env_kwargs" override would replace them,
+        # dropping the randomization and the observation options of the shipped config).
+        cfg = resolve_config(ENV_ID, "ppo", env_kwargs={"shell_model": shell_model}, seed=seed, build_env=False)
         self.env = make_env(cfg.env_id, cfg.make_kwargs(), seed)
         self.rng = np.random.default_rng(seed)
         self.twin = self.env.unwrapped.twin
@@ -136,8 +143,8 @@ class TrainCase:
         from sphere_env.training.train import make_vec_env, wrap_normalize
 
         label, over = LAYOUTS[layout]
-        overrides = {**over, "env_kwargs": {"shell_model": shell_model}}
-        cfg = resolve_config(ENV_ID, "ppo", overrides=overrides, seed=seed, build_env=False)
+        cfg = resolve_config(ENV_ID, "ppo", overrides=over, env_kwargs={"shell_model": shell_model}, seed=seed,
+                             build_env=False)
         self.cfg, self.layout, self.label, self.shell_model = cfg, layout, label, shell_model
         self.cores = cores or usable_cores()
         self.venv = wrap_normalize(cfg, make_vec_env(cfg, None))
@@ -152,13 +159,28 @@ class TrainCase:
             self.update_s += time.perf_counter() - t0
 
         self.model.train = timed_train
+        # Time inside the innermost VecEnv's step_wait (the env stepping, all threads or workers),
+        # to separate the main process's own work per vectorized step from the stepping.
+        inner = self.venv
+        while hasattr(inner, "venv"):
+            inner = inner.venv
+        self.stepping_s = 0.0
+        step_wait = inner.step_wait
+
+        def timed_step_wait():
+            t0 = time.perf_counter()
+            out = step_wait()
+            self.stepping_s += time.perf_counter() - t0
+            return out
+
+        inner.step_wait = timed_step_wait
         self._learn()  # warm-up: first reset and update, not timed
-        self.steps, self.wall, self.update_s, self.cpu_main = 0, 0.0, 0.0, 0.0
+        self.steps, self.wall, self.update_s, self.cpu_main, self.stepping_s = 0, 0.0, 0.0, 0.0, 0.0
 
     def _learn(self) -> None:
-        from sphere_env.training.train import unchecked_distributions
+        from sphere_env.training.train import lean_rollout_forward, unchecked_distributions
 
-        with unchecked_distributions():  # as the trainer runs
+        with unchecked_distributions(), lean_rollout_forward(self.model.policy):  # as the trainer runs
             self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
 
     @property
@@ -240,6 +262,7 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
                              rollout_steps_per_s=rollout, rollout_ratio_pct=100 * rollout / (c.cores * single),
                              train_steps_per_s=train, train_ratio_pct=100 * train / (c.cores * single),
                              update_share_pct=100 * c.update_s / c.wall, cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
+                             main_ms_per_vec_step=1e3 * (c.wall - c.update_s - c.stepping_s) / (c.steps / c.cfg.n_envs),
                              update_ms_per_step=1e3 * c.update_s / c.steps, n_envs=c.cfg.n_envs,
                              n_steps=c.cfg.hyperparams["n_steps"], n_threads=c.cfg.n_threads, n_workers=c.cfg.n_workers))
         model[m] = scaling_model(rows, m, cores)
@@ -276,7 +299,8 @@ def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
 
     grid = (1, 2, 4, 8, 16, 64)
     return {"env_ms_per_step": 1e3 * e, "gil_ms_per_step": 1e3 * g, "update_ms_per_step": 1e3 * u,
-            "main_ms_per_vec_step": 1e3 * c, "n_envs": n_envs,
+            "main_ms_per_vec_step": 1e3 * c, "main_ms_per_vec_step_measured": full["main_ms_per_vec_step"],
+            "n_envs": n_envs,
             "measured_1_core": one["train_steps_per_s"], f"measured_{cores}_cores": full["train_steps_per_s"],
             "predicted_shipped": {n: rate(n, n_envs) for n in grid},
             "predicted_one_env_per_core": {n: rate(n, n) for n in grid},
@@ -301,7 +325,9 @@ def report_markdown(result: dict) -> str:
         wide = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_one_env_per_core"].items())
         lines += ["", f"Scaling model, {m} (t = u + c/n + max(e/min(N, n), g) per env step): env step e = "
                   f"{fit['env_ms_per_step']:.3f} ms, of it g = {fit['gil_ms_per_step']:.3f} ms holding the GIL; "
-                  f"main process c = {fit['main_ms_per_vec_step']:.3f} ms per vectorized step; PPO update "
+                  f"main process c = {fit['main_ms_per_vec_step']:.3f} ms per vectorized step (fitted; measured "
+                  f"directly outside the env stepping: {fit['main_ms_per_vec_step_measured']:.3f} ms, the rest is "
+                  "stepping that did not overlap); PPO update "
                   f"u = {fit['update_ms_per_step']:.3f} ms per sample. Predicted training steps/s by cores N, shipped "
                   f"{fit['n_envs']} envs: {ship}; one env per core (n = N, threads): {wide}. Threads stop helping "
                   f"beyond ≈ e/g = {fit['max_threads_useful']:.0f} per process."]
@@ -309,18 +335,35 @@ def report_markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from sphere_env.evaluation.reporting import machine_info
+    import json
+    import sys
+    from datetime import datetime, timezone
+
+    from sphere_env.evaluation.reporting import RESULTS, machine_info
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=24.0, help="timed wall seconds per case (all rounds)")
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds")
     parser.add_argument("--shell-models", nargs="+", default=["point", "injected"])
     parser.add_argument("--no-one-core", action="store_true", help="skip the 1-core (pinned) rows")
+    parser.add_argument("--no-write", action="store_true",
+                        help="print only (default: also write evaluation/results/benchmark_train.{md,json})")
     args = parser.parse_args(argv)
     result = run_train_benchmark(args.seconds, tuple(args.shell_models), args.rounds, one_core=not args.no_one_core)
     info = machine_info()
-    print(f"Machine: {info['cpu']}, {info['cores']} cores; torch {info['torch']}, sb3 {info['stable_baselines3']}\n")
-    print(report_markdown(result))
+    command = " ".join(["python -m evaluation.scripts.benchmark_train", *(argv if argv is not None else sys.argv[1:])])
+    text = "\n".join([
+        "# sphere_env training throughput", "",
+        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `{command}` (commit {info['commit']}).",
+        f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
+        f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.", "",
+        f"PPO on {ENV_ID}, shipped hyperparameters, VecNormalize and pressure randomization on.", "",
+        report_markdown(result)]) + "\n"
+    print(text)
+    if not args.no_write:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        (RESULTS / "benchmark_train.md").write_text(text)
+        (RESULTS / "benchmark_train.json").write_text(json.dumps({"machine": info, "train": result}, indent=2))
 
 
 if __name__ == "__main__":
