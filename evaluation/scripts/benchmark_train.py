@@ -178,9 +178,9 @@ class TrainCase:
         self.steps, self.wall, self.update_s, self.cpu_main, self.stepping_s = 0, 0.0, 0.0, 0.0, 0.0
 
     def _learn(self) -> None:
-        from sphere_env.training.train import lean_rollout_forward, unchecked_distributions
+        from sphere_env.training.train import unchecked_distributions
 
-        with unchecked_distributions(), lean_rollout_forward(self.model.policy):  # as the trainer runs
+        with unchecked_distributions():  # as the trainer runs
             self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
 
     @property

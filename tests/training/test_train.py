@@ -3,8 +3,6 @@ resume continues the step count, training improves the evaluation return."""
 
 from __future__ import annotations
 
-import contextlib
-
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -298,34 +296,3 @@ def test_unchecked_distributions_train_the_same_network_and_restore_the_checks()
         unchecked = run()
     assert torch.distributions.Distribution._validate_args
     assert torch.equal(checked, unchecked)
-
-
-def test_lean_rollout_forward_trains_the_same_network_and_is_removed_after():
-    """The trainer's lean policy forward pass for rollouts gives the same PPO run bit for bit (2 envs,
-    VecNormalize, sampled actions and their log probabilities through the rollouts and updates), and
-    the stock forward is back after the block. Policies it does not reproduce keep the stock one."""
-    import torch
-    from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
-
-    from sphere_env.training.train import lean_rollout_forward, unchecked_distributions
-
-    def run(lean: bool):
-        venv = VecNormalize(DummyVecEnv([lambda: gym.make("sphere_env/RampDescent-v2", shell_model="point")] * 2),
-                            gamma=0.999)
-        model = PPO("MlpPolicy", venv, n_steps=64, batch_size=32, n_epochs=2, seed=3, device="cpu",
-                    policy_kwargs={"net_arch": [64, 64], "log_std_init": -2.0})
-        with unchecked_distributions(), (lean_rollout_forward(model.policy) if lean else contextlib.nullcontext()):
-            assert ("forward" in model.policy.__dict__) == lean  # the lean pass is the one in use
-            model.learn(256)
-        assert "forward" not in model.policy.__dict__
-        return torch.nn.utils.parameters_to_vector(model.policy.parameters()).detach(), venv.obs_rms.mean
-
-    (stock, stock_mean), (lean, lean_mean) = run(False), run(True)
-    assert torch.equal(stock, lean)
-    np.testing.assert_array_equal(stock_mean, lean_mean)
-
-    sac = SAC("MlpPolicy", gym.make("sphere_env/RampDescent-v2", shell_model="point"), device="cpu",
-              learning_starts=0, buffer_size=100)
-    with lean_rollout_forward(sac.policy):
-        assert "forward" not in sac.policy.__dict__
