@@ -397,8 +397,8 @@ def report(acc: dict, spd: dict, pressures, args, info: dict) -> tuple[str, dict
         "(the matching of the calibration CLI's `kd-step`): the damping the steer couple was fitted to the "
         "robot's logs with. With one k_d the hydroelastic decay's ζ falls with pressure faster than the "
         "calibration's curve, so no single-k_d row meets ζ(p) at 8.5 and 14 kPa. `hydroelastic_fast.yaml` holds "
-        "at 10 ms a k_d per pressure (`k_d_by_pressure`, fitted to ζ(p) by `python -m sphere_env.calibration "
-        "kd-pressure`), interpolated linearly in pressure."),
+        "at 10 ms a k_d per pressure (`k_d_by_pressure`, fitted to ζ(p) by the calibration CLI's "
+        "`kd-pressure`), interpolated linearly in pressure."),
         "",
         (f"Ramp references (6 s down the 16° ramp at {acc['nominal_pressure_kpa']:g} kPa, 0.5 ms step, 0.05 m mesh): "
          "the constraint's is the shipped setting (k_d 0.319, fitted at 5 ms, whose locked-steer decay at 0.5 ms "
