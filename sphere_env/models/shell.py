@@ -646,6 +646,20 @@ def _low_pressure_mesh(sec: Any, pressure_range_kpa: tuple[float, float], path: 
     return below, hint
 
 
+def _records(sec: list, where: str, keys: tuple[str, ...], shape: str, path: str):
+    """(``"<where>[i]"``, entry) for each entry of a calibration list of records, each checked to be a
+    mapping with no key outside ``keys`` (``ValueError`` naming the field otherwise)."""
+    for i, entry in enumerate(sec):
+        at = f"{where}[{i}]"
+        if not isinstance(entry, Mapping):
+            raise ValueError(f"calibration file {path!r}: field '{at}' = {entry!r} must be a mapping {shape}")
+        unknown = sorted(str(k) for k in entry if k not in keys)
+        if unknown:
+            raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
+                             f"allowed: {list(keys)}")
+        yield at, entry
+
+
 def interpolate_k_d(table: tuple[tuple[float, float], ...], pressure_kpa: float) -> float:
     """k_d of a ``k_d_by_pressure`` table at a pressure, linear between its points."""
     return float(np.interp(float(pressure_kpa), [q for q, _ in table], [k for _, k in table]))
@@ -666,15 +680,7 @@ def _k_d_by_pressure(sec: Any, where: str, pressure_range_kpa: tuple[float, floa
         raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be {shape}")
     out: list[tuple[float, float]] = []
     plo, phi_ = PLAUSIBLE_PRESSURE_KPA
-    for i, entry in enumerate(sec):
-        at = f"{where}[{i}]"
-        if not isinstance(entry, Mapping):
-            raise ValueError(f"calibration file {path!r}: field '{at}' = {entry!r} must be a mapping "
-                             "{pressure_kpa: ..., k_d: ...}")
-        unknown = sorted(str(k) for k in entry if k not in K_D_PRESSURE_KEYS)
-        if unknown:
-            raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
-                             f"allowed: {list(K_D_PRESSURE_KEYS)}")
+    for at, entry in _records(sec, where, K_D_PRESSURE_KEYS, "{pressure_kpa: ..., k_d: ...}", path):
         q, k_d = _number(entry, "pressure_kpa", at, path), _number(entry, "k_d", at, path)
         if not plo <= q <= phi_:
             raise ValueError(f"calibration file {path!r}: field '{at}.pressure_kpa' = {q!r} must lie in "
@@ -715,15 +721,7 @@ def _k_d_by_time_step(sec: Any, fitted_step: Any, pressure_range_kpa: tuple[floa
     out: list[tuple[float, float]] = []
     tables: list[tuple[float, tuple[tuple[float, float], ...]]] = []
     tlo, thi = FITTED_TIME_STEP_RANGE_S
-    for i, entry in enumerate(sec):
-        at = f"{where}[{i}]"
-        if not isinstance(entry, Mapping):
-            raise ValueError(f"calibration file {path!r}: field '{at}' = {entry!r} must be a mapping "
-                             "{time_step_s: ..., k_d: ...}")
-        unknown = sorted(str(k) for k in entry if k not in K_D_STEP_KEYS)
-        if unknown:
-            raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
-                             f"allowed: {list(K_D_STEP_KEYS)}")
+    for at, entry in _records(sec, where, K_D_STEP_KEYS, "{time_step_s: ..., k_d: ...}", path):
         step, k_d = _number(entry, "time_step_s", at, path), _number(entry, "k_d", at, path)
         if not tlo <= step <= thi:
             raise ValueError(f"calibration file {path!r}: field '{at}.time_step_s' = {step!r} must lie in "
