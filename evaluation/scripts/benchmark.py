@@ -23,6 +23,7 @@ from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import Twin, TwinConfig
 
 from sphere_env.evaluation.reporting import RESULTS, machine_info, markdown_table
+from sphere_env.files import write_text_atomic
 
 CHUNK_S = 0.02
 RAMP = dict(incline_deg=16.0, ramp_length_m=4.0)
@@ -145,8 +146,9 @@ def main(argv: list[str] | None = None) -> None:
                report_markdown(train)]
     text = "\n".join(md) + "\n"
     RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "benchmark.md").write_text(text)
-    (RESULTS / "benchmark.json").write_text(json.dumps({"machine": info, "twin": twin_rows, "env": env_rows, "train": train}, indent=2))
+    write_text_atomic(RESULTS / "benchmark.md", text)
+    write_text_atomic(RESULTS / "benchmark.json",
+                      json.dumps({"machine": info, "twin": twin_rows, "env": env_rows, "train": train}, indent=2))
     print(text)
 
 

@@ -14,8 +14,9 @@ from sphere_env.tasks.task import Scene, Task, finite_option
 from sphere_env.tasks.termination import ramp_status
 
 
-#: Bound of the observed speed-error integral ∫(ω_ref − ω_d) dt [rad] (anti-windup): the tuned PD's
-#: integral term saturates the pendulum lift reference at about 1.7 rad.
+#: Bound of the observed speed-error integral ∫(ω_ref − ω_d) dt [rad] (anti-windup). It lies above the
+#: tuned PD's own integral bound (about 1.7 rad, where its lift reference saturates), so the policy sees
+#: every value the PD's integral term can act on.
 SPEED_ERROR_INTEGRAL_LIMIT_RAD = 3.0
 
 
@@ -91,7 +92,8 @@ class RampDescentTask(Task):
     fails every point-contact episode of the evaluation grid (measured), so a memoryless policy
     gets them as observations. A real robot computes both from its own ω_d the same way.
 
-    Measured components 0–10, 13, 14 get Gaussian noise of ``observation_noise_scale`` × the defaults in
+    The measured components (0–10) and the pendulum pitch and its rate get Gaussian noise of
+    ``observation_noise_scale`` × the defaults in
     :data:`sphere_env.tasks.observation.DEFAULT_NOISE_STD` (off by default).
 
     **Reward** = Σ terms, each reported as ``info["reward_<term>"]``
