@@ -184,35 +184,40 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
             layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model in ("injected", "hydroelastic"),
             terrain.normal_at,
         )
-        k = kinematics[0] if kinematics is not None else np.array([], dtype=object)
+        k = kinematics[2] if kinematics is not None else np.array([], dtype=object)
         forces = builder.AddNamedSystem(
             "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, k, g]), output=out)
         )
         gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
         mux = builder.AddSystem(Multiplexer([nq + nv, len(k), len(g)] if len(k) else [nq + nv, len(g)]))
         builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
+        if len(k):
+            # Stage 2: φ, φ̇ and the rocking axis from stage 1's projections (ŷ and ω_d pass on).
+            p, p_exprs, _, k_exprs = kinematics
+            angles = builder.AddNamedSystem("shell_pipe_angle", SymbolicVectorSystem(input=p, output=k_exprs))
+            builder.Connect(angles.get_output_port(), mux.get_input_port(1))
         if len(k) and len(cfg.inclines_deg) > 1:
             # One stage-1 system per incline (the ground normal is a constant of the expressions,
             # exactly as for a single incline); a PortSwitch passes the current incline's on.
             # Only the selected input is evaluated.
-            switch = builder.AddNamedSystem("shell_kinematics_switch", PortSwitch(len(k)))
+            switch = builder.AddNamedSystem("shell_kinematics_switch", PortSwitch(len(p)))
             for inc in cfg.inclines_deg:
                 if inc == cfg.incline_deg:
-                    x_i, k_exprs = x, kinematics[1]
+                    x_i, p_exprs_i = x, p_exprs
                 else:
                     x_i, _, _, kin_i = build_force_expressions(
                         layout, cfg.steer_friction, cfg.drive_friction, True, Terrain(inc, cfg.ramp_length_m).normal_at)
-                    k_exprs = kin_i[1]
-                kin = builder.AddNamedSystem(f"shell_kinematics_{inc:g}deg", SymbolicVectorSystem(input=x_i, output=k_exprs))
+                    p_exprs_i = kin_i[1]
+                kin = builder.AddNamedSystem(f"shell_kinematics_{inc:g}deg", SymbolicVectorSystem(input=x_i, output=p_exprs_i))
                 builder.Connect(plant.get_state_output_port(), kin.get_input_port())
                 port = switch.DeclareInputPort(f"incline_{inc:g}deg")
                 builder.Connect(kin.get_output_port(), port)
                 kinematics_ports[inc] = port.get_index()
-            builder.Connect(switch.get_output_port(), mux.get_input_port(1))
-        elif len(k):  # stage 1: φ, φ̇, axis, ŷ, ω_d computed once per step
-            kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(input=x, output=kinematics[1]))
+            builder.Connect(switch.get_output_port(), angles.get_input_port())
+        elif len(k):  # stage 1: ŷ·n, ŷ×n, ẏ·n, ŷ, ω_d computed once per step
+            kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(input=x, output=p_exprs))
             builder.Connect(plant.get_state_output_port(), kin.get_input_port())
-            builder.Connect(kin.get_output_port(), mux.get_input_port(1))
+            builder.Connect(kin.get_output_port(), angles.get_input_port())
         builder.Connect(gain_source.get_output_port(), mux.get_input_port(mux.num_input_ports() - 1))
         builder.Connect(mux.get_output_port(), forces.get_input_port())
         builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())

@@ -55,6 +55,23 @@ def cross3(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
+def pipe_projections(y_W, w_W, n_W):
+    """The driveshaft axis ŷ against the ground normal n: (ŷ·n, ŷ×n, ẏ·n) with ẏ = ω × ŷ, given
+    y_W, the base angular velocity w_W and n_W (all world-frame; symbolic or numeric)."""
+    return _dot(y_W, n_W), cross3(y_W, n_W), _dot(cross3(w_W, y_W), n_W)
+
+
+def pipe_angle_from_projections(s, yxn, y_dot_n):
+    """φ, φ̇ and the rocking axis from :func:`pipe_projections` (see :func:`pipe_angle_expressions`)."""
+    symbolic = any(isinstance(a, (Expression, Variable)) for a in (s, *yxn, y_dot_n))
+    sqrt, atan2, fmax = (sym.sqrt, sym.atan2, sym.max) if symbolic else (math.sqrt, math.atan2, max)
+    cos_phi = fmax(sqrt(_dot(yxn, yxn)), COS_PHI_FLOOR)
+    phi = atan2(s, cos_phi)
+    phi_dot = y_dot_n / cos_phi
+    axis = [c / cos_phi for c in yxn]
+    return phi, phi_dot, axis
+
+
 def pipe_angle_expressions(y_W, w_W, n_W):
     """φ, φ̇ and the rocking axis, given the driveshaft axis y_W, base angular velocity w_W and the
     ground normal n_W (all world-frame; symbolic or numeric).
@@ -62,32 +79,29 @@ def pipe_angle_expressions(y_W, w_W, n_W):
     φ = atan2(ŷ·n, |ŷ×n|): the driveshaft's tilt against the ground (= asin(ŷ·n) for a unit ŷ),
     positive about the axis ŷ×n/|ŷ×n|. |ŷ×n| is floored at COS_PHI_FLOOR so the rates stay bounded
     when the driveshaft stands vertical (φ → ±90°, far outside the shell model's validity).
+    φ̇ = (ω × ŷ)·n / |ŷ×n|.
     """
-    s = _dot(y_W, n_W)
-    yxn = cross3(y_W, n_W)
-    symbolic = isinstance(s, Expression) or isinstance(yxn[0], Expression)
-    sqrt, atan2, fmax = (sym.sqrt, sym.atan2, sym.max) if symbolic else (math.sqrt, math.atan2, max)
-    cos_phi = fmax(sqrt(_dot(yxn, yxn)), COS_PHI_FLOOR)
-    phi = atan2(s, cos_phi)
-    y_dot = cross3(w_W, y_W)
-    phi_dot = _dot(y_dot, n_W) / cos_phi
-    axis = [c / cos_phi for c in yxn]
-    return phi, phi_dot, axis
+    return pipe_angle_from_projections(*pipe_projections(y_W, w_W, n_W))
 
 
+# Stage 1 of the shell kinematics (in the state x): ŷ·n, ŷ×n, ẏ·n, ŷ, ω_d.
+PROJECTION_NAMES = ("s", "yxn_x", "yxn_y", "yxn_z", "y_dot_n", "p_y_x", "p_y_y", "p_y_z", "p_omega_d")
+# Stage 2 (in the stage-1 outputs): what the shell law reads.
 KINEMATICS_NAMES = ("phi", "phi_dot", "axis_x", "axis_y", "axis_z", "y_x", "y_y", "y_z", "omega_d")
 
 
 def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, ground_normal_fn):
-    """Expressions of the force system, in two stages.
+    """Expressions of the force system, in three stages.
 
     Returns ``(x, g, out, kinematics)``: state variables x = [q; v], gain variables g, the output
     generalized forces ``out`` (size nv), and for the injected model on a floating base
-    ``kinematics = (k, k_exprs)``: variables k (:data:`KINEMATICS_NAMES`: φ, φ̇, rocking axis,
-    ŷ_PC, ω_d) with their expressions in x. ``out`` is written in terms of x, k and g. Drake's
-    expression evaluation shares no subexpressions, so computing k once in a first system and
-    feeding it to the second evaluates the quaternion/φ tree once per step instead of once per
-    output component.
+    ``kinematics = (p, p_exprs, k, k_exprs)``: stage 1, variables p (:data:`PROJECTION_NAMES`:
+    ŷ·n, ŷ×n, ẏ·n, ŷ_PC, ω_d) with their expressions in x; stage 2, variables k
+    (:data:`KINEMATICS_NAMES`: φ, φ̇, rocking axis, ŷ_PC, ω_d) with their expressions in p. ``out``
+    is written in terms of x, k and g. Drake's expression evaluation shares no subexpressions, so
+    each stage is its own system and a later stage reads the earlier one's outputs as variables:
+    the quaternion/normal tree is evaluated once per step, |ŷ×n| once per φ, φ̇ and axis component
+    (not the quaternion tree inside each), and φ once per output component.
 
     ``shell_couple``: add the shell couple (the injected law; the hydroelastic model carries its
     steer part on top of hydroelastic contact, with the gains :meth:`BoundShell.law_gains` gives).
@@ -114,12 +128,16 @@ def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, gr
         y_W = quaternion_y_axis(*q[qi : qi + 4])
         w_W = v[wi : wi + 3]
         n_W = ground_normal_fn(q[pi : pi + 3])
-        phi, phi_dot, axis = pipe_angle_expressions(y_W, w_W, n_W)
         # ω_d: shell angular velocity about the driveshaft, + when rolling toward +x_PC.
         drive_rate = v[layout["drive_v"]] if not layout["drive_locked"] else 0.0
         omega_d = _dot(w_W, y_W) - drive_rate
+        s, yxn, y_dot_n = pipe_projections(y_W, w_W, n_W)
+        p = np.array([Variable(n) for n in PROJECTION_NAMES])
+        p_exprs = np.array([s, *yxn, y_dot_n, *y_W, omega_d], dtype=object)
+        phi, phi_dot, axis = pipe_angle_from_projections(p[0], p[1:4], p[4])
         k = np.array([Variable(n) for n in KINEMATICS_NAMES])
-        kinematics = (k, np.array([phi, phi_dot, *axis, *y_W, omega_d], dtype=object))
+        k_exprs = np.array([phi, phi_dot, *axis, *(Expression(c) for c in p[5:9])], dtype=object)
+        kinematics = (p, p_exprs, k, k_exprs)
         k_phi, k_phi_dot, k_axis, k_y, k_omega_d = k[0], k[1], k[2:5], k[5:8], k[8]
         # eq. 9 / the calibration's steer law, and §IV's drive damper (no K_inject there)
         tau_phi, tau_d = injected_torques(k_phi, k_phi_dot, k_omega_d, *law_g, m=SYMBOLIC)
