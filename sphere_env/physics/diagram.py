@@ -26,7 +26,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, Multibod
 from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, PortSwitch, SymbolicVectorSystem
+from pydrake.systems.primitives import PortSwitch, SymbolicVectorSystem
 
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import BoundShell
@@ -57,8 +57,10 @@ class TwinDiagram:
     shell_geometry: Any
     shell_source_id: Any
     layout: dict  # state indices: nq, nv, base kind, base/steer/drive q and v starts, locks
-    gain_source: Any  # [K_inject, C_inject, steer scale, drive scale] source; None for a bare plant
-    gain_context: Any
+    # The friction/shell-couple system, whose numeric parameter 0 holds the gains
+    # (forces.GAIN_NAMES), and its context; None for a bare plant.
+    forces: Any
+    forces_context: Any
     motor_port: Any  # [τ_steer, τ_drive] N m
     visualizer: Any  # MeshcatVisualizer or None
     ground_ids: dict  # ground geometry name -> GeometryId (Terrain.geometries)
@@ -177,30 +179,34 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
 
     # Friction + injected shell forces, evaluated in C++. A bare plant (benchmark floor) leaves
     # the applied-generalized-force port unconnected, i.e. zero.
-    gain_source = switch = None
+    forces = switch = None
     kinematics_ports: dict = {}
     if not cfg.bare_plant:
         x, g, out, kinematics = build_force_expressions(
             layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model in ("injected", "hydroelastic"),
             terrain.normal_at,
         )
+        # The gains are the force system's numeric parameter (set in its context by the twin), so
+        # the systems form a chain without a Multiplexer: each stage passes on the state entries
+        # the forces read directly (the joint rates of the friction laws).
+        used = {u.get_id() for e in out for u in e.GetVariables()}
+        x_idx = [i for i, xi in enumerate(x) if xi.get_id() in used]
         k = kinematics[2] if kinematics is not None else np.array([], dtype=object)
+        forces_input = np.concatenate([k, x[x_idx]]) if len(k) else x
         forces = builder.AddNamedSystem(
-            "shell_and_friction", SymbolicVectorSystem(input=np.concatenate([x, k, g]), output=out)
+            "shell_and_friction", SymbolicVectorSystem(input=forces_input, parameter=g, output=out)
         )
-        gain_source = builder.AddNamedSystem("gains", ConstantVectorSource(np.zeros(len(g))))
-        mux = builder.AddSystem(Multiplexer([nq + nv, len(k), len(g)] if len(k) else [nq + nv, len(g)]))
-        builder.Connect(plant.get_state_output_port(), mux.get_input_port(0))
         if len(k):
             # Stage 2: φ, φ̇ and the rocking axis from stage 1's projections (ŷ and ω_d pass on).
             p, p_exprs, _, k_exprs = kinematics
-            angles = builder.AddNamedSystem("shell_pipe_angle", SymbolicVectorSystem(input=p, output=k_exprs))
-            builder.Connect(angles.get_output_port(), mux.get_input_port(1))
+            angles = builder.AddNamedSystem("shell_pipe_angle", SymbolicVectorSystem(
+                input=np.concatenate([p, x[x_idx]]), output=np.concatenate([k_exprs, x[x_idx]])))
+            builder.Connect(angles.get_output_port(), forces.get_input_port())
         if len(k) and len(cfg.inclines_deg) > 1:
             # One stage-1 system per incline (the ground normal is a constant of the expressions,
             # exactly as for a single incline); a PortSwitch passes the current incline's on.
             # Only the selected input is evaluated.
-            switch = builder.AddNamedSystem("shell_kinematics_switch", PortSwitch(len(p)))
+            switch = builder.AddNamedSystem("shell_kinematics_switch", PortSwitch(len(p) + len(x_idx)))
             for inc in cfg.inclines_deg:
                 if inc == cfg.incline_deg:
                     x_i, p_exprs_i = x, p_exprs
@@ -208,18 +214,20 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
                     x_i, _, _, kin_i = build_force_expressions(
                         layout, cfg.steer_friction, cfg.drive_friction, True, Terrain(inc, cfg.ramp_length_m).normal_at)
                     p_exprs_i = kin_i[1]
-                kin = builder.AddNamedSystem(f"shell_kinematics_{inc:g}deg", SymbolicVectorSystem(input=x_i, output=p_exprs_i))
+                kin = builder.AddNamedSystem(f"shell_kinematics_{inc:g}deg", SymbolicVectorSystem(
+                    input=x_i, output=np.concatenate([p_exprs_i, x_i[x_idx]])))
                 builder.Connect(plant.get_state_output_port(), kin.get_input_port())
                 port = switch.DeclareInputPort(f"incline_{inc:g}deg")
                 builder.Connect(kin.get_output_port(), port)
                 kinematics_ports[inc] = port.get_index()
             builder.Connect(switch.get_output_port(), angles.get_input_port())
         elif len(k):  # stage 1: ŷ·n, ŷ×n, ẏ·n, ŷ, ω_d computed once per step
-            kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(input=x, output=p_exprs))
+            kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(
+                input=x, output=np.concatenate([p_exprs, x[x_idx]])))
             builder.Connect(plant.get_state_output_port(), kin.get_input_port())
             builder.Connect(kin.get_output_port(), angles.get_input_port())
-        builder.Connect(gain_source.get_output_port(), mux.get_input_port(mux.num_input_ports() - 1))
-        builder.Connect(mux.get_output_port(), forces.get_input_port())
+        else:
+            builder.Connect(plant.get_state_output_port(), forces.get_input_port())
         builder.Connect(forces.get_output_port(), plant.get_applied_generalized_force_input_port())
 
     # Motor torques [τ_steer, τ_drive] at the joints, N m.
@@ -241,15 +249,13 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
     sg_context = scene_graph.GetMyMutableContextFromRoot(context)
-    gain_context = (
-        None if gain_source is None else gain_source.GetMyMutableContextFromRoot(context)
-    )
+    forces_context = None if forces is None else forces.GetMyMutableContextFromRoot(context)
     motor_port = diagram.get_input_port(0)
     return TwinDiagram(
         diagram=diagram, simulator=simulator, context=context, plant=plant, scene_graph=scene_graph,
         plant_context=plant_context, sg_context=sg_context, model_instance=model_instance, pc=pc, pipe=pipe,
         pendulum=pendulum, planar=planar, steer=steer, drive=drive, shell_geometry=shell_geometry,
-        shell_source_id=shell_source_id, layout=layout, gain_source=gain_source, gain_context=gain_context,
+        shell_source_id=shell_source_id, layout=layout, forces=forces, forces_context=forces_context,
         motor_port=motor_port, visualizer=visualizer, ground_ids=ground_ids, kinematics_ports=kinematics_ports,
         kinematics_switch=switch,
     )

@@ -1,16 +1,17 @@
-"""Joint friction and the shell couple as a Drake system evaluated in C++.
+"""Joint friction and the shell couple as Drake systems evaluated in C++.
 
 The laws are the pure functions of :mod:`sphere_env.models` (friction laws, and the shell's
-:func:`~sphere_env.models.shell.injected_torques`), evaluated with Drake's symbolic math into one
-``SymbolicVectorSystem``. Drake then evaluates the expression tree in C++ at every plant step,
+:func:`~sphere_env.models.shell.injected_torques`), evaluated with Drake's symbolic math into
+``SymbolicVectorSystem`` s. Drake then evaluates the expression trees in C++ at every plant step,
 which costs a few µs instead of the 25–70 µs of a Python ``LeafSystem``.
 
-Input ``x``: the plant state [q; v]. Input ``gains``: :data:`GAIN_NAMES` — the shell law's numbers
+The force system's input is the plant state [q; v] (for the injected couple on a floating base,
+the shell kinematics of the two stages before it, and the state entries the friction laws read).
+Its numeric parameter: :data:`GAIN_NAMES` — the shell law's numbers
 (:data:`~sphere_env.models.shell.LAW_GAIN_NAMES`: K_inject, C_steer, C_drive, φ_0, amplitude terms)
-then the two friction scale factors, fed by a ``ConstantVectorSource`` whose context value the
-twin updates when pressure or calibration change (``BoundShell.law_gains``).
-Output: generalized forces (size nv) for the plant's applied-generalized-force port.
-"""
+then the two friction scale factors, which the twin sets in the context when pressure or
+calibration change (``BoundShell.law_gains``).
+Output: generalized forces (size nv) for the plant's applied-generalized-force port."""
 
 from __future__ import annotations
 

@@ -136,7 +136,7 @@ class Twin:
         self._ground_dirty = False
         self._select_kinematics()
         self._layout = d.layout
-        self._gain_source, self._gain_context, self._motor_port = d.gain_source, d.gain_context, d.motor_port
+        self._forces, self._forces_context, self._motor_port = d.forces, d.forces_context, d.motor_port
         self._motor_port.FixValue(self.context, np.zeros(2))
         self._friction_scale = np.array([1.0, 1.0])
         self._ground_friction = float(self.config.ground_friction)
@@ -244,10 +244,10 @@ class Twin:
         self._apply_gains()
 
     def _apply_gains(self) -> None:
-        if self._gain_source is None:  # bare plant
+        if self._forces is None:  # bare plant
             return
         law = self.shell.law_gains(self.config.shell_model, self._pressure_kpa)
-        self._gain_source.get_mutable_source_value(self._gain_context).SetFromVector(
+        self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(
             np.concatenate([law, self._friction_scale])
         )
 
