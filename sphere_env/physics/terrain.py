@@ -69,7 +69,10 @@ class Terrain:
         if math.isinf(self._x_runout):
             return self._n_ramp
         if isinstance(p_W[0], (Expression, Variable)):  # symbolic state variables are Variables
-            return tuple(if_then_else(p_W[0] < self._x_runout, nr, nz) for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
+            # A component the ramp and the run-out share (n_y = 0) is a constant: no branch to
+            # evaluate, and its products drop out of the expressions that use it.
+            return tuple(nr if nr == nz else if_then_else(p_W[0] < self._x_runout, nr, nz)
+                         for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
         return self._n_ramp if p_W[0] < self._x_runout else (0.0, 0.0, 1.0)
 
     def geometries(self) -> list[tuple[str, RigidTransform, object, np.ndarray | None]]:
