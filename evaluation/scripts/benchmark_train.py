@@ -7,8 +7,8 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
 
 * **single env**: one Monitor-wrapped env (as a training worker builds it) stepped with random
   actions, episode resets included — the rate one core can step.
-* per **layout** (the shipped one, the former 2-process default, several envs per process, several
-  envs per thread; every layout keeps the shipped rollout of 512 samples per update, so more envs
+* per **layout** (the shipped one, the former defaults, several envs per process, several envs per
+  thread; every layout keeps the shipped rollout of :data:`ROLLOUT` samples per update, so more envs
   mean shorter ``n_steps`` segments, which changes what PPO learns):
   PPO ``learn`` one update at a time, after a warm-up update.
 
@@ -18,7 +18,10 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
   - update share of the wall time, main-process CPU ms per env step;
   - **main-process work per vectorized step** outside the env stepping (rollout wall time minus the
     time inside the innermost VecEnv's ``step_wait``: policy forward pass, VecNormalize, rollout
-    buffer, callbacks), measured directly.
+    buffer, callbacks), measured directly;
+  - **env stepping alone**: env steps / time inside ``step_wait``, against cores × single-env rate:
+    the rollout ratio's ceiling with a free policy (SB3 waits for every vectorized step before the
+    next forward pass, so the two do not overlap).
 * **1 core**: the shipped layout again with the whole process (threads and any worker processes)
   pinned to one core (``sched_setaffinity``), interleaved with the 2-core rows: the scaling figure.
 
@@ -42,22 +45,23 @@ import time
 import numpy as np
 
 ENV_ID = "sphere_env/RampDescent-v2"  # the shipped PPO config's env (training/hyperparams/ppo.yml)
-#: samples per PPO update (n_envs x n_steps) in every timed layout; the shipped RampDescent-v2 config
-#: updates on 2048, and the update's cost per sample does not depend on the rollout size
-ROLLOUT = 512
-#: (label, overrides of the shipped YAML section); None keys cancel the YAML's value.
+#: samples per PPO update (n_envs x n_steps) in every timed layout: the shipped RampDescent-v2 config's
+ROLLOUT = 2048
+#: (label, overrides of the shipped YAML section); None keys cancel the YAML's value. Every layout keeps
+#: the shipped rollout of ROLLOUT samples per update (n_steps = ROLLOUT / n_envs).
 LAYOUTS = {
     "shipped": ("shipped config", {}),
-    "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None, "n_steps": 256}),
-    "proc8": ("8 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 8, "n_threads": None, "n_workers": 2, "n_steps": 64}),
-    "proc16": ("16 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 16, "n_threads": None, "n_workers": 2, "n_steps": 32}),
-    "thread8": ("8 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 8, "n_threads": 2, "n_steps": 64}),
-    "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2, "n_steps": 32}),
+    "thread2": ("2 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 2, "n_threads": 2}),
+    "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None}),
+    "proc8": ("8 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 8, "n_threads": None, "n_workers": 2}),
+    "proc16": ("16 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 16, "n_threads": None, "n_workers": 2}),
+    "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2}),
 }
 TRAIN_COLUMNS = [
     ("shell_model", "shell", ""), ("case", "case", ""), ("cores", "cores", "{:d}"),
     ("steps", "env steps timed", "{:d}"), ("single_env_steps_per_s", "env steps/s", "{:.0f}"),
     ("rollout_steps_per_s", "rollout steps/s", "{:.0f}"), ("rollout_ratio_pct", "rollout / (cores × single) %", "{:.0f}"),
+    ("stepping_ratio_pct", "env stepping alone / (cores × single) %", "{:.0f}"),
     ("train_steps_per_s", "training steps/s", "{:.0f}"), ("train_ratio_pct", "training / (cores × single) %", "{:.0f}"),
     ("update_share_pct", "update share %", "{:.0f}"), ("cpu_main_ms_per_step", "training process CPU ms/step", "{:.3f}"),
     ("main_ms_per_vec_step", "main-process ms per vectorized step outside env stepping", "{:.3f}"),
@@ -145,8 +149,13 @@ class TrainCase:
         from sphere_env.training.train import make_vec_env, wrap_normalize
 
         label, over = LAYOUTS[layout]
+        if "n_envs" in over:
+            over = dict(over, n_steps=ROLLOUT // over["n_envs"])
         cfg = resolve_config(ENV_ID, "ppo", overrides=over, env_kwargs={"shell_model": shell_model}, seed=seed,
                              build_env=False)
+        if cfg.n_envs * cfg.hyperparams["n_steps"] != ROLLOUT:
+            raise ValueError(f"layout {layout!r}: {cfg.n_envs} x {cfg.hyperparams['n_steps']} samples per update, "
+                             f"not the shipped {ROLLOUT} (ROLLOUT)")
         self.cfg, self.layout, self.label, self.shell_model = cfg, layout, label, shell_model
         self.cores = cores or usable_cores()
         self.venv = wrap_normalize(cfg, make_vec_env(cfg, None))
@@ -233,7 +242,7 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
     singles, cases = {}, []
     for m in shell_models:
         singles[m] = SingleEnv(m)
-        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "subproc2", "thread8"))
+        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "thread2", "thread16"))
         cases += [TrainCase(m, name) for name in names]
         if one_core and cores > 1:
             cases.append(TrainCase(m, "shipped", cores=1))
@@ -262,6 +271,7 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
             rows.append(dict(shell_model=m, case=label + (" — pinned to 1 core" if c.cores == 1 else ""),
                              layout=c.layout, cores=c.cores, steps=c.steps, single_env_steps_per_s=single,
                              rollout_steps_per_s=rollout, rollout_ratio_pct=100 * rollout / (c.cores * single),
+                             stepping_ratio_pct=100 * c.steps / c.stepping_s / (c.cores * single),
                              train_steps_per_s=train, train_ratio_pct=100 * train / (c.cores * single),
                              update_share_pct=100 * c.update_s / c.wall, cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
                              main_ms_per_vec_step=1e3 * (c.wall - c.update_s - c.stepping_s) / (c.steps / c.cfg.n_envs),
@@ -316,7 +326,8 @@ def report_markdown(result: dict) -> str:
     lines = [
         f"{result['cores']} usable cores; each case timed {result['seconds_per_case']:g} s in {result['rounds']} "
         f"interleaved rounds; 1-min load average {l0[0]:.1f} at start, {l1[0]:.1f} at end (other jobs share the "
-        "machine: compare rows, not runs). Rollout of 512 samples per update in every layout.",
+        f"machine: compare rows, not runs). Rollout of {ROLLOUT} samples per update in every layout "
+        f"(n_steps = {ROLLOUT} / n_envs).",
         "",
         markdown_table(result["rows"], TRAIN_COLUMNS),
     ]
