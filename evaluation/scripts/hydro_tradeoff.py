@@ -411,8 +411,8 @@ def report(acc: dict, spd: dict, pressures, args, info: dict) -> tuple[str, dict
         "",
         (f"Generated {datetime.now(UTC):%Y-%m-%d %H:%M} UTC by `python -m evaluation.scripts.hydro_tradeoff` "
         f"(commit {info['commit']}, drake {info['drake']}); {info['cpu']}, {info['cores']} cores, 1-min load "
-        f"average at start {info['load_1min']:.1f} (other jobs running: absolute rates are below a quiet "
-        "machine's; the speed-ups are interleaved ratios). Method: module docstring of "
+        f"average at start {info['load_1min']:.1f} (absolute rates fall "
+        "when other jobs share the machine; the speed-ups are interleaved ratios). Method: module docstring of "
         "`evaluation/scripts/hydro_tradeoff.py`."),
         "",
         (f"Constraints (all at once): |ω err| ≤ {MAX_OMEGA_ERR_PCT:g}%, |ζ err| ≤ {MAX_ZETA_ERR_PCT:g}% at {ps} kPa, "
@@ -429,7 +429,7 @@ def report(acc: dict, spd: dict, pressures, args, info: dict) -> tuple[str, dict
         "(the matching of the calibration CLI's `kd-step`): the damping the steer couple was fitted to the "
         "robot's logs with. With one k_d the hydroelastic decay's ζ falls with pressure faster than the "
         "calibration's curve, so no single-k_d row meets ζ(p) at 8.5 and 14 kPa. `hydroelastic_fast.yaml` holds "
-        "at 10 ms a k_d per pressure (`k_d_by_pressure`, fitted to ζ(p) by the calibration CLI's "
+        "at 10 ms (and at 0.5 ms) a k_d per pressure (`k_d_by_pressure`, fitted to ζ(p) by the calibration CLI's "
         "`kd-pressure`), interpolated linearly in pressure."),
         "",
         (f"Ramp references (6 s down the 16° ramp at {acc['nominal_pressure_kpa']:g} kPa, 0.5 ms step). A "
