@@ -19,15 +19,18 @@ arguments plus these keys, and the shipped files hold nothing else, so
 
 Two more keys choose how this trainer steps the envs; rl-zoo3 does not know them (it would pass
 them to the algorithm and fail), so they belong in ``--hyperparams`` overrides or in files meant
-for this trainer only. Without either, the envs are stepped by threads of the training process
-(``n_threads: auto``, the fastest measured layout):
+for this trainer only. Without either, the envs are split into one block per usable core, the
+training process stepping the first and one worker process each of the others (``n_workers:
+auto``, the fastest measured layout):
 
 ==================  ==========================================================================
-``n_threads``       step the ``n_envs`` envs in the main process with this many threads
+``n_workers``       blocks of envs stepped in parallel, the training process included
+                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`); ``auto``: one per
+                    usable core, at most ``n_envs``; ``null`` (with no ``n_threads``): one
+                    process per env (``SubprocVecEnv``)
+``n_threads``       step the ``n_envs`` envs in the training process with this many threads
                     (:class:`sphere_env.training.vec_env.ThreadedVecEnv`); ``auto``: one per usable
-                    core; ``null``: one process per env (``SubprocVecEnv``)
-``n_workers``       host the ``n_envs`` envs on this many processes
-                    (:class:`sphere_env.training.vec_env.BatchedSubprocVecEnv`); excludes ``n_threads``
+                    core; excludes ``n_workers``
 ==================  ==========================================================================
 
 A top-level ``randomization`` key (the former layout) is refused with a message saying where it
@@ -94,7 +97,7 @@ class TrainConfig:
     seed: int = 0
     n_timesteps: int = 100_000
     n_envs: int = 2
-    n_workers: int | None = None  # None: one process per env (SubprocVecEnv) unless n_threads
+    n_workers: int | str | None = None  # env blocks stepped in parallel (BatchedSubprocVecEnv); "auto"
     n_threads: int | str | None = None  # threads stepping the envs in-process (ThreadedVecEnv); "auto"
     policy: str = "MlpPolicy"
     normalize: dict[str, Any] | None = field(default_factory=dict)  # None: no VecNormalize
@@ -492,21 +495,24 @@ def resolve_config(
     if not isinstance(policy, str):
         raise ValueError(f"policy: value {policy!r} must be a policy name such as 'MlpPolicy'")
     n_envs = _int("n_envs", section.get("n_envs", 1))
-    n_workers = section.get("n_workers")
-    if n_workers is not None:
-        n_workers = _int("n_workers", n_workers)
-        if n_workers > n_envs:
-            raise ValueError(f"n_workers: value {n_workers} must be <= n_envs={n_envs}")
-    # Default layout: threads of this process (fastest measured); an explicit null: one process per env.
-    n_threads = section.get("n_threads", "auto" if n_workers is None else None)
+    n_threads = section.get("n_threads")
     if isinstance(n_threads, str) and n_threads != "auto":
         raise ValueError(f"n_threads: value {n_threads!r} must be an integer >= 1 or 'auto'")
     if n_threads is not None and n_threads != "auto":
         n_threads = _int("n_threads", n_threads)
         if n_threads > n_envs:
             raise ValueError(f"n_threads: value {n_threads} must be <= n_envs={n_envs} (or 'auto')")
+    # Default layout: one block of envs per usable core (fastest measured); an explicit null: one
+    # process per env.
+    n_workers = section.get("n_workers", "auto" if n_threads is None else None)
+    if isinstance(n_workers, str) and n_workers != "auto":
+        raise ValueError(f"n_workers: value {n_workers!r} must be an integer >= 1 or 'auto'")
+    if n_workers is not None and n_workers != "auto":
+        n_workers = _int("n_workers", n_workers)
+        if n_workers > n_envs:
+            raise ValueError(f"n_workers: value {n_workers} must be <= n_envs={n_envs} (or 'auto')")
     if n_threads is not None and n_workers is not None:
-        raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers}; "
+        raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers!r}; "
                          "set one of them to null (threads in this process, or worker processes)")
     n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000))
     env_wrapper = parse_env_wrappers(section.get("env_wrapper"))

@@ -143,9 +143,9 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file
 
 
 def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = False):
-    """Training or evaluation (one in-process env) VecEnv. Training: ``ThreadedVecEnv`` when
-    ``n_threads`` is set (``auto``: the usable cores, at most ``n_envs``), ``BatchedSubprocVecEnv``
-    when ``n_workers`` < ``n_envs``, else ``SubprocVecEnv`` (``DummyVecEnv`` for one env)."""
+    """Training or evaluation (one in-process env) VecEnv. Training: ``BatchedSubprocVecEnv`` when
+    ``n_workers`` is set (``auto``: the usable cores, at most ``n_envs``), ``ThreadedVecEnv`` when
+    ``n_threads`` is, else ``SubprocVecEnv`` (``DummyVecEnv`` for one env)."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     kwargs = cfg.make_kwargs(evaluation)
@@ -159,16 +159,17 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
         return DummyVecEnv(fns)
     fns = [partial(make_env, cfg.env_id, kwargs, s, None if mon is None else str(mon / f"train_{rank}"),
                    cfg.torch_threads, None, cfg.env_wrapper) for rank, s in enumerate(cfg.worker_seeds)]
-    if cfg.n_threads is not None and cfg.n_envs > 1:
+    if cfg.n_envs == 1:
+        venv = DummyVecEnv(fns)
+    elif cfg.n_workers is not None:
+        from sphere_env.training.vec_env import BatchedSubprocVecEnv, usable_cores
+
+        n_workers = min(usable_cores(), cfg.n_envs) if cfg.n_workers == "auto" else cfg.n_workers
+        venv = BatchedSubprocVecEnv(fns, n_workers)
+    elif cfg.n_threads is not None:
         from sphere_env.training.vec_env import ThreadedVecEnv
 
         venv = ThreadedVecEnv(fns, None if cfg.n_threads == "auto" else cfg.n_threads)
-    elif cfg.n_envs == 1:
-        venv = DummyVecEnv(fns)
-    elif cfg.n_workers is not None and cfg.n_workers < cfg.n_envs:
-        from sphere_env.training.vec_env import BatchedSubprocVecEnv
-
-        venv = BatchedSubprocVecEnv(fns, cfg.n_workers)
     else:
         venv = SubprocVecEnv(fns)
     venv.seed(cfg.seed)

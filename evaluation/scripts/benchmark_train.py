@@ -22,14 +22,13 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
   - **env stepping alone**: env steps / time inside ``step_wait``, against cores × single-env rate:
     the rollout ratio's ceiling with a free policy (SB3 waits for every vectorized step before the
     next forward pass, so the two do not overlap).
-* **1 core**: the shipped layout again with the whole process (threads and any worker processes)
+* **1 core**: the shipped layout again with the whole process (its threads and worker processes)
   pinned to one core (``sched_setaffinity``), interleaved with the 2-core rows: the scaling figure.
 
 A scaling model (printed and returned, :func:`scaling_model`) gives the time per env step of the
-threaded layout with n envs on N cores as ``u + c / n + max(e / min(N, n), g)``: u the PPO update
-per sample (measured), c the main process's work per vectorized step (fitted from the 1-core and
-2-core rollout rates), e one env step (the single-env rate), g the part of an env step that holds
-the GIL (outside Drake's ``AdvanceTo``, measured), which threads cannot overlap.
+shipped block layout with n envs on N cores as ``u + (c0 + c1 n) / n + e_b / min(N, n)``: u the
+PPO update per sample, c0 + c1 n the main process's work per vectorized step outside the env
+stepping, e_b one env step inside a block, all measured.
 
     python -m evaluation.scripts.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
 
@@ -51,10 +50,10 @@ ROLLOUT = 2048
 #: the shipped rollout of ROLLOUT samples per update (n_steps = ROLLOUT / n_envs).
 LAYOUTS = {
     "shipped": ("shipped config", {}),
+    "thread8": ("8 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 8, "n_threads": 2}),
     "thread2": ("2 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 2, "n_threads": 2}),
-    "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None}),
-    "proc8": ("8 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 8, "n_threads": None, "n_workers": 2}),
-    "proc16": ("16 envs on 2 processes (BatchedSubprocVecEnv)", {"n_envs": 16, "n_threads": None, "n_workers": 2}),
+    "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None, "n_workers": None}),
+    "proc16": ("16 envs in 2 blocks: this process + 1 worker (BatchedSubprocVecEnv)", {"n_envs": 16, "n_workers": 2}),
     "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2}),
 }
 TRAIN_COLUMNS = [
@@ -223,8 +222,10 @@ class TrainCase:
 def _layout_name(cfg) -> str:
     if cfg.n_threads is not None:
         return f"{cfg.n_envs} envs, {cfg.n_threads} threads (ThreadedVecEnv)"
-    if cfg.n_workers is not None and cfg.n_workers < cfg.n_envs:
-        return f"{cfg.n_envs} envs on {cfg.n_workers} processes (BatchedSubprocVecEnv)"
+    if cfg.n_workers is not None:
+        return (f"{cfg.n_envs} envs, {cfg.n_workers} blocks: this process + workers, one per usable core "
+                "(BatchedSubprocVecEnv)" if cfg.n_workers == "auto" else
+                f"{cfg.n_envs} envs in {cfg.n_workers} blocks: this process + workers (BatchedSubprocVecEnv)")
     return f"{cfg.n_envs} envs, 1 process each (SubprocVecEnv)"
 
 
@@ -242,7 +243,7 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
     singles, cases = {}, []
     for m in shell_models:
         singles[m] = SingleEnv(m)
-        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "thread2", "thread16"))
+        names = (layouts or {}).get(m) or (tuple(LAYOUTS) if m == "point" else ("shipped", "thread8", "proc16"))
         cases += [TrainCase(m, name) for name in names]
         if one_core and cores > 1:
             cases.append(TrainCase(m, "shipped", cores=1))
@@ -283,40 +284,48 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
 
 
 def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
-    """Time per env step of the threaded layout with ``n`` envs on ``N`` cores:
+    """Time per env step of the block layout (``BatchedSubprocVecEnv``, the shipped one) with ``n``
+    envs on ``N`` cores:
 
-        t = u + c / n + max(e / min(N, n), g)
+        t = u + (c0 + c1 n) / n + e_b / min(N, n)
 
-    u: PPO update per sample (serial, measured); c: main-process work per vectorized step (policy
-    forward pass, VecNormalize, rollout buffer; fitted from the shipped layout's rollout rate on 1
-    and ``cores`` cores); e: one env step (1 / single-env rate); g: the GIL-held part of an env step
-    (env step time outside Drake's ``AdvanceTo``), which threads cannot overlap. Predictions for the
-    shipped ``n_envs`` and for ``n = N`` envs (one per core) at 1, 2, 4, 8, 16, 64 cores."""
-    single = next(r for r in rows if r["shell_model"] == shell_model and r["layout"] == "single")
+    u: PPO update per sample (serial); c0 + c1 n: the main process's work per vectorized step
+    outside the env stepping (policy forward pass, VecNormalize, rollout buffer; c1 the part that
+    grows with the envs, such as unpickling the workers' results), measured directly in the shipped
+    layout and, for c1, in the 16-env block layout where it ran; e_b: one env step inside a block
+    (time inside ``step_wait`` per env step × blocks): a single env step plus its share of the
+    message passing and of waking up between steps. All measured on ``cores`` cores; predictions for
+    the shipped ``n_envs`` and for ``n = N`` envs (one per core) at 1, 2, 4, 8, 16, 64 cores. The
+    1-core row is measured, not used by the model."""
     ship = [r for r in rows if r["shell_model"] == shell_model and r["layout"] == "shipped"]
     full = next((r for r in ship if r["cores"] == cores), None)
     one = next((r for r in ship if r["cores"] == 1), None)
-    if full is None or one is None or cores < 2:
+    if full is None or cores < 2 or full["n_workers"] is None:
         return {}
     n_envs = full["n_envs"]
-    e = 1.0 / single["single_env_steps_per_s"]
-    g = 1e-6 * single["gil_us_per_step"]
-    u = 1e-3 * 0.5 * (full["update_ms_per_step"] + one["update_ms_per_step"])
-    # rollout time per step = c / n + e / min(N, n): one equation per measured core count
-    r1, rn = 1.0 / one["rollout_steps_per_s"], 1.0 / full["rollout_steps_per_s"]
-    c = max(0.5 * n_envs * ((r1 - e) + (rn - e / min(cores, n_envs))), 0.0)
+    blocks = min(cores, n_envs)
+    u = 1e-3 * full["update_ms_per_step"]
+    # stepping rate = stepping_ratio × cores × single rate, in env steps per second of step_wait
+    e_b = blocks / (full["stepping_ratio_pct"] / 100 * cores * full["single_env_steps_per_s"])
+    c_full = 1e-3 * full["main_ms_per_vec_step"]
+    wide = next((r for r in rows if r["shell_model"] == shell_model and r["layout"] == "proc16" and r["cores"] == cores),
+                None)
+    c1 = max(1e-3 * (wide["main_ms_per_vec_step"] - full["main_ms_per_vec_step"]) / (wide["n_envs"] - n_envs), 0.0) \
+        if wide is not None and wide["n_envs"] != n_envs else 0.0
+    c0 = max(c_full - c1 * n_envs, 0.0)
 
     def rate(n_cores: int, n: int) -> float:
-        return 1.0 / (u + c / n + max(e / min(n_cores, n), g))
+        return 1.0 / (u + (c0 + c1 * n) / n + e_b / min(n_cores, n))
 
     grid = (1, 2, 4, 8, 16, 64)
-    return {"env_ms_per_step": 1e3 * e, "gil_ms_per_step": 1e3 * g, "update_ms_per_step": 1e3 * u,
-            "main_ms_per_vec_step": 1e3 * c, "main_ms_per_vec_step_measured": full["main_ms_per_vec_step"],
-            "n_envs": n_envs,
-            "measured_1_core": one["train_steps_per_s"], f"measured_{cores}_cores": full["train_steps_per_s"],
-            "predicted_shipped": {n: rate(n, n_envs) for n in grid},
-            "predicted_one_env_per_core": {n: rate(n, n) for n in grid},
-            "max_threads_useful": e / g if g > 0 else float("inf")}
+    out = {"env_ms_per_step_single": 1e3 / full["single_env_steps_per_s"], "env_ms_per_step_in_block": 1e3 * e_b,
+           "update_ms_per_step": 1e3 * u, "main_ms_per_vec_step_fixed": 1e3 * c0, "main_ms_per_env_per_vec_step": 1e3 * c1,
+           "n_envs": n_envs, f"measured_{cores}_cores": full["train_steps_per_s"],
+           "predicted_shipped": {n: rate(n, n_envs) for n in grid},
+           "predicted_one_env_per_core": {n: rate(n, n) for n in grid}}
+    if one is not None:
+        out["measured_1_core"] = one["train_steps_per_s"]
+    return out
 
 
 def report_markdown(result: dict) -> str:
@@ -336,14 +345,13 @@ def report_markdown(result: dict) -> str:
             continue
         ship = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_shipped"].items())
         wide = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_one_env_per_core"].items())
-        lines += ["", f"Scaling model, {m} (t = u + c/n + max(e/min(N, n), g) per env step): env step e = "
-                  f"{fit['env_ms_per_step']:.3f} ms, of it g = {fit['gil_ms_per_step']:.3f} ms holding the GIL; "
-                  f"main process c = {fit['main_ms_per_vec_step']:.3f} ms per vectorized step (fitted; measured "
-                  f"directly outside the env stepping: {fit['main_ms_per_vec_step_measured']:.3f} ms, the rest is "
-                  "stepping that did not overlap); PPO update "
-                  f"u = {fit['update_ms_per_step']:.3f} ms per sample. Predicted training steps/s by cores N, shipped "
-                  f"{fit['n_envs']} envs: {ship}; one env per core (n = N, threads): {wide}. Threads stop helping "
-                  f"beyond ≈ e/g = {fit['max_threads_useful']:.0f} per process."]
+        lines += ["", f"Scaling model, {m} (t = u + (c0 + c1 n)/n + e_b/min(N, n) per env step, the block layout): "
+                  f"env step in a block e_b = {fit['env_ms_per_step_in_block']:.3f} ms (single env "
+                  f"{fit['env_ms_per_step_single']:.3f} ms); main process outside the env stepping c0 = "
+                  f"{fit['main_ms_per_vec_step_fixed']:.3f} ms per vectorized step + c1 = "
+                  f"{fit['main_ms_per_env_per_vec_step']:.3f} ms per env; PPO update u = {fit['update_ms_per_step']:.3f} ms "
+                  f"per sample. Predicted training steps/s by cores N, shipped {fit['n_envs']} envs: {ship}; one env per "
+                  f"core (n = N): {wide}."]
     return "\n".join(lines)
 
 

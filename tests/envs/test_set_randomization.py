@@ -63,7 +63,7 @@ def _vec_envs():
 
     fns = [partial(make_env, RAMP, {"shell_model": "point"}, seed) for seed in (0, 1)]
     return {"dummy": lambda: DummyVecEnv(fns), "threaded": lambda: ThreadedVecEnv(fns, 2),
-            "subproc": lambda: SubprocVecEnv(fns), "batched": lambda: BatchedSubprocVecEnv(fns, 1)}
+            "subproc": lambda: SubprocVecEnv(fns), "batched": lambda: BatchedSubprocVecEnv(fns, 2)}
 
 
 @pytest.mark.slow

@@ -45,6 +45,8 @@ def no_workers(monkeypatch):
         (["--params", "n_threads:9"], "n_threads"),
         (["--params", "n_threads:many"], "n_threads"),
         (["--params", "n_threads:2", "n_workers:2"], "n_threads"),
+        (["--params", "n_workers:9"], "n_workers"),
+        (["--params", "n_workers:many"], "n_workers"),
         (["--env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "env_kwargs.randomization.pressure_kpa"),
         (["--env-kwargs", "randomization:{'ground_friction': [0.9, 0.5]}"], "env_kwargs.randomization.ground_friction"),
         (["--env-kwargs", "shell_model:'jelly'"], "env_kwargs.shell_model"),
@@ -70,13 +72,18 @@ def test_bad_configs_refused_before_workers(no_workers, tmp_path, capsys, argv, 
 
 
 def test_layout_overrides_replace_the_files_layout():
-    """The shipped PPO file steps its envs in threads; an n_workers override selects processes
-    instead (and vice versa) without having to cancel the file's key."""
+    """The shipped PPO file steps its envs in blocks, one per usable core (``n_workers: auto``); an
+    n_threads override selects threads instead (and vice versa) without having to cancel the other
+    key; both null: one process per env."""
     shipped = resolve_config(RAMP, "ppo", build_env=False)
-    assert (shipped.n_threads, shipped.n_workers) == ("auto", None)
+    assert (shipped.n_threads, shipped.n_workers) == (None, "auto")
     assert shipped.n_envs * shipped.hyperparams["n_steps"] == 512 and shipped.n_envs == 2
-    procs = resolve_config(RAMP, "ppo", overrides={"n_workers": 2}, build_env=False)
-    assert (procs.n_threads, procs.n_workers) == (None, 2)
+    threads = resolve_config(RAMP, "ppo", overrides={"n_threads": 2}, build_env=False)
+    assert (threads.n_threads, threads.n_workers) == (2, None)
+    back = resolve_config(RAMP, "ppo", overrides={"n_workers": 2}, build_env=False)
+    assert (back.n_threads, back.n_workers) == (None, 2)
+    one_each = resolve_config(RAMP, "ppo", overrides={"n_workers": None}, build_env=False)
+    assert (one_each.n_threads, one_each.n_workers) == (None, None)
 
 
 def test_bad_randomization_message_names_field():

@@ -1,8 +1,9 @@
-"""BatchedSubprocVecEnv (several envs per worker) and ThreadedVecEnv (several envs stepped by threads)
-behave exactly like DummyVecEnv."""
+"""BatchedSubprocVecEnv (blocks of envs: the calling process's and the workers') and ThreadedVecEnv
+(several envs stepped by threads) behave exactly like DummyVecEnv."""
 
 from __future__ import annotations
 
+import os
 from functools import partial
 
 import numpy as np
@@ -46,9 +47,10 @@ def assert_same_rollout(a, b, steps: int, check_reset_infos: bool = False) -> in
 def test_batched_equals_dummy_over_episodes_with_resets():
     kw = {"shell_model": "point", "randomization": "default", "ramp_length_m": 1.0}
     fns = [partial(make_env, "sphere_env/RampDescent-v0", kw, seed) for seed in range(5)]
-    a, b = DummyVecEnv(fns), BatchedSubprocVecEnv(fns, n_workers=2)
+    a, b = DummyVecEnv(fns), BatchedSubprocVecEnv(fns, n_workers=3)
     try:
-        assert len(b.processes) == 2 and b.num_envs == 5
+        # blocks of 2, 2, 1: the first stepped by this process, the others by one worker each
+        assert [len(x) for x in b.blocks] == [2, 2, 1] and len(b.processes) == 2 and b.num_envs == 5
         dones = assert_same_rollout(a, b, 120)  # 1 m ramps: several episodes end and auto-reset
         assert dones >= 5
         assert b.get_attr("shell_model") == ["point"] * 5
@@ -57,6 +59,25 @@ def test_batched_equals_dummy_over_episodes_with_resets():
     finally:
         a.close()
         b.close()
+
+
+@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs 2 usable cores")
+def test_batched_workers_pinned_to_their_own_cores():
+    """With a usable core per block, worker k runs on the k-th usable core only, leaving the first
+    to the calling process; with more blocks than cores no worker is pinned."""
+    cores = sorted(os.sched_getaffinity(0))
+    n = len(cores) + 1
+    fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, seed) for seed in range(n)]
+    for n_workers, pinned in ((2, True), (n, False)):  # n blocks of one env: one block more than cores
+        b = BatchedSubprocVecEnv(fns, n_workers=n_workers)
+        try:
+            assert len(b.blocks) == n_workers
+            assert b.get_attr("shell_model") == ["point"] * n  # the workers are up
+            for k, p in enumerate(b.processes, start=1):
+                assert os.sched_getaffinity(p.pid) == ({cores[k]} if pinned else set(cores))
+            assert os.sched_getaffinity(0) == set(cores)  # the calling process is left alone
+        finally:
+            b.close()
 
 
 def test_threaded_equals_dummy_over_episodes_with_resets():
