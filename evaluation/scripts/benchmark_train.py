@@ -17,9 +17,10 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
   - **training steps/s** = env steps / wall, updates included; ratio (aim ≥ 50%);
   - update share of the wall time, main-process CPU ms per env step;
   - **main-process work per vectorized step** outside the env stepping (rollout wall time minus the
-    time inside the innermost VecEnv's ``step_wait``: policy forward pass, VecNormalize, rollout
-    buffer, callbacks), measured directly;
-  - **env stepping alone**: env steps / time inside ``step_wait``, against cores × single-env rate:
+    time inside the innermost VecEnv's ``step_async`` and ``step_wait``: policy forward pass,
+    VecNormalize, rollout buffer, callbacks), measured directly;
+  - **env stepping alone**: env steps / time inside ``step_async`` + ``step_wait``, against cores ×
+    single-env rate:
     the rollout ratio's ceiling with a free policy (SB3 waits for every vectorized step before the
     next forward pass, so the two do not overlap).
 * **1 core**: the shipped layout again with the whole process (its threads and worker processes)
@@ -169,21 +170,26 @@ class TrainCase:
             self.update_s += time.perf_counter() - t0
 
         self.model.train = timed_train
-        # Time inside the innermost VecEnv's step_wait (the env stepping, all threads or workers),
-        # to separate the main process's own work per vectorized step from the stepping.
+        # Time inside the innermost VecEnv's step_async and step_wait (the env stepping, all threads
+        # or workers; a worker may step its block while step_async sends to the next one), to separate
+        # the main process's own work per vectorized step from the stepping.
         inner = self.venv
         while hasattr(inner, "venv"):
             inner = inner.venv
         self.stepping_s = 0.0
-        step_wait = inner.step_wait
+        step_async, step_wait = inner.step_async, inner.step_wait
+        started = [0.0]
+
+        def timed_step_async(actions):
+            started[0] = time.perf_counter()
+            step_async(actions)
 
         def timed_step_wait():
-            t0 = time.perf_counter()
             out = step_wait()
-            self.stepping_s += time.perf_counter() - t0
+            self.stepping_s += time.perf_counter() - started[0]
             return out
 
-        inner.step_wait = timed_step_wait
+        inner.step_async, inner.step_wait = timed_step_async, timed_step_wait
         self._learn()  # warm-up: first reset and update, not timed
         self.steps, self.wall, self.update_s, self.cpu_main, self.stepping_s = 0, 0.0, 0.0, 0.0, 0.0
 
@@ -293,7 +299,7 @@ def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
     outside the env stepping (policy forward pass, VecNormalize, rollout buffer; c1 the part that
     grows with the envs, such as unpickling the workers' results), measured directly in the shipped
     layout and, for c1, in the 16-env block layout where it ran; e_b: one env step inside a block
-    (time inside ``step_wait`` per env step × blocks): a single env step plus its share of the
+    (time inside ``step_async`` + ``step_wait`` per env step × blocks): a single env step plus its share of the
     message passing and of waking up between steps. All measured on ``cores`` cores; predictions for
     the shipped ``n_envs`` and for ``n = N`` envs (one per core) at 1, 2, 4, 8, 16, 64 cores. The
     1-core row is measured, not used by the model."""
@@ -305,7 +311,7 @@ def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
     n_envs = full["n_envs"]
     blocks = min(cores, n_envs)
     u = 1e-3 * full["update_ms_per_step"]
-    # stepping rate = stepping_ratio × cores × single rate, in env steps per second of step_wait
+    # stepping rate = stepping_ratio × cores × single rate, in env steps per second of stepping
     e_b = blocks / (full["stepping_ratio_pct"] / 100 * cores * full["single_env_steps_per_s"])
     c_full = 1e-3 * full["main_ms_per_vec_step"]
     wide = next((r for r in rows if r["shell_model"] == shell_model and r["layout"] == "proc16" and r["cores"] == cores),

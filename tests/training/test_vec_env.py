@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import os
 from functools import partial
 
 import numpy as np
@@ -59,25 +58,6 @@ def test_batched_equals_dummy_over_episodes_with_resets():
     finally:
         a.close()
         b.close()
-
-
-@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs 2 usable cores")
-def test_batched_workers_pinned_to_their_own_cores():
-    """With a usable core per block, worker k runs on the k-th usable core only, leaving the first
-    to the calling process; with more blocks than cores no worker is pinned."""
-    cores = sorted(os.sched_getaffinity(0))
-    n = len(cores) + 1
-    fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, seed) for seed in range(n)]
-    for n_workers, pinned in ((2, True), (n, False)):  # n blocks of one env: one block more than cores
-        b = BatchedSubprocVecEnv(fns, n_workers=n_workers)
-        try:
-            assert len(b.blocks) == n_workers
-            assert b.get_attr("shell_model") == ["point"] * n  # the workers are up
-            for k, p in enumerate(b.processes, start=1):
-                assert os.sched_getaffinity(p.pid) == ({cores[k]} if pinned else set(cores))
-            assert os.sched_getaffinity(0) == set(cores)  # the calling process is left alone
-        finally:
-            b.close()
 
 
 def test_threaded_equals_dummy_over_episodes_with_resets():
