@@ -220,11 +220,11 @@ class BatchedSubprocVecEnv(VecEnv):
                     work_remote.close()
                     self.remotes.append(remote)
                     self.processes.append(p)
+            observation_space, action_space = self.local.handle("get_spaces", None)
+            super().__init__(n, observation_space, action_space)  # asks every env for its render_mode
         except BaseException:
             self.close()
             raise
-        observation_space, action_space = self.local.handle("get_spaces", None)
-        super().__init__(n, observation_space, action_space)
 
     # ---- stepping ----------------------------------------------------------------------------------
     def step_async(self, actions: np.ndarray) -> None:
@@ -256,11 +256,13 @@ class BatchedSubprocVecEnv(VecEnv):
     def close(self) -> None:
         if self.closed:
             return
-        if self.waiting:
-            for remote in self.remotes:
-                remote.recv()
         for remote in self.remotes:
-            remote.send(("close", None))
+            try:  # a worker that died (or failed to start) has nothing to answer
+                if self.waiting:
+                    remote.recv()
+                remote.send(("close", None))
+            except (EOFError, OSError):
+                pass
         for p in self.processes:
             p.join()
         self.local.close()

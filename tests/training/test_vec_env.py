@@ -85,3 +85,34 @@ def test_threaded_n_threads_checked():
     fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, 0)]
     with pytest.raises(ValueError, match=r"n_threads: value 2 must be an integer within 1\.\.1"):
         ThreadedVecEnv(fns, n_threads=2)
+
+
+@pytest.mark.slow
+def test_layouts_train_the_same_network():
+    """The trainer's layouts (blocks in this process and a worker, 2 threads, 1 thread) step the same
+    rollouts, so a short PPO run with VecNormalize trains bit-identical networks. (SB3's
+    SubprocVecEnv hands VecNormalize float64 rewards, so its networks differ in the last bits.)"""
+    import torch
+
+    from sphere_env.training.config import algo_class, resolve_config
+    from sphere_env.training.train import make_vec_env, unchecked_distributions, wrap_normalize
+
+    tiny = {"n_envs": 3, "n_steps": 64, "batch_size": 64, "n_epochs": 2}
+    params = {}
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # as the trainer sets it (--torch-threads)
+    for name, layout in {"blocks": {"n_workers": 2}, "threads": {"n_threads": 2},
+                         "one thread": {"n_threads": 1}}.items():
+        cfg = resolve_config("sphere_env/RampDescent-v2", "ppo", overrides={**tiny, **layout},
+                             env_kwargs={"shell_model": "point"}, seed=5, build_env=False)
+        venv = wrap_normalize(cfg, make_vec_env(cfg, None))
+        try:
+            model = algo_class("ppo")(cfg.policy, venv, seed=5, device="cpu", **cfg.algo_kwargs())
+            with unchecked_distributions():
+                model.learn(total_timesteps=2 * 3 * 64)
+            params[name] = torch.nn.utils.parameters_to_vector(model.policy.parameters()).detach()
+        finally:
+            venv.close()
+    torch.set_num_threads(threads)
+    assert torch.equal(params["blocks"], params["threads"])
+    assert torch.equal(params["blocks"], params["one thread"])
