@@ -425,6 +425,18 @@ def _normalize(value: Any) -> dict[str, Any] | None:
     return dict(value)
 
 
+def _layout_count(key: str, value, n_envs: int) -> int | str | None:
+    """``n_threads`` / ``n_workers``: None, ``"auto"`` or an integer within 1..n_envs."""
+    if value is None or value == "auto":
+        return value
+    if isinstance(value, str):
+        raise ValueError(f"{key}: value {value!r} must be an integer >= 1 or 'auto'")
+    value = _int(key, value)
+    if value > n_envs:
+        raise ValueError(f"{key}: value {value} must be <= n_envs={n_envs} (or 'auto')")
+    return value
+
+
 def resolve_config(
     env_id: str,
     algo: str,
@@ -495,22 +507,10 @@ def resolve_config(
     if not isinstance(policy, str):
         raise ValueError(f"policy: value {policy!r} must be a policy name such as 'MlpPolicy'")
     n_envs = _int("n_envs", section.get("n_envs", 1))
-    n_threads = section.get("n_threads")
-    if isinstance(n_threads, str) and n_threads != "auto":
-        raise ValueError(f"n_threads: value {n_threads!r} must be an integer >= 1 or 'auto'")
-    if n_threads is not None and n_threads != "auto":
-        n_threads = _int("n_threads", n_threads)
-        if n_threads > n_envs:
-            raise ValueError(f"n_threads: value {n_threads} must be <= n_envs={n_envs} (or 'auto')")
+    n_threads = _layout_count("n_threads", section.get("n_threads"), n_envs)
     # Default layout: one block of envs per usable core (fastest measured); an explicit null: one
     # process per env.
-    n_workers = section.get("n_workers", "auto" if n_threads is None else None)
-    if isinstance(n_workers, str) and n_workers != "auto":
-        raise ValueError(f"n_workers: value {n_workers!r} must be an integer >= 1 or 'auto'")
-    if n_workers is not None and n_workers != "auto":
-        n_workers = _int("n_workers", n_workers)
-        if n_workers > n_envs:
-            raise ValueError(f"n_workers: value {n_workers} must be <= n_envs={n_envs} (or 'auto')")
+    n_workers = _layout_count("n_workers", section.get("n_workers", "auto" if n_threads is None else None), n_envs)
     if n_threads is not None and n_workers is not None:
         raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers!r}; "
                          "set one of them to null (threads in this process, or worker processes)")
