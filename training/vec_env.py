@@ -37,6 +37,20 @@ def usable_cores() -> int:
         return max(os.cpu_count() or 1, 1)
 
 
+def _step_env(env: gym.Env, action) -> tuple:
+    """One step with SB3's auto-reset: ``(obs, reward, done, info, reset_info)``; on an episode's end
+    ``info`` holds ``terminal_observation``, ``obs`` is the next episode's first and ``reset_info``
+    its reset info (else None)."""
+    obs, reward, terminated, truncated, info = env.step(action)
+    done = terminated or truncated
+    info["TimeLimit.truncated"] = truncated and not terminated
+    reset_info = None
+    if done:
+        info["terminal_observation"] = obs
+        obs, reset_info = env.reset()
+    return obs, reward, done, info, reset_info
+
+
 class ThreadedVecEnv(DummyVecEnv):
     """``len(env_fns)`` envs in this process, stepped by ``n_threads`` threads (contiguous blocks,
     the calling thread steps the first block, a persistent pool the others).
@@ -65,17 +79,7 @@ class ThreadedVecEnv(DummyVecEnv):
         self._pool = ThreadPoolExecutor(max_workers=n_threads - 1, thread_name_prefix="env") if n_threads > 1 else None
 
     def _step_block(self, block: list[int]) -> list[tuple]:
-        out = []
-        for i in block:
-            obs, rew, terminated, truncated, info = self.envs[i].step(self.actions[i])
-            done = terminated or truncated
-            info["TimeLimit.truncated"] = truncated and not terminated
-            reset_info = None
-            if done:
-                info["terminal_observation"] = obs
-                obs, reset_info = self.envs[i].reset()
-            out.append((i, obs, rew, done, info, reset_info))
-        return out
+        return [(i, *_step_env(self.envs[i], self.actions[i])) for i in block]
 
     def step_wait(self):
         futures = [self._pool.submit(self._step_block, b) for b in self.blocks[1:]] if self._pool else []
@@ -111,12 +115,9 @@ class _Block:
     def step(self, actions) -> list[tuple]:
         out = []
         for i, (env, action) in enumerate(zip(self.envs, actions)):
-            obs, reward, terminated, truncated, info = env.step(action)
-            done = terminated or truncated
-            info["TimeLimit.truncated"] = truncated and not terminated
-            if done:
-                info["terminal_observation"] = obs
-                obs, self.reset_infos[i] = env.reset()
+            obs, reward, done, info, reset_info = _step_env(env, action)
+            if reset_info is not None:
+                self.reset_infos[i] = reset_info
             out.append((obs, reward, done, info, self.reset_infos[i]))
         return out
 
