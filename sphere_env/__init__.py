@@ -14,6 +14,10 @@ __version__ = "0.1.0"
 #: id -> (entry point, max_episode_steps at the default 50 Hz control, default kwargs; a
 #: ``calibration`` here names a file in ``assets/calibration``).
 #: Version history:
+#:   RampDescent-v3  as v2, with the per-step reward terms paid per distance down the ramp instead
+#:       of per second (a slower descent no longer collects more speed reward, a faster one no
+#:       longer pays less torque penalty) and the speed loop's state (∫(ω_ref −
+#:       ω_d) dt, ω̇_d) observed by default; see RampDescentTask.
 #:   RampDescent-v2  the command changes at mid-ramp and success requires tracking it, on an 8°
 #:       ramp of 6 m (zero torque succeeded in every v1 episode); see RampDescentTask.
 #:   v1  the shipped shell calibration: the fitted steer-direction law (rest angle, amplitude term)
@@ -24,7 +28,11 @@ __version__ = "0.1.0"
 #: reaching the run-out.
 _RAMP_V1 = {"incline_deg": 16.0, "ramp_length_m": 4.0, "omega_ref_range_rad_s": (4.0, 8.0),
             "omega_ref_change_min_rad_s": None, "tracking_tolerance_rad_s": None, "extended_observation": False}
+#: RampDescent-v3's reward weights are per ramp length: v2's per-second weights × 6, about the
+#: duration of a descent on the 6 m ramp, so that the terms keep their v2 proportions.
+_RAMP_V3 = {"step_reward_per": "distance", "observe_tracking_state": True}
 ENV_IDS = {
+    "sphere_env/RampDescent-v3": ("sphere_env.envs.factories:make_ramp_descent", 600, _RAMP_V3),
     "sphere_env/RampDescent-v2": ("sphere_env.envs.factories:make_ramp_descent", 600, {}),
     "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, {}),
     "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, _RAMP_V1),

@@ -138,6 +138,7 @@ PD_PRESETS = {
     "RampDescent": dict(t_lead_s=1.0, beta_max=1.2, k_heading=0.0, k_yaw=0.0),
     "Roll": dict(),
 }
+PD_PRESETS["RampDescent-v3"] = PD_PRESETS["RampDescent-v2"]  # v3 changes the reward only
 
 
 def pd_preset(env: Any) -> dict[str, float]:

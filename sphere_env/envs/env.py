@@ -84,6 +84,10 @@ class SphereEnv(gym.Env, EzPickle):
         ``"full"``, a mapping, or a :class:`RandomizationSpec`. Sampled values are in
         ``info["params"]``.
     :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
+    :param observe_shell_model: append the (privileged) shell model as a one-hot [point, injected,
+        hydroelastic] after the pressure; default False. With both, a critic can tell the episodes
+        of a shell and pressure mixture apart while the actor drops them
+        (:class:`sphere_env.training.policies.AsymmetricActorCriticPolicy`).
     :param observation_noise_scale: × default per-component noise σ, within [0, 100] (0 = off,
         default; 100× already buries every measured signal, larger values overflow float32).
     :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
@@ -127,6 +131,7 @@ class SphereEnv(gym.Env, EzPickle):
         drive_torque_limit_nm: float = DEFAULT_DRIVE_TORQUE_LIMIT_NM,
         randomization: Any = "default",
         observe_pressure: bool = False,
+        observe_shell_model: bool = False,
         observation_noise_scale: float = 0.0,
         incline_deg: float = 0.0,
         ramp_length_m: float | None = None,
@@ -141,7 +146,7 @@ class SphereEnv(gym.Env, EzPickle):
             self, task, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
             control_frequency_hz=control_frequency_hz, time_step_s=time_step_s,
             steer_torque_limit_nm=steer_torque_limit_nm, drive_torque_limit_nm=drive_torque_limit_nm,
-            randomization=randomization, observe_pressure=observe_pressure,
+            randomization=randomization, observe_pressure=observe_pressure, observe_shell_model=observe_shell_model,
             observation_noise_scale=observation_noise_scale, incline_deg=incline_deg,
             ramp_length_m=ramp_length_m, render_mode=render_mode,
             meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
@@ -189,6 +194,11 @@ class SphereEnv(gym.Env, EzPickle):
         if not isinstance(observe_pressure, bool):
             raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
         self.observe_pressure = observe_pressure
+        if not isinstance(observe_shell_model, bool):
+            raise ValueError(f"observe_shell_model: value {observe_shell_model!r} must be a bool")
+        self.observe_shell_model = observe_shell_model
+        self._shell_one_hot = tuple(float(m == shell_model) for m in ("point", "injected", "hydroelastic")) \
+            if observe_shell_model else ()
         noise = finite_number("observation_noise_scale", observation_noise_scale, f"[0, {MAX_NOISE_SCALE:g}]")
         if not 0.0 <= noise <= MAX_NOISE_SCALE:
             raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} outside allowed [0, {MAX_NOISE_SCALE:g}]")
@@ -227,7 +237,7 @@ class SphereEnv(gym.Env, EzPickle):
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        self.observation_layout = task.observation_layout(observe_pressure)
+        self.observation_layout = task.observation_layout(observe_pressure, observe_shell_model)
         self._extra_names = self.observation_layout.extra_names
         n_obs = len(self.observation_layout)
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
@@ -611,7 +621,7 @@ class SphereEnv(gym.Env, EzPickle):
             noise = self.np_random.normal(0.0, self._noise_std)
         obs = assemble_observation(
             state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise,
-            self._extra_names,
+            self._extra_names, self._shell_one_hot,
         )
         self._obs = obs
         return obs

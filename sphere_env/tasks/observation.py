@@ -46,7 +46,12 @@ OTHER_COMPONENTS: dict[str, tuple[str, str]] = {
     "speed_error_integral": ("rad", "tracking state: ∫(ω_ref − ω_d) dt since the episode start, clipped to ±3 rad"),
     "omega_d_rate": ("rad/s^2", "tracking state: ω̇_d, change of ω_d over the last control period / period"),
     "pressure_kpa": ("kPa", "privileged: shell inflation pressure"),
+    "shell_point": ("-", "privileged: 1 if the episode runs on rigid point contact, else 0"),
+    "shell_injected": ("-", "privileged: 1 if the episode runs on the injected shell, else 0"),
+    "shell_hydroelastic": ("-", "privileged: 1 if the episode runs on the hydroelastic shell, else 0"),
 }
+#: Privileged one-hot components of the shell model (``observe_shell_model``), in order.
+SHELL_ONE_HOT: tuple[str, ...] = ("shell_point", "shell_injected", "shell_hydroelastic")
 #: Observation index of each measured component (the same in every task).
 MEASURED_INDEX: dict[str, int] = {c[0]: i for i, c in enumerate(MEASURED_COMPONENTS)}
 
@@ -57,11 +62,13 @@ class ObservationLayout:
 
     Layout: the measured components (:data:`MEASURED_COMPONENTS`), then the task's command
     components, then the task's extra measured components (:data:`EXTRA_COMPONENTS`), then
-    ``pressure_kpa`` if the privileged pressure is observed.
+    ``pressure_kpa`` if the privileged pressure is observed, then the shell model's one-hot
+    (:data:`SHELL_ONE_HOT`) if it is observed. The privileged components come last, so
+    :attr:`privileged` is a trailing slice a policy's actor can drop (asymmetric actor-critic).
     """
 
     def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False,
-                 extra_names: tuple[str, ...] = ()):
+                 extra_names: tuple[str, ...] = (), observe_shell_model: bool = False):
         self.command_names = tuple(command_names)
         self.extra_names = tuple(extra_names)
         for n in self.extra_names:
@@ -70,11 +77,13 @@ class ObservationLayout:
         self.names: tuple[str, ...] = (
             tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + self.extra_names
             + (("pressure_kpa",) if observe_pressure else ())
+            + (SHELL_ONE_HOT if observe_shell_model else ())
         )
         self.index: dict[str, int] = {n: i for i, n in enumerate(self.names)}
         self.measured = slice(0, N_MEASURED)
         self.command = slice(N_MEASURED, N_MEASURED + len(self.command_names))
         self.extra = slice(self.command.stop, self.command.stop + len(self.extra_names))
+        self.privileged = slice(self.extra.stop, len(self.names))
 
     def noise_std(self) -> np.ndarray:
         """Default 1-σ noise of the measured and extra components, in observation order."""
@@ -144,14 +153,17 @@ def assemble_observation(
     pressure_kpa: float | None = None,
     noise: np.ndarray | None = None,
     extra_names: tuple[str, ...] = (),
+    shell_one_hot: tuple[float, ...] = (),
 ) -> np.ndarray:
-    """[measured (11) | command | extra components | pressure_kpa if given] as float32.
+    """[measured (11) | command | extra components | pressure_kpa if given | shell one-hot] as
+    float32.
 
     :param command: task command values, appended unchanged (not noised).
     :param pressure_kpa: privileged inflation pressure [kPa], appended if not ``None``.
     :param noise: additive noise for the measured and extra components (len 11 + len(extra_names)),
         or ``None``.
     :param extra_names: :data:`EXTRA_COMPONENTS` to append after the command.
+    :param shell_one_hot: privileged shell-model one-hot (:data:`SHELL_ONE_HOT` order), appended last.
     """
     values = measured_values(state)
     extras = [float(getattr(state, n)) for n in extra_names]
@@ -163,5 +175,6 @@ def assemble_observation(
     values += extras
     if pressure_kpa is not None:
         values.append(pressure_kpa)
+    values += shell_one_hot
     return np.array(values, dtype=np.float32)
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from sphere_env.checks import finite_number, ordered_pair, positive
 from sphere_env.tasks.observation import wrap_angle
-from sphere_env.tasks.rewards import RampRewardWeights, make_weights, ramp_descent_terms
+from sphere_env.tasks.rewards import RampRewardWeights, RampRewardWeightsPerRamp, make_weights, ramp_descent_terms
 from sphere_env.tasks.task import Scene, Task, finite_option
 from sphere_env.tasks.termination import ramp_status
 
@@ -128,7 +128,16 @@ class RampDescentTask(Task):
         pitch α and its rate (14, 15), as v2 does.
     :param observe_tracking_state: observe the speed-error integral and ω̇_d after the command (see
         above); default False. The shipped PPO configuration trains with it.
-    :param reward_weights: mapping overriding :class:`RampRewardWeights` fields.
+    :param reward_weights: mapping overriding :class:`RampRewardWeights` fields (per second), or
+        :class:`~sphere_env.tasks.rewards.RampRewardWeightsPerRamp` fields with
+        ``step_reward_per="distance"`` (per ramp length).
+    :param step_reward_per: ``"time"`` (v2): the per-step terms are paid per second, so a slower
+        descent, which lasts longer, collects more of the speed term (with its width of 1 rad/s the
+        return peaks near ω_ref − 1 rad/s at ω_ref = 2 rad/s, outside the 0.5 rad/s tolerance), and
+        a faster one pays less of the torque and lane penalties (on point contact the pendulum
+        brakes at ≈ 0.8 of its torque for the whole descent). ``"distance"`` (v3): paid per downhill
+        progress on the ramp as a fraction of its length (Δx / ramp length), so every metre carries
+        the same weight at any speed and the speed term's return peaks at ω_d = ω_ref.
 
     ``reset(options=...)`` also accepts ``omega_ref`` and ``omega_ref_after`` [rad/s] within
     [0, 30] (the latter only with a change).
@@ -164,6 +173,7 @@ class RampDescentTask(Task):
         extended_observation: bool = True,
         observe_tracking_state: bool = False,
         reward_weights: Mapping[str, float] | None = None,
+        step_reward_per: str = "time",
     ):
         self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
         self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
@@ -184,7 +194,12 @@ class RampDescentTask(Task):
             None if tracking_tolerance_rad_s is None
             else positive("tracking_tolerance_rad_s", tracking_tolerance_rad_s, 30.0)
         )
-        self.reward_weights = make_weights(RampRewardWeights, reward_weights)
+        if step_reward_per not in ("time", "distance"):
+            raise ValueError(f"step_reward_per: value {step_reward_per!r}; allowed: ['time', 'distance']")
+        self.reward_weights = make_weights(
+            RampRewardWeights if step_reward_per == "time" else RampRewardWeightsPerRamp, reward_weights)
+        self.step_reward_per = step_reward_per
+        self._x_prev_m = 0.0
         self.command_options = ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
         if not isinstance(extended_observation, bool):
             raise ValueError(f"extended_observation: value {extended_observation!r} must be a bool")
@@ -244,6 +259,7 @@ class RampDescentTask(Task):
         self._speed_error_integral_rad = 0.0
         self._omega_d_prev = float(state.omega_d)
         self._omega_d_rate = 0.0
+        self._x_prev_m = min(float(state.position_m[0]), self.ramp_end_x_m)
 
     def command(self, state: Any) -> list[float]:
         out = [self.omega_ref, wrap_angle(-state.heading)]
@@ -265,8 +281,13 @@ class RampDescentTask(Task):
             e = state.omega_d - self.omega_ref
             self._sq_err_sum += e * e
             self._n_judged += 1
+        scale = self.control_period_s  # per-step terms per second, or per ramp length
+        if self.step_reward_per == "distance":
+            x = min(float(state.position_m[0]), self.ramp_end_x_m)  # progress on the ramp only
+            scale = (x - self._x_prev_m) / self.ramp_end_x_m
+            self._x_prev_m = x
         terms = ramp_descent_terms(
-            self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref,
+            self.reward_weights, scale, state.omega_d, self.omega_ref,
             float(state.position_m[1]), state.heading, action, False, off,
         )
         if self.tracking_tolerance_rad_s is None:

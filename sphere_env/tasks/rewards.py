@@ -28,7 +28,9 @@ def control_cost(action) -> float:
 @dataclass(frozen=True)
 class RampRewardWeights:
     """RampDescent weights. Per-step terms are multiplied by the control period in seconds
-    (so returns do not depend on the control frequency); events are one-off.
+    (so returns do not depend on the control frequency), or, when the task pays them per distance
+    (``step_reward_per="distance"``, RampDescent-v3), by the step's downhill progress as a fraction
+    of the ramp, so that their weights are per ramp instead of per second; events are one-off.
 
     :param speed: × gaussian_tolerance(ω_d − ω_ref, speed_width) per s.
     :param speed_width: width of the speed tolerance [rad/s] (not a term).
@@ -46,6 +48,19 @@ class RampRewardWeights:
     ctrl: float = 0.1
     success: float = 2.0
     off_ramp: float = 2.0
+
+
+@dataclass(frozen=True)
+class RampRewardWeightsPerRamp(RampRewardWeights):
+    """RampDescent weights when the per-step terms are paid per ramp length
+    (``step_reward_per="distance"``, RampDescent-v3): the per-second weights × 6 s, about the
+    duration of a descent of the 6 m ramp, so the terms keep their per-second proportions; the
+    one-off events are unchanged."""
+
+    speed: float = 6.0
+    lateral: float = 6.0
+    heading: float = 3.0
+    ctrl: float = 0.6
 
 
 @dataclass(frozen=True)

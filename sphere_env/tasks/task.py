@@ -55,10 +55,10 @@ class Task:
     extra_names: tuple[str, ...] = ()
 
     # ---- layout ---------------------------------------------------------------------------------
-    def observation_layout(self, observe_pressure: bool = False) -> ObservationLayout:
+    def observation_layout(self, observe_pressure: bool = False, observe_shell_model: bool = False) -> ObservationLayout:
         """The observation's components in order: measured, then this task's command and extra
-        measured components, then the privileged pressure if observed."""
-        return ObservationLayout(self.command_names, observe_pressure, self.extra_names)
+        measured components, then the privileged pressure and shell one-hot if observed."""
+        return ObservationLayout(self.command_names, observe_pressure, self.extra_names, observe_shell_model)
 
     # ---- episode --------------------------------------------------------------------------------
     def initial_state(self) -> dict[str, Any]:
