@@ -67,7 +67,7 @@ MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
 #: Constructor arguments the trainer sets itself (refused in the YAML).
 RESERVED = ("self", "env", "tensorboard_log", "verbose", "seed", "device", "_init_setup_model")
 VECNORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
-MONITOR_KEYWORDS = ("pressure_kpa", "is_success")
+MONITOR_KEYWORDS = ("pressure_kpa", "shell_model", "is_success")
 
 
 def algo_class(algo: str):
@@ -76,6 +76,9 @@ def algo_class(algo: str):
         raise ValueError(f"algo: unknown algorithm {algo!r}; allowed: {list(ALGOS)}")
     from stable_baselines3 import PPO, SAC
 
+    from sphere_env.training.policies import register
+
+    register()  # the policy name AsymmetricMlpPolicy
     return {"ppo": PPO, "sac": SAC}[algo]
 
 

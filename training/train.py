@@ -222,14 +222,18 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
             self._f = open(path, "a", newline="")
             self._w = csv.writer(self._f)
             if new:
-                self._w.writerow(["timesteps", "return", "length", "is_success", "pressure_kpa"])
+                self._w.writerow(["timesteps", "return", "length", "is_success", "pressure_kpa", "shell_model", "params"])
 
         def _on_step(self) -> bool:
             for info in self.locals.get("infos", ()):
                 ep = info.get("episode")
                 if ep is not None:
+                    # the episode's sampled parameters (pressure, faults, ...), so training success
+                    # can be split by them
+                    params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in (info.get("params") or {}).items()}
                     self._w.writerow([self.num_timesteps, f"{ep['r']:.6g}", ep["l"], int(bool(info.get("is_success"))),
-                                      f"{info.get('pressure_kpa', float('nan')):.4g}"])
+                                      f"{info.get('pressure_kpa', float('nan')):.4g}", info.get("shell_model", ""),
+                                      json.dumps(params, default=float)])
                     self._f.flush()
             return True
 
