@@ -1,7 +1,7 @@
 """The shipped hyperparameter files train with rl-zoo3 as they are, and this trainer continues an
-rl-zoo3 model (-i) with its VecNormalize statistics. Skipped where rl_zoo3 is not installed: it is
-not a declared dependency (its pytablewriter → typepy chain needs python-dateutil < 3, which
-conflicts with the pinned 4.0)."""
+rl-zoo3 model (-i) with its VecNormalize statistics. rl-zoo3 is the ``zoo`` extra, part of the
+``test`` extra that ``make test`` installs (constraints.txt pins python-dateutil 2.9, which its
+pytablewriter → typepy chain needs); skipped only where it is not installed."""
 
 from __future__ import annotations
 
