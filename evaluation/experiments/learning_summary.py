@@ -1,0 +1,174 @@
+"""The learning study's summary: ``summary.json``, ``README.md`` and the learning-curve plot of
+``evaluation/results/learning/``, generated from the per-run result files and ``baselines.json``.
+
+Aggregates over training seeds are rliable's (Agarwal et al., 2021): the interquartile mean (IQM)
+and the mean with 95 % stratified-bootstrap intervals, the runs' scores being their success rates
+on the three shell models (the tasks of the bootstrap's strata).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from sphere_env.files import write_text_atomic
+
+SHELLS = ("point", "injected", "hydroelastic")
+BOOTSTRAP_REPS = 2000
+
+
+def load_runs(results: Path) -> dict[str, list[dict[str, Any]]]:
+    """Result files by recipe name, seeds in order."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for f in sorted((results / "runs").glob("*/seed*.json")):
+        r = json.loads(f.read_text())
+        out.setdefault(f.parent.name, []).append(r)
+    for v in out.values():
+        v.sort(key=lambda r: r["seed"])
+    return out
+
+
+def shell_scores(runs: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """(runs × shells) success rates."""
+    return np.array([[r["per_shell"][m] for m in SHELLS] for r in runs], dtype=float)
+
+
+def interval_estimates(scores: Mapping[str, np.ndarray], seed: int = 0) -> dict[str, dict[str, list[float]]]:
+    """rliable's IQM and mean with 95 % stratified-bootstrap intervals, per key of ``scores``
+    (each a runs × tasks array)."""
+    from rliable import library as rly
+    from rliable import metrics
+
+    def agg(x: np.ndarray) -> np.ndarray:
+        return np.array([metrics.aggregate_iqm(x), metrics.aggregate_mean(x)])
+
+    np.random.seed(seed)  # rliable's bootstrap draws from numpy's global generator
+    point, ci = rly.get_interval_estimates(dict(scores), agg, reps=BOOTSTRAP_REPS)
+    return {k: {"iqm": float(point[k][0]), "iqm_ci": [float(ci[k][0, 0]), float(ci[k][1, 0])],
+                "mean": float(point[k][1]), "mean_ci": [float(ci[k][0, 1]), float(ci[k][1, 1])]} for k in scores}
+
+
+def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any]) -> list[dict[str, Any]]:
+    ests = interval_estimates({k: shell_scores(v) for k, v in runs_by_recipe.items()})
+    rows = []
+    for name, runs in runs_by_recipe.items():
+        succ = np.array([r["success_rate"] for r in runs])
+        steps = [r["env_steps_to_pd_level"] for r in runs]
+        walls = [r["wall_clock_to_pd_level_s"] for r in runs]
+        reached = [s for s in steps if s is not None]
+        rows.append({
+            "recipe": name, "seeds": len(runs), "env_steps": int(np.median([r["env_steps"] for r in runs])),
+            "mean_success": float(succ.mean()), "worst_seed_success": float(succ.min()),
+            "per_shell_mean": {m: float(np.mean([r["per_shell"][m] for r in runs])) for m in SHELLS},
+            "mean_tracking_rmse_rad_s": float(np.nanmean([r["tracking_rmse_rad_s"] for r in runs])),
+            "reached_pd_level": f"{len(reached)}/{len(runs)}",
+            "env_steps_to_pd_level_mean": float(np.mean(reached)) if len(reached) == len(runs) else None,
+            "env_steps_to_pd_level_range": [min(reached), max(reached)] if reached else None,
+            "wall_clock_to_pd_level_s_mean": float(np.mean([w for w in walls if w is not None]))
+            if len(reached) == len(runs) else None,
+            **{f"rliable_{k}": v for k, v in ests[name].items()},
+            "aims": {
+                "mean_success_ge_pd_minus_3": bool(succ.mean() >= pd["success_rate"] - 0.03 - 1e-9),
+                "worst_seed_ge_85": bool(succ.min() >= 0.85 - 1e-9),
+                "every_shell_ge_80": all(np.mean([r["per_shell"][m] for r in runs]) >= 0.8 - 1e-9 for m in SHELLS),
+                "rmse_le_pd": bool(np.nanmean([r["tracking_rmse_rad_s"] for r in runs]) <= pd["tracking_rmse_rad_s"]),
+            },
+            "note": runs[0]["recipe"].get("note", ""),
+        })
+    return rows
+
+
+def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
+    """Grid success against env steps: per recipe the IQM over seeds with its 95 % stratified-
+    bootstrap band (rliable), the PD's success and the PD level."""
+    from sphere_env.plotting import pyplot
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    for i, (name, runs) in enumerate(runs_by_recipe.items()):
+        steps = sorted(set.intersection(*[{c["env_steps"] for c in r["curve"]} for r in runs]))
+        if not steps:
+            continue
+        scores = {}
+        for n in steps:
+            scores[n] = np.array([[next(c for c in r["curve"] if c["env_steps"] == n)["per_shell"][m] for m in SHELLS]
+                                  for r in runs])
+        est = interval_estimates({str(n): s for n, s in scores.items()})
+        y = np.array([est[str(n)]["iqm"] for n in steps])
+        lo = np.array([est[str(n)]["iqm_ci"][0] for n in steps])
+        hi = np.array([est[str(n)]["iqm_ci"][1] for n in steps])
+        ax.plot(steps, y, marker="o", ms=3, color=f"C{i}", label=f"{name} ({len(runs)} seeds)")
+        ax.fill_between(steps, lo, hi, color=f"C{i}", alpha=0.2)
+    ax.axhline(pd["success_rate"], color="k", lw=1, label="PD")
+    ax.axhline(pd["success_rate"] - 0.03, color="k", lw=1, ls="--", label="PD level (PD − 3 points)")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("grid success (IQM over seeds, 95 % CI)")
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    tmp = path.with_name(path.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
+def _pct(x: float | None) -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f}%"
+
+
+def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
+    import pandas as pd_
+
+    pd = base["pd"]
+    table = pd_.DataFrame([{
+        "recipe": r["recipe"], "seeds": r["seeds"], "env steps": r["env_steps"],
+        "mean success": _pct(r["mean_success"]), "worst seed": _pct(r["worst_seed_success"]),
+        "IQM [95% CI]": f"{_pct(r['rliable_iqm'])} [{_pct(r['rliable_iqm_ci'][0])}, {_pct(r['rliable_iqm_ci'][1])}]",
+        "point / injected / hydro": " / ".join(_pct(r["per_shell_mean"][m]) for m in SHELLS),
+        "RMSE rad/s": f"{r['mean_tracking_rmse_rad_s']:.2f}",
+        "runs at PD level": r["reached_pd_level"],
+        "steps to PD level (mean, range)": "–" if r["env_steps_to_pd_level_range"] is None else (
+            (f"{r['env_steps_to_pd_level_mean'] / 1e3:.0f} k, " if r["env_steps_to_pd_level_mean"] else "")
+            + f"{r['env_steps_to_pd_level_range'][0] / 1e3:.0f}–{r['env_steps_to_pd_level_range'][1] / 1e3:.0f} k"),
+    } for r in rows])
+    notes = "\n".join(f"- **{r['recipe']}**: {r['note']}" for r in rows if r["note"])
+    g = base["grid"]
+    return (
+        "# Learning study\n\n"
+        "Generated by `python -m evaluation.experiments.learning summary` from `runs/*/seed*.json` and "
+        "`baselines.json` (do not edit by hand).\n\n"
+        f"Grid: {g['episodes']} episodes = shells {', '.join(g['shells'])} × {g['pressures_kpa']} kPa × "
+        f"evaluation seeds {g['seeds']} (each seed draws the two commands), deterministic actions, "
+        f"randomization off. PD: {_pct(pd['success_rate'])} success (point / injected / hydro "
+        f"{' / '.join(_pct(pd['per_shell'][m]) for m in SHELLS)}), tracking RMSE "
+        f"{pd['tracking_rmse_rad_s']:.2f} rad/s; zero torque {_pct(base['zero']['success_rate'])}. "
+        "PD level = PD − 3 points. IQM and its interval: rliable, stratified bootstrap over training seeds "
+        f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n"
+        + table.to_markdown(index=False) + "\n\n" + notes + "\n\n![learning curves](learning_curves.png)\n"
+    )
+
+
+def write_summary(results: Path) -> Path:
+    base = json.loads((results / "baselines.json").read_text())
+    runs_by_recipe = load_runs(results)
+    rows = recipe_rows(runs_by_recipe, base["pd"]) if runs_by_recipe else []
+    summary = {
+        "commit": base.get("commit"), "cores": 2, "grid": base["grid"], "pd": base["pd"], "zero": base["zero"],
+        "recipes": rows,
+        "runs": [{k: r[k] for k in ("method", "condition", "from_scratch", "seed", "success_rate",
+                                    "tracking_rmse_rad_s", "per_shell", "env_steps_to_pd_level",
+                                    "wall_clock_to_pd_level_s", "wall_clock_s", "env_steps", "commit")}
+                 | {"faults": r.get("faults", {})}
+                 for runs in runs_by_recipe.values() for r in runs],
+    }
+    write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
+    if runs_by_recipe:
+        plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png")
+    write_text_atomic(results / "README.md", markdown(rows, base))
+    return results / "summary.json"
