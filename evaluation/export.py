@@ -61,6 +61,9 @@ def _policy_module(model: Any, vecnormalize: Any, algo: str):
             super().__init__()
             policy = model.policy
             n_obs = int(np.prod(model.observation_space.shape))
+            # an asymmetric actor-critic's actor ignores the trailing privileged components: the
+            # file takes the robot's observation without them and fills their slots with zeros
+            self.privileged_dims = int(getattr(policy, "privileged_dims", 0))
             if vecnormalize is not None and vecnormalize.norm_obs:
                 rms = vecnormalize.obs_rms
                 mean, var = np.asarray(rms.mean, np.float64), np.asarray(rms.var, np.float64)
@@ -84,7 +87,10 @@ def _policy_module(model: Any, vecnormalize: Any, algo: str):
                 self.head = policy.actor.mu
 
         def forward(self, observation: torch.Tensor) -> torch.Tensor:
-            x = (observation.to(torch.float64) - self.obs_mean) / self.obs_std
+            x = observation.to(torch.float64)
+            if self.privileged_dims:
+                x = torch.cat([x, torch.zeros(x.shape[0], self.privileged_dims, dtype=x.dtype)], dim=1)
+            x = (x - self.obs_mean) / self.obs_std
             if math.isfinite(self.clip_obs):
                 x = torch.clamp(x, -self.clip_obs, self.clip_obs)
             mean = self.head(self.latent(self.features(x.to(torch.float32))))
@@ -107,8 +113,8 @@ def check_supported(model: Any, algo: str) -> None:
         (not isinstance(act_space, spaces.Box), f"policy: action space {act_space} is not a Box"),
         (algo == "ppo" and policy.squash_output,
          "policy: PPO with squash_output (gSDE) cannot be exported; train without squash_output"),
-        (type(policy).__name__ not in ("ActorCriticPolicy", "SACPolicy", "MlpPolicy"),
-         f"policy: {type(policy).__name__} cannot be exported; allowed: MlpPolicy"),
+        (type(policy).__name__ not in ("ActorCriticPolicy", "SACPolicy", "MlpPolicy", "AsymmetricActorCriticPolicy"),
+         f"policy: {type(policy).__name__} cannot be exported; allowed: MlpPolicy, AsymmetricMlpPolicy"),
     ]
     for failed, message in problems:
         if failed:
@@ -252,13 +258,17 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
         u = env.unwrapped
         lo, hi = ShellCalibration.load(r["env_kwargs"].get("calibration")).pressure_range_kpa
         nominal = ShellCalibration.load(r["env_kwargs"].get("calibration")).nominal_pressure_kpa
-        obs = record_observations(controller, env, (lo, nominal, hi))
+        obs = record_observations(controller, env, (lo, nominal, hi))  # full observations, as SB3 takes them
         observation_layout = u.observation_layout.describe()
         action_layout = u.action_layout()
         control_hz = 1.0 / u.control_period_s
     finally:
         env.close()
     expected = sb3_actions(controller, obs)
+    k = module.privileged_dims
+    if k:  # the robot does not measure the privileged components: the file's input drops them
+        obs = obs[:, :-k]
+        observation_layout = observation_layout[:-k]
 
     created = [p for p in (out, *out.parents) if not p.exists()]
     out.mkdir(parents=True, exist_ok=True)
@@ -278,7 +288,7 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
         stats = None
         if vn is not None and vn.norm_obs:
             mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
-            for rec, m, v in zip(observation_layout, mean, var):
+            for rec, m, v in zip(observation_layout, mean, var):  # zip stops at the robot's components
                 rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
             stats = {"epsilon": float(vn.epsilon), "clip_obs": float(vn.clip_obs),
                      "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64"}
@@ -286,7 +296,8 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
             "format": fmt,
             "file": name,
             "input": {"name": "observation", "shape": ["batch", int(obs.shape[1])], "dtype": "float32",
-                      "meaning": "the env's raw observation (normalization is inside the file)"},
+                      "meaning": "the env's raw observation (normalization is inside the file)"
+                      + (f", without the {k} privileged components the critic alone saw in training" if k else "")},
             "output": {"name": "action", "shape": ["batch", 2], "dtype": "float32", "range": [-1.0, 1.0]},
             "deterministic_action": ("Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
                                      if cfg.algo == "ppo" else "tanh of the Gaussian mean (SB3 predict, "

@@ -29,3 +29,14 @@ def tiny_ppo_run(tmp_path_factory):
 @pytest.fixture(scope="session")
 def tiny_sac_run(tmp_path_factory):
     return tiny_run(tmp_path_factory, "sac")
+
+
+@pytest.fixture(scope="session")
+def tiny_recipe_run(tmp_path_factory):
+    """A few hundred steps of the shipped RampDescent-v3 recipe: shell mixture, asymmetric critic."""
+    from sphere_env.training.config import resolve_config
+    from sphere_env.training.train import train
+
+    cfg = resolve_config("sphere_env/RampDescent-v3", "ppo", overrides={**TINY["ppo"], "n_workers": 1},
+                         eval_episodes=1)
+    return train(cfg, tmp_path_factory.mktemp("tiny_recipe") / "run", progress_bar=False)

@@ -1,0 +1,45 @@
+"""An asymmetric actor-critic exports as the robot runs it: the file takes the observation without
+the privileged components (pressure, shell one-hot) and gives the SB3 policy's deterministic action
+on the full observation, whatever those components hold."""
+
+from __future__ import annotations
+
+import json
+import pickle
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from sphere_env.evaluation.export import export, run_exported
+from sphere_env.training.config import algo_class
+
+import sphere_env  # noqa: F401
+
+
+@pytest.mark.parametrize("fmt", ["torchscript", "onnx"])
+def test_the_exported_actor_takes_the_robot_observation_only(tiny_recipe_run, tmp_path, fmt):
+    res = export(str(tiny_recipe_run), fmt, tmp_path / fmt)
+    layout = json.loads(res["layout"].read_text())
+    names = [c["name"] for c in layout["observation"]]
+    assert "pressure_kpa" not in names and not any(n.startswith("shell_") for n in names)
+    assert layout["input"]["shape"] == ["batch", len(names)]
+
+    model = algo_class("ppo").load(tiny_recipe_run / "model.zip", device="cpu")
+    with open(tiny_recipe_run / "vecnormalize.pkl", "rb") as f:
+        vn = pickle.load(f)
+    env = gym.make("sphere_env/RampDescent-v3", shell_model="hydroelastic", randomization="off",
+                   observe_pressure=True, observe_shell_model=True)
+    obs, _ = env.reset(seed=3, options={"pressure_kpa": 9.0})
+    rows = [obs]
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        obs, *_ = env.step(rng.uniform(-0.5, 0.5, 2).astype(np.float32))
+        rows.append(obs)
+    env.close()
+    full = np.asarray(rows, np.float32)
+    expected, _ = model.predict(vn.normalize_obs(full), deterministic=True)
+    got = run_exported(res["policy"], fmt, full[:, : len(names)])
+    np.testing.assert_allclose(got, expected, atol=1e-5)
+    other = full.copy()
+    other[:, len(names):] = [3.0, 1.0, 0.0, 0.0]  # another pressure and shell: the actor ignores them
+    np.testing.assert_allclose(model.predict(vn.normalize_obs(other), deterministic=True)[0], expected, atol=1e-6)
