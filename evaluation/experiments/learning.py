@@ -11,6 +11,7 @@ many jobs at once, each training on one core).
     python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2]
     python -m evaluation.experiments.learning pd            # the PD and zero-torque baselines on the grid
     python -m evaluation.experiments.learning summary       # summary.json, tables and plots
+    python -m evaluation.experiments.learning ship --recipe shipped --seed 2   # -> assets/policies/
 
 The result of a run holds its learning curve (grid success, per shell and tracking RMSE at every
 checkpoint), the final checkpoint's figures, the env steps and training wall-clock at which the grid
@@ -200,6 +201,50 @@ def baselines(results: Path = RESULTS) -> Path:
     return path
 
 
+SHIP_FILES = ("config.yaml", "model.zip", "vecnormalize.pkl")
+
+
+def ship(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path = RESULTS) -> Path:
+    """Copy a finished run of the study into the package as the ``pretrained`` policy
+    (``assets/policies/<folder>/``: the run's config, final model and VecNormalize statistics, and
+    ``card.json`` with its recipe, seed and grid figures), through a staging folder moved into place."""
+    import shutil
+    import tempfile
+
+    from sphere_env.resources import ASSETS_PACKAGE, SHIPPED_POLICIES
+
+    result_file = results / "runs" / recipe_name / f"seed{seed}.json"
+    if not result_file.exists():
+        raise ValueError(f"seed: no finished result {result_file} (run the study first)")
+    run_dir = runs_root / recipe_name / f"seed{seed}"
+    missing = [f for f in SHIP_FILES if not (run_dir / f).is_file()]
+    if missing:
+        raise ValueError(f"seed: run folder {run_dir} lacks {missing}")
+    res = json.loads(result_file.read_text())
+    import importlib.resources
+
+    target = Path(str(importlib.resources.files(ASSETS_PACKAGE))) / "policies" / SHIPPED_POLICIES["pretrained"]
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".ship-", dir=target.parent))
+    for f in SHIP_FILES:
+        shutil.copy2(run_dir / f, stage / f)
+    card = {k: res[k] for k in ("method", "seed", "env_id", "algo", "env_steps", "success_rate", "tracking_rmse_rad_s",
+                                "per_shell", "env_steps_to_pd_level", "wall_clock_s", "commit")}
+    card["grid"] = {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)}
+    card["trained_by"] = ("python -m training.train --env sphere_env/RampDescent-v3 --algo ppo "
+                          f"--seed {seed}  (training/hyperparams/ppo.yml, RampDescent-v3 section)")
+    (stage / "card.json").write_text(json.dumps(card, indent=1) + "\n")
+    old = None
+    if target.exists():
+        old = target.with_name(f".{target.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        target.rename(old)
+    stage.rename(target)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+    return target
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m evaluation.experiments.learning", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -210,7 +255,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
+    sp = sub.add_parser("ship", help="copy a finished run into the package as the pretrained policy")
+    sp.add_argument("--recipe", default="shipped")
+    sp.add_argument("--seed", type=int, required=True)
     args = p.parse_args(argv)
+    if args.cmd == "ship":
+        try:
+            print(ship(args.recipe, args.seed))
+        except ValueError as err:
+            p.exit(2, f"{p.prog}: error: {err}\n")
+        return
     if args.cmd == "pd":
         print(baselines())
         return

@@ -149,3 +149,20 @@ def test_sb3_subproc_vec_env_two_workers():
         assert obs.shape == (2, 13) and len(infos) == 2 and "reward_speed" in infos[0]
     finally:
         venv.close()
+
+
+def test_checkers_pass_on_the_recipe_env_with_its_mixture_and_privileged_components(make):
+    """What training/hyperparams/ppo.yml's RampDescent-v3 section trains on: the checkers accept the
+    env with the privileged pressure and shell one-hot, inside the shell-model mixture."""
+    from gymnasium.utils.env_checker import check_env as gym_check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    from sphere_env.wrappers import ShellModelMixture
+
+    env = make("sphere_env/RampDescent-v3", shell_model="injected", observe_pressure=True, observe_shell_model=True)
+    gym_check_env(env.unwrapped, skip_render_check=True)
+    mix = ShellModelMixture(env, ["injected", "point"])
+    sb3_check_env(mix, warn=True, skip_render_check=True)
+    obs, _ = mix.reset(seed=1)
+    assert mix.observation_space.contains(obs)
+    mix.close()
