@@ -70,7 +70,7 @@ class SweepSpec:
     (:mod:`sphere_env.evaluation.controller_specs`)."""
 
     controllers: list[str]
-    env_id: str = "sphere_env/RampDescent-v2"
+    env_id: str = "sphere_env/RampDescent-v3"
     pressures_kpa: list[float] = field(default_factory=lambda: [3.0, 8.5, 14.0])
     shell_models: list[str] = field(default_factory=lambda: list(SHELL_MODELS))
     frictions: list[str] = field(default_factory=lambda: ["majd"])
@@ -733,7 +733,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
                         help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
-    parser.add_argument("--env", default="sphere_env/RampDescent-v2")
+    parser.add_argument("--env", default="sphere_env/RampDescent-v3")
     parser.add_argument("--pressures", type=float, nargs="+", default=[3.0, 8.5, 14.0], help="kPa")
     parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
     parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")

@@ -145,10 +145,17 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
     kw = eval_env_kwargs(cfg)
     curve = []
     ckpts = sorted((int(p.stem.split("_")[-2]), p) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
+    cache = run_dir / "grid_eval"  # one file per evaluated checkpoint: a longer budget re-uses them
+    cache.mkdir(exist_ok=True)
     for n, zp in ckpts:
-        vn = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{n}_steps.pkl"
-        fig = evaluate_checkpoint(zp, vn, cfg.algo, kw, env_id)
-        fig.pop("episodes_detail")
+        done = cache / f"{n}.json"
+        if done.exists():
+            fig = json.loads(done.read_text())
+        else:
+            vn = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{n}_steps.pkl"
+            fig = evaluate_checkpoint(zp, vn, cfg.algo, kw, env_id)
+            fig.pop("episodes_detail")
+            write_text_atomic(done, json.dumps(fig) + "\n")
         curve.append({"env_steps": n, "wall_clock_s": n * wall_per_step, **fig})
     final = evaluate_checkpoint(run_dir / "model.zip", run_dir / "vecnormalize.pkl", cfg.algo, kw, env_id)
     level = pd_level()

@@ -11,7 +11,7 @@ from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main, parse_env_
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import train
 
-GRID = ["--pressures", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1", "--replay"]
+GRID = ["--env", "sphere_env/RampDescent-v2", "--pressures", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1", "--replay"]
 
 
 def three_actions(obs, info=None):
@@ -116,8 +116,8 @@ def test_missing_vecnormalize_refused(tiny_run, tmp_path, capsys):
 
 
 def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys):
-    _refused(capsys, ["--controller", str(tiny_run), "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o"),
-                      *GRID], "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch")
+    _refused(capsys, ["--controller", str(tiny_run), *GRID, "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o")],
+             "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch")
     assert not (tmp_path / "o").exists()
     SweepSpec(controllers=[str(tiny_run)], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
               shell_models=["point"], seeds=[0]).validate()
@@ -160,7 +160,8 @@ def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baseli
                                     "env_kwargs": {"shell_model": "point", "observe_tracking_state": True}},
                          eval_episodes=1)
     run = train(cfg, tmp_path_factory.mktemp("tracking") / "run", progress_bar=False)
-    spec = SweepSpec(controllers=["pd", f"ppo={run}"], pressures_kpa=[8.5], shell_models=["point"], seeds=[0])
+    spec = SweepSpec(controllers=["pd", f"ppo={run}"], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
+                     shell_models=["point"], seeds=[0])
     spec.validate()
     res = evaluate(spec, tmp_path_factory.mktemp("o") / "o", workers=1, replays=[])
     rows = {a["controller"]: a for a in res["agg_controller"]}

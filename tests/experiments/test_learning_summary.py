@@ -1,0 +1,74 @@
+"""The learning study's summary: rliable's IQM and stratified-bootstrap intervals over seeds, the
+aims checked against the PD, and the files written from the per-run results."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rliable")
+
+from sphere_env.evaluation.experiments.learning_summary import interval_estimates, recipe_rows, write_summary
+
+SHELLS = ("point", "injected", "hydroelastic")
+PD = {"success_rate": 26 / 27, "tracking_rmse_rad_s": 0.31,
+      "per_shell": {"point": 1.0, "injected": 8 / 9, "hydroelastic": 1.0}, "episodes": 27}
+
+
+def _run(seed, per_shell, rmse=0.3, steps_to_pd=None):
+    return {"method": "r", "condition": "pressure", "from_scratch": True, "seed": seed,
+            "success_rate": float(np.mean(list(per_shell.values()))), "tracking_rmse_rad_s": rmse,
+            "per_shell": dict(per_shell), "env_steps_to_pd_level": steps_to_pd,
+            "wall_clock_to_pd_level_s": None if steps_to_pd is None else steps_to_pd / 500,
+            "wall_clock_s": 100.0, "env_steps": 1000, "commit": "x", "recipe": {"note": ""},
+            "curve": [{"env_steps": 500, "per_shell": dict(per_shell), "success_rate": 0.0},
+                      {"env_steps": 1000, "per_shell": dict(per_shell), "success_rate": 0.0}]}
+
+
+def test_identical_seeds_give_a_point_interval_at_their_score():
+    scores = {"a": np.full((5, 3), 0.8)}
+    est = interval_estimates(scores)["a"]
+    assert est["iqm"] == pytest.approx(0.8) and est["iqm_ci"] == pytest.approx([0.8, 0.8])
+
+
+def test_the_interval_covers_the_mean_and_is_wider_with_spread_scores():
+    rng = np.random.default_rng(0)
+    tight = np.clip(0.7 + 0.02 * rng.standard_normal((10, 3)), 0, 1)
+    wide = np.clip(0.7 + 0.25 * rng.standard_normal((10, 3)), 0, 1)
+    est = interval_estimates({"tight": tight, "wide": wide})
+    for k, x in (("tight", tight), ("wide", wide)):
+        lo, hi = est[k]["mean_ci"]
+        assert lo <= x.mean() <= hi
+    width = {k: est[k]["iqm_ci"][1] - est[k]["iqm_ci"][0] for k in est}
+    assert width["wide"] > 3 * width["tight"]
+
+
+def test_aims_are_judged_against_the_pd():
+    good = [_run(s, {"point": 1.0, "injected": 1.0, "hydroelastic": 8 / 9}, 0.25, 800_000) for s in range(5)]
+    weak_point = [_run(s, {"point": 2 / 9, "injected": 1.0, "hydroelastic": 1.0}, 0.5) for s in range(5)]
+    rows = {r["recipe"]: r for r in recipe_rows({"good": good, "weak": weak_point}, PD)}
+    assert all(rows["good"]["aims"].values())
+    assert rows["good"]["env_steps_to_pd_level_mean"] == 800_000 and rows["good"]["reached_pd_level"] == "5/5"
+    weak = rows["weak"]["aims"]
+    assert not weak["every_shell_ge_80"] and not weak["rmse_le_pd"] and not weak["mean_success_ge_pd_minus_3"]
+    assert rows["weak"]["env_steps_to_pd_level_range"] is None
+
+
+def test_write_summary_gives_the_documented_shape(tmp_path):
+    base = {"pd": PD, "zero": {**PD, "success_rate": 1 / 27},
+            "grid": {"shells": list(SHELLS), "pressures_kpa": [3.0, 8.5, 14.0], "seeds": [0, 1, 2], "episodes": 27},
+            "commit": "abc"}
+    (tmp_path / "baselines.json").write_text(json.dumps(base))
+    folder = tmp_path / "runs" / "recipe_a"
+    folder.mkdir(parents=True)
+    for s in range(3):
+        (folder / f"seed{s}.json").write_text(json.dumps(_run(s, {"point": 0.5 + 0.1 * s, "injected": 1.0,
+                                                                    "hydroelastic": 0.9})))
+    summary = json.loads(write_summary(tmp_path).read_text())
+    assert summary["grid"]["episodes"] == 27 and summary["pd"]["success_rate"] == pytest.approx(26 / 27)
+    assert [r["seed"] for r in summary["runs"]] == [0, 1, 2]
+    assert set(summary["runs"][0]["per_shell"]) == set(SHELLS) and summary["runs"][0]["from_scratch"] is True
+    assert (tmp_path / "learning_curves.png").stat().st_size > 0
+    assert "recipe_a" in (tmp_path / "README.md").read_text()
