@@ -191,20 +191,51 @@ def _policy_kwargs(d: dict[str, Any]) -> dict[str, Any]:
     return d
 
 
-def _eval_policy_kwargs(text: str) -> dict[str, Any]:
-    """rl-zoo3's ``"dict(net_arch=[64, 64], activation_fn=nn.Tanh)"``, evaluated without builtins."""
-    import torch.nn as nn
+def parse_dict_call(text: str, field_name: str, names: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """rl-zoo3's ``"dict(key=value, ...)"`` strings (policy kwargs, VecNormalize arguments) read as
+    data, never evaluated: the text must be one ``dict(...)`` call (or a ``{...}`` literal) whose
+    values are Python literals, nested ``dict(...)`` calls, lists/tuples of these, or one of
+    ``names`` (such as ``nn.ReLU``). Anything else raises ValueError naming the field."""
+    import ast
+
+    names = dict(names or {})
+
+    def value(node: ast.AST) -> Any:
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+            return {kw.arg: value(kw.value) for kw in node.keywords if kw.arg is not None}
+        if isinstance(node, ast.Dict):
+            return {value(k): value(v) for k, v in zip(node.keys, node.values) if k is not None}
+        if isinstance(node, (ast.List, ast.Tuple)):
+            items = [value(e) for e in node.elts]
+            return items if isinstance(node, ast.List) else tuple(items)
+        if isinstance(node, (ast.Attribute, ast.Name)):
+            dotted = ast.unparse(node)
+            if dotted in names:
+                return names[dotted]
+            if dotted in ("True", "False", "None"):
+                return ast.literal_eval(dotted)
+            raise ValueError(f"name {dotted!r} is not allowed; allowed names: {sorted(names) or 'none'}")
+        return ast.literal_eval(node)  # numbers, strings, -x; raises ValueError on anything else
 
     try:
-        out = eval(text, {"__builtins__": {}}, {"dict": dict, "nn": nn})  # noqa: S307 - restricted
-    except Exception as err:  # noqa: BLE001 - any syntax/name error is a config error
-        raise ValueError(f"hyperparams.policy_kwargs: cannot parse {text!r}: {err}") from None
+        tree = ast.parse(text.strip(), mode="eval")
+        out = value(tree.body)
+    except (SyntaxError, ValueError, TypeError) as err:
+        raise ValueError(f"{field_name}: cannot read {text!r} as data: {err}; allowed: dict(key=value, ...) with "
+                         "literal values") from None
     if not isinstance(out, dict):
-        raise ValueError(f"hyperparams.policy_kwargs: {text!r} must evaluate to a dict")
+        raise ValueError(f"{field_name}: {text!r} must be a dict(...) of keyword arguments")
     return out
 
 
-# ---- hyperparameter checks (type and range of every SB3 constructor argument) -------------------------
+def _eval_policy_kwargs(text: str) -> dict[str, Any]:
+    """rl-zoo3's ``"dict(net_arch=[64, 64], activation_fn=nn.Tanh)"``, read as data."""
+    import torch.nn as nn
+
+    activations = {f"nn.{n}": getattr(nn, n) for n in ("Tanh", "ReLU", "ELU", "LeakyReLU", "GELU", "SiLU")}
+    return _policy_kwargs(parse_dict_call(text, "hyperparams.policy_kwargs", activations))
+
+
 def _hp_number(key: str, val: Any, *, low: float | None = None, high: float | None = None,
                low_open: bool = False, high_open: bool = False) -> float:
     """A finite real number within the given bounds (bools are not numbers)."""
@@ -415,11 +446,8 @@ def _normalize(value: Any) -> dict[str, Any] | None:
         return None
     if value is True:
         return {}
-    if isinstance(value, str):  # rl-zoo3's "dict(norm_obs=True, norm_reward=False)"
-        try:
-            value = eval(value, {"__builtins__": {}}, {"dict": dict, "True": True, "False": False})  # noqa: S307
-        except Exception as err:  # noqa: BLE001
-            raise ValueError(f"normalize: cannot parse {value!r}: {err}") from None
+    if isinstance(value, str):  # rl-zoo3's "dict(norm_obs=True, norm_reward=False)", read as data
+        value = parse_dict_call(value, "normalize")
     if not isinstance(value, Mapping):
         raise ValueError(f"normalize: value {value!r} must be true, false or a mapping of VecNormalize arguments")
     for k in value:
