@@ -41,6 +41,7 @@ import contextlib
 import csv
 import json
 import math
+import os
 import re
 import sys
 import time
@@ -354,8 +355,36 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
 
 # ---- training ----------------------------------------------------------------------------------------
 def default_run_dir(cfg: TrainConfig, root: Path = RUNS) -> Path:
+    """``<root>/<algo>_<env>_<UTC time>_s<seed>_<6 random hex digits>``: two runs started in the same
+    second get different folders (and :func:`train` creates a new folder exclusively)."""
+    import secrets
+
     stamp = datetime.now(UTC).strftime("%Y%m%d-%H%M%S")
-    return root / f"{cfg.algo}_{cfg.env_id.split('/')[-1]}_{stamp}_s{cfg.seed}"
+    return root / f"{cfg.algo}_{cfg.env_id.split('/')[-1]}_{stamp}_s{cfg.seed}_{secrets.token_hex(3)}"
+
+
+LOCK_FILE = ".lock"
+
+
+@contextlib.contextmanager
+def run_lock(run_dir: Path):
+    """Hold an exclusive lock on a run folder for the whole training (``<run>/.lock``, ``flock``: the
+    system releases it when the process ends, however it ends). A second writer on the same folder
+    is refused with a ValueError naming the folder, before it reads or changes anything there."""
+    import fcntl
+
+    fd = os.open(run_dir / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise ValueError(f"run_dir: {str(run_dir)!r} is in use by another training process (it holds "
+                             f"{LOCK_FILE}); wait for it to end or use another folder") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield
+    finally:
+        os.close(fd)
 
 
 def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None = None,
@@ -524,10 +553,25 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
     torch.set_num_threads(cfg.torch_threads)
     cls = algo_class(cfg.algo)
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(cfg)
+    if resume and not (run_dir / "config.yaml").exists():
+        raise ValueError(f"resume: {str(run_dir)!r} has no config.yaml (not a training run folder)")
+    created = False
+    if not resume:
+        try:
+            run_dir.mkdir(parents=True)  # exclusive: a folder that exists is judged under its lock below
+            created = True
+        except FileExistsError:
+            if not run_dir.is_dir():
+                raise ValueError(f"run_dir: {str(run_dir)!r} exists and is not a folder") from None
+    with run_lock(run_dir):
+        return _train_locked(cfg, cls, run_dir, resume, created, progress_bar, verbose, command, return_model)
+
+
+def _train_locked(cfg: TrainConfig, cls, run_dir: Path, resume: bool, created: bool, progress_bar: bool,
+                  verbose: int, command: Sequence[str] | None, return_model: bool):
     start_steps = 0
     ckpt = None
     previous: dict[str, Any] = {}
-    created = False
     if resume:
         if not (run_dir / "config.yaml").exists():
             raise ValueError(f"resume: {str(run_dir)!r} has no config.yaml (not a training run folder)")
@@ -562,9 +606,6 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
             _say(f"run_dir: {str(run_dir)!r} holds a run stopped before its first checkpoint; "
                  "starting over in it")
             _clear_outputs(run_dir)
-        elif not run_dir.exists():
-            created = True
-        run_dir.mkdir(parents=True, exist_ok=True)
     extra: dict[str, Any] = {}
     if previous:  # keep the original command; list the resume commands
         extra["command"] = previous.get("command", [])
