@@ -366,6 +366,11 @@ def default_run_dir(cfg: TrainConfig, root: Path = RUNS) -> Path:
 LOCK_FILE = ".lock"
 
 
+class TrainingInterrupted(Exception):
+    """Training stopped by Ctrl-C or SIGTERM after saving the model, its VecNormalize statistics and a
+    resumable checkpoint; the message says where and how to continue."""
+
+
 @contextlib.contextmanager
 def run_lock(run_dir: Path):
     """Hold an exclusive lock on a run folder for the whole training (``<run>/.lock``, ``flock``: the
@@ -618,6 +623,9 @@ def _train_locked(cfg: TrainConfig, cls, run_dir: Path, resume: bool, created: b
     try:
         write_config(cfg, run_dir, command, extra=extra or None)
         result = _train_session(cfg, cls, run_dir, ckpt, start_steps, progress_bar, verbose)
+    except TrainingInterrupted:
+        write_learning_curves(run_dir)
+        raise
     except BaseException:
         if created and latest_checkpoint(run_dir) is None:
             import shutil
@@ -680,9 +688,20 @@ def _train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] 
             model = cls(cfg.policy, venv, seed=cfg.seed, device=cfg.device, verbose=verbose,
                         tensorboard_log=tb, **cfg.algo_kwargs())
         t0 = time.perf_counter()
-        with unchecked_distributions():
-            model.learn(total_timesteps=cfg.n_timesteps - start_steps, callback=_callbacks(cfg, run_dir, eval_env),
-                        progress_bar=progress_bar, reset_num_timesteps=not resume, tb_log_name=cfg.algo)
+        try:
+            with unchecked_distributions():
+                model.learn(total_timesteps=cfg.n_timesteps - start_steps, callback=_callbacks(cfg, run_dir, eval_env),
+                            progress_bar=progress_bar, reset_num_timesteps=not resume, tb_log_name=cfg.algo)
+        except KeyboardInterrupt:
+            # the rollout in progress is dropped; everything trained so far is saved and resumable
+            model.save(run_dir / "model.zip")
+            vn = model.get_vec_normalize_env()
+            if vn is not None:
+                vn.save(str(run_dir / "vecnormalize.pkl"))
+            save_checkpoint(model, run_dir, cfg)
+            raise TrainingInterrupted(
+                f"interrupted at {model.num_timesteps} env steps; saved model.zip, vecnormalize.pkl and a "
+                f"checkpoint in {run_dir}; continue with --resume {run_dir}") from None
         wall = time.perf_counter() - t0
         model.save(run_dir / "model.zip")
         vn = model.get_vec_normalize_env()
@@ -742,7 +761,7 @@ def _parse_params(items: Sequence[str]) -> dict[str, Any]:
 def build_parser() -> argparse.ArgumentParser:
     """The command line: rl-zoo3's ``train.py`` flags for what this trainer does, plus its own."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--env", default="sphere_env/RampDescent-v2", help="registered env id")
+    parser.add_argument("--env", default="sphere_env/RampDescent-v3", help="registered env id")
     parser.add_argument("--algo", default="ppo", help="ppo or sac")
     parser.add_argument("-conf", "--conf-file", type=Path, default=None,
                         help="hyperparameter YAML (default: the shipped training/hyperparams/<algo>.yml)")
@@ -789,6 +808,12 @@ def main(argv: Sequence[str] | None = None) -> Path:
     args = parser.parse_args(argv)
     command = [sys.executable, "-m", "sphere_env.training.train",
                *(argv if argv is not None else sys.argv[1:])]
+    import signal
+
+    def _terminate(signum, frame):  # SIGTERM ends a training as Ctrl-C does: saved, then exit
+        raise KeyboardInterrupt
+
+    previous_term = signal.signal(signal.SIGTERM, _terminate)
     try:
         if args.resume is not None:
             run = _resume(args, command)
@@ -802,7 +827,13 @@ def main(argv: Sequence[str] | None = None) -> Path:
             run = train(cfg, args.run_dir or default_run_dir(cfg, args.log_folder),
                         progress_bar=not args.no_progress, verbose=args.verbose, command=command)
     except ValueError as err:
-        parser.exit(2, f"training.train: error: {err}\n")
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
+    except TrainingInterrupted as err:
+        parser.exit(130, f"{parser.prog}: {err}\n")
+    except KeyboardInterrupt:
+        parser.exit(130, f"{parser.prog}: interrupted before training started; nothing saved\n")
+    finally:
+        signal.signal(signal.SIGTERM, previous_term)
     print(f"run folder: {run.resolve()}")
     return run
 

@@ -168,6 +168,11 @@ class _Block:
 
 
 def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
+    import signal
+
+    # Ctrl-C reaches the whole process group: the training process saves and then closes the
+    # workers itself, so a worker must not die under it first.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     parent_remote.close()
     block = _Block(fns.var)
     try:
