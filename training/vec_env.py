@@ -167,6 +167,34 @@ class _Block:
             env.close()
 
 
+#: Commands whose failure (a bad argument from the caller) is sent back and raised in the caller
+#: instead of ending the worker.
+_CALLER_COMMANDS = ("env_method", "get_attr", "set_attr", "has_attr", "is_wrapped")
+
+
+class _Failed:
+    """A command's exception, carried back to the calling process."""
+
+    def __init__(self, err: BaseException):
+        self.kind = type(err).__name__
+        self.message = str(err)
+
+    def raise_(self):
+        cls = {"ValueError": ValueError, "TypeError": TypeError, "AttributeError": AttributeError,
+               "KeyError": KeyError}.get(self.kind, RuntimeError)
+        raise cls(self.message if cls is not RuntimeError else f"{self.kind}: {self.message}")
+
+
+def _answer(block: "_Block", cmd: str, data):
+    """``block.handle``, with a caller command's exception returned as :class:`_Failed`."""
+    if cmd not in _CALLER_COMMANDS:
+        return block.handle(cmd, data)
+    try:
+        return block.handle(cmd, data)
+    except Exception as err:  # noqa: BLE001 - any failure of the caller's request goes back to it
+        return _Failed(err)
+
+
 def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
     import signal
 
@@ -182,7 +210,7 @@ def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
                 block.close()
                 remote.close()
                 break
-            remote.send(block.handle(cmd, data))
+            remote.send(_answer(block, cmd, data))
     except (EOFError, KeyboardInterrupt):
         pass
 
@@ -289,11 +317,15 @@ class BatchedSubprocVecEnv(VecEnv):
         for remote, data in routes:
             if remote is not None:
                 remote.send((cmd, data))
-        out = []
-        for remote, data in routes:
-            reply = self.local.handle(cmd, data) if remote is None else remote.recv()
-            if reply is not None:
+        out, failed = [], None
+        for remote, data in routes:  # every reply is received, so the pipes stay in step
+            reply = _answer(self.local, cmd, data) if remote is None else remote.recv()
+            if isinstance(reply, _Failed):
+                failed = failed or reply
+            elif reply is not None:
                 out += reply
+        if failed is not None:
+            failed.raise_()
         return out
 
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
