@@ -11,7 +11,7 @@ many jobs at once, each training on one core).
     python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2]
     python -m evaluation.experiments.learning pd            # the PD and zero-torque baselines on the grid
     python -m evaluation.experiments.learning summary       # summary.json, tables and plots
-    python -m evaluation.experiments.learning ship --recipe shipped --seed 2   # -> assets/policies/
+    python -m evaluation.experiments.learning ship --candidates shipped:0 shipped_annealed:0  # -> assets/policies/
 
 The result of a run holds its learning curve (grid success, per shell and tracking RMSE at every
 checkpoint), the final checkpoint's figures, the env steps and training wall-clock at which the grid
@@ -29,6 +29,7 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -133,9 +134,21 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
     every = int(float(recipe.get("eval_every", 100_000)))
     overrides = {"n_timesteps": steps, "n_workers": 1, **(recipe.get("hyperparams") or {})}
     env_id = recipe.get("env", ENV_ID)
+    # a second phase: the same seed's run of another recipe, continued from one of its checkpoints
+    # with this recipe's hyperparameters (the trainer's -i); steps and wall-clock count from zero
+    # of the first phase
+    offset, offset_wall, agent = 0, 0.0, None
+    if recipe.get("continue_from"):
+        offset = int(float(recipe["continue_at"]))
+        first = runs_root / recipe["continue_from"] / f"seed{seed}"
+        agent = first / "checkpoints" / f"{CHECKPOINT_PREFIX}_{offset}_steps.zip"
+        if not agent.is_file():
+            raise ValueError(f"continue_from: {agent} is missing (run {recipe['continue_from']} seed {seed} first)")
+        t = json.loads((first / "timing.json").read_text()) if (first / "timing.json").exists() else None
+        offset_wall = offset * (t["wall_s"] / max(t["steps_this_session"], 1)) if t else math.nan
     cfg = resolve_config(env_id, recipe.get("algo", "ppo"), hyperparams_path(recipe.get("conf", "ppo")),
                          overrides=overrides, env_kwargs=recipe.get("env_kwargs") or {}, seed=seed,
-                         eval_freq=0, checkpoint_freq=every)
+                         eval_freq=0, checkpoint_freq=every, trained_agent=agent)
     run_dir = runs_root / recipe_name / f"seed{seed}"
     resume = (run_dir / "config.yaml").exists()
     t0 = time.perf_counter()
@@ -156,7 +169,7 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
             fig = evaluate_checkpoint(zp, vn, cfg.algo, kw, env_id)
             fig.pop("episodes_detail")
             write_text_atomic(done, json.dumps(fig) + "\n")
-        curve.append({"env_steps": n, "wall_clock_s": n * wall_per_step, **fig})
+        curve.append({"env_steps": offset + n, "wall_clock_s": offset_wall + n * wall_per_step, **fig})
     final = evaluate_checkpoint(run_dir / "model.zip", run_dir / "vecnormalize.pkl", cfg.algo, kw, env_id)
     level = pd_level()
     reached = next((c for c in curve if c["success_rate"] >= level - 1e-9), None)
@@ -167,7 +180,7 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
         "episodes": final["episodes_detail"], "curve": curve, "pd_level": level,
         "env_steps_to_pd_level": reached["env_steps"] if reached else None,
         "wall_clock_to_pd_level_s": reached["wall_clock_s"] if reached else None,
-        "wall_clock_s": timing["wall_s"], "env_steps": timing["num_timesteps"],
+        "wall_clock_s": offset_wall + timing["wall_s"], "env_steps": offset + timing["num_timesteps"],
         "steps_per_s": timing["steps_per_s"], "job_wall_s": time.perf_counter() - t0,
         "commit": _commit(), "cores": os.cpu_count(),
     }
@@ -208,38 +221,78 @@ def baselines(results: Path = RESULTS) -> Path:
     return path
 
 
-SHIP_FILES = ("config.yaml", "model.zip", "vecnormalize.pkl")
+VALIDATION_SEEDS = (100, 101, 102)  # the shipped policy is chosen on these, reported on EVAL_SEEDS
 
 
-def ship(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path = RESULTS) -> Path:
-    """Copy a finished run of the study into the package as the ``pretrained`` policy
-    (``assets/policies/<folder>/``: the run's config, final model and VecNormalize statistics, and
-    ``card.json`` with its recipe, seed and grid figures), through a staging folder moved into place."""
+def _candidate_files(spec: str, runs_root: Path) -> tuple[Path, Path, Path, dict[str, Any]]:
+    """``recipe:seed`` (final model) or ``recipe:seed:steps`` (a checkpoint) -> (run folder, model
+    zip, VecNormalize file, description)."""
+    from sphere_env.training.train import CHECKPOINT_PREFIX
+
+    parts = spec.split(":")
+    if len(parts) not in (2, 3):
+        raise ValueError(f"candidates: {spec!r}; allowed: recipe:seed or recipe:seed:steps")
+    run_dir = runs_root / parts[0] / f"seed{int(parts[1])}"
+    if len(parts) == 2:
+        zp, vn = run_dir / "model.zip", run_dir / "vecnormalize.pkl"
+    else:
+        n = int(float(parts[2]))
+        zp = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{n}_steps.zip"
+        vn = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{n}_steps.pkl"
+    for f in (run_dir / "config.yaml", zp, vn):
+        if not f.is_file():
+            raise ValueError(f"candidates: {spec!r}: {f} is missing")
+    return run_dir, zp, vn, {"recipe": parts[0], "seed": int(parts[1]), "checkpoint_steps": None if len(parts) == 2
+                             else int(float(parts[2]))}
+
+
+def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
+    """Choose among ``candidates`` (``recipe:seed[:steps]``) the one with the highest success on the
+    validation grid (evaluation seeds 100-102, the same shells and pressures: episodes the reported
+    figures never use), evaluate it on the demo grid, and copy it into the package as the
+    ``pretrained`` policy: ``assets/policies/<folder>/`` with the run's config, the model and its
+    VecNormalize statistics, and ``card.json`` (how it was trained and chosen, its figures). Written
+    to a staging folder moved into place."""
     import shutil
     import tempfile
+    from importlib import resources
 
+    import torch
+    import yaml as _yaml
+
+    from sphere_env.evaluation.evaluate import rollout
     from sphere_env.resources import ASSETS_PACKAGE, SHIPPED_POLICIES
 
-    result_file = results / "runs" / recipe_name / f"seed{seed}.json"
-    if not result_file.exists():
-        raise ValueError(f"seed: no finished result {result_file} (run the study first)")
-    run_dir = runs_root / recipe_name / f"seed{seed}"
-    missing = [f for f in SHIP_FILES if not (run_dir / f).is_file()]
-    if missing:
-        raise ValueError(f"seed: run folder {run_dir} lacks {missing}")
-    res = json.loads(result_file.read_text())
-    import importlib.resources
-
-    target = Path(str(importlib.resources.files(ASSETS_PACKAGE))) / "policies" / SHIPPED_POLICIES["pretrained"]
+    torch.set_num_threads(1)
+    files = [_candidate_files(c, runs_root) for c in candidates]  # refuse a bad list before any work
+    scores = []
+    for c, (run_dir, zp, vn, desc) in zip(candidates, files):
+        kw = eval_env_kwargs(SimpleNamespace(env_kwargs=_yaml.safe_load((run_dir / "config.yaml").read_text())["env_kwargs"]))
+        ctrl = _Checkpoint(zp, vn, "ppo")
+        jobs = [{**j, "seed": s} for j in grid_jobs("v", "v", kw) if j["seed"] == EVAL_SEEDS[0] for s in VALIDATION_SEEDS]
+        rows = [rollout(job, controller=ctrl)[0] for job in jobs]
+        scores.append({"candidate": c, **desc, "validation": grid_figures(rows)})
+        print(f"{c}: validation success {scores[-1]['validation']['success_rate']:.0%}", flush=True)
+    best = max(range(len(scores)), key=lambda i: (scores[i]["validation"]["success_rate"],
+                                                  -scores[i]["validation"]["tracking_rmse_rad_s"]))
+    run_dir, zp, vn, desc = files[best]
+    kw = eval_env_kwargs(SimpleNamespace(env_kwargs=_yaml.safe_load((run_dir / "config.yaml").read_text())["env_kwargs"]))
+    grid = evaluate_checkpoint(zp, vn, "ppo", kw)
+    target = Path(str(resources.files(ASSETS_PACKAGE))) / "policies" / SHIPPED_POLICIES["pretrained"]
     target.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".ship-", dir=target.parent))
-    for f in SHIP_FILES:
-        shutil.copy2(run_dir / f, stage / f)
-    card = {k: res[k] for k in ("method", "seed", "env_id", "algo", "env_steps", "success_rate", "tracking_rmse_rad_s",
-                                "per_shell", "env_steps_to_pd_level", "wall_clock_s", "commit")}
-    card["grid"] = {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)}
-    card["trained_by"] = ("python -m training.train --env sphere_env/RampDescent-v3 --algo ppo "
-                          f"--seed {seed}  (training/hyperparams/ppo.yml, RampDescent-v3 section)")
+    shutil.copy2(run_dir / "config.yaml", stage / "config.yaml")
+    shutil.copy2(zp, stage / "model.zip")
+    shutil.copy2(vn, stage / "vecnormalize.pkl")
+    card = {
+        "env_id": ENV_ID, "algo": "ppo", **desc,
+        "success_rate": grid["success_rate"], "tracking_rmse_rad_s": grid["tracking_rmse_rad_s"],
+        "per_shell": grid["per_shell"], "episodes": grid["episodes_detail"],
+        "grid": {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)},
+        "chosen_on": {"seeds": list(VALIDATION_SEEDS), "candidates": scores},
+        "recipes": {name: load_recipes()[name] for name in {s["recipe"] for s in scores}},
+        "commit": _commit(),
+    }
     (stage / "card.json").write_text(json.dumps(card, indent=1) + "\n")
     old = None
     if target.exists():
@@ -262,13 +315,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
-    sp = sub.add_parser("ship", help="copy a finished run into the package as the pretrained policy")
-    sp.add_argument("--recipe", default="shipped")
-    sp.add_argument("--seed", type=int, required=True)
+    sp = sub.add_parser("ship", help="choose among runs on the validation grid and copy the best into the "
+                                     "package as the pretrained policy")
+    sp.add_argument("--candidates", nargs="+", required=True, help="recipe:seed (final model) or recipe:seed:steps")
     args = p.parse_args(argv)
     if args.cmd == "ship":
         try:
-            print(ship(args.recipe, args.seed))
+            print(ship(args.candidates))
         except ValueError as err:
             p.exit(2, f"{p.prog}: error: {err}\n")
         return
