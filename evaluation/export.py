@@ -23,7 +23,9 @@ Before anything is written, the exported file is run (onnxruntime, or the TorchS
 observations recorded from env rollouts of the run's own policy at the calibration's lowest,
 nominal and highest pressures, and compared with ``model.predict(vecnormalize.normalize_obs(obs),
 deterministic=True)``; a largest difference above ``--tol`` (default 1e-5) refuses the export.
-Both files are written to temporary names and moved into place at the end.
+Both files are written into a staging folder beside ``--out`` that replaces it whole at the end (files
+of ``--out`` that no export writes are carried over), so the policy file and ``policy.json`` always
+come from the same export; a failed or interrupted export leaves ``--out`` as it was.
 
 ONNX needs the ``export`` extra (onnx, onnxscript for ``torch.onnx.export``; onnxruntime for the
 check: about 120 MB); TorchScript needs nothing beyond torch (recent torch marks TorchScript deprecated; it still works and
@@ -33,11 +35,9 @@ loads in C++ with ``torch::jit::load``).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
-import tempfile
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
@@ -270,11 +270,13 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
         obs = obs[:, :-k]
         observation_layout = observation_layout[:-k]
 
-    created = [p for p in (out, *out.parents) if not p.exists()]
-    out.mkdir(parents=True, exist_ok=True)
+    from sphere_env.files import staged_folder
+
     name = FORMATS[fmt]
-    tmp, tmp_json = (_temp_beside(out / n) for n in (name, "policy.json"))
-    try:
+    # The files are written into a staging folder beside ``out`` that replaces it whole when every
+    # check passed (_swap_in), so policy file and policy.json are never from two exports.
+    with staged_folder(out, _swap_in) as work:
+        tmp, tmp_json = work / name, work / "policy.json"
         if fmt == "onnx":
             _write_onnx(module, obs.shape[1], tmp)
         else:
@@ -320,31 +322,22 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
             "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         }
         tmp_json.write_text(json.dumps(layout, indent=2, ensure_ascii=False, default=str) + "\n")
-        policy_path, layout_path = out / name, out / "policy.json"
-        os.replace(tmp, policy_path)
-        os.replace(tmp_json, layout_path)
-    except BaseException:
-        for t in (tmp, tmp_json):
-            with contextlib.suppress(OSError):
-                t.unlink()
-        for p in created:  # folders made for the output, innermost first
-            with contextlib.suppress(OSError):
-                p.rmdir()
-        raise
-    for other in set(FORMATS.values()) - {name}:  # an earlier export in the other format: policy.json no longer describes it
-        with contextlib.suppress(FileNotFoundError):
-            (out / other).unlink()
+    policy_path, layout_path = out / name, out / "policy.json"
     return {"policy": policy_path, "layout": layout_path, "max_abs_action_diff": diff}
 
 
-def _temp_beside(path: Path) -> Path:
-    """An empty temporary file beside ``path``, with the permissions a new file gets (umask)."""
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(name, 0o666 & ~umask)
-    return Path(name)
+def _swap_in(work: Path, out: Path) -> None:
+    """Replace the export folder ``out`` by the staged ``work`` (two renames); files in ``out`` that
+    no export writes are carried over, the previous export's files are not."""
+    import shutil
+
+    old = out.with_name(f".{out.name}.old-{os.getpid()}")
+    for p in out.iterdir():
+        if p.name not in (*FORMATS.values(), "policy.json"):
+            (shutil.copytree if p.is_dir() else shutil.copy2)(p, work / p.name)
+    out.rename(old)
+    work.rename(out)
+    shutil.rmtree(old, ignore_errors=True)
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:

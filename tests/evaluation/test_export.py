@@ -137,3 +137,29 @@ def test_bad_export_refused_with_nothing_written(tiny_ppo_run, tmp_path, capsys,
     for n in needles:
         assert n in err, err
     assert not (tmp_path / "new").exists() and (tmp_path / "file").read_text() == "keep"
+
+
+def test_an_interrupted_export_leaves_the_previous_pair(tiny_ppo_run, tmp_path, monkeypatch):
+    """The policy file and policy.json are replaced together: an export that fails after writing
+    its policy file (here: while writing policy.json) leaves the previous export's pair as it was."""
+    import pathlib
+
+    out = tmp_path / "deploy"
+    export(str(tiny_ppo_run), "torchscript", out)
+    (out / "NOTES.txt").write_text("mine")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    real = pathlib.Path.write_text
+
+    def fail_on_layout(self, *args, **kwargs):
+        if self.name == "policy.json":
+            raise KeyboardInterrupt
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(pathlib.Path, "write_text", fail_on_layout)
+    with pytest.raises(KeyboardInterrupt):
+        export(str(tiny_ppo_run), "torchscript", out)
+    monkeypatch.undo()
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging left behind
+    export(str(tiny_ppo_run), "onnx", out)  # a complete export replaces the pair, keeps the user's file
+    assert sorted(p.name for p in out.iterdir()) == ["NOTES.txt", "policy.json", "policy.onnx"]
