@@ -116,6 +116,9 @@ class TrainConfig:
     hyperparams_file: str = ""
     tensorboard_log: str | None = None  # None: <run>/tb
     trained_agent: str | None = None  # model.zip the run continues from (-i)
+    # SAC: checkpoints also hold the replay buffer (hundreds of MB) only when asked, as rl-zoo3's
+    # --save-replay-buffer; without it a resumed SAC run refills an empty buffer
+    save_replay_buffer: bool = False
     # gymnasium wrappers around each env, innermost first: [{"module.Class": {kwargs}}] (rl-zoo3's env_wrapper)
     env_wrapper: list[dict[str, dict[str, Any]]] = field(default_factory=list)
 
@@ -441,6 +444,25 @@ def _int(field_name: str, value: Any, low: int = 1) -> int:
     return int(f)
 
 
+def _device(value: Any) -> str:
+    """A torch device name this machine has (``cpu``, ``cuda``, ``cuda:1``, ``auto``), else a ValueError
+    naming the field."""
+    import torch
+
+    if value == "auto":
+        return value
+    try:
+        dev = torch.device(value)
+    except (RuntimeError, TypeError):
+        raise ValueError(f"device: value {value!r} is not a torch device; allowed: 'cpu', 'cuda', 'cuda:<n>', "
+                         "'auto'") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device: value {value!r} names a CUDA device and this machine has none; allowed: 'cpu'")
+    if dev.type not in ("cpu", "cuda"):
+        raise ValueError(f"device: value {value!r}; allowed: 'cpu', 'cuda', 'cuda:<n>', 'auto'")
+    return str(value)
+
+
 def _normalize(value: Any) -> dict[str, Any] | None:
     if value is None or value is False:
         return None
@@ -485,6 +507,7 @@ def resolve_config(
     tensorboard_log: str | Path | None = None,
     trained_agent: str | Path | None = None,
     build_env: bool = True,
+    save_replay_buffer: bool = False,
 ) -> TrainConfig:
     """Read the YAML section for ``env_id``, apply ``overrides`` (same keys as the YAML, rl-zoo3's
     ``--hyperparams``) and ``env_kwargs`` (merged key by key over the section's), and validate
@@ -562,9 +585,10 @@ def resolve_config(
         eval_env_kwargs=eval_kwargs,
         eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, eval_pressures_kpa),
         checkpoint_freq=_period("checkpoint_freq", checkpoint_freq, max(n_timesteps // 5, chunk)),
-        device=device, torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
+        device=_device(device), torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
         tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
         trained_agent=None if trained_agent is None else str(trained_agent),
+        save_replay_buffer=bool(save_replay_buffer),
         env_wrapper=env_wrapper,
     )
     cfg.algo_kwargs()  # schedules and policy_kwargs parse

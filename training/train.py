@@ -247,7 +247,7 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
         callbacks.insert(0, CheckpointCallback(
             save_freq=max(cfg.checkpoint_freq // n, 1), save_path=str(run_dir / "checkpoints"),
             name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=cfg.normalize is not None,
-            save_replay_buffer=cfg.algo == "sac"))
+            save_replay_buffer=cfg.algo == "sac" and cfg.save_replay_buffer))
     if eval_env is None:
         return CallbackList(callbacks)
     ev = FixedEpisodesEvalCallback(
@@ -290,7 +290,7 @@ def save_checkpoint(model, run_dir: Path, cfg: TrainConfig) -> None:
     vn = model.get_vec_normalize_env()
     if vn is not None:
         vn.save(str(_ckpt_file(run_dir, "vecnormalize", n)))
-    if cfg.algo == "sac":
+    if cfg.algo == "sac" and cfg.save_replay_buffer:
         model.save_replay_buffer(_ckpt_file(run_dir, "replay_buffer", n))
 
 
@@ -798,6 +798,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-tb", "--tensorboard-log", type=Path, default=None, help="TensorBoard folder (default <run>/tb)")
     parser.add_argument("--torch-threads", "--num-threads", dest="torch_threads", type=int, default=1)
     parser.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    parser.add_argument("--save-replay-buffer", action="store_true",
+                        help="SAC: keep the replay buffer in every checkpoint (hundreds of MB); without it a "
+                             "resumed run starts with an empty buffer")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("-v", "--verbose", type=int, default=0)
     return parser
@@ -852,7 +855,7 @@ def _config_from_args(args: argparse.Namespace, hyperparams: Mapping[str, Any], 
         eval_episodes=args.eval_episodes, eval_env_kwargs=args.eval_env_kwargs,
         eval_pressures_kpa=args.eval_pressures_kpa, checkpoint_freq=args.save_freq, device=args.device,
         torch_threads=args.torch_threads, env_kwargs=args.env_kwargs, tensorboard_log=args.tensorboard_log,
-        trained_agent=args.trained_agent)
+        trained_agent=args.trained_agent, save_replay_buffer=args.save_replay_buffer)
 
 
 def sweep_configs(args: argparse.Namespace) -> list[TrainConfig]:

@@ -365,7 +365,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset-name", help="preset name (default <law>_<joint>)")
     p.set_defaults(func=cmd_friction)
 
-    p = sub.add_parser("sensitivity", help="hydroelastic ±50% sweep (paper Fig. 11)")
+    p = sub.add_parser("sensitivity", help="hydroelastic ±50%% sweep (paper Fig. 11)")
     p.add_argument("--calibration", default=None)
     p.add_argument("--pressures-kpa", type=float, nargs="*")
     p.add_argument("--workers", type=int, default=None)
