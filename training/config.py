@@ -809,6 +809,16 @@ def check_trained_agent(cfg: TrainConfig, env) -> None:
         if have.shape != want.shape:
             raise ValueError(f"trained_agent: {str(path)!r} has {name} shape {have.shape}; "
                              f"{cfg.env_id} with these env_kwargs has {want.shape}")
+    # -i continues the saved network: policy_kwargs that differ from its own would be recorded in
+    # config.yaml as used while the run trains the saved network, so they are refused
+    given = cfg.algo_kwargs().get("policy_kwargs")
+    saved = dict(getattr(model, "policy_kwargs", {}) or {})
+    if given is not None:
+        differ = {k: v for k, v in given.items() if k not in saved or saved[k] != v}
+        if differ:
+            raise ValueError(f"hyperparams.policy_kwargs: {differ} differ from the network of trained_agent "
+                             f"{str(path)!r} ({ {k: saved[k] for k in differ if k in saved} or 'not set there'}), "
+                             "which -i continues as it is; leave them out or train a new run")
     if stats is not None:
         try:
             with open(stats, "rb") as f:

@@ -46,3 +46,17 @@ def test_help_is_clean_for_every_calibrate_subcommand():
     out = subprocess.run([sys.executable, "-m", "sphere_env.calibration", "--help"], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode == 0 and "option_strings" not in out.stdout and "±50% sweep" in out.stdout
+
+
+def test_continuing_a_model_with_other_policy_kwargs_is_refused(tmp_path, capsys):
+    first = main([*TINY, "--run-dir", str(tmp_path / "a")])
+    with pytest.raises(SystemExit) as exc:
+        main([*TINY, "--run-dir", str(tmp_path / "b"), "-i", str(first / "model.zip"),
+              "--hyperparams", "n_envs:1", "n_steps:32", "batch_size:32", "n_epochs:1",
+              "policy_kwargs:dict(net_arch=[8, 8])"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "hyperparams.policy_kwargs" in err and "net_arch" in err
+    assert not (tmp_path / "b").exists()
+    same = main([*TINY, "--run-dir", str(tmp_path / "c"), "-i", str(first / "model.zip")])  # the file's own kwargs
+    assert (same / "model.zip").exists()
