@@ -7,6 +7,8 @@ spec                               controller
 ``pd``                             the hand-written cascaded PD baseline (:mod:`sphere_env.controllers`)
 ``runs/<run>`` (a run folder)      a trained policy, final model with its VecNormalize statistics
 ``runs/<run>@best``                the run's best model (``best/``)
+``pretrained``                     the policy shipped with the package (``assets/policies``), trained
+                                   by the documented recipe; a run folder like any other
 ``package.module:attr``            a user callable ``(obs, info) -> action``; a class is
                                    instantiated without arguments; ``reset()`` is called per
                                    episode when present
@@ -29,6 +31,13 @@ from sphere_env.wrappers import ACTION_COMBINERS, TRAINING_ONLY_WRAPPERS
 BASELINES = ("zero", "pd")
 
 
+def run_path(path: str) -> Path:
+    """The folder a run spec's path names: a shipped policy's (``pretrained``) or the path itself."""
+    from sphere_env.resources import SHIPPED_POLICIES, shipped_policy_path
+
+    return shipped_policy_path(path) if path in SHIPPED_POLICIES else Path(path)
+
+
 def split_label(spec: str) -> tuple[str, str]:
     """``"label=spec"`` -> (label, spec); a bare spec gets a label of its own."""
     if "=" in spec:
@@ -37,6 +46,10 @@ def split_label(spec: str) -> tuple[str, str]:
     if spec in BASELINES:
         return spec, spec
     path, _, which = spec.partition("@")
+    from sphere_env.resources import SHIPPED_POLICIES
+
+    if path in SHIPPED_POLICIES:
+        return spec, spec
     if Path(path).is_dir():
         name = Path(path).name
         return (name if not which else f"{name}@{which}"), spec
@@ -46,7 +59,7 @@ def split_label(spec: str) -> tuple[str, str]:
 def run_folder(spec: str) -> tuple[Path, str] | None:
     """(folder, "model"|"best") when ``spec`` names a training run folder, else None."""
     path, _, which = spec.partition("@")
-    p = Path(path)
+    p = run_path(path)
     if (p / "config.yaml").exists():
         if which not in ("", "best", "model"):
             raise ValueError(f"controller: {spec!r}: use <run> or <run>@best")

@@ -72,7 +72,9 @@ class EnjoySpec:
         path, _, which = str(self.run).partition("@")
         if which not in ("", "best", "model"):
             raise ValueError(f"run: {self.run!r}: use <run folder> or <run folder>@best")
-        folder = Path(path)
+        from sphere_env.evaluation.controller_specs import run_path
+
+        folder = run_path(path)
         if not folder.is_dir():
             raise ValueError(f"run: {path!r} is not a folder (a training run folder holds config.yaml, model.zip, "
                              "vecnormalize.pkl)")
@@ -93,7 +95,7 @@ class EnjoySpec:
             raise ValueError(f"env: {self.run!r} was trained on {cfg.env_id!r}, not on {env_id!r}; pass "
                              "--allow-env-mismatch to run it there anyway")
         try:
-            check_spec(f"{path}@{which}", None)  # the model and its statistics load
+            check_spec(f"{folder}@{which}", None)  # the model and its statistics load
         except ValueError as err:
             raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
         try:
@@ -104,7 +106,7 @@ class EnjoySpec:
             if k in OWN_KWARGS:
                 raise ValueError(f"env_kwargs.{k}: set by the enjoy command itself ({OWN_KWARGS[k]}); not allowed "
                                  "in --env-kwargs")
-        env_kwargs = {**env_kwargs_of(f"{path}@{which}"), **extra}
+        env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **extra}
         shell = self.shell_model or cfg.env_kwargs.get("shell_model", "injected")
         if shell not in SHELL_MODELS:
             raise ValueError(f"shell_model: unknown model {shell!r}; allowed: {list(SHELL_MODELS)}")
@@ -117,7 +119,8 @@ class EnjoySpec:
             raise ValueError(f"episodes: value {self.episodes!r} must be an integer >= 1")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise ValueError(f"seed: value {self.seed!r} must be an integer >= 0")
-        label = self.label or (folder.name if which == "model" else f"{folder.name}@best")
+        name = path if path == "pretrained" else folder.name
+        label = self.label or (name if which == "model" else f"{name}@best")
         return {"folder": folder, "which": which, "config": cfg, "env_id": env_id, "shell_model": shell,
                 "friction": cfg.env_kwargs.get("friction_model", "majd"), "pressure_kpa": float(pressure),
                 "env_kwargs": env_kwargs, "label": label}

@@ -56,3 +56,22 @@ def hyperparams_path(algo: str) -> Path:
         shipped = sorted(p.name for p in folder.iterdir() if p.name.endswith(".yml"))
         raise FileNotFoundError(f"no hyperparameter file for algo {algo!r}; shipped: {shipped}")
     return _as_path(resource)
+
+
+#: Policies shipped with the package: name -> folder under ``assets/policies`` (a training run
+#: folder: config.yaml, model.zip, vecnormalize.pkl, plus card.json with how it was trained and
+#: what it scored).
+SHIPPED_POLICIES = {"pretrained": "ramp_descent_v3"}
+
+
+def shipped_policy_path(name: str) -> Path:
+    """Folder of a shipped policy (``"pretrained"``), usable wherever a run folder is.
+
+    :raises FileNotFoundError: naming the policy and the shipped ones.
+    """
+    if name not in SHIPPED_POLICIES:
+        raise FileNotFoundError(f"no shipped policy {name!r}; shipped: {sorted(SHIPPED_POLICIES)}")
+    folder = resources.files(ASSETS_PACKAGE).joinpath("policies", SHIPPED_POLICIES[name])
+    for part in ("config.yaml", "model.zip", "vecnormalize.pkl"):
+        _as_path(folder.joinpath(part))
+    return _as_path(folder)

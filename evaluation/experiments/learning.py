@@ -152,7 +152,11 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
     run_dir = runs_root / recipe_name / f"seed{seed}"
     resume = (run_dir / "config.yaml").exists()
     t0 = time.perf_counter()
-    train(cfg, run_dir, resume=resume, progress_bar=False, command=["evaluation.experiments.learning", recipe_name])
+    from sphere_env.training.train import latest_checkpoint
+
+    done = latest_checkpoint(run_dir) if resume else None
+    if not (done is not None and done[0] >= steps and (run_dir / "timing.json").exists()):  # trained: evaluate
+        train(cfg, run_dir, resume=resume, progress_bar=False, command=["evaluation.experiments.learning", recipe_name])
     timing = json.loads((run_dir / "timing.json").read_text())
     wall_per_step = timing["wall_s"] / max(timing["steps_this_session"], 1)
     kw = eval_env_kwargs(cfg)
