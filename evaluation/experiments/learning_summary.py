@@ -138,6 +138,11 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
             + f"{r['env_steps_to_pd_level_range'][0] / 1e3:.0f}–{r['env_steps_to_pd_level_range'][1] / 1e3:.0f} k"),
     } for r in rows])
     notes = "\n".join(f"- **{r['recipe']}**: {r['note']}" for r in rows if r["note"])
+    from sphere_env.evaluation.experiments.learning import load_recipes
+
+    finished = {r["recipe"] for r in rows}
+    stopped = "\n".join(f"- **{name}**: {rec.get('note', '')}" for name, rec in load_recipes().items()
+                        if name not in finished)
     g = base["grid"]
     return (
         "# Learning study\n\n"
@@ -151,6 +156,8 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
         "PD level = PD − 3 points. IQM and its interval: rliable, stratified bootstrap over training seeds "
         f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n"
         + table.to_markdown(index=False) + "\n\n" + notes + "\n\n![learning curves](learning_curves.png)\n"
+        + ("\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
+           "early for the reason in their note, or not run yet.\n\n" + stopped + "\n" if stopped else "")
     )
 
 
