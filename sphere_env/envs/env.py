@@ -197,7 +197,7 @@ class SphereEnv(gym.Env, EzPickle):
         if not isinstance(observe_shell_model, bool):
             raise ValueError(f"observe_shell_model: value {observe_shell_model!r} must be a bool")
         self.observe_shell_model = observe_shell_model
-        self._shell_one_hot = tuple(float(m == shell_model) for m in ("point", "injected", "hydroelastic")) \
+        self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) \
             if observe_shell_model else ()
         noise = finite_number("observation_noise_scale", observation_noise_scale, f"[0, {MAX_NOISE_SCALE:g}]")
         if not 0.0 <= noise <= MAX_NOISE_SCALE:
