@@ -69,7 +69,8 @@ def test_enjoy_records_the_evaluations_episodes(tiny_ppo_run, tmp_path):
     assert names == ["run_point_8.5kPa_s3.mp4", "run_point_8.5kPa_s4.mp4"]
     for row, name in zip(rows, names):
         assert n_frames(tmp_path / "videos" / name) in (row["length"], row["length"] + 1)
-    ev = evaluate(SweepSpec(controllers=[str(tiny_ppo_run)], pressures_kpa=[8.5], shell_models=["point"], seeds=[3, 4]),
+    ev = evaluate(SweepSpec(controllers=[str(tiny_ppo_run)], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
+                            shell_models=["point"], seeds=[3, 4]),
                   tmp_path / "eval", workers=1, replays=[], plots=False)
     for mine, theirs in zip(rows, ev["rows"]):
         assert (mine["return"], mine["length"], mine["seed"]) == (theirs["return"], theirs["length"], theirs["seed"])
