@@ -271,7 +271,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
         return enjoy(spec, meshcat=args.meshcat, video=args.video, realtime_rate=args.realtime_rate,
                      wait_for_enter=args.meshcat and sys.stdin.isatty())
     except ValueError as err:
-        parser.exit(2, f"evaluation.enjoy: error: {err}\n")
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
 
 
 if __name__ == "__main__":

@@ -762,7 +762,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log, args.pme_log_pressure,
                        args.pme_reference, progress=True, video=args.video)
     except ValueError as err:
-        parser.exit(2, f"evaluation.evaluate: error: {err}\n")
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
     print((out / "report.md").read_text())
     for k, v in res["files"].items():
         print(f"{k}: {v.resolve()}")

@@ -353,7 +353,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     try:
         res = export(args.run, args.format, args.out, args.tol, args.env, args.allow_env_mismatch)
     except ValueError as err:
-        parser.exit(2, f"evaluation.export: error: {err}\n")
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
     print(f"policy: {res['policy'].resolve()}\nlayout: {res['layout'].resolve()}\n"
           f"check: max |exported - SB3| action difference {res['max_abs_action_diff']:.2e}")
     return res

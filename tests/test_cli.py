@@ -60,3 +60,17 @@ def test_train_takes_rl_zoo3_flags(capsys):
                  "--log-folder", "-i", "--trained-agent", "-tb", "--tensorboard-log", "--save-freq", "--eval-freq",
                  "--eval-episodes", "-n", "--n-timesteps", "--seed", "--ray-address", "--seeds"):
         assert f" {flag}" in out, flag
+
+
+@pytest.mark.parametrize("argv", [
+    ["train", "--device", "banana"],
+    ["evaluate", "--controller", "no_such_controller"],
+    ["export", "/no/such/run"],
+    ["enjoy", "/no/such/run"],
+])
+def test_errors_are_one_line_under_the_subcommands_name(capsys, argv):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"sphere-env {argv[0]}: error: "), err
