@@ -182,6 +182,10 @@ class PolicyController:
         """The action sent to the env: the network's, passed through the run's action combination."""
         if self._combiners is None:
             raise RuntimeError("controller: a policy trained inside env_wrapper acts only after check_env(env)")
+        bad = np.flatnonzero(~np.isfinite(np.asarray(obs, dtype=np.float64)))
+        if bad.size:
+            raise ValueError(f"observation: components {bad.tolist()} are not finite ({np.asarray(obs)[bad].tolist()}); "
+                             "a policy acts on finite observations only")
         action, _ = self.model.predict(self.normalize(obs), deterministic=deterministic)
         action = np.asarray(action, dtype=np.float32)
         for c in self._combiners:

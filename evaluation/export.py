@@ -12,7 +12,9 @@ Writes into ``--out`` (default ``<run>/export``, ``<run>/export_best`` for ``@be
     (batch, 2) float32 in [-1, 1]. Inside: VecNormalize's
     clip((obs − mean) / sqrt(var + eps), −clip_obs, clip_obs) (in float64, as VecNormalize computes
     it), the policy network, and SB3's deterministic action (PPO: the Gaussian mean clipped to the
-    action box, as ``predict`` does; SAC: tanh of the mean).
+    action box, as ``predict`` does; SAC: tanh of the mean). A row with a NaN or infinite component
+    is refused with the action [0, 0] (zero torque), never a NaN action. A policy trained with an
+    asymmetric critic takes the observation without its privileged components.
 ``policy.json``
     the observation layout (index, name, unit, meaning, and the normalization statistics), the
     action layout (normalized range, motor torque limits [N m], joints and sign conventions), env
@@ -88,6 +90,9 @@ def _policy_module(model: Any, vecnormalize: Any, algo: str):
 
         def forward(self, observation: torch.Tensor) -> torch.Tensor:
             x = observation.to(torch.float64)
+            # a row with a NaN or infinite component is refused: its action is zero torque
+            valid = torch.isfinite(x).all(dim=1, keepdim=True)
+            x = torch.where(valid, x, torch.zeros_like(x))
             if self.privileged_dims:
                 x = torch.cat([x, torch.zeros(x.shape[0], self.privileged_dims, dtype=x.dtype)], dim=1)
             x = (x - self.obs_mean) / self.obs_std
@@ -95,8 +100,10 @@ def _policy_module(model: Any, vecnormalize: Any, algo: str):
                 x = torch.clamp(x, -self.clip_obs, self.clip_obs)
             mean = self.head(self.latent(self.features(x.to(torch.float32))))
             if self.algo == "sac":  # squashed Gaussian: tanh of the mean; the box is [-1, 1]
-                return torch.tanh(mean)
-            return torch.maximum(torch.minimum(mean, self.action_high), self.action_low)
+                action = torch.tanh(mean)
+            else:
+                action = torch.maximum(torch.minimum(mean, self.action_high), self.action_low)
+            return torch.where(valid, action, torch.zeros_like(action))
 
     return DeterministicPolicy().eval()
 
@@ -300,7 +307,8 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
             "input": {"name": "observation", "shape": ["batch", int(obs.shape[1])], "dtype": "float32",
                       "meaning": "the env's raw observation (normalization is inside the file)"
                       + (f", without the {k} privileged components the critic alone saw in training" if k else "")},
-            "output": {"name": "action", "shape": ["batch", 2], "dtype": "float32", "range": [-1.0, 1.0]},
+            "output": {"name": "action", "shape": ["batch", 2], "dtype": "float32", "range": [-1.0, 1.0],
+                       "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)"},
             "deterministic_action": ("Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
                                      if cfg.algo == "ppo" else "tanh of the Gaussian mean (SB3 predict, "
                                      "deterministic=True)"),

@@ -43,3 +43,28 @@ def test_the_exported_actor_takes_the_robot_observation_only(tiny_recipe_run, tm
     other = full.copy()
     other[:, len(names):] = [3.0, 1.0, 0.0, 0.0]  # another pressure and shell: the actor ignores them
     np.testing.assert_allclose(model.predict(vn.normalize_obs(other), deterministic=True)[0], expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("fmt", ["torchscript", "onnx"])
+def test_a_non_finite_observation_gets_zero_torque_from_the_file_and_an_error_from_python(tiny_recipe_run, tmp_path,
+                                                                                          fmt):
+    from sphere_env.evaluation.controller_specs import PolicyController
+
+    res = export(str(tiny_recipe_run), fmt, tmp_path / fmt)
+    n = json.loads(res["layout"].read_text())["input"]["shape"][1]
+    env = gym.make("sphere_env/RampDescent-v3", shell_model="point", randomization="off",
+                   observe_pressure=True, observe_shell_model=True)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    rows = np.repeat(obs[None, :n], 3, axis=0)
+    rows[1, 4] = np.nan
+    rows[2, 0] = np.inf
+    got = run_exported(res["policy"], fmt, rows)
+    assert np.isfinite(got).all()
+    np.testing.assert_array_equal(got[1:], 0.0)
+    assert np.abs(got[0]).sum() > 0  # a finite row still acts
+    policy = PolicyController(tiny_recipe_run)
+    bad = obs.copy()
+    bad[4] = np.nan
+    with pytest.raises(ValueError, match=r"observation: components \[4\]"):
+        policy.act(bad)
