@@ -754,15 +754,20 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parser.parse_args(argv)
 
     out = args.out or Path("out/eval") / time.strftime("%Y%m%d-%H%M%S")
+    from sphere_env.parallel import sigterm_as_interrupt
+
     try:
         env_kwargs = parse_env_kwargs(args.env_kwargs)
         spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressures,
                          shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
                          env_kwargs=env_kwargs, allow_env_mismatch=args.allow_env_mismatch)
-        res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log, args.pme_log_pressure,
-                       args.pme_reference, progress=True, video=args.video)
+        with sigterm_as_interrupt():
+            res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log,
+                           args.pme_log_pressure, args.pme_reference, progress=True, video=args.video)
     except ValueError as err:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
+    except KeyboardInterrupt:
+        parser.exit(130, f"{parser.prog}: interrupted; nothing written to {out} (workers stopped)\n")
     print((out / "report.md").read_text())
     for k, v in res["files"].items():
         print(f"{k}: {v.resolve()}")

@@ -8,8 +8,10 @@ builds its own Drake diagrams: pydrake objects are never shipped between process
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
+import signal
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -40,8 +42,10 @@ def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[
     if n == 1 or len(jobs) <= 1:
         it: Sequence[Any] | Iterable[Any] = map(fn, jobs)
     else:
-        # forkserver: workers never inherit torch/Drake threads of the parent (as evaluation.evaluate does)
-        pool = ProcessPoolExecutor(max_workers=min(n, len(jobs)), mp_context=get_context("forkserver"))
+        # spawn: workers never inherit torch/Drake threads of the parent, and they are the parent's own
+        # children, so stopping them on an interrupt leaves no server process behind (forkserver's
+        # server printed a traceback when its parent went away)
+        pool = ProcessPoolExecutor(max_workers=min(n, len(jobs)), mp_context=get_context("spawn"))
         it = pool.map(fn, jobs, chunksize=max(1, math.ceil(len(jobs) / (n * 3))))
     if progress:
         from tqdm import tqdm
@@ -49,9 +53,32 @@ def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[
         it = tqdm(it, total=len(jobs))
     try:
         return list(it)
+    except BaseException:
+        if n > 1 and len(jobs) > 1:  # an error or an interrupt: stop the workers now, not after their jobs
+            procs = list((getattr(pool, "_processes", None) or {}).values())  # no public terminate before 3.14
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                proc.terminate()
+            for proc in procs:
+                proc.join(5)
+        raise
     finally:
         if n > 1 and len(jobs) > 1:
             pool.shutdown()
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt():
+    """Inside the block, SIGTERM raises KeyboardInterrupt in the main thread, so a command stopped by
+    ``kill`` unwinds as Ctrl-C does: staging folders are removed and worker processes stopped."""
+    def _raise(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _run_ray(fn: Callable[[Mapping[str, Any]], Any], jobs: list, address: str, workers: int | None) -> list:

@@ -449,13 +449,19 @@ def check_output_paths(args) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from sphere_env.parallel import sigterm_as_interrupt
+
     args = build_parser().parse_args(argv)
     try:
         check_output_paths(args)
-        return args.func(args)
+        with sigterm_as_interrupt():  # SIGTERM unwinds as Ctrl-C: workers stopped, staging removed
+            return args.func(args)
     except ValueError as err:  # LogError and config errors: named, nothing written
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted; workers stopped, no partial output", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
