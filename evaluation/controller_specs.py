@@ -7,6 +7,7 @@ spec                               controller
 ``pd``                             the hand-written cascaded PD baseline (:mod:`sphere_env.controllers`)
 ``runs/<run>`` (a run folder)      a trained policy, final model with its VecNormalize statistics
 ``runs/<run>@best``                the run's best model (``best/``)
+``runs/<run>@<steps>``             the run's checkpoint at that step count (``checkpoints/``)
 ``pretrained``                     the policy shipped with the package (``assets/policies``), trained
                                    by the documented recipe; a run folder like any other
 ``package.module:attr``            a user callable ``(obs, info) -> action``; a class is
@@ -61,9 +62,22 @@ def run_folder(spec: str) -> tuple[Path, str] | None:
     path, _, which = spec.partition("@")
     p = run_path(path)
     if (p / "config.yaml").exists():
-        if which not in ("", "best", "model"):
-            raise ValueError(f"controller: {spec!r}: use <run> or <run>@best")
+        if which not in ("", "best", "model") and not which.isdigit():
+            raise ValueError(f"controller: {spec!r}: use <run>, <run>@best or <run>@<checkpoint steps>")
         return p, which or "model"
+
+
+def model_files(folder: Path, which: str) -> tuple[Path, Path]:
+    """(model zip, VecNormalize file) of a run folder's final model (``"model"``), best model
+    (``"best"``) or checkpoint (its step count, as written by the trainer's checkpoints)."""
+    if which == "best":
+        return folder / "best" / "best_model.zip", folder / "best" / "vecnormalize.pkl"
+    if which.isdigit():
+        from sphere_env.training.train import CHECKPOINT_PREFIX
+
+        ck = folder / "checkpoints"
+        return ck / f"{CHECKPOINT_PREFIX}_{which}_steps.zip", ck / f"{CHECKPOINT_PREFIX}_vecnormalize_{which}_steps.pkl"
+    return folder / "model.zip", folder / "vecnormalize.pkl"
     return None
 
 
@@ -79,7 +93,7 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
         from sphere_env.training.train import load_config
 
         folder, which = rf
-        model = folder / ("best/best_model.zip" if which == "best" else "model.zip")
+        model, vn = model_files(folder, which)
         if not model.exists():
             raise ValueError(f"controller: {spec!r}: {model} is missing (training unfinished?)")
         try:
@@ -94,7 +108,6 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
         except Exception as err:  # noqa: BLE001 - truncated or foreign zip
             raise ValueError(f"controller: {spec!r}: {model} cannot be loaded ({type(err).__name__}: {err}); "
                              "a truncated or corrupt model file") from None
-        vn = model.parent / "vecnormalize.pkl"
         if cfg.normalize is not None and not vn.exists():
             raise ValueError(f"controller: {spec!r}: {vn} is missing: the policy was trained on VecNormalize-d "
                              "observations and cannot be evaluated without their statistics")
@@ -128,7 +141,7 @@ class PolicyController:
     """A trained SB3 policy with its VecNormalize observation statistics; deterministic actions.
 
     :param run_dir: training run folder (``config.yaml``, ``model.zip``, ``vecnormalize.pkl``).
-    :param which: ``"model"`` (final) or ``"best"`` (best on the eval env).
+    :param which: ``"model"`` (final), ``"best"`` (best on the eval env) or a checkpoint's step count.
     """
 
     def __init__(self, run_dir: str | Path, which: str = "model"):
@@ -137,10 +150,8 @@ class PolicyController:
 
         run_dir = Path(run_dir)
         self.config = load_config(run_dir)
-        folder = run_dir / "best" if which == "best" else run_dir
-        zip_path = folder / ("best_model.zip" if which == "best" else "model.zip")
+        zip_path, vn = model_files(run_dir, which)
         self.model = algo_class(self.config.algo).load(zip_path, device="cpu")
-        vn = folder / "vecnormalize.pkl"
         self.vecnormalize = None
         if vn.exists():
             with open(vn, "rb") as f:

@@ -24,12 +24,10 @@ import argparse
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -53,11 +51,13 @@ def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
         return yaml.safe_load(f)["recipes"]
 
 
-def grid_jobs(controller: str, spec: str, env_kwargs: Mapping[str, Any], env_id: str = ENV_ID) -> list[dict[str, Any]]:
-    """The demo grid's episodes as :func:`sphere_env.evaluation.evaluate.rollout` jobs."""
+def grid_jobs(controller: str, spec: str, env_kwargs: Mapping[str, Any], env_id: str = ENV_ID,
+              seeds: Sequence[int] = EVAL_SEEDS) -> list[dict[str, Any]]:
+    """The demo grid's episodes (or, with other ``seeds``, the validation grid's) as
+    :func:`sphere_env.evaluation.evaluate.rollout` jobs."""
     return [dict(controller=controller, spec=spec, env_id=env_id, shell_model=m, friction="majd",
                  pressure_kpa=p, seed=s, env_kwargs=dict(env_kwargs))
-            for m in SHELLS for p in PRESSURES_KPA for s in EVAL_SEEDS]
+            for m in SHELLS for p in PRESSURES_KPA for s in seeds]
 
 
 def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -69,47 +69,17 @@ def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             "per_shell": per_shell, "episodes": len(rows)}
 
 
-class _Checkpoint:
-    """A checkpoint's policy and VecNormalize statistics as a deterministic controller."""
-
-    def __init__(self, zip_path: Path, vecnormalize_path: Path | None, algo: str):
-        import pickle
-
-        from sphere_env.training.config import algo_class
-
-        self.model = algo_class(algo).load(zip_path, device="cpu")
-        self.vn = None
-        if vecnormalize_path is not None and vecnormalize_path.exists():
-            with open(vecnormalize_path, "rb") as f:
-                self.vn = pickle.load(f)
-            self.vn.training = False
-
-    def reset(self) -> None:
-        pass
-
-    def __call__(self, obs, info=None):
-        o = np.asarray(obs, dtype=np.float32)
-        if self.vn is not None:
-            o = self.vn.normalize_obs(o)
-        return self.model.predict(o, deterministic=True)[0]
-
-
-def evaluate_checkpoint(zip_path: Path, vn_path: Path | None, algo: str, env_kwargs: Mapping[str, Any],
-                        env_id: str = ENV_ID) -> dict:
+def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL_SEEDS) -> dict:
+    """A run's model (``<run>``, ``<run>@<checkpoint steps>``) on the grid, deterministic actions, in
+    an env built with the run's own kwargs."""
+    from sphere_env.evaluation.controller_specs import PolicyController, env_kwargs_of, run_folder
     from sphere_env.evaluation.evaluate import rollout
 
-    ctrl = _Checkpoint(zip_path, vn_path, algo)
-    rows = [rollout(job, controller=ctrl)[0] for job in grid_jobs("policy", "policy", env_kwargs, env_id)]
+    ctrl = PolicyController(*run_folder(spec))
+    rows = [rollout(job, controller=ctrl)[0] for job in grid_jobs("policy", spec, env_kwargs_of(spec), env_id, seeds)]
     return {**grid_figures(rows), "episodes_detail": [
         {k: r[k] for k in ("shell_model", "pressure_kpa", "seed", "is_success", "tracking_rmse_rad_s",
                            "reached_runout")} for r in rows]}
-
-
-def eval_env_kwargs(cfg) -> dict[str, Any]:
-    kw = dict(cfg.env_kwargs)
-    for k in ("shell_model", "friction_model", "randomization", "render_mode", "record_replay", "meshcat"):
-        kw.pop(k, None)
-    return kw
 
 
 def pd_level() -> float:
@@ -159,22 +129,20 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
         train(cfg, run_dir, resume=resume, progress_bar=False, command=["evaluation.experiments.learning", recipe_name])
     timing = json.loads((run_dir / "timing.json").read_text())
     wall_per_step = timing["wall_s"] / max(timing["steps_this_session"], 1)
-    kw = eval_env_kwargs(cfg)
     curve = []
-    ckpts = sorted((int(p.stem.split("_")[-2]), p) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
+    ckpts = sorted(int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
     cache = run_dir / "grid_eval"  # one file per evaluated checkpoint: a longer budget re-uses them
     cache.mkdir(exist_ok=True)
-    for n, zp in ckpts:
+    for n in ckpts:
         done = cache / f"{n}.json"
         if done.exists():
             fig = json.loads(done.read_text())
         else:
-            vn = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{n}_steps.pkl"
-            fig = evaluate_checkpoint(zp, vn, cfg.algo, kw, env_id)
+            fig = evaluate_policy(f"{run_dir}@{n}", env_id)
             fig.pop("episodes_detail")
             write_text_atomic(done, json.dumps(fig) + "\n")
         curve.append({"env_steps": offset + n, "wall_clock_s": offset_wall + n * wall_per_step, **fig})
-    final = evaluate_checkpoint(run_dir / "model.zip", run_dir / "vecnormalize.pkl", cfg.algo, kw, env_id)
+    final = evaluate_policy(str(run_dir), env_id)
     level = pd_level()
     reached = next((c for c in curve if c["success_rate"] >= level - 1e-9), None)
     result = {
@@ -194,11 +162,9 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
 
 
 def _commit() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                              cwd=HERE, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+    from sphere_env.provenance import software_versions
+
+    return software_versions()["git_commit"] or "unknown"
 
 
 def _job(args: tuple[str, int]) -> str:
@@ -228,26 +194,18 @@ def baselines(results: Path = RESULTS) -> Path:
 VALIDATION_SEEDS = (100, 101, 102)  # the shipped policy is chosen on these, reported on EVAL_SEEDS
 
 
-def _candidate_files(spec: str, runs_root: Path) -> tuple[Path, Path, Path, dict[str, Any]]:
-    """``recipe:seed`` (final model) or ``recipe:seed:steps`` (a checkpoint) -> (run folder, model
-    zip, VecNormalize file, description)."""
-    from sphere_env.training.train import CHECKPOINT_PREFIX
+def _candidate(spec: str, runs_root: Path) -> tuple[str, dict[str, Any]]:
+    """``recipe:seed`` (final model) or ``recipe:seed:steps`` (a checkpoint) -> (the run spec of
+    :mod:`sphere_env.evaluation.controller_specs`, description), refused unless it loads."""
+    from sphere_env.evaluation.controller_specs import check_spec
 
     parts = spec.split(":")
-    if len(parts) not in (2, 3):
+    if len(parts) not in (2, 3) or not all(p.isdigit() for p in parts[1:]):
         raise ValueError(f"candidates: {spec!r}; allowed: recipe:seed or recipe:seed:steps")
-    run_dir = runs_root / parts[0] / f"seed{int(parts[1])}"
-    if len(parts) == 2:
-        zp, vn = run_dir / "model.zip", run_dir / "vecnormalize.pkl"
-    else:
-        n = int(float(parts[2]))
-        zp = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{n}_steps.zip"
-        vn = run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_vecnormalize_{n}_steps.pkl"
-    for f in (run_dir / "config.yaml", zp, vn):
-        if not f.is_file():
-            raise ValueError(f"candidates: {spec!r}: {f} is missing")
-    return run_dir, zp, vn, {"recipe": parts[0], "seed": int(parts[1]), "checkpoint_steps": None if len(parts) == 2
-                             else int(float(parts[2]))}
+    run = str(runs_root / parts[0] / f"seed{parts[1]}") + (f"@{parts[2]}" if len(parts) == 3 else "")
+    check_spec(run, ENV_ID)
+    return run, {"recipe": parts[0], "seed": int(parts[1]),
+                 "checkpoint_steps": int(parts[2]) if len(parts) == 3 else None}
 
 
 def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
@@ -255,57 +213,54 @@ def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
     validation grid (evaluation seeds 100-102, the same shells and pressures: episodes the reported
     figures never use), evaluate it on the demo grid, and copy it into the package as the
     ``pretrained`` policy: ``assets/policies/<folder>/`` with the run's config, the model and its
-    VecNormalize statistics, and ``card.json`` (how it was trained and chosen, its figures). Written
-    to a staging folder moved into place."""
+    VecNormalize statistics, and ``card.json`` (how it was trained and chosen, its figures), through
+    a staging folder that replaces the previous one whole."""
     import shutil
-    import tempfile
     from importlib import resources
 
     import torch
-    import yaml as _yaml
 
-    from sphere_env.evaluation.evaluate import rollout
+    from sphere_env.evaluation.controller_specs import model_files, run_folder
+    from sphere_env.files import staged_folder
     from sphere_env.resources import ASSETS_PACKAGE, SHIPPED_POLICIES
 
     torch.set_num_threads(1)
-    files = [_candidate_files(c, runs_root) for c in candidates]  # refuse a bad list before any work
+    runs = [_candidate(c, runs_root) for c in candidates]  # refuse a bad list before any work
     scores = []
-    for c, (run_dir, zp, vn, desc) in zip(candidates, files):
-        kw = eval_env_kwargs(SimpleNamespace(env_kwargs=_yaml.safe_load((run_dir / "config.yaml").read_text())["env_kwargs"]))
-        ctrl = _Checkpoint(zp, vn, "ppo")
-        jobs = [{**j, "seed": s} for j in grid_jobs("v", "v", kw) if j["seed"] == EVAL_SEEDS[0] for s in VALIDATION_SEEDS]
-        rows = [rollout(job, controller=ctrl)[0] for job in jobs]
-        scores.append({"candidate": c, **desc, "validation": grid_figures(rows)})
-        print(f"{c}: validation success {scores[-1]['validation']['success_rate']:.0%}", flush=True)
+    for c, (run, desc) in zip(candidates, runs):
+        val = evaluate_policy(run, seeds=VALIDATION_SEEDS)
+        val.pop("episodes_detail")
+        scores.append({"candidate": c, **desc, "validation": val})
+        print(f"{c}: validation success {val['success_rate']:.0%}", flush=True)
     best = max(range(len(scores)), key=lambda i: (scores[i]["validation"]["success_rate"],
                                                   -scores[i]["validation"]["tracking_rmse_rad_s"]))
-    run_dir, zp, vn, desc = files[best]
-    kw = eval_env_kwargs(SimpleNamespace(env_kwargs=_yaml.safe_load((run_dir / "config.yaml").read_text())["env_kwargs"]))
-    grid = evaluate_checkpoint(zp, vn, "ppo", kw)
+    run, desc = runs[best]
+    grid = evaluate_policy(run)
+    folder, which = run_folder(run)
+    model, stats = model_files(folder, which)
     target = Path(str(resources.files(ASSETS_PACKAGE))) / "policies" / SHIPPED_POLICIES["pretrained"]
-    target.parent.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".ship-", dir=target.parent))
-    shutil.copy2(run_dir / "config.yaml", stage / "config.yaml")
-    shutil.copy2(zp, stage / "model.zip")
-    shutil.copy2(vn, stage / "vecnormalize.pkl")
-    card = {
-        "env_id": ENV_ID, "algo": "ppo", **desc,
-        "success_rate": grid["success_rate"], "tracking_rmse_rad_s": grid["tracking_rmse_rad_s"],
-        "per_shell": grid["per_shell"], "episodes": grid["episodes_detail"],
-        "grid": {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)},
-        "chosen_on": {"seeds": list(VALIDATION_SEEDS), "candidates": scores},
-        "recipes": {name: load_recipes()[name] for name in {s["recipe"] for s in scores}},
-        "commit": _commit(),
-    }
-    (stage / "card.json").write_text(json.dumps(card, indent=1) + "\n")
-    old = None
-    if target.exists():
-        old = target.with_name(f".{target.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        target.rename(old)
-    stage.rename(target)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+
+    def replace(work: Path, old: Path) -> None:
+        aside = old.with_name(f".{old.name}.old")
+        shutil.rmtree(aside, ignore_errors=True)
+        old.rename(aside)
+        work.rename(old)
+        shutil.rmtree(aside)
+
+    with staged_folder(target, replace) as stage:
+        shutil.copy2(folder / "config.yaml", stage / "config.yaml")
+        shutil.copy2(model, stage / "model.zip")
+        shutil.copy2(stats, stage / "vecnormalize.pkl")
+        card = {
+            "env_id": ENV_ID, "algo": "ppo", **desc,
+            "success_rate": grid["success_rate"], "tracking_rmse_rad_s": grid["tracking_rmse_rad_s"],
+            "per_shell": grid["per_shell"], "episodes": grid["episodes_detail"],
+            "grid": {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)},
+            "chosen_on": {"seeds": list(VALIDATION_SEEDS), "candidates": scores},
+            "recipes": {name: load_recipes()[name] for name in {s["recipe"] for s in scores}},
+            "commit": _commit(),
+        }
+        (stage / "card.json").write_text(json.dumps(card, indent=1) + "\n")
     return target
 
 

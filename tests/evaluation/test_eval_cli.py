@@ -166,3 +166,22 @@ def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baseli
     res = evaluate(spec, tmp_path_factory.mktemp("o") / "o", workers=1, replays=[])
     rows = {a["controller"]: a for a in res["agg_controller"]}
     assert rows["pd"]["episodes"] == rows["ppo"]["episodes"] == 1
+
+
+def test_a_checkpoint_is_a_controller_spec(tiny_run):
+    """``<run>@<steps>`` loads the checkpoint the trainer wrote at that step count (here the final
+    one, which is the final model), and a step count without a checkpoint is refused by name."""
+    import numpy as np
+
+    from sphere_env.evaluation.controller_specs import PolicyController, check_spec, run_folder
+
+    steps = sorted(int(p.stem.split("_")[-2]) for p in (tiny_run / "checkpoints").glob("rl_model_*_steps.zip"))[-1]
+    check_spec(f"{tiny_run}@{steps}", "sphere_env/RampDescent-v2")
+    ckpt, final = PolicyController(*run_folder(f"{tiny_run}@{steps}")), PolicyController(tiny_run)
+    obs = np.random.default_rng(0).normal(size=(5, ckpt.model.observation_space.shape[0])).astype(np.float32)
+    for o in obs:
+        np.testing.assert_array_equal(ckpt.act(o), final.act(o))
+    with pytest.raises(ValueError, match="is missing"):
+        check_spec(f"{tiny_run}@999999", "sphere_env/RampDescent-v2")
+    with pytest.raises(ValueError, match="<run>@<checkpoint steps>"):
+        run_folder(f"{tiny_run}@latest")
