@@ -292,13 +292,18 @@ class BatchedSubprocVecEnv(VecEnv):
             return
         for remote in self.remotes:
             try:  # a worker that died (or failed to start) has nothing to answer
-                if self.waiting:
+                # a step interrupted (Ctrl-C) between sending and receiving may have left no answer
+                # to wait for: drain what came, never block on it
+                if self.waiting and remote.poll(1.0):
                     remote.recv()
                 remote.send(("close", None))
             except (EOFError, OSError):
                 pass
         for p in self.processes:
-            p.join()
+            p.join(10)
+            if p.is_alive():  # a worker that missed its close (its pipe out of step) is stopped
+                p.terminate()
+                p.join()
         self.local.close()
         self.closed = True
 
