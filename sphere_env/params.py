@@ -52,6 +52,7 @@ class Parameter:
     size: int = 1
     low_open: bool = False
     high_open: bool = False
+    integer: bool = False
 
     @property
     def allowed(self) -> str:
@@ -77,6 +78,10 @@ class Parameter:
             val = finite_number(field, value, self.allowed)
             if not self.contains(val):
                 raise ValueError(f"{field}: value {value!r} outside allowed {self.allowed}")
+            if self.integer:
+                if val != round(val):
+                    raise ValueError(f"{field}: value {value!r} must be a whole number within {self.allowed}")
+                return int(round(val))
             return val
         arr = np.asarray(value, dtype=float) if isinstance(value, (list, tuple, np.ndarray)) else None
         if arr is None or arr.shape != (self.size,) or not np.all(np.isfinite(arr)):
@@ -88,6 +93,8 @@ class Parameter:
     def clip(self, value: float) -> float:
         """Clip into the bounds (an open bound clips to the nearest allowed float)."""
         lo, hi = self.low, self.high
+        if self.integer:
+            value = round(value)
         if lo is not None and value <= lo:
             return math.nextafter(lo, math.inf) if self.low_open else lo
         if hi is not None and value >= hi:
@@ -114,6 +121,17 @@ PARAMETERS: dict[str, Parameter] = dict([
        "payload offset from the pendulum COM, pendulum frame", size=3),
     _p("pressure_rate_kpa_per_s", "kPa/s", 0.0, None, None, "reset",
        "pressure schedule rate (< 0: a leak), sampled per episode"),
+    # ---- sensing and actuation (the environment applies them, the twin never sees them) ----
+    # Noise: 100× the default σ (0.5 rad on angles, 5 rad/s on rates) already buries every measured
+    # signal; far larger scales overflow the float32 observation to ±inf.
+    _p("observation_noise_scale", "-", 0.0, 0.0, 100.0, "step",
+       "× default per-component 1-σ noise of the measured observation components (0 = off); "
+       "the env kwarg of that name is the nominal value"),
+    _p("action_latency_steps", "steps", 0, 0, 5, "reset",
+       "control steps between an action and its torque (0 = applied at once; zero torque until the "
+       "first action arrives)", integer=True),
+    _p("motor_torque_scale", "-", 1.0, 0.0, 1.0, "step",
+       "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)", low_open=True),
     # ---- terrain: a new twin, so only between episodes ----
     _p("incline_deg", "deg", 0.0, 0.0, 30.0, "reset",
        "ground incline, downhill along +x_W; the contact models were checked up to 30°"),
@@ -122,6 +140,11 @@ PARAMETERS: dict[str, Parameter] = dict([
     _p("ramp_length_m", "m", None, 0.0, 100.0, "build", "ramp length along the slope; None = infinite plane",
        low_open=True),
     _p("control_frequency_hz", "Hz", 50.0, 0.0, 1000.0, "build", "policy rate", low_open=True),
+    # The pressure laws are analytic in p (ω_n linear, ζ exponential, hydroelastic modulus ∝ p,
+    # tables held at their end values), so they can be evaluated a little outside the range they were
+    # calibrated on; the fault grid does so to test pressures the calibration never saw.
+    _p("pressure_extrapolation_kpa", "kPa", 0.0, 0.0, 5.0, "build",
+       "accept pressures this far outside the calibrated range (gauge pressure stays ≥ 0.5 kPa)"),
     # Gravity caps the useful pendulum torque near (m_pc r_pc + m_p r_p) g ≈ 21.9 N m; the steer
     # motor only lifts the pendulum (m_p r_p g ≈ 20.5 N m). Real limits are unpublished.
     _p("steer_torque_limit_nm", "N m", 20.0, 0.0, 200.0, "build", "steer motor torque at action ±1",
@@ -135,7 +158,10 @@ TWIN_PARAMETERS = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale
                    "payload_mass_kg", "payload_com_offset_m")
 #: Parameters a randomization spec may sample.
 RANDOMIZABLE = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
-                "incline_deg", "payload_mass_kg", "payload_com_offset_m")
+                "incline_deg", "payload_mass_kg", "payload_com_offset_m", "observation_noise_scale",
+                "action_latency_steps", "motor_torque_scale")
+#: Parameters the environment applies itself (sensing and actuation), nominal values.
+ENV_PARAMETERS = ("observation_noise_scale", "action_latency_steps", "motor_torque_scale")
 
 
 def nominal(name: str) -> Any:

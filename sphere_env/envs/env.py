@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections import OrderedDict
+from collections import OrderedDict, deque
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -26,18 +26,15 @@ from gymnasium.utils import EzPickle, seeding
 from sphere_env.checks import finite_number
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
-from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, TWIN_PARAMETERS
+from sphere_env.params import DEFAULT_TIME_STEP_S, ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
 from sphere_env.params import check as check_param
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.physics.terrain import Terrain
 from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
-from sphere_env.tasks.observation import MAX_NOISE_SCALE, assemble_observation
-from sphere_env.tasks.randomization import (
-    PARAMETERS as RANDOMIZED,
-    RandomizationSpec,
-    clip_parameter,
-    schedule_pressure,
-)
+from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
+from sphere_env.tasks.observation import assemble_observation
+from sphere_env.tasks.randomization import PARAMETERS as RANDOMIZED
+from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_failure
 
@@ -46,12 +43,10 @@ DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
 DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 #: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
 INCLINE_RESOLUTION_DEG = 1.0
-#: The pressure schedule is pushed to the twin when it moved by at least this much [kPa].
-#: Hydroelastic pressures additionally snap to ``hydroelastic_pressure_step_kpa``: re-meshing the
-#: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms (cached inside Twin.set_pressure).
-PRESSURE_RESOLUTION_KPA = 0.01
-#: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's).
-_NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS if name != "pressure_kpa"}
+#: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's)
+#: and of the sensing and actuation parameters the environment applies itself.
+_NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS + ENV_PARAMETERS if name != "pressure_kpa"}
+__all__ = ["SphereEnv", "PRESSURE_RESOLUTION_KPA", "INCLINE_RESOLUTION_DEG"]
 _MAX_TWINS = 12
 
 
@@ -89,7 +84,12 @@ class SphereEnv(gym.Env, EzPickle):
         of a shell and pressure mixture apart while the actor drops them
         (:class:`sphere_env.training.policies.AsymmetricActorCriticPolicy`).
     :param observation_noise_scale: × default per-component noise σ, within [0, 100] (0 = off,
-        default; 100× already buries every measured signal, larger values overflow float32).
+        default; 100× already buries every measured signal, larger values overflow float32); the
+        nominal value of the randomizable parameter of that name.
+    :param pressure_extrapolation_kpa: accept pressures up to this far outside the shell
+        calibration's range [kPa], within [0, 5] (default 0): the pressure laws are evaluated beyond
+        the range they were fitted on (the fault grid's pressures), and the ``default``
+        randomization draws from the widened range.
     :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
     :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
 
@@ -140,6 +140,7 @@ class SphereEnv(gym.Env, EzPickle):
         record_replay: bool = False,
         render_size: tuple[int, int] = (480, 360),
         hydroelastic_pressure_step_kpa: float = 0.5,
+        pressure_extrapolation_kpa: float = 0.0,
         **unknown: Any,
     ):
         EzPickle.__init__(
@@ -151,6 +152,7 @@ class SphereEnv(gym.Env, EzPickle):
             ramp_length_m=ramp_length_m, render_mode=render_mode,
             meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
             render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa,
+            pressure_extrapolation_kpa=pressure_extrapolation_kpa,
         )
         # ---- validate kwargs (each error names its kwarg) ----
         if unknown:
@@ -173,8 +175,9 @@ class SphereEnv(gym.Env, EzPickle):
         if calibration is not None and not isinstance(calibration, (str, Path)):
             raise ValueError(f"calibration: value {calibration!r} must be the path of a shell calibration YAML, the "
                              "name of a shipped one, or None")
+        self.pressure_extrapolation_kpa = check_param("pressure_extrapolation_kpa", pressure_extrapolation_kpa)
         try:
-            self.calibration = ShellCalibration.load(calibration)
+            self.calibration = ShellCalibration.load(calibration).extrapolated(self.pressure_extrapolation_kpa)
         except ValueError as err:
             raise ValueError(f"calibration: {err}") from None
         self._calibration_path = calibration
@@ -199,11 +202,8 @@ class SphereEnv(gym.Env, EzPickle):
         self.observe_shell_model = observe_shell_model
         self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) \
             if observe_shell_model else ()
-        noise = finite_number("observation_noise_scale", observation_noise_scale, f"[0, {MAX_NOISE_SCALE:g}]")
-        if not 0.0 <= noise <= MAX_NOISE_SCALE:
-            raise ValueError(f"observation_noise_scale: value {observation_noise_scale!r} outside allowed [0, {MAX_NOISE_SCALE:g}]")
-        self.observation_noise_scale = noise
-        self._noise_std = task.observation_layout().noise_std() * noise
+        self.observation_noise_scale = check_param("observation_noise_scale", observation_noise_scale)
+        self._noise_std = task.observation_layout().noise_std()  # × the episode's observation_noise_scale
         self.incline_deg = check_param("incline_deg", incline_deg)
         self.ramp_length_m = None if ramp_length_m is None else check_param("ramp_length_m", ramp_length_m)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -256,11 +256,13 @@ class SphereEnv(gym.Env, EzPickle):
             raise ValueError(problem)
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
+        self._events = self._event_manager(self._randomization)
+        self._fired: list[str] = []
+        self._pending: deque[tuple[float, float]] = deque()
         self._obs = np.zeros(n_obs, dtype=np.float32)
         self._needs_reset = True
         self._ended: str | None = None
         self._copied_mid_episode = False
-        self._episode_updates = False
         self._reward_keys = {k: f"reward_{k}" for k in task.reward_terms}
 
     # ---- randomization -------------------------------------------------------------------------
@@ -281,9 +283,23 @@ class SphereEnv(gym.Env, EzPickle):
         Copies (``copy.deepcopy``, ``pickle``) carry the new spec. Through a vector env:
         ``venv.env_method("set_randomization", spec)``. Returns the resolved spec."""
         resolved = self._check_randomization(spec)
+        events = self._event_manager(resolved)
         self._randomization = resolved
         self._ezpickle_kwargs["randomization"] = resolved
+        self._next_events = events
         return resolved
+
+    def _event_manager(self, spec: RandomizationSpec) -> EventManager:
+        """The :class:`~sphere_env.tasks.events.EventManager` of ``spec`` for this environment."""
+        nominal = {"pressure_kpa": self.calibration.nominal_pressure_kpa, **_NOMINAL, "incline_deg": self.incline_deg,
+                   "observation_noise_scale": self.observation_noise_scale}
+        return EventManager(spec, nominal, self.calibration.pressure_range_kpa, self._quantize_pressure,
+                            {"incline_deg": self._snap_incline})
+
+    @property
+    def events(self) -> list[dict[str, Any]]:
+        """The events in force (name, mode, parameter), as the event manager describes them."""
+        return self._events.describe()
 
     def _check_randomization(self, spec: Any, steer_check: bool = True) -> RandomizationSpec:
         """Parse and resolve ``spec`` as the ``randomization`` kwarg; pure (raises, changes nothing)."""
@@ -346,7 +362,7 @@ class SphereEnv(gym.Env, EzPickle):
             fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
             drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
             time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
-            inclines_deg=inclines_deg,
+            inclines_deg=inclines_deg, pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
         )
         return Twin(cfg, meshcat=self.meshcat)
 
@@ -370,25 +386,9 @@ class SphereEnv(gym.Env, EzPickle):
         return sum(t.cached_shell_count for t in self._all_twins())
 
     # ---- parameters ----------------------------------------------------------------------------
-    def _sample_params(self, fixed: Mapping[str, Any], rng: np.random.Generator) -> dict[str, Any]:
-        """Sample this episode's parameters from ``rng``; ``fixed`` (checked option values) win."""
-        rng_p = self.calibration.pressure_range_kpa
-        params: dict[str, Any] = {
-            "pressure_kpa": self.calibration.nominal_pressure_kpa,
-            **_NOMINAL,
-            "incline_deg": self.incline_deg,
-        }
-        for name, val in self.randomization.sample(rng).items():
-            params[name] = clip_parameter(name, val, rng_p)
-        if "incline_deg" in params and params["incline_deg"] != self.incline_deg:
-            # Sampled inclines snap to a 1° grid: a finite set of terrains (built once per twin).
-            params["incline_deg"] = self._quantize_incline(params["incline_deg"])
-        sched = self.randomization.pressure_schedule
-        params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(rng, 1))
-        # Explicit values from reset(options=...) win (replaying a logged trial).
-        params.update(fixed)
-        params["pressure_kpa"] = self._quantize_pressure(params["pressure_kpa"])
-        return params
+    def _snap_incline(self, incline_deg: float) -> float:
+        """A drawn incline on the 1° terrain grid (the env's own incline is kept as given)."""
+        return incline_deg if incline_deg == self.incline_deg else self._quantize_incline(incline_deg)
 
     def _quantize_pressure(self, p: float) -> float:
         """Round to the hydroelastic pressure grid (identity for point/injected) [kPa]."""
@@ -479,7 +479,8 @@ class SphereEnv(gym.Env, EzPickle):
             rng, seed = seeding.np_random(seed)
         else:
             rng = copy.deepcopy(self.np_random)
-        params = self._sample_params(fixed, rng)
+        events = getattr(self, "_next_events", None) or self._events
+        params = events.draw(rng, fixed)
         if init is None:
             init = InitialState(**self.task.initial_state())
         else:
@@ -496,15 +497,12 @@ class SphereEnv(gym.Env, EzPickle):
         twin.set_incline(params["incline_deg"])
         twin.apply(params)
         twin.reset(init)
-        self._p0 = self._p_applied = params["pressure_kpa"]
-        sched = self.randomization.pressure_schedule
-        self._sched_delay_s = 0.0 if sched is None else sched.delay_s
-        self._params = params
-        self._interval_next = {
-            t.parameter: t.interval_s for t in self.randomization.terms if t.mode == "interval"
-        }
-        # Only interval terms and a pressure schedule change parameters within an episode.
-        self._episode_updates = bool(self._interval_next) or params["pressure_rate_kpa_per_s"] != 0.0
+        self._events, self._next_events = events, None
+        events.start(params)
+        self._params = events.params
+        self._fired = [e["name"] for e in events.describe()]  # every term draws at reset
+        # Actions reach the motors action_latency_steps control steps late (zero torque until then).
+        self._pending = deque([(0.0, 0.0)] * self._params["action_latency_steps"])
         if self.record_replay and twin.is_visualized:
             twin.start_recording()
             twin.publish()
@@ -554,11 +552,20 @@ class SphereEnv(gym.Env, EzPickle):
         a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
         twin = self.twin
         tau = self._tau
-        tau[0] = a0 * self.steer_torque_limit_nm
-        tau[1] = -a1 * self.drive_torque_limit_nm
+        params = self._params
+        s0, s1 = a0, a1  # what reaches the motors: the action, or the one action_latency_steps ago
+        if params["action_latency_steps"]:
+            self._pending.append((a0, a1))
+            s0, s1 = self._pending.popleft()
+        cap = params["motor_torque_scale"]
+        if cap < 1.0:  # motor saturation below the torque limit
+            s0, s1 = min(max(s0, -cap), cap), min(max(s1, -cap), cap)
+        tau[0] = s0 * self.steer_torque_limit_nm
+        tau[1] = -s1 * self.drive_torque_limit_nm
+        self._fired = []
         if self._failed is None:
-            if self._episode_updates:
-                self._update_params_in_episode(twin.time_s)
+            if self._events.active:
+                self._apply_events(twin.time_s)
             try:
                 twin.advance_unchecked(self.control_period_s, tau)
             except (RuntimeError, ValueError) as err:  # a diverged solve; never propagate
@@ -584,41 +591,21 @@ class SphereEnv(gym.Env, EzPickle):
         return obs, reward, terminated, False, info
 
     # ---- pieces ----------------------------------------------------------------------------------
-    def _update_params_in_episode(self, t: float) -> None:
-        params = self._params
-        if self._interval_next:
-            changed = False
-            for t_term in self.randomization.terms:
-                nxt = self._interval_next.get(t_term.parameter)
-                if nxt is not None and t >= nxt - 1e-9:
-                    val = t_term.distribution.sample(self.np_random, RANDOMIZED[t_term.parameter].size)
-                    val = clip_parameter(t_term.parameter, val, self.calibration.pressure_range_kpa)
-                    if t_term.parameter == "pressure_kpa":
-                        val = self._quantize_pressure(val)
-                    params[t_term.parameter] = val
-                    self._interval_next[t_term.parameter] = nxt + t_term.interval_s
-                    changed = True
-                    if t_term.parameter == "pressure_kpa":
-                        self._p0 = params["pressure_kpa"]
-                        self._sched_delay_s = t  # schedule continues from the new value
-            if changed:
-                self.twin.apply({k: v for k, v in params.items() if k != "pressure_kpa"})
-        rate = params["pressure_rate_kpa_per_s"]
-        if rate != 0.0:
-            p = schedule_pressure(self._p0, rate, self._sched_delay_s, t, self.calibration.pressure_range_kpa)
-            p = self._quantize_pressure(p)
-            if abs(p - self._p_applied) >= PRESSURE_RESOLUTION_KPA:
-                self.twin.set_pressure(p)
-                self._p_applied = p
-            params["pressure_kpa"] = self._p_applied  # what the physics uses
-        elif self._p_applied != params["pressure_kpa"]:
-            self.twin.set_pressure(params["pressure_kpa"])
-            self._p_applied = params["pressure_kpa"]
+    def _apply_events(self, t: float) -> None:
+        """Push the parameters the event manager changed at sim time ``t`` into the twin (sensing
+        and actuation parameters are read from ``self._params`` where they act)."""
+        changed, self._fired = self._events.step(t, self.np_random)
+        twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS and k != "pressure_kpa"}
+        if twin_changes:
+            self.twin.apply(twin_changes)
+        if "pressure_kpa" in changed:
+            self.twin.set_pressure(changed["pressure_kpa"])
 
     def _observe(self, state) -> np.ndarray:
         noise = None
-        if self.observation_noise_scale > 0.0:
-            noise = self.np_random.normal(0.0, self._noise_std)
+        scale = self._params["observation_noise_scale"]
+        if scale > 0.0:
+            noise = self.np_random.normal(0.0, self._noise_std * scale)
         obs = assemble_observation(
             state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise,
             self._extra_names, self._shell_one_hot,
@@ -641,6 +628,7 @@ class SphereEnv(gym.Env, EzPickle):
         info["is_success"] = success
         info["motor_torque_nm"] = self._tau.copy()
         info["params"] = params.copy()
+        info["events"] = self._fired
         info.update(self.task.info())
         return info
 
@@ -652,6 +640,7 @@ class SphereEnv(gym.Env, EzPickle):
         info.update(
             shell_model=self.shell_model, pressure_kpa=self._params["pressure_kpa"], is_success=False,
             truncation_reason=self._failed, motor_torque_nm=self._tau.copy(), params=dict(self._params),
+            events=self._fired,
         )
         info.update(self.task.info())
         return info

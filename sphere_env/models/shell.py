@@ -295,6 +295,9 @@ class ShellCalibration:
     k_d_by_pressure: tuple[tuple[float, float], ...] = ()
     #: ((time step [s], k_d_by_pressure table), ...) of the ``k_d_by_time_step`` entries that have one.
     k_d_by_pressure_at_steps: tuple[tuple[float, tuple[tuple[float, float], ...]], ...] = ()
+    #: The range the laws were calibrated on [kPa] when :meth:`extrapolated` widened
+    #: ``pressure_range_kpa``; None = not widened.
+    calibrated_range_kpa: tuple[float, float] | None = None
 
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
@@ -427,6 +430,24 @@ class ShellCalibration:
         if check_stand_still:
             cal.check_stand_still(_default_robot())
         return cal
+
+    def extrapolated(self, margin_kpa: float) -> "ShellCalibration":
+        """This calibration accepting pressures up to ``margin_kpa`` outside the range it was
+        calibrated on (gauge pressure at least :data:`MIN_EXTRAPOLATED_KPA`); itself for a margin of
+        0. The laws are analytic in p (ω_n linear, ζ exponential, the membrane contact volume);
+        tables (``contact_volume`` and ``k_d_by_pressure``) hold their end values. The stand-still
+        check runs again at the widened ends, so a margin that would let the robot tip over is
+        refused when the calibration is bound."""
+        if margin_kpa <= 0.0:
+            return self
+        lo, hi = self.calibrated_range_kpa or self.pressure_range_kpa
+        return replace(self, pressure_range_kpa=(max(lo - margin_kpa, MIN_EXTRAPOLATED_KPA), hi + margin_kpa),
+                       calibrated_range_kpa=(lo, hi))
+
+    def is_extrapolated(self, pressure_kpa: float) -> bool:
+        """Whether ``pressure_kpa`` lies outside the range the laws were calibrated on."""
+        lo, hi = self.calibrated_range_kpa or self.pressure_range_kpa
+        return not lo <= pressure_kpa <= hi
 
     # ---- curves ----------------------------------------------------------------------------------
     def check_pressure(self, pressure_kpa: float, field: str = "pressure_kpa") -> float:
@@ -658,6 +679,11 @@ def _records(sec: list, where: str, keys: tuple[str, ...], shape: str, path: str
             raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
                              f"allowed: {list(keys)}")
         yield at, entry
+
+
+#: The least gauge pressure an extrapolated calibration accepts [kPa]: a shell below it is barely
+#: inflated, and no shell law here was fitted near zero pressure.
+MIN_EXTRAPOLATED_KPA = 0.5
 
 
 def interpolate_k_d(table: tuple[tuple[float, float], ...], pressure_kpa: float) -> float:

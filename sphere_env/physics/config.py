@@ -60,6 +60,9 @@ class TwinConfig:
         one of them; stored sorted, without duplicates). Each adds one shell-kinematics system to
         the diagram (the ground normal is a constant of its expressions); the ground geometry
         moves in the context. Empty: ``incline_deg`` only.
+    :param pressure_extrapolation_kpa: accept pressures this far outside the calibration's range
+        [kPa], within [0, 5] (:meth:`~sphere_env.models.shell.ShellCalibration.extrapolated`); 0 =
+        the calibrated range only.
     """
 
     fixture: str = "free"
@@ -77,6 +80,7 @@ class TwinConfig:
     contact_approximation: str | None = None
     bare_plant: bool = False
     inclines_deg: tuple[float, ...] = ()
+    pressure_extrapolation_kpa: float = 0.0
 
     def __post_init__(self) -> None:
         if self.fixture not in FIXTURES:
@@ -96,6 +100,7 @@ class TwinConfig:
             check_param("ramp_length_m", self.ramp_length_m)
         check_param("time_step_s", self.time_step_s)
         check_param("ground_friction", self.ground_friction)
+        check_param("pressure_extrapolation_kpa", self.pressure_extrapolation_kpa)
         if self.resolution_hint_m is not None and not finite_number("resolution_hint_m", self.resolution_hint_m) > 0:
             raise ValueError(f"resolution_hint_m: value {self.resolution_hint_m!r} must be > 0 m")
         if self.contact_approximation is not None and self.contact_approximation not in CONTACT_APPROXIMATIONS:

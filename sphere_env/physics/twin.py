@@ -91,7 +91,8 @@ class Twin:
         config = replace(config, **kwargs) if config is not None and kwargs else (config or TwinConfig(**kwargs))
         self.config = config
         # k_d refitted at this step, if the calibration has one (Drake's contact damping depends on it)
-        self.calibration = ShellCalibration.load(config.calibration).for_time_step(config.time_step_s)
+        self.calibration = (ShellCalibration.load(config.calibration).for_time_step(config.time_step_s)
+                            .extrapolated(config.pressure_extrapolation_kpa))
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
         self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
         p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
@@ -230,7 +231,7 @@ class Twin:
         """Use another shell calibration from now on (no rebuild), at ``pressure_kpa`` [kPa] or the
         current pressure. Validated first: on error nothing changes."""
         cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
-        cal = cal.for_time_step(self.config.time_step_s)
+        cal = cal.for_time_step(self.config.time_step_s).extrapolated(self.config.pressure_extrapolation_kpa)
         p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa, "pressure_kpa")
         shell = cal.bind(self.robot)
         self.calibration, self.shell, self._pressure_kpa = cal, shell, p

@@ -119,9 +119,6 @@ class ObservationLayout:
 #: Default 1-σ measurement noise per measured component, in the component's unit. Scaled by the
 #: env's ``observation_noise_scale`` (0 = noise off). Assumed encoder/IMU-grade values.
 DEFAULT_NOISE_STD = np.array([0.005, 0.05, 0.005, 0.05, 0.01, 0.05, 0.05, 0.05, 0.01, 0.01, 0.01])
-#: Largest ``observation_noise_scale``: 100× the defaults (σ 0.5 rad on angles, 5 rad/s on rates)
-#: already buries every measured signal; far larger scales overflow float32 to ±inf.
-MAX_NOISE_SCALE = 100.0
 
 
 def wrap_angle(angle_rad: float) -> float:

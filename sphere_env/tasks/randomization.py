@@ -10,7 +10,10 @@ Parameters: the ``RANDOMIZABLE`` records of :mod:`sphere_env.params` (unit, nomi
 randomized, bounds): ``pressure_kpa`` (the calibration's nominal and range; hydroelastic: snapped
 to the env's ``hydroelastic_pressure_step_kpa`` grid), ``steer_friction_scale``,
 ``drive_friction_scale``, ``ground_friction``, ``incline_deg`` (ramp tasks, reset only, sampled
-values snap to 1°), ``payload_mass_kg``, ``payload_com_offset_m`` (3 components).
+values snap to 1°), ``payload_mass_kg``, ``payload_com_offset_m`` (3 components), and the sensing
+and actuation faults the environment applies: ``observation_noise_scale``,
+``action_latency_steps`` (reset only, whole numbers) and ``motor_torque_scale``. The
+:class:`~sphere_env.tasks.events.EventManager` turns a spec into an episode's events.
 
 Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``randomization``):
 
@@ -269,6 +272,8 @@ def _check_bounds(where: str, value, record: Parameter | None) -> None:
     for v in (value if isinstance(value, tuple) else (value,)):
         if not record.contains(v):
             raise ValueError(f"{where}: value {v!r} outside allowed {record.allowed}")
+        if record.integer and v != round(v):
+            raise ValueError(f"{where}: value {v!r} must be a whole number within {record.allowed}")
 
 
 def _parse_distribution(entry: Any, size: int, where: str) -> tuple[Distribution, str, float | None]:
