@@ -172,12 +172,13 @@ def _env(job: Mapping[str, Any], record_replay: bool = False, render_mode: str |
 
     import sphere_env  # noqa: F401
 
-    key = json.dumps([job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], record_replay,
+    events = job.get("randomization", "off")  # a fault grid's events; else nothing randomized
+    key = json.dumps([job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], events, record_replay,
                       render_mode], sort_keys=True, default=str)
     env = _ENVS.get(key)
     if env is None:
         env = gym.make(job["env_id"], shell_model=job["shell_model"], friction_model=job["friction"],
-                       randomization="off", record_replay=record_replay, render_mode=render_mode,
+                       randomization=events, record_replay=record_replay, render_mode=render_mode,
                        **job["env_kwargs"])
         if not record_replay:
             _ENVS[key] = env

@@ -10,6 +10,8 @@ many jobs at once, each training on one core).
 
     python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2]
     python -m evaluation.experiments.learning pd            # the PD and zero-torque baselines on the grid
+    python -m evaluation.experiments.learning select        # each finished run's checkpoint chosen on validation
+    python -m evaluation.experiments.learning faults        # PD, zero, pretrained and every run on the fault grid
     python -m evaluation.experiments.learning summary       # summary.json, tables and plots
     python -m evaluation.experiments.learning ship --candidates shipped:0 shipped_annealed:0  # -> assets/policies/
 
@@ -80,6 +82,108 @@ def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL
     return {**grid_figures(rows), "episodes_detail": [
         {k: r[k] for k in ("shell_model", "pressure_kpa", "seed", "is_success", "tracking_rmse_rad_s",
                            "reached_runout")} for r in rows]}
+
+
+def fault_figures(spec: str, env_kwargs: Mapping[str, Any], cache: Path | None = None,
+                  env_id: str = ENV_ID) -> dict[str, dict[str, Any]]:
+    """A controller (``pd``, ``zero``, or a run spec of a policy) on every fault of
+    :data:`sphere_env.evaluation.faults.FAULTS`: grid figures per fault, each cached as
+    ``<cache>/fault_<name>.json`` so an interrupted evaluation continues."""
+    from sphere_env.evaluation.controller_specs import PolicyController, run_folder
+    from sphere_env.evaluation.evaluate import rollout
+    from sphere_env.evaluation.faults import FAULTS, fault_jobs
+
+    ctrl = None if spec in ("pd", "zero") else PolicyController(*run_folder(spec))
+    out = {}
+    for name in FAULTS:
+        done = cache / f"fault_{name}.json" if cache is not None else None
+        if done is not None and done.exists():
+            out[name] = json.loads(done.read_text())
+            continue
+        jobs = fault_jobs(name, "policy" if ctrl else spec, spec, env_id, env_kwargs)
+        rows = [rollout(job, controller=ctrl)[0] for job in jobs]
+        out[name] = grid_figures(rows)
+        if done is not None:
+            done.parent.mkdir(parents=True, exist_ok=True)
+            write_text_atomic(done, json.dumps(out[name]) + "\n")
+        print(f"  {spec} {name}: {out[name]['success_rate']:.0%}", flush=True)
+    return out
+
+
+SELECT_FROM = 0.5  # the validation choice looks at checkpoints from this fraction of the budget on
+
+
+def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) -> dict[str, Any]:
+    """The run's checkpoint (from ``from_steps`` on) with the highest success on the validation
+    grid (seeds 100-102; ties: lower tracking RMSE, then the later checkpoint), and its figures on
+    the reported grid: the model an rl-zoo3 user keeps as ``best_model``, chosen on episodes the
+    reported figures never use. Validation results are cached as ``grid_eval/val_<steps>.json``."""
+    from sphere_env.training.train import CHECKPOINT_PREFIX
+
+    cache = run_dir / "grid_eval"
+    cache.mkdir(exist_ok=True)
+    ckpts = sorted(int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
+    scored = []
+    for n in (c for c in ckpts if c >= from_steps):
+        done = cache / f"val_{n}.json"
+        if done.exists():
+            val = json.loads(done.read_text())
+        else:
+            val = evaluate_policy(f"{run_dir}@{n}", env_id, seeds=VALIDATION_SEEDS)
+            val.pop("episodes_detail")
+            write_text_atomic(done, json.dumps(val) + "\n")
+        scored.append((val["success_rate"], -val["tracking_rmse_rad_s"], n, val))
+    if not scored:
+        raise ValueError(f"{run_dir}: no checkpoint from {from_steps} env steps on")
+    _, _, n, val = max(scored, key=lambda x: x[:3])
+    grid = json.loads((cache / f"{n}.json").read_text()) if (cache / f"{n}.json").exists() else None
+    if grid is None:
+        grid = evaluate_policy(f"{run_dir}@{n}", env_id)
+        grid.pop("episodes_detail")
+    return {"checkpoint_steps": n, "validation": val, "candidates": [x[2] for x in scored],
+            **{k: grid[k] for k in ("success_rate", "tracking_rmse_rad_s", "per_shell")}}
+
+
+def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
+    """Add ``selected`` (:func:`select_checkpoint`) or ``faults`` (the final model's and the
+    selected checkpoint's :func:`fault_figures`) to every finished run's result file that lacks
+    it, and (faults) the PD's, zero torque's and the pretrained policy's to ``baselines.json``."""
+    import torch
+
+    from sphere_env.evaluation.controller_specs import env_kwargs_of
+    from sphere_env.resources import shipped_policy_path
+
+    torch.set_num_threads(1)
+    if kind == "faults":
+        base_path = results / "baselines.json"
+        base = json.loads(base_path.read_text())
+        for name in ("pd", "zero"):
+            if "faults" not in base[name]:
+                base[name]["faults"] = fault_figures(name, {}, RUNS / "baselines" / name)
+                write_text_atomic(base_path, json.dumps(base, indent=1) + "\n")
+        if "faults" not in base.get("pretrained", {}):
+            spec = str(shipped_policy_path("pretrained"))
+            grid = evaluate_policy(spec)
+            grid.pop("episodes_detail")
+            base["pretrained"] = {**grid, "faults": fault_figures(spec, env_kwargs_of(spec), RUNS / "baselines" / "pretrained")}
+            write_text_atomic(base_path, json.dumps(base, indent=1) + "\n")
+    for f in sorted((results / "runs").glob("*/seed*.json")):
+        res = json.loads(f.read_text())
+        run_dir = runs_root / f.parent.name / f.stem
+        if kind in res or not run_dir.is_dir():
+            continue
+        if kind == "selected":
+            res["selected"] = select_checkpoint(run_dir, res.get("env_id", ENV_ID), int(SELECT_FROM * res["env_steps"]))
+        else:
+            if "selected" not in res:
+                continue
+            spec = str(run_dir)
+            res["faults"] = fault_figures(spec, env_kwargs_of(spec), run_dir / "grid_eval")
+            n = res["selected"]["checkpoint_steps"]
+            sel = f"{run_dir}@{n}"
+            res["selected"]["faults"] = fault_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
+        write_text_atomic(f, json.dumps(res, indent=1) + "\n")
+        print(f"{f}: {kind} added", flush=True)
 
 
 def pd_level() -> float:
@@ -274,6 +378,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
+    sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
+    sub.add_parser("faults", help="evaluate PD, zero, the pretrained policy and every finished run on the fault grid")
     sp = sub.add_parser("ship", help="choose among runs on the validation grid and copy the best into the "
                                      "package as the pretrained policy")
     sp.add_argument("--candidates", nargs="+", required=True, help="recipe:seed (final model) or recipe:seed:steps")
@@ -286,6 +392,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         return
     if args.cmd == "pd":
         print(baselines())
+        return
+    if args.cmd in ("select", "faults"):
+        augment("selected" if args.cmd == "select" else "faults")
         return
     if args.cmd == "summary":
         from sphere_env.evaluation.experiments.learning_summary import write_summary
