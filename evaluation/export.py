@@ -16,7 +16,9 @@ Writes into ``--out`` (default ``<run>/export``, ``<run>/export_best`` for ``@be
     is refused with the action [0, 0] (zero torque), never a NaN action. A policy trained with an
     asymmetric critic takes the observation without its privileged components.
 ``policy.json``
-    the observation layout (index, name, unit, meaning, and the normalization statistics), the
+    the observation layout (index, name, unit, meaning, how the robot computes it from its sensors
+    (``from_sensors``: channels, computation, frame, unit; :mod:`sphere_env.tasks.sensors`) and the
+    normalization statistics), the
     action layout (normalized range, motor torque limits [N m], joints and sign conventions), env
     id and kwargs, shell model, control frequency [Hz], the algorithm, the check below and the
     software versions.
@@ -46,6 +48,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from sphere_env.tasks.sensors import FROM_SENSORS
 
 FORMATS = {"onnx": "policy.onnx", "torchscript": "policy.pt"}
 ONNX_PACKAGES = ("onnx", "onnxscript", "onnxruntime")
@@ -267,6 +271,9 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
         nominal = ShellCalibration.load(r["env_kwargs"].get("calibration")).nominal_pressure_kpa
         obs = record_observations(controller, env, (lo, nominal, hi))  # full observations, as SB3 takes them
         observation_layout = u.observation_layout.describe()
+        for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
+            if rec["name"] in FROM_SENSORS:
+                rec["from_sensors"] = FROM_SENSORS[rec["name"]]
         action_layout = u.action_layout()
         control_hz = 1.0 / u.control_period_s
     finally:
@@ -313,6 +320,9 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
                                      if cfg.algo == "ppo" else "tanh of the Gaussian mean (SB3 predict, "
                                      "deterministic=True)"),
             "observation": observation_layout,
+            "observation_from_sensors": ("each component's from_sensors: the robot's channels, computation, frame "
+                                         "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
+                                         f"samples at {control_hz:g} Hz (incline_deg: the ramp's)"),
             "observation_normalization": stats,
             "action": action_layout,
             "env_id": r["env_id"],

@@ -91,6 +91,7 @@ def test_layout_file_describes_the_env(tiny_ppo_run, tmp_path):
     u = env.unwrapped
     assert [o["name"] for o in layout["observation"]] == list(u.observation_layout.names)
     assert all(o["unit"] for o in layout["observation"])
+    assert all(o["from_sensors"]["computation"] and o["from_sensors"]["unit"] == o["unit"] for o in layout["observation"])
     assert [a["torque_limit_nm"] for a in layout["action"]] == [u.steer_torque_limit_nm, u.drive_torque_limit_nm]
     assert layout["control_frequency_hz"] == pytest.approx(1.0 / u.control_period_s)
     assert (layout["env_id"], layout["shell_model"], layout["algo"], layout["file"]) == (ENV, "point", "ppo", "policy.pt")
