@@ -6,7 +6,8 @@ checkpoint every ``eval_every`` env steps, then evaluates every checkpoint with 
 on the demo's grid (3 shell models × 3, 8.5, 14 kPa × evaluation seeds 0, 1, 2: 27 episodes,
 randomization off) and writes ``<results>/runs/<recipe>/seed<k>.json`` atomically. A job whose result
 file exists is skipped, so an interrupted study continues where it stopped (``--jobs`` runs that
-many jobs at once, each training on one core).
+many jobs at once through :func:`sphere_env.parallel.run_parallel`, each training on one core;
+``--ray-address`` runs them on a Ray cluster).
 
     python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2]
     python -m evaluation.experiments.learning pd            # the PD and zero-torque baselines on the grid
@@ -28,7 +29,6 @@ import math
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -145,9 +145,9 @@ def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) 
 
 
 def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
-    """Add ``selected`` (:func:`select_checkpoint`) or ``faults`` (the final model's and the
-    selected checkpoint's :func:`fault_figures`) to every finished run's result file that lacks
-    it, and (faults) the PD's, zero torque's and the pretrained policy's to ``baselines.json``."""
+    """Add ``selected`` (:func:`select_checkpoint`) or ``faults`` (the selected checkpoint's
+    :func:`fault_figures`) to every finished run's result file that lacks it, and (faults) the
+    PD's, zero torque's and the pretrained policy's to ``baselines.json``."""
     import torch
 
     from sphere_env.evaluation.controller_specs import env_kwargs_of
@@ -177,11 +177,10 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
         else:
             if "selected" not in res:
                 continue
-            spec = str(run_dir)
-            res["faults"] = fault_figures(spec, env_kwargs_of(spec), run_dir / "grid_eval")
+            # the run's reported model on the fault grid: its validation-chosen checkpoint
             n = res["selected"]["checkpoint_steps"]
             sel = f"{run_dir}@{n}"
-            res["selected"]["faults"] = fault_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
+            res["faults"] = fault_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
         write_text_atomic(f, json.dumps(res, indent=1) + "\n")
         print(f"{f}: {kind} added", flush=True)
 
@@ -271,12 +270,14 @@ def _commit() -> str:
     return software_versions()["git_commit"] or "unknown"
 
 
-def _job(args: tuple[str, int]) -> str:
-    name, seed = args
+def _job(job: Mapping[str, Any]) -> str:
+    name, seed = job["recipe"], job["seed"]
     try:
-        return str(run_job(name, seed))
+        out = str(run_job(name, seed))
     except Exception as err:  # noqa: BLE001 - one failed job is reported, the others go on
-        return f"FAILED {name} seed {seed}: {type(err).__name__}: {err}"
+        out = f"FAILED {name} seed {seed}: {type(err).__name__}: {err}"
+    print(out, flush=True)
+    return out
 
 
 def baselines(results: Path = RESULTS) -> Path:
@@ -376,6 +377,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument("--recipe", nargs="+", required=True)
     r.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     r.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
+    r.add_argument("--ray-address", default=None,
+                   help="run the jobs on a Ray cluster (auto, ray://host:10001, or local); needs the ray extra")
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
     sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
@@ -405,10 +408,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     bad = [n for n in args.recipe if n not in known]
     if bad:
         p.error(f"--recipe: unknown {bad}; allowed: {sorted(known)}")
-    todo = [(n, s) for n in args.recipe for s in args.seeds]
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        for msg in pool.map(_job, todo):
-            print(msg, flush=True)
+    if args.jobs < 1:
+        p.error(f"--jobs: value {args.jobs} must be >= 1")
+    from sphere_env.parallel import run_parallel
+
+    todo = [{"recipe": n, "seed": s} for n in args.recipe for s in args.seeds]
+    run_parallel(_job, todo, workers=args.jobs, ray_address=args.ray_address)
 
 
 if __name__ == "__main__":
