@@ -138,9 +138,20 @@ def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file
     # resumed run appends to its file.
     fresh = monitor_file is None or not Path(monitor_file + ".monitor.csv").exists()
     env = _monitor_class()(env, filename=monitor_file, info_keywords=MONITOR_KEYWORDS, override_existing=fresh)
+    if not fresh:  # the episode times continue from the file's last one, without the time the run was stopped
+        env.t_start = time.time() - _last_monitor_time_s(Path(monitor_file + ".monitor.csv"))
     env.reset(seed=seed)
     env.action_space.seed(seed)
     return env
+
+
+def _last_monitor_time_s(path: Path) -> float:
+    """The ``t`` [s] of a Monitor CSV's last episode (0 without one)."""
+    with open(path, newline="") as f:
+        rows = [r for r in csv.reader(line for line in f if not line.startswith("#"))]
+    if len(rows) < 2:
+        return 0.0
+    return float(rows[-1][rows[0].index("t")])
 
 
 def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = False):
@@ -223,10 +234,11 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
             self._f = open(path, "a", newline="")
             self._w = csv.writer(self._f)
             if new:
-                self._w.writerow(["timesteps", "return", "length", "is_success", "pressure_kpa", "shell_model", "params"])
+                self._w.writerow(["timesteps", "return", "length", "is_success", "pressure_kpa", "shell_model", "params",
+                                  "env"])
 
         def _on_step(self) -> bool:
-            for info in self.locals.get("infos", ()):
+            for rank, info in enumerate(self.locals.get("infos", ())):
                 ep = info.get("episode")
                 if ep is not None:
                     # the episode's sampled parameters (pressure, faults, ...), so training success
@@ -234,7 +246,7 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
                     params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in (info.get("params") or {}).items()}
                     self._w.writerow([self.num_timesteps, f"{ep['r']:.6g}", ep["l"], int(bool(info.get("is_success"))),
                                       f"{info.get('pressure_kpa', float('nan')):.4g}", info.get("shell_model", ""),
-                                      json.dumps(params, default=float)])
+                                      json.dumps(params, default=float), rank])
                     self._f.flush()
             return True
 
@@ -504,6 +516,16 @@ def usable_checkpoint(cls, cfg: TrainConfig, run_dir: Path) -> tuple[tuple[int, 
     return None, skipped
 
 
+def _truncate_monitor(path: Path, episodes: int) -> None:
+    """Keep a Monitor CSV's header lines and its first ``episodes`` episodes (atomic replace)."""
+    lines = path.read_text().splitlines(keepends=True)
+    head = 2 if len(lines) > 1 and lines[0].startswith("#") else 1  # SB3's JSON comment, then the columns
+    if len(lines) - head > episodes:
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text("".join(lines[:head + episodes]))
+        tmp.replace(path)
+
+
 def _is_interrupted_run(run_dir: Path) -> bool:
     """A folder with config.yaml but no model and no checkpoint: a run stopped before its first checkpoint."""
     return ((run_dir / "config.yaml").exists() and not (run_dir / "model.zip").exists()
@@ -522,7 +544,10 @@ def _clear_outputs(run_dir: Path) -> None:
 
 
 def _truncate_history(run_dir: Path, steps: int) -> None:
-    """Drop training episodes and evaluations logged after ``steps`` (past the restored checkpoint)."""
+    """Drop training episodes and evaluations logged after ``steps`` (past the restored checkpoint):
+    from ``learning_curve_train.csv``, the evaluations, and each training env's Monitor CSV (it keeps
+    as many episodes as ``learning_curve_train.csv`` has of that env up to ``steps``), so a resumed
+    run lists every episode once."""
     train_csv = run_dir / "learning_curve_train.csv"
     if train_csv.exists():
         with open(train_csv, newline="") as f:
@@ -533,6 +558,13 @@ def _truncate_history(run_dir: Path, steps: int) -> None:
             with open(tmp, "w", newline="") as f:
                 csv.writer(f).writerows(keep)
             tmp.replace(train_csv)
+        if rows and "env" in rows[0]:
+            col = rows[0].index("env")
+            per_env: dict[str, int] = {}
+            for r in keep[1:]:
+                per_env[r[col]] = per_env.get(r[col], 0) + 1
+            for mon in (run_dir / "monitor").glob("train_*.monitor.csv"):
+                _truncate_monitor(mon, per_env.get(mon.name.split(".")[0].removeprefix("train_"), 0))
     ev = run_dir / "eval" / "evaluations.npz"
     if ev.exists():
         d = dict(np.load(ev))

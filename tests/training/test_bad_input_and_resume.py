@@ -128,3 +128,28 @@ def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, cap
           "batch_size:32", "n_epochs:1", "--env-kwargs", "shell_model:'point'"])
     assert "starting over" in capsys.readouterr().err
     assert (run / "model.zip").exists()
+
+
+def test_resume_continues_the_monitor_logs_without_a_repeat_or_a_time_jump(tmp_path):
+    """Two envs with 10-step episodes; the session's newest checkpoint is lost, so the resume
+    restores step 64 and re-runs what came after: each Monitor CSV keeps exactly the episodes
+    learning_curve_train.csv has of its env, and episode times never go backwards."""
+    over = {**TINY, "n_envs": 2, "n_timesteps": 128, "env_kwargs": {"shell_model": "point", "max_episode_steps": 10}}
+    cfg = resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, checkpoint_freq=64)
+    run = train(cfg, tmp_path / "run", progress_bar=False)
+    (run / "checkpoints" / "rl_model_128_steps.zip").unlink()
+    main(["--resume", str(run), "--n-timesteps", "192", "--no-progress"])
+    with open(run / "learning_curve_train.csv") as f:
+        rows = list(csv.DictReader(f))
+    steps = [int(r["timesteps"]) for r in rows]
+    assert steps == sorted(steps) and steps[-1] <= 192
+    total = 0
+    for rank in ("0", "1"):
+        lines = (run / "monitor" / f"train_{rank}.monitor.csv").read_text().splitlines()
+        assert lines[0].startswith("#") and lines[1].startswith("r,l,t")
+        mon = list(csv.DictReader(lines[1:]))
+        assert len(mon) == sum(r["env"] == rank for r in rows) > 0
+        t = [float(m["t"]) for m in mon]
+        assert t == sorted(t)  # the resumed session's times continue (they restarted at 0 before)
+        total += len(mon)
+    assert total == len(rows)
