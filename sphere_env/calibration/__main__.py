@@ -23,7 +23,9 @@ import shlex
 import sys
 from pathlib import Path
 
-from sphere_env.calibration.logs import LogError, load_manifest
+from sphere_env.calibration.logs import LogError
+
+from sphere_env.calibration.manifest import load_manifest
 from sphere_env.resources import asset_path
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")

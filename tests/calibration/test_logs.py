@@ -1,5 +1,6 @@
 """Log loader, column mapping and manifest: good input converts to SI, bad input is refused by name."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -7,7 +8,8 @@ import pytest
 import yaml
 
 from sphere_env.calibration.__main__ import main
-from sphere_env.calibration.logs import ColumnMapping, LogError, load_log, load_manifest, write_log_csv
+from sphere_env.calibration.logs import ColumnMapping, LogError, load_log, write_log_csv
+from sphere_env.calibration.manifest import load_manifest
 
 
 def _csv(path: Path, text: str) -> Path:
@@ -129,3 +131,46 @@ def test_report_without_logs_writes_nothing(tmp_path, capsys):
     out = tmp_path / "report"
     assert main(["report", "--data-root", str(tmp_path / "absent"), "--out", str(out)]) == 2
     assert not out.exists() and "not found" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("entry, needle", [
+    ({"file": "x.csv", "fixture": "stand", "windw_s": [0, 1]}, "unknown field 'windw_s'; allowed: ["),
+    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": "4.0"}, "field 'pressure_kpa' = '4.0': Input should be a valid number"),
+    ({"file": "x.csv", "fixture": "stand", "transient_s": True}, "field 'transient_s' = True"),
+    ({"file": 3, "fixture": "stand"}, "field 'file' = 3: Input should be a valid string"),
+    ({"file": "x.csv", "fixture": "stand", "time_unit": "fortnight"}, "field 'time_unit' = 'fortnight'"),
+])
+def test_manifest_unknown_keys_and_wrong_types_are_refused_by_name(tmp_path, entry, needle):
+    with pytest.raises(LogError, match=re.escape(needle)):
+        load_manifest(_manifest(tmp_path, [entry]))
+
+
+def test_manifest_unknown_top_level_key_is_refused(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text(yaml.safe_dump({"data_rot": ".", "trials": [{"file": "x.csv", "fixture": "stand"}]}))
+    with pytest.raises(LogError, match=re.escape("unknown field 'data_rot'; allowed: ['data_root', 'trials']")):
+        load_manifest(path)
+
+
+@pytest.mark.parametrize("how", ["dotdot", "absolute", "symlink"])
+def test_manifest_paths_outside_data_root_are_refused_without_reading(tmp_path, how):
+    root = tmp_path / "data"
+    root.mkdir()
+    secret = tmp_path / "secret.csv"
+    secret.write_text("TOP-SECRET-LINE,1\n")
+    file = {"dotdot": "../secret.csv", "absolute": str(secret), "symlink": "link.csv"}[how]
+    if how == "symlink":
+        (root / "link.csv").symlink_to(secret)
+    path = tmp_path / "m.yaml"
+    path.write_text(yaml.safe_dump({"data_root": "data", "trials": [{"file": file, "fixture": "stand"}]}))
+    with pytest.raises(LogError) as err:
+        load_manifest(path)
+    msg = str(err.value)
+    assert "field 'file'" in msg and "outside data_root" in msg and "TOP-SECRET" not in msg
+
+
+def test_manifest_path_inside_data_root_by_absolute_name_is_accepted(tmp_path):
+    t = np.arange(100) * 0.02
+    write_log_csv(tmp_path / "x.csv", t, {"theta": np.sin(t)})
+    man = load_manifest(_manifest(tmp_path, [{"name": "x", "file": str(tmp_path / "x.csv"), "fixture": "stand"}]))
+    assert man.by_name("x").load().t_s.size == 100

@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 
 from sphere_env.calibration.friction_fit import evaluate_friction
-from sphere_env.calibration.logs import load_manifest
+from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.validate import validate
 from sphere_env.models.friction import load_friction_presets
 

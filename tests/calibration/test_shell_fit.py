@@ -2,7 +2,7 @@
 
 import pytest
 
-from sphere_env.calibration.logs import load_manifest
+from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.sensitivity import sweep
 from sphere_env.calibration.shell_fit import calibration_at, fit_shell, pressure_for_modulus
 from sphere_env.models.rigid_body import RobotParameters

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sphere_env.calibration.__main__ import main
-from sphere_env.calibration.logs import load_manifest
+from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.validate import ValidationRow, validate
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
