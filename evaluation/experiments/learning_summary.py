@@ -77,9 +77,38 @@ def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
                 "every_shell_ge_80": all(np.mean([r["per_shell"][m] for r in runs]) >= 0.8 - 1e-9 for m in SHELLS),
                 "rmse_le_pd": bool(np.nanmean([r["tracking_rmse_rad_s"] for r in runs]) <= pd["tracking_rmse_rad_s"]),
             },
-            "note": runs[0]["recipe"].get("note", ""),
+            "note": "" if "@" in name else runs[0]["recipe"].get("note", ""),
         })
     return rows
+
+
+def selected_runs(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, list[dict[str, Any]]]:
+    """Each recipe's runs with their validation-chosen checkpoint's figures as the run's figures
+    (``<recipe>@selected``; recipes whose runs all have one)."""
+    out = {}
+    for name, runs in runs_by_recipe.items():
+        if runs and all("selected" in r for r in runs):
+            out[f"{name}@selected"] = [{**r, **{k: r["selected"][k] for k in ("success_rate", "tracking_rmse_rad_s",
+                                                                              "per_shell")}} for r in runs]
+    return out
+
+
+def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> str:
+    """Success per fault: zero torque, the PD, the pretrained policy and each recipe's runs (their
+    validation-chosen checkpoints: mean and worst seed)."""
+    import pandas as pd_
+
+    cols = {name: base[name]["faults"] for name in ("zero", "pd", "pretrained") if "faults" in base.get(name, {})}
+    faults = list(next(iter(cols.values())).keys()) if cols else []
+    rows = []
+    for f in faults:
+        row = {"fault": f, **{c: _pct(v[f]["success_rate"]) for c, v in cols.items()}}
+        for name, runs in runs_by_recipe.items():
+            got = [r["faults"][f]["success_rate"] for r in runs if f in (r.get("faults") or {})]
+            if got:
+                row[f"{name} ({len(got)} seeds): mean, worst"] = f"{_pct(float(np.mean(got)))}, {_pct(min(got))}"
+        rows.append(row)
+    return pd_.DataFrame(rows).to_markdown(index=False) if rows else ""
 
 
 def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
@@ -122,7 +151,7 @@ def _pct(x: float | None) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f}%"
 
 
-def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
+def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults: str = "") -> str:
     import pandas as pd_
 
     pd = base["pd"]
@@ -140,7 +169,7 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
     notes = "\n".join(f"- **{r['recipe']}**: {r['note']}" for r in rows if r["note"])
     from sphere_env.evaluation.experiments.learning import load_recipes
 
-    finished = {r["recipe"] for r in rows}
+    finished = {r["recipe"].split("@")[0] for r in rows}
     stopped = "\n".join(f"- **{name}**: {rec.get('note', '')}" for name, rec in load_recipes().items()
                         if name not in finished)
     g = base["grid"]
@@ -155,7 +184,14 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
         f"{pd['tracking_rmse_rad_s']:.2f} rad/s; zero torque {_pct(base['zero']['success_rate'])}. "
         "PD level = PD − 3 points. IQM and its interval: rliable, stratified bootstrap over training seeds "
         f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n"
-        + table.to_markdown(index=False) + "\n\n" + notes + "\n\n![learning curves](learning_curves.png)\n"
+        + table.to_markdown(index=False) + "\n\n"
+        "`<recipe>@selected`: each run reported by its checkpoint with the highest success on the validation "
+        "grid (evaluation seeds 100-102, never the reported grid), from half its budget on: the model an "
+        "rl-zoo3 user keeps as best_model. The plain rows report each run's final model.\n\n"
+        + notes + "\n\n![learning curves](learning_curves.png)\n"
+        + ("\n## Fault grid\n\nThe nominal grid under one fault at a time (`evaluation/faults.py`: what each "
+           "fault is and where its range comes from), deterministic actions; runs by their validation-chosen "
+           "checkpoint.\n\n" + faults + "\n" if faults else "")
         + ("\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
            "early for the reason in their note, or not run yet.\n\n" + stopped + "\n" if stopped else "")
     )
@@ -164,18 +200,20 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any]) -> str:
 def write_summary(results: Path) -> Path:
     base = json.loads((results / "baselines.json").read_text())
     runs_by_recipe = load_runs(results)
-    rows = recipe_rows(runs_by_recipe, base["pd"]) if runs_by_recipe else []
+    rows = recipe_rows({**runs_by_recipe, **selected_runs(runs_by_recipe)}, base["pd"]) if runs_by_recipe else []
     summary = {
         "commit": base.get("commit"), "cores": 2, "grid": base["grid"], "pd": base["pd"], "zero": base["zero"],
+        "pretrained": base.get("pretrained"),
         "recipes": rows,
         "runs": [{k: r[k] for k in ("method", "condition", "from_scratch", "seed", "success_rate",
                                     "tracking_rmse_rad_s", "per_shell", "env_steps_to_pd_level",
                                     "wall_clock_to_pd_level_s", "wall_clock_s", "env_steps", "commit")}
-                 | {"faults": r.get("faults", {})}
+                 | {"faults": r.get("faults", {}), "selected": {k: v for k, v in r.get("selected", {}).items()
+                                                               if k != "faults"}}
                  for runs in runs_by_recipe.values() for r in runs],
     }
     write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
     if runs_by_recipe:
         plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png")
-    write_text_atomic(results / "README.md", markdown(rows, base))
+    write_text_atomic(results / "README.md", markdown(rows, base, fault_table(base, runs_by_recipe)))
     return results / "summary.json"
