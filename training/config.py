@@ -432,15 +432,25 @@ def check_env_id(env_id: str) -> None:
         raise ValueError(f"env: unknown env id {env_id!r}; registered sphere_env ids: {ours}")
 
 
-def _int(field_name: str, value: Any, low: int = 1) -> int:
+#: Upper bounds checked before anything is built: more envs than this is a typo, not a study (each
+#: env holds a Drake diagram, ~20 MB; a process per env, ~150 MB more), and budgets beyond these
+#: would run for years on this kind of machine.
+MAX_N_ENVS = 256
+MAX_ENV_PROCESSES = 64  # one process per env (n_workers: null with SubprocVecEnv)
+MAX_N_TIMESTEPS = 10**10
+MAX_EVAL_EPISODES = 10_000
+
+
+def _int(field_name: str, value: Any, low: int = 1, high: int | None = None) -> int:
+    allowed = f"an integer >= {low}" if high is None else f"an integer within [{low}, {high}]"
     if isinstance(value, bool):
-        raise ValueError(f"{field_name}: value {value!r} must be an integer >= {low}")
+        raise ValueError(f"{field_name}: value {value!r} must be {allowed}")
     try:
         f = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{field_name}: value {value!r} must be an integer >= {low}") from None
-    if not math.isfinite(f) or f != int(f) or int(f) < low:
-        raise ValueError(f"{field_name}: value {value!r} must be an integer >= {low}")
+        raise ValueError(f"{field_name}: value {value!r} must be {allowed}") from None
+    if not math.isfinite(f) or f != int(f) or int(f) < low or (high is not None and int(f) > high):
+        raise ValueError(f"{field_name}: value {value!r} must be {allowed}")
     return int(f)
 
 
@@ -560,7 +570,7 @@ def resolve_config(
     policy = section.get("policy", "MlpPolicy")
     if not isinstance(policy, str):
         raise ValueError(f"policy: value {policy!r} must be a policy name such as 'MlpPolicy'")
-    n_envs = _int("n_envs", section.get("n_envs", 1))
+    n_envs = _int("n_envs", section.get("n_envs", 1), high=MAX_N_ENVS)
     n_threads = _layout_count("n_threads", section.get("n_threads"), n_envs)
     # Default layout: one block of envs per usable core (fastest measured); an explicit null: one
     # process per env.
@@ -568,7 +578,10 @@ def resolve_config(
     if n_threads is not None and n_workers is not None:
         raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers!r}; "
                          "set one of them to null (threads in this process, or worker processes)")
-    n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000))
+    if n_threads is None and n_workers is None and n_envs > MAX_ENV_PROCESSES:
+        raise ValueError(f"n_envs: value {n_envs} with n_workers: null starts one process per env; allowed: at most "
+                         f"{MAX_ENV_PROCESSES} (or set n_workers to step blocks of envs per process)")
+    n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000), high=MAX_N_TIMESTEPS)
     env_wrapper = parse_env_wrappers(section.get("env_wrapper"))
     hyper = check_hyperparams(algo, hyper)
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
@@ -581,7 +594,7 @@ def resolve_config(
         policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=kwargs,
         hyperparams=hyper,
         eval_freq=_period("eval_freq", eval_freq, max(n_timesteps // 10, chunk)),
-        eval_episodes=_int("eval_episodes", eval_episodes),
+        eval_episodes=_int("eval_episodes", eval_episodes, high=MAX_EVAL_EPISODES),
         eval_env_kwargs=eval_kwargs,
         eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, eval_pressures_kpa),
         checkpoint_freq=_period("checkpoint_freq", checkpoint_freq, max(n_timesteps // 5, chunk)),

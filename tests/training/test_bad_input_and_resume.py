@@ -33,6 +33,7 @@ TINY = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs
         ("batch_size:12.5", "hyperparams.batch_size"),
         ("vf_coef:.nan", "hyperparams.vf_coef"),
         ("policy_kwargs:[64, 64]", "hyperparams.policy_kwargs"),
+        ("n_envs:100000", "n_envs"),
         (("env_kwargs:{'randomization': {'pressure_kpa': {'distribution': 'uniform'}, "
           "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}}"), "env_kwargs.randomization"),
     ],
@@ -153,3 +154,14 @@ def test_resume_continues_the_monitor_logs_without_a_repeat_or_a_time_jump(tmp_p
         assert t == sorted(t)  # the resumed session's times continue (they restarted at 0 before)
         total += len(mon)
     assert total == len(rows)
+
+
+def test_one_process_per_env_is_bounded_before_anything_starts(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--hyperparams", "n_envs:100", "n_workers:None", "--run-dir", str(tmp_path / "run"),
+              "--n-timesteps", "10", "--no-progress"])
+    assert exc.value.code == 2
+    assert "n_envs: value 100 with n_workers: null" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+    with pytest.raises(ValueError, match=r"^n_timesteps: value 1000000000000.0 must be an integer within \[1, 10000000000\]"):
+        resolve_config(RAMP, "ppo", overrides={**TINY, "n_timesteps": 1e12}, build_env=False)
