@@ -157,8 +157,9 @@ def _last_monitor_time_s(path: Path) -> float:
 def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = False):
     """Training or evaluation (one in-process env) VecEnv. Training: ``BatchedSubprocVecEnv`` when
     ``n_workers`` is set (``auto``: the usable cores, at most ``n_envs``), ``ThreadedVecEnv`` when
-    ``n_threads`` is, else ``SubprocVecEnv`` (``DummyVecEnv`` for one env)."""
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+    ``n_threads`` is, else SB3's ``SubprocVecEnv`` whose bad calls raise in the caller
+    (``SafeSubprocVecEnv``; ``DummyVecEnv`` for one env)."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
 
     kwargs = cfg.make_kwargs(evaluation)
     mon = None if run_dir is None else run_dir / "monitor"
@@ -183,7 +184,9 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
 
         venv = ThreadedVecEnv(fns, None if cfg.n_threads == "auto" else cfg.n_threads)
     else:
-        venv = SubprocVecEnv(fns)
+        from sphere_env.training.vec_env import SafeSubprocVecEnv
+
+        venv = SafeSubprocVecEnv(fns)
     venv.seed(cfg.seed)
     return venv
 

@@ -21,11 +21,12 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 from typing import Any, Callable, Sequence
 
 import gymnasium as gym
 import numpy as np
-from stable_baselines3.common.vec_env import DummyVecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from stable_baselines3.common.vec_env.base_vec_env import CloudpickleWrapper, VecEnv
 
 
@@ -347,3 +348,63 @@ class BatchedSubprocVecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
         return self._gather("is_wrapped", indices, wrapper_class)
+
+
+class _SafeCalls(gym.Wrapper):
+    """Outermost wrapper of each env of :class:`SafeSubprocVecEnv`: methods reached through
+    ``get_wrapper_attr`` (how SB3's worker runs ``env_method``) return a failure as
+    :class:`_Failed` instead of raising in the worker (which ended SB3's worker loop), and
+    attribute reads and writes go through :meth:`safe_get_attr` and :meth:`safe_set_attr` the same
+    way."""
+
+    def get_wrapper_attr(self, name: str):
+        try:
+            attr = getattr(self, name) if name in ("safe_get_attr", "safe_set_attr") else self.env.get_wrapper_attr(name)
+        except AttributeError as err:  # no such method: the call answers with the error
+            failed = _Failed(err)
+            return lambda *args, **kwargs: failed
+        if not callable(attr):
+            return attr
+
+        def call(*args, **kwargs):
+            try:
+                return attr(*args, **kwargs)
+            except Exception as err:  # noqa: BLE001 - the caller's bad request goes back to the caller
+                return _Failed(err)
+
+        return call
+
+    def safe_get_attr(self, name: str):
+        return self.env.get_wrapper_attr(name)
+
+    def safe_set_attr(self, name: str, value: Any) -> None:
+        setattr(self.env, name, value)  # the Monitor passes settable env properties through, validated
+
+
+def _safe_env(fn):
+    return _SafeCalls(fn())
+
+
+def _raise_failed(replies: list[Any]) -> list[Any]:
+    for r in replies:
+        if isinstance(r, _Failed):
+            r.raise_()
+    return replies
+
+
+class SafeSubprocVecEnv(SubprocVecEnv):
+    """SB3's ``SubprocVecEnv`` (one process per env) whose ``env_method``, ``get_attr`` and
+    ``set_attr`` raise a bad call's error in the caller; the worker stays alive and its env
+    unchanged (SB3's worker loop ends on any exception, which killed a training run)."""
+
+    def __init__(self, env_fns, start_method: str | None = None):
+        super().__init__([partial(_safe_env, fn) for fn in env_fns], start_method)
+
+    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
+        return _raise_failed(super().env_method(method_name, *method_args, indices=indices, **method_kwargs))
+
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        return _raise_failed(super().env_method("safe_get_attr", attr_name, indices=indices))
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        _raise_failed(super().env_method("safe_set_attr", attr_name, value, indices=indices))

@@ -10,7 +10,7 @@ import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sphere_env.training.train import make_env
-from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv
+from sphere_env.training.vec_env import BatchedSubprocVecEnv, SafeSubprocVecEnv, ThreadedVecEnv
 
 KW = {"shell_model": "point", "randomization": {"pressure_kpa": {"distribution": "uniform"}}}
 
@@ -24,6 +24,7 @@ LAYOUTS = {
     "one env per worker": lambda: BatchedSubprocVecEnv(_fns(3), n_workers=3),
     "threads": lambda: ThreadedVecEnv(_fns(4), n_threads=2),
     "dummy": lambda: DummyVecEnv(_fns(2)),
+    "one process per env (SB3's SubprocVecEnv)": lambda: SafeSubprocVecEnv(_fns(2)),
 }
 
 
