@@ -48,3 +48,19 @@ def test_bad_calls_raise_in_the_caller_and_leave_the_envs_working(layout):
         assert np.isfinite(obs).all()
     finally:
         venv.close()
+
+
+def test_training_with_one_process_per_env_runs_on_the_safe_layout(tmp_path):
+    from sphere_env.training.config import resolve_config
+    from sphere_env.training.train import make_vec_env, train
+
+    over = {"n_envs": 2, "n_workers": None, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 64,
+            "env_kwargs": {"shell_model": "point"}}
+    cfg = resolve_config("sphere_env/RampDescent-v0", "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
+    venv = make_vec_env(cfg, None)
+    try:
+        assert isinstance(venv, SafeSubprocVecEnv)
+    finally:
+        venv.close()
+    run = train(cfg, tmp_path / "run", progress_bar=False)
+    assert (run / "model.zip").exists() and len(list((run / "monitor").glob("train_*.monitor.csv"))) == 2
