@@ -87,20 +87,30 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 RATE_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0}
 
-MAX_ANGLE_RAD = 2.0 * math.pi * 10.0  # |angle| above this cannot be radians (degrees? counts?)
 MAX_RATE_RAD_S = 500.0  # no joint of this robot turns faster (the drive motor is ~30 rad/s)
 #: Largest plausible |value| per channel, in rad or rad/s, so that a log in degrees, deg/s or
-#: encoder counts is refused instead of fitted. Angles: the steer joint θ is limited to
-#: [−1.57, 1.0] rad (``docs/design.md`` §1); the pipe's lean φ and the pendulum's pitch α cannot
-#: pass a half turn; the drive encoder and the heading are multi-turn. Rates: the RoboBall logs
-#: stay below 3.4 rad/s (θ̇) and 1.6 rad/s (φ̇, q̇_d, ω_d); the limits leave a wide margin but are
-#: below what a few tens of rad/s written in deg/s becomes.
+#: encoder counts is refused instead of fitted. Only quantities physics bounds absolutely: the IMU's
+#: lean φ and pitch α against gravity cannot pass a quarter and a half turn, and the rates. Rates:
+#: the RoboBall logs stay below 3.4 rad/s (θ̇) and 1.6 rad/s (φ̇, q̇_d, ω_d); the limits leave a wide
+#: margin but are below what a few tens of rad/s written in deg/s becomes. Encoders may carry any
+#: offset (a multi-turn drive count reads ≈ 264 rad on a robot that booted long ago), so their
+#: absolute values are never checked: see :data:`SPAN_LIMITS` and :data:`MULTI_TURN`.
 CHANNEL_LIMITS: dict[str, float] = {
-    "theta": 2.0, "phi": math.pi / 2, "pendulum_pitch": math.pi, "drive_angle": MAX_ANGLE_RAD,
-    "heading": MAX_ANGLE_RAD,
+    "phi": math.pi / 2, "pendulum_pitch": math.pi,
     "theta_dot": 30.0, "phi_dot": 30.0, "pendulum_pitch_rate": 30.0, "heading_rate": 30.0,
     "drive_rate": 60.0, "omega_d": 60.0,
 }
+#: Largest plausible peak-to-peak of an offset encoder [rad]: the steer joint θ moves within
+#: [−1.57, 1.0] rad (``docs/design.md`` §1), 2.57 rad, whatever zero its encoder has.
+SPAN_LIMITS: dict[str, float] = {"theta": 3.0}
+#: Multi-turn angles, checked by their jumps between samples (at most their rate limit × the sample
+#: period, plus 0.05 rad) and stored from 0 at the log's (or window's) first sample: the drive
+#: encoder's zero is arbitrary and the twin starts every run at q_d = 0, ψ = 0. The heading is an
+#: IMU yaw wrapping at ±π: it is unwrapped first.
+MULTI_TURN: dict[str, str] = {"drive_angle": "drive_rate", "heading": "heading_rate"}
+JUMP_SLACK_RAD = 0.05
+#: Longest gap between two samples, in median sample periods (the shared logs: at most 4.3).
+MAX_GAP_SAMPLES = 10.0
 #: Angle -> rate channel pairs whose ratio (rate against the angle's time derivative) is checked.
 RATE_OF = {"theta": "theta_dot", "phi": "phi_dot", "drive_angle": "drive_rate",
            "pendulum_pitch": "pendulum_pitch_rate"}
@@ -240,7 +250,9 @@ class RobotLog:
         if keep.sum() < 3:
             raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s holds {int(keep.sum())} samples; need >= 3")
         t = self.t_s[keep]
-        return RobotLog(self.name, self.path, t - t[0], {k: v[keep] for k, v in self.channels.items()},
+        # multi-turn angles restart from 0 at the window's start, as the twin's q_d and ψ do
+        chans = {k: v[keep] - (v[keep][0] if k in MULTI_TURN else 0.0) for k, v in self.channels.items()}
+        return RobotLog(self.name, self.path, t - t[0], chans,
                         self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived),
                         (self.t0_s + float(start_s), self.t0_s + float(end_s)), self.t0_s + float(t[0]))
 
@@ -325,6 +337,12 @@ def load_log(
                 p, f"column {tcol!r}: median sample period {med:.3g} s with unit {tunit!r} is implausible "
                 f"(allowed {DT_RANGE_S} s); is the time unit right?"
             )
+        gaps = np.diff(t) > MAX_GAP_SAMPLES * med
+        if gaps.any():
+            i = int(np.flatnonzero(gaps)[0])
+            raise _fail(p, f"line {i + 3}, column {tcol!r}: a gap of {t[i + 1] - t[i]:.4g} s at t = {t[i]:.3f} s "
+                        f"from the first sample; allowed: at most {MAX_GAP_SAMPLES:g} sample periods "
+                        f"({MAX_GAP_SAMPLES * med:.3g} s): cut the log into windows either side of it")
 
     channels: dict[str, np.ndarray] = {}
     columns: dict[str, str] = {}
@@ -334,7 +352,17 @@ def load_log(
                 x = numeric(col)
                 scale = ANGLE_UNITS[unit] if chan in ANGLE_CHANNELS else RATE_UNITS[unit]
                 channels[chan] = _fill_nans(p, col, x, max_nan_run) * (scale * mapping.signs.get(chan, 1.0))
-                limit = CHANNEL_LIMITS.get(chan, MAX_ANGLE_RAD if chan in ANGLE_CHANNELS else MAX_RATE_RAD_S)
+                if chan in MULTI_TURN:
+                    channels[chan] = _relative_turns(p, col, unit, chan, t, channels[chan])
+                    columns[chan] = col
+                    break
+                span = np.maximum.accumulate(channels[chan]) - np.minimum.accumulate(channels[chan])
+                if chan in SPAN_LIMITS and span[-1] > SPAN_LIMITS[chan]:
+                    i = int(np.flatnonzero(span > SPAN_LIMITS[chan])[0])
+                    raise _fail(p, f"line {i + 2}, column {col!r}: {chan} spans {span[i]:.4g} rad up to here (read "
+                                f"with unit {unit!r}); allowed: at most {SPAN_LIMITS[chan]:g} rad, the joint's range "
+                                "whatever its encoder's zero; is the column in degrees or counts?")
+                limit = CHANNEL_LIMITS.get(chan, MAX_RATE_RAD_S if chan not in ANGLE_CHANNELS else math.inf)
                 big = np.abs(channels[chan]) > limit
                 if big.any():
                     i = int(np.flatnonzero(big)[0])
@@ -379,6 +407,22 @@ def _check_rate_units(path: str, t: np.ndarray, channels: Mapping[str, np.ndarra
             raise _fail(path, f"columns {columns[rate]!r} and {columns[angle]!r}: {rate} is {gain:.3g} x the "
                         f"time derivative of {angle} (allowed {RATE_GAIN_RANGE[0]}-{RATE_GAIN_RANGE[1]}); the two "
                         "columns are in different units (57.3: deg/s against rad; 1000: a time unit off)")
+
+
+def _relative_turns(path: str, col: str, unit: str, chan: str, t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """A multi-turn angle (:data:`MULTI_TURN`) from 0 at the first sample, refused when it jumps
+    faster than its rate limit between two samples (degrees or counts read as radians)."""
+    if chan == "heading":
+        x = np.unwrap(x)
+    if len(x) >= 2:
+        limit = CHANNEL_LIMITS[MULTI_TURN[chan]]
+        jump = np.abs(np.diff(x)) > limit * np.diff(t) + JUMP_SLACK_RAD
+        if jump.any():
+            i = int(np.flatnonzero(jump)[0])
+            raise _fail(path, f"line {i + 3}, column {col!r}: {chan} jumps by {x[i + 1] - x[i]:.4g} rad in "
+                        f"{t[i + 1] - t[i]:.3g} s (read with unit {unit!r}); allowed: at most {limit:g} rad/s "
+                        "between samples; is the column in degrees or counts?")
+    return x - x[0]
 
 
 def _fill_nans(path: str, col: str, x: np.ndarray, max_run: int) -> np.ndarray:

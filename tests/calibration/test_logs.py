@@ -60,7 +60,7 @@ BAD = {
     "empty_file": ("", (), "file is empty"),
     "header_only": ("timestamp,roll_joint.position\n", (), "no data rows"),
     "degrees_as_radians": ("timestamp,roll_joint.position\n0,10\n20000000,200\n40000000,400\n", (),
-                           "line 2, column 'roll_joint.position'"),
+                           "line 3, column 'roll_joint.position': theta spans"),
     "seconds_as_ns": ("timestamp,roll_joint.position\n0,0\n0.02,0\n0.04,0\n", (), "median sample period"),
     "not_a_number": ("timestamp,roll_joint.position\n0,0\n20000000,abc\n", (), "line 3, column 'roll_joint.position'"),
 }
