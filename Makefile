@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install constraints demo test test-fast bench chromium clean
+.PHONY: install constraints demo lint test test-fast bench chromium clean
 
 # torch is installed first and on its own: the CPU wheel of 2.13.0 is small, any other resolution
 # pulls several GB of CUDA packages. Everything else comes at the tested versions of constraints.txt.
@@ -29,7 +29,13 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(PY) -m evaluation.demo
 
-test: $(STAMP) chromium
+# Lint first (seconds): pyflakes, import order, bugbear (ruff) and dead code (vulture), as configured
+# in pyproject.toml; then the suite.
+lint: $(STAMP)
+	$(VENV)/bin/ruff check sphere_env training evaluation tests
+	$(PY) -m vulture
+
+test: $(STAMP) chromium lint
 	$(PY) -m pytest -n 2
 
 test-fast: $(STAMP) chromium

@@ -78,7 +78,6 @@ def model_files(folder: Path, which: str) -> tuple[Path, Path]:
         ck = folder / "checkpoints"
         return ck / f"{CHECKPOINT_PREFIX}_{which}_steps.zip", ck / f"{CHECKPOINT_PREFIX}_vecnormalize_{which}_steps.pkl"
     return folder / "model.zip", folder / "vecnormalize.pkl"
-    return None
 
 
 def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = False) -> None:

@@ -47,11 +47,10 @@ def main(argv: list[str] | None = None) -> dict:
     args = parser.parse_args(argv)
 
     t_start = time.perf_counter()
+    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
     from sphere_env.models.shell import ShellCalibration
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
-
-    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
 
     cal = ShellCalibration.load()
     lo, hi = cal.pressure_range_kpa
@@ -61,7 +60,7 @@ def main(argv: list[str] | None = None) -> dict:
     base_dir = args.run_dir or Path("runs") / f"demo_{stamp}"
     policies = {"ppo_from_scratch": (None, base_dir)}
     t_train, timings = {}, {}
-    for k, (label, (yaml_file, run_dir)) in enumerate(policies.items(), start=1):
+    for label, (yaml_file, run_dir) in policies.items():
         print(f"[1/3] Training {label} on {ENV_ID} for {n} env steps with the shipped recipe "
               f"(point and injected shells, pressure ~ U[{lo:g}, {hi:g}] kPa per episode) ...", flush=True)
         cfg = resolve_config(ENV_ID, "ppo", yaml_file, overrides={"n_timesteps": n}, seed=args.seed,

@@ -63,11 +63,11 @@ class EnjoySpec:
         ``folder``, ``which``, ``config``, ``env_id``, ``shell_model``, ``friction``,
         ``pressure_kpa``, ``env_kwargs``, ``label``."""
         import gymnasium as gym
-        from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of
-        from sphere_env.training.train import load_config
 
         import sphere_env  # noqa: F401 - registers the ids
+        from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of
         from sphere_env.models.shell import ShellCalibration
+        from sphere_env.training.train import load_config
 
         path, _, which = str(self.run).partition("@")
         if which not in ("", "best", "model"):
@@ -177,6 +177,7 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
     """Roll out ``spec.episodes`` episodes; returns one row of metrics per episode (the evaluation's
     columns). ``video``: folder for the MP4s; ``meshcat``: live view."""
     import gymnasium as gym
+
     from sphere_env.evaluation.evaluate import rollout
     from sphere_env.evaluation.video import (
         check_video_support,

@@ -45,13 +45,11 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from sphere_env.files import staged_folder
-from sphere_env.parallel import run_parallel
-from sphere_env.models.shell import SHELL_MODELS
-
-from sphere_env.evaluation.controller_specs import (check_action, check_spec, env_kwargs_of, make_controller,
-                                                    split_label)
+from sphere_env.evaluation.controller_specs import check_action, check_spec, env_kwargs_of, make_controller, split_label
 from sphere_env.evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
+from sphere_env.files import staged_folder
+from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.parallel import run_parallel
 
 METRIC_COLUMNS = ("return", "length", "is_success", "reached_runout", "terminated", "truncated",
                   "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm",

@@ -240,9 +240,9 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
     """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``."""
     import gymnasium as gym
     import torch
+
     from sphere_env.evaluation.controller_specs import PolicyController
     from sphere_env.evaluation.enjoy import EnjoySpec
-
     from sphere_env.models.shell import ShellCalibration
 
     check_format(fmt)

@@ -54,9 +54,9 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
+from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
-from sphere_env.files import write_text_atomic
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"

@@ -137,11 +137,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=float, default=5.0, help="wall seconds of env stepping per case")
     parser.add_argument("--write", action="store_true", help="also write evaluation/results/benchmark_env.md")
     args = parser.parse_args(argv)
-    from sphere_env.evaluation.reporting import markdown_table
-
     from datetime import datetime, timezone
 
-    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.evaluation.reporting import RESULTS, machine_info, markdown_table
 
     info = machine_info()
     load = os.getloadavg()[0]

@@ -46,8 +46,8 @@ DEFAULT_TRAIN_STEPS = 200_000
 
 def condition_overrides(condition: str, nominal_kpa: float) -> dict[str, Any]:
     """Hyperparameter overrides of a condition: only the pressure randomization differs."""
-    from sphere_env.training.config import load_section
     from sphere_env.resources import hyperparams_path
+    from sphere_env.training.config import load_section
 
     section = load_section(hyperparams_path("ppo"), ENV_ID)
     kwargs = dict(section.get("env_kwargs") or {})
@@ -175,10 +175,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--publish", action="store_true", help=f"copy study.md/.csv/.png to {PUBLISH}")
     args = parser.parse_args(argv)
 
+    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
     from sphere_env.models.shell import ShellCalibration
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
-    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
 
     cal = ShellCalibration.load()
     lo, hi = cal.pressure_range_kpa

@@ -37,9 +37,9 @@ import gymnasium as gym
 import numpy as np
 
 import sphere_env  # noqa: F401
+from sphere_env.files import write_text_atomic
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import Twin
-from sphere_env.files import write_text_atomic
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
 SOAK_LIMIT_MB = 50.0

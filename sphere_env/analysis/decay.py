@@ -17,7 +17,6 @@ from scipy import stats
 from scipy.optimize import curve_fit
 from scipy.signal import find_peaks
 
-
 #: A signal whose peak-to-peak swing is below this fraction of its magnitude is constant to
 #: rounding: nothing to fit.
 MIN_SWING_REL = 1e-9

@@ -24,7 +24,6 @@ import sys
 from pathlib import Path
 
 from sphere_env.calibration.logs import LogError
-
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.resources import asset_path
 
@@ -40,7 +39,13 @@ def _trials(args, required=()):
 
 
 def cmd_shell(args) -> int:
-    from sphere_env.calibration.decay import calibration_dict, fit_free_decay, fit_pressure_curves, plot_pressure_curves, write_yaml
+    from sphere_env.calibration.decay import (
+        calibration_dict,
+        fit_free_decay,
+        fit_pressure_curves,
+        plot_pressure_curves,
+        write_yaml,
+    )
     from sphere_env.models.rigid_body import RobotParameters
     from sphere_env.models.shell import ShellCalibration
 
@@ -230,7 +235,12 @@ def cmd_kd_pressure(args) -> int:
 
 def cmd_validate(args) -> int:
     from sphere_env.calibration.validate import (
-        markdown_table, parse_tolerances, plot_overlays, tolerance_failures, validate, write_records,
+        markdown_table,
+        parse_tolerances,
+        plot_overlays,
+        tolerance_failures,
+        validate,
+        write_records,
     )
 
     tol = parse_tolerances(args.tol)
@@ -257,7 +267,7 @@ def cmd_events(args) -> int:
     import os
 
     from sphere_env.calibration.events import events_table, find_events, manifest_entries, write_manifest_entries
-    from sphere_env.calibration.logs import ColumnMapping, TIME_UNITS, load_log
+    from sphere_env.calibration.logs import TIME_UNITS, ColumnMapping, load_log
 
     mapping = ColumnMapping.roboball() if args.mapping is None else ColumnMapping.load(args.mapping)
     if args.time_unit is not None:

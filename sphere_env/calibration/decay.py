@@ -18,9 +18,9 @@ from scipy import stats
 from scipy.optimize import curve_fit
 
 from sphere_env.analysis.decay import DecayFit, damped_sinusoid, fit_free_decay, log_decrement
+from sphere_env.files import write_text_atomic
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.plotting import save_figure
-from sphere_env.files import write_text_atomic
 
 __all__ = ["DecayFit", "PressureFit", "calibration_dict", "damped_sinusoid", "fit_free_decay",
            "fit_pressure_curves", "log_decrement", "plot_pressure_curves", "write_yaml"]

@@ -20,8 +20,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from sphere_env.calibration.logs import RobotLog
 from sphere_env.analysis.metrics import rmse
+from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, simulate_log
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel
 from sphere_env.physics.twin import Twin, TwinConfig

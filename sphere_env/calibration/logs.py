@@ -45,15 +45,13 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
 import yaml
-
-from sphere_env.physics.twin import FIXTURES
 
 STATE_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate",
                   "pendulum_pitch", "pendulum_pitch_rate", "heading", "heading_rate")

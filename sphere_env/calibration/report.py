@@ -23,7 +23,8 @@ from sphere_env.calibration.events import find_events
 from sphere_env.calibration.friction_fit import evaluate_friction, fit_friction, leave_one_out, plot_stand_overlay
 from sphere_env.calibration.logs import load_log
 from sphere_env.calibration.manifest import Manifest
-from sphere_env.calibration.sensitivity import markdown_table as sweep_table, plot_sweep, sweep
+from sphere_env.calibration.sensitivity import markdown_table as sweep_table
+from sphere_env.calibration.sensitivity import plot_sweep, sweep
 from sphere_env.calibration.validate import markdown_table, plot_overlays, validate
 from sphere_env.models.friction import FrictionModel, load_friction_presets
 from sphere_env.models.shell import ShellCalibration

@@ -122,9 +122,9 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
     This is the paper's §III.D tuning of k_d, done by root finding on the simulated ζ. A discrete
     plant adds numerical damping that depends on the step, so k_d holds at that step only.
     """
-    from sphere_env.physics.twin import TwinConfig
-
     from scipy.optimize import brentq
+
+    from sphere_env.physics.twin import TwinConfig
 
     step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
     base = ShellCalibration.load(calibration).for_time_step(step)  # decay_case scales this step's k_d

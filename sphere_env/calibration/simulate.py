@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
 from sphere_env.analysis.metrics import pme_percent, rmse  # noqa: F401  (re-exported for callers)
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.physics.twin import InitialState, Twin

@@ -23,10 +23,10 @@ from typing import Any, Iterable, Mapping, Sequence
 from sphere_env.analysis.metrics import pme_percent, rmse
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, simulate_log
+from sphere_env.files import write_text_atomic
 from sphere_env.parallel import run_parallel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
-from sphere_env.files import write_text_atomic
 
 METRICS = ("phi", "theta", "omega_d")
 TOLERANCE_KEYS = METRICS + ("pendulum_pitch", "pme")

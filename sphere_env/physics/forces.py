@@ -18,8 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.symbolic import Expression, Variable, if_then_else
 import pydrake.symbolic as sym
+from pydrake.symbolic import Expression, Variable, if_then_else
 
 from sphere_env.models.shell import LAW_GAIN_NAMES, injected_torques
 

@@ -21,6 +21,7 @@ from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import CoulombFriction
 from pydrake.multibody.tree import SpatialInertia, UnitInertia
 
+from sphere_env.files import write_text_atomic
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.params import TWIN_PARAMETERS
@@ -35,7 +36,6 @@ from sphere_env.physics.diagram import (
 from sphere_env.physics.forces import cross3, pipe_angle_expressions
 from sphere_env.physics.render import RgbCamera
 from sphere_env.physics.terrain import Terrain
-from sphere_env.files import write_text_atomic
 
 __all__ = ["FIXTURES", "InitialState", "Twin", "TwinConfig", "TwinState"]
 

@@ -13,7 +13,6 @@ from sphere_env.tasks.rewards import RampRewardWeights, RampRewardWeightsPerRamp
 from sphere_env.tasks.task import Scene, Task, finite_option
 from sphere_env.tasks.termination import ramp_status
 
-
 #: Bound of the observed speed-error integral ∫(ω_ref − ω_d) dt [rad] (anti-windup). It lies above the
 #: tuned PD's own integral bound (about 1.7 rad, where its lift reference saturates), so the policy sees
 #: every value the PD's integral term can act on.

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from sphere_env.analysis.metrics import pme_percent
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.manifest import load_manifest
-from sphere_env.analysis.metrics import pme_percent
 from sphere_env.calibration.validate import validate
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 

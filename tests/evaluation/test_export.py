@@ -12,12 +12,12 @@ import shutil
 import gymnasium as gym
 import numpy as np
 import pytest
-from sphere_env.evaluation.export import export
-from sphere_env.evaluation.export import main as export_main
-from sphere_env.training.config import algo_class
 
 import sphere_env  # noqa: F401
 from sphere_env.controllers import controller_for
+from sphere_env.evaluation.export import export
+from sphere_env.evaluation.export import main as export_main
+from sphere_env.training.config import algo_class
 
 ENV = "sphere_env/RampDescent-v2"
 

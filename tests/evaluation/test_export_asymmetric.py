@@ -10,10 +10,10 @@ import pickle
 import gymnasium as gym
 import numpy as np
 import pytest
-from sphere_env.evaluation.export import export, run_exported
-from sphere_env.training.config import algo_class
 
 import sphere_env  # noqa: F401
+from sphere_env.evaluation.export import export, run_exported
+from sphere_env.training.config import algo_class
 
 
 @pytest.mark.parametrize("fmt", ["torchscript", "onnx"])

@@ -8,11 +8,11 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
+
+import sphere_env  # noqa: F401
 from sphere_env.evaluation.controller_specs import check_spec, make_controller, run_folder
 from sphere_env.evaluation.enjoy import EnjoySpec, enjoy
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate, rollout
-
-import sphere_env  # noqa: F401
 from sphere_env.resources import shipped_policy_path
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import shutil
 
 import pytest
+
 from sphere_env.evaluation.enjoy import EnjoySpec, enjoy
 from sphere_env.evaluation.enjoy import main as enjoy_main
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate

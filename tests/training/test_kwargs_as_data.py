@@ -3,8 +3,8 @@ user writes parses, and a crafted string that would run code is refused before a
 
 from __future__ import annotations
 
-import torch.nn as nn
 import pytest
+import torch.nn as nn
 
 from sphere_env.training.config import parse_dict_call, resolve_config
 

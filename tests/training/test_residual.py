@@ -101,10 +101,9 @@ def test_env_wrapper_accepts_rl_zoo3_forms(value):
 
 @pytest.fixture(scope="module")
 def residual_run(tmp_path_factory):
+    from sphere_env.resources import hyperparams_path
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
-
-    from sphere_env.resources import hyperparams_path
 
     cfg = resolve_config(ENV, "ppo", hyperparams_path("ppo_residual"),
                          overrides={"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128,
@@ -196,8 +195,9 @@ def test_shell_model_mixture_sets_the_randomization_of_every_model_or_none():
 def test_trainer_venv_set_attr_randomization_reaches_every_shell_model():
     from functools import partial
 
-    from sphere_env.training.train import make_env
     from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from sphere_env.training.train import make_env
 
     wrappers = [{"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}}]
     venv = DummyVecEnv([partial(make_env, ENV, {"shell_model": "point", "randomization": "off"}, 0,

@@ -4,7 +4,6 @@ exclusively, and a folder in use by another training is refused before anything 
 from __future__ import annotations
 
 import multiprocessing as mp
-import time
 
 import pytest
 
