@@ -13,7 +13,7 @@ envs. Semantics match ``SubprocVecEnv`` exactly (auto-reset, ``terminal_observat
 releases the GIL inside ``Simulator.AdvanceTo``, so the twins' physics runs on several cores at once
 while the envs' own Python (a small share of a step) is serialized. What that serialization costs
 depends on the machine: where handing the GIL from one core to another is slow, two threads step
-no faster than one (measured; README "Training speed"). Worker processes share no GIL.
+no faster than one (measured; docs/results/training_speed.md). Worker processes share no GIL.
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ describes the step, for tools and readers). Without a table k_d is the same at e
 
 The compliant shell is meshed with ``h_low`` below ``p_c`` and with ``h`` from ``p_c`` up. A soft
 shell's contact patch is large (radius ≈ √(f_n / (π p))), so a coarser mesh resolves it as well as
-the fine one does at high pressure, at a fraction of the contact polygons (``README.md``, *Mesh
+the fine one does at high pressure, at a fraction of the contact polygons (``docs/physics.md``, *Mesh
 resolution (hydroelastic)*).
 """
 
