@@ -31,6 +31,8 @@ DEFAULT_TIME_STEP_S = 0.005
 SHELL_FRICTION = 1.0
 
 CHANGES = ("step", "reset", "build")
+#: The shell contact models (``docs/design.md`` §5).
+SHELL_MODELS = ("point", "injected", "hydroelastic")
 
 
 @dataclass(frozen=True)
@@ -53,16 +55,24 @@ class Parameter:
     low_open: bool = False
     high_open: bool = False
     integer: bool = False
+    #: a categorical parameter's values (then ``low``/``high`` are None and values are names)
+    choices: tuple[str, ...] = ()
 
     @property
     def allowed(self) -> str:
-        """The bounds as text, e.g. ``(0, 0.05] s``."""
+        """The bounds as text, e.g. ``(0, 0.05] s``, or a categorical parameter's names."""
+        if self.choices:
+            return str(list(self.choices))
         lo = "-inf" if self.low is None else f"{self.low:g}"
         hi = "inf" if self.high is None else f"{self.high:g}"
         unit = "" if self.unit == "-" else f" {self.unit}"
         return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high_open or self.high is None else ']'}{unit}"
 
-    def contains(self, value: float) -> bool:
+    def contains(self, value: Any) -> bool:
+        if self.choices:
+            return isinstance(value, str) and value in self.choices
+        if isinstance(value, str):
+            return False
         lo, hi = self.low, self.high
         if lo is not None and (value < lo or (self.low_open and value == lo)):
             return False
@@ -74,6 +84,10 @@ class Parameter:
         """``value`` as a float (or a tuple of ``size`` floats) within the bounds; ``ValueError``
         naming ``field`` (default: the parameter's name), the value and the allowed range."""
         field = field or self.name
+        if self.choices:
+            if not self.contains(value):
+                raise ValueError(f"{field}: value {value!r}; allowed: {self.allowed}")
+            return value
         if self.size == 1:
             val = finite_number(field, value, self.allowed)
             if not self.contains(val):
@@ -132,7 +146,10 @@ PARAMETERS: dict[str, Parameter] = dict([
        "first action arrives)", integer=True),
     _p("motor_torque_scale", "-", 1.0, 0.0, 1.0, "step",
        "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)", low_open=True),
-    # ---- terrain: a new twin, so only between episodes ----
+    # ---- another twin, so only between episodes ----
+    _p("shell_model", "-", None, None, None, "reset",
+       "shell contact model; nominal: the env's shell_model kwarg (one twin per model, built on first use)",
+       choices=SHELL_MODELS),
     _p("incline_deg", "deg", 0.0, 0.0, 30.0, "reset",
        "ground incline, downhill along +x_W; the contact models were checked up to 30°"),
     # ---- fixed when built ----
@@ -157,7 +174,7 @@ PARAMETERS: dict[str, Parameter] = dict([
 TWIN_PARAMETERS = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
                    "payload_mass_kg", "payload_com_offset_m")
 #: Parameters a randomization spec may sample.
-RANDOMIZABLE = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
+RANDOMIZABLE = ("shell_model", "pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
                 "incline_deg", "payload_mass_kg", "payload_com_offset_m", "observation_noise_scale",
                 "action_latency_steps", "motor_torque_scale")
 #: Parameters the environment applies itself (sensing and actuation), nominal values.

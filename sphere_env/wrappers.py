@@ -112,6 +112,11 @@ class PDResidualAction(gym.Wrapper):
 class ShellModelMixture(gym.Wrapper):
     """Each episode on a shell model drawn uniformly from ``shell_models``.
 
+    The shell model is also an ordinary randomizable parameter: ``randomization={"shell_model":
+    [...], ...}`` draws it per episode in one env (its twins built on first use), reported like
+    every parameter in ``info["params"]``. This wrapper stays because the shipped recipe and policy
+    were trained with it (its draws come from its own generator, so changing it would change them).
+
     Holds one env per shell model, built like the wrapped one (same id and ``gym.make`` kwargs but
     ``shell_model``); ``reset`` draws the model from the wrapper's generator (seeded by
     ``reset(seed=...)``, which also seeds every held env) and delegates to that env. Spaces are the

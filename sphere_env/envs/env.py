@@ -223,7 +223,7 @@ class SphereEnv(gym.Env, EzPickle):
         if not 0.0 <= step <= 5.0:
             raise ValueError(f"hydroelastic_pressure_step_kpa: value {hydroelastic_pressure_step_kpa!r} outside allowed [0, 5] kPa")
         # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
-        self._p_step = step if shell_model == "hydroelastic" else 0.0
+        self._hydro_step_kpa = step
         self.metadata = {**self.metadata, "render_fps": f_hz}
 
         # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
@@ -291,8 +291,8 @@ class SphereEnv(gym.Env, EzPickle):
 
     def _event_manager(self, spec: RandomizationSpec) -> EventManager:
         """The :class:`~sphere_env.tasks.events.EventManager` of ``spec`` for this environment."""
-        nominal = {"pressure_kpa": self.calibration.nominal_pressure_kpa, **_NOMINAL, "incline_deg": self.incline_deg,
-                   "observation_noise_scale": self.observation_noise_scale}
+        nominal = {"shell_model": self.shell_model, "pressure_kpa": self.calibration.nominal_pressure_kpa, **_NOMINAL,
+                   "incline_deg": self.incline_deg, "observation_noise_scale": self.observation_noise_scale}
         return EventManager(spec, nominal, self.calibration.pressure_range_kpa, self._quantize_pressure,
                             {"incline_deg": self._snap_incline})
 
@@ -312,9 +312,18 @@ class SphereEnv(gym.Env, EzPickle):
 
     def _stability_problem(self, spec: RandomizationSpec) -> str | None:
         """Friction and injected shell torques are explicit: the largest friction scales ``spec`` can
-        draw must not diverge at this time step."""
-        return self.twin.explicit_stability_problem(
-            _max_of(spec, "steer_friction_scale"), _max_of(spec, "drive_friction_scale"))
+        draw must not diverge at this time step, on the env's shell model and, when ``spec`` can
+        draw it, on the injected shell (its drive damping adds to the friction's; the other shells
+        add none)."""
+        scales = (_max_of(spec, "steer_friction_scale"), _max_of(spec, "drive_friction_scale"))
+        twins = [self.twin]
+        if self.shell_model != "injected" and "injected" in _shells_of(spec):
+            twins.append(self._get_twin(self.incline_deg, "injected"))
+        for twin in twins:
+            problem = twin.explicit_stability_problem(*scales)
+            if problem:
+                return problem
+        return None
 
     # ---- twins ---------------------------------------------------------------------------------
     def _quantize_incline(self, incline_deg: float) -> float:
@@ -341,25 +350,29 @@ class SphereEnv(gym.Env, EzPickle):
         grid = {self._quantize_incline(clip_parameter("incline_deg", v, (0.0, 0.0))) for v in values}
         return tuple(sorted(v for v in grid | {float(self.incline_deg)} if rec.contains(v)))
 
-    def _get_twin(self, incline_deg: float) -> Twin:
-        """The twin for an incline: the shared twin if it has that incline (moved there), else the
-        incline's own twin, built on first use (LRU, at most ``_MAX_TWINS``)."""
+    def _get_twin(self, incline_deg: float, shell_model: str | None = None) -> Twin:
+        """The twin for a shell model (default: the env's) and an incline: the shared twin if it has
+        that incline (moved there), else the pair's own twin, built on first use (LRU, at most
+        ``_MAX_TWINS``)."""
+        shell = shell_model or self.shell_model
         shared = self._shared_twin
-        if shared is not None and incline_deg in shared.inclines_deg:
+        if shared is not None and shell == self.shell_model and incline_deg in shared.inclines_deg:
             return shared
-        twin = self._twins.get(incline_deg)
+        key = (shell, incline_deg)
+        twin = self._twins.get(key)
         if twin is not None:
-            self._twins.move_to_end(incline_deg)
+            self._twins.move_to_end(key)
             return twin
-        twin = self._build_twin(incline_deg)
-        self._twins[incline_deg] = twin
+        twin = self._build_twin(incline_deg, shell_model=shell)
+        self._twins[key] = twin
         if len(self._twins) > _MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
 
-    def _build_twin(self, incline_deg: float, inclines_deg: tuple[float, ...] = ()) -> Twin:
+    def _build_twin(self, incline_deg: float, inclines_deg: tuple[float, ...] = (),
+                    shell_model: str | None = None) -> Twin:
         cfg = TwinConfig(
-            fixture="free", shell_model=self.shell_model, steer_friction=self._steer_friction,
+            fixture="free", shell_model=shell_model or self.shell_model, steer_friction=self._steer_friction,
             drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
             time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
             inclines_deg=inclines_deg, pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
@@ -390,12 +403,15 @@ class SphereEnv(gym.Env, EzPickle):
         """A drawn incline on the 1° terrain grid (the env's own incline is kept as given)."""
         return incline_deg if incline_deg == self.incline_deg else self._quantize_incline(incline_deg)
 
-    def _quantize_pressure(self, p: float) -> float:
-        """Round to the hydroelastic pressure grid (identity for point/injected) [kPa]."""
-        if self._p_step <= 0.0:
+    def _quantize_pressure(self, p: float, params: Mapping[str, Any] | None = None) -> float:
+        """Round to the hydroelastic pressure grid when the episode's shell model (in ``params``,
+        default the env's) is hydroelastic; identity for point/injected [kPa]."""
+        shell = (params or {}).get("shell_model") or self.shell_model
+        step = self._hydro_step_kpa if shell == "hydroelastic" else 0.0
+        if step <= 0.0:
             return p
         lo, hi = self.calibration.pressure_range_kpa
-        q = lo + round((p - lo) / self._p_step) * self._p_step
+        q = lo + round((p - lo) / step) * step
         return min(max(round(q, 9), lo), hi)
 
     def _check_options(self, options: Any) -> tuple[dict[str, Any], dict[str, Any], InitialState | None]:
@@ -485,7 +501,7 @@ class SphereEnv(gym.Env, EzPickle):
             init = InitialState(**self.task.initial_state())
         else:
             self._check_above_ground(init, params["incline_deg"])
-        twin = self._get_twin(params["incline_deg"])
+        twin = self._get_twin(params["incline_deg"], params["shell_model"])
         # ---- checked: from here on the environment changes ----
         if seed is not None:
             self._np_random, self._np_random_seed = rng, seed
@@ -501,6 +517,8 @@ class SphereEnv(gym.Env, EzPickle):
         events.start(params)
         self._params = events.params
         self._fired = [e["name"] for e in events.describe()]  # every term draws at reset
+        if self.observe_shell_model:
+            self._shell_one_hot = tuple(float(m == params["shell_model"]) for m in SHELL_MODELS)
         # Actions reach the motors action_latency_steps control steps late (zero torque until then).
         self._pending = deque([(0.0, 0.0)] * self._params["action_latency_steps"])
         if self.record_replay and twin.is_visualized:
@@ -617,7 +635,7 @@ class SphereEnv(gym.Env, EzPickle):
         keys = self._reward_keys
         info = {keys[k]: v for k, v in terms.items()} if terms else self._zero_terms()
         params = self._params
-        info["shell_model"] = self.shell_model
+        info["shell_model"] = params["shell_model"]
         info["pressure_kpa"] = params["pressure_kpa"]
         info["theta"] = state.theta
         info["phi"] = state.phi
@@ -638,7 +656,7 @@ class SphereEnv(gym.Env, EzPickle):
     def _failed_info(self) -> dict[str, Any]:
         info = self._zero_terms()
         info.update(
-            shell_model=self.shell_model, pressure_kpa=self._params["pressure_kpa"], is_success=False,
+            shell_model=self._params["shell_model"], pressure_kpa=self._params["pressure_kpa"], is_success=False,
             truncation_reason=self._failed, motor_torque_nm=self._tau.copy(), params=dict(self._params),
             events=self._fired,
         )
@@ -711,6 +729,15 @@ def _check_initial_rates(init: InitialState) -> None:
         if np.max(np.abs(np.asarray(val, dtype=float))) > limit:
             raise ValueError(f"options.initial_state.{name}: value {val!r} outside allowed [-{limit:g}, {limit:g}] {unit} "
                              f"(beyond, the state counts as a physics failure)")
+
+
+def _shells_of(spec: RandomizationSpec) -> set[str]:
+    """The shell models ``spec`` can draw (empty: none drawn, the env's own)."""
+    for t in spec.terms:
+        if t.parameter == "shell_model":
+            d = t.distribution
+            return {d.value} if d.kind == "fixed" else set(d.values)
+    return set()
 
 
 def _max_of(spec: RandomizationSpec, name: str) -> float:

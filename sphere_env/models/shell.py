@@ -59,6 +59,7 @@ import numpy as np
 import yaml
 
 from sphere_env.models.mathbackend import NUMPY
+from sphere_env.params import SHELL_MODELS  # the registry's names, re-exported here
 from sphere_env.resources import asset_path
 
 DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
@@ -86,7 +87,6 @@ def calibration_file(calibration: str | Path | None) -> Path:
                          f"shipped: {shipped_calibrations()}")
     return path
 
-SHELL_MODELS = ("point", "injected", "hydroelastic")
 
 
 def check_shell_model(name: str) -> str:

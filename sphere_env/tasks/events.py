@@ -41,14 +41,15 @@ class EventManager:
     :param nominal: every parameter's value when no event sets it (pressure: the calibration's
         nominal; env-applied parameters: the environment's kwargs).
     :param pressure_range_kpa: the range pressures are clipped to [kPa].
-    :param quantize_pressure: rounds a pressure to the values the twin can take (the hydroelastic
-        grid; identity otherwise), applied to every pressure an event sets.
+    :param quantize_pressure: ``(pressure, episode parameters) -> pressure``: rounds a pressure to
+        the values the episode's twin can take (the hydroelastic grid; identity otherwise), applied
+        to every pressure an event sets.
     :param quantizers: per parameter, a function applied to each value drawn at reset (the
         environment snaps inclines to its terrain grid).
     """
 
     def __init__(self, spec: RandomizationSpec, nominal: Mapping[str, Any], pressure_range_kpa: tuple[float, float],
-                 quantize_pressure: Callable[[float], float] = float,
+                 quantize_pressure: Callable[[float, Mapping[str, Any]], float] = lambda p, params: p,
                  quantizers: Mapping[str, Callable[[Any], Any]] | None = None):
         self.spec = spec
         self._nominal = dict(nominal)
@@ -83,7 +84,7 @@ class EventManager:
         sched = self.spec.pressure_schedule
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(rng, 1))
         params.update(fixed or {})
-        params["pressure_kpa"] = self._quantize(params["pressure_kpa"])
+        params["pressure_kpa"] = self._quantize(params["pressure_kpa"], params)
         for name in _INTEGER:
             if name in params:
                 params[name] = int(round(params[name]))
@@ -110,7 +111,7 @@ class EventManager:
                 val = term.distribution.sample(rng, PARAMETERS[term.parameter].size)
                 val = clip_parameter(term.parameter, val, self._range)
                 if term.parameter == "pressure_kpa":
-                    val = self._quantize(val)
+                    val = self._quantize(val, params)
                     self._p0 = val
                     self._delay_s = time_s  # the schedule continues from the new value
                 params[term.parameter] = changed[term.parameter] = val
@@ -118,7 +119,7 @@ class EventManager:
                 fired.append(f"interval:{term.parameter}")
         rate = params["pressure_rate_kpa_per_s"]
         if rate != 0.0:
-            p = self._quantize(schedule_pressure(self._p0, rate, self._delay_s, time_s, self._range))
+            p = self._quantize(schedule_pressure(self._p0, rate, self._delay_s, time_s, self._range), params)
             if abs(p - self._p_applied) >= PRESSURE_RESOLUTION_KPA:
                 self._p_applied = changed["pressure_kpa"] = p
                 fired.append("schedule:pressure_kpa")

@@ -18,6 +18,8 @@ and actuation faults the environment applies: ``observation_noise_scale``,
 Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``randomization``):
 
 * ``"off"`` or ``None``: nothing sampled, every parameter nominal (evaluation).
+* ``shell_model`` is categorical: a name (fixed), a list of names (drawn uniformly per reset) or
+  ``{distribution: choice, values: [...]}``.
 * ``"default"``: pressure ~ uniform over the calibration's range at each reset.
 * ``"full"``: default plus friction scales U[0.8, 1.2], ground μ U[0.7, 1.3], payload
   U[0, 3] kg at offset U[−0.02, 0.02]³ m, incline U[12, 20]° (ramp tasks only) and a leak
@@ -233,6 +235,8 @@ def clip_parameter(name: str, value, pressure_range_kpa: tuple[float, float]):
         lo, hi = pressure_range_kpa
         return min(max(float(value), lo), hi)
     rec = PARAMETERS[name]
+    if rec.choices:
+        return value
     if isinstance(value, tuple):
         return tuple(rec.clip(v) for v in value)
     return rec.clip(float(value))
@@ -244,6 +248,16 @@ def _check_distribution(where: str, d: Distribution, size: int, bounds: Paramete
     calibration's) or with low > high, normal with std < 0, empty choice."""
     if d.kind not in DISTRIBUTIONS:
         raise ValueError(f"{where}.distribution: value {d.kind!r}; allowed: {list(DISTRIBUTIONS)}")
+    if bounds is not None and bounds.choices:  # a categorical parameter: a name, or a choice of names
+        if d.kind not in ("fixed", "choice"):
+            raise ValueError(f"{where}.distribution: value {d.kind!r}; allowed for {bounds.name}: ['fixed', 'choice']")
+        values = [d.value] if d.kind == "fixed" else list(d.values)
+        if not values:
+            raise ValueError(f"{where}.values: value {d.values!r}; choice needs a non-empty list of values")
+        for v in values:
+            if not bounds.contains(v):
+                raise ValueError(f"{where}: value {v!r}; allowed: {bounds.allowed}")
+        return
     if d.kind == "fixed":
         _check_bounds(where, _vec(where, d.value, size), bounds)
     elif d.kind == "uniform":
@@ -304,6 +318,23 @@ def _parse_distribution(entry: Any, size: int, where: str) -> tuple[Distribution
 
 
 def _parse_term(name: str, entry: Any, where: str) -> Term:
+    if PARAMETERS[name].choices:  # a categorical parameter: a name, a list of names, or a mapping
+        if isinstance(entry, str):
+            return Term(name, Distribution("fixed", value=entry))
+        if isinstance(entry, (list, tuple)):
+            return Term(name, Distribution("choice", values=tuple(entry)))
+        if isinstance(entry, Mapping):
+            e = dict(entry)
+            kind = e.pop("distribution", "choice" if "values" in e else "fixed")
+            mode, interval = e.pop("mode", "reset"), e.pop("interval_s", None)
+            bad = [k for k in e if k not in ("value", "values")]
+            if bad:
+                raise ValueError(f"{where}: unknown field {bad[0]!r}; allowed: ['distribution', 'mode', 'value', 'values']")
+            vals = e.get("values", ())
+            if not isinstance(vals, (list, tuple)):
+                raise ValueError(f"{where}.values: value {vals!r} must be a list of names")
+            return Term(name, Distribution(kind, value=e.get("value"), values=tuple(vals)), mode, interval)
+        raise ValueError(f"{where}: value {entry!r}; allowed: a name or a list of names from {PARAMETERS[name].allowed}")
     d, mode, interval = _parse_distribution(entry, PARAMETERS[name].size, where)
     return Term(name, d, mode, interval)
 

@@ -4,6 +4,8 @@ Drake twin by an equivalent plain run."""
 
 from __future__ import annotations
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -125,3 +127,46 @@ def test_pressures_beyond_the_calibrated_range_need_extrapolation_and_run(shell_
             _, _, term, trunc, info = env.step(np.zeros(2, np.float32))
             assert not trunc, info.get("truncation_reason")
         assert info["params"]["pressure_kpa"] == p and info["omega_d"] > 0.5  # rolls downhill
+
+
+def test_the_shell_model_is_a_parameter_drawn_per_episode():
+    """``randomization={"shell_model": [...]}``: each episode runs on a drawn shell, reported in
+    ``info`` and the privileged one-hot, and is the episode a plain env of that shell runs."""
+    acts = _actions(15, seed=2)
+    opts = {"pressure_kpa": 6.0, "omega_ref": 3.0, "omega_ref_after": 3.0}
+    mix = gym.make(ENV, randomization={"shell_model": ["point", "injected"]}, observe_shell_model=True)
+    names = mix.unwrapped.observation_layout.names
+    seen = set()
+    for seed in range(6):
+        obs, info = mix.reset(seed=seed, options=opts)
+        shell = info["shell_model"]
+        seen.add(shell)
+        hot = obs[[names.index(f"shell_{m}") for m in ("point", "injected", "hydroelastic")]]
+        assert list(hot) == [float(shell == m) for m in ("point", "injected", "hydroelastic")]
+        out = [obs]
+        for a in acts:
+            out.append(mix.step(a)[0])
+        plain = gym.make(ENV, shell_model=shell, randomization="off", observe_shell_model=True)
+        ref, _ = _run(plain, acts, options=opts, seed=seed)
+        np.testing.assert_allclose(np.array(out)[:, :11], ref[:, :11], rtol=0, atol=1e-9)
+    assert seen == {"point", "injected"}
+
+
+def test_a_reset_option_picks_the_shell_and_hydroelastic_pressures_snap_to_its_grid():
+    env = gym.make(ENV, randomization="off")  # injected by default
+    _, info = env.reset(seed=0, options={"shell_model": "hydroelastic", "pressure_kpa": 5.2})
+    assert info["shell_model"] == "hydroelastic" and info["pressure_kpa"] == 5.0  # the 0.5 kPa grid from 3
+    assert env.unwrapped.twin.config.shell_model == "hydroelastic"
+    _, info = env.reset(seed=0, options={"pressure_kpa": 5.2})
+    assert info["shell_model"] == "injected" and info["pressure_kpa"] == 5.2
+
+
+@pytest.mark.parametrize("spec, needle", [
+    ({"shell_model": "rubber"}, "randomization.shell_model: value 'rubber'; allowed: ['point', 'injected', 'hydroelastic']"),
+    ({"shell_model": ["point", "jelly"]}, "randomization.shell_model: value 'jelly'"),
+    ({"shell_model": {"distribution": "uniform", "values": ["point"]}}, "allowed for shell_model: ['fixed', 'choice']"),
+    ({"shell_model": 3}, "randomization.shell_model: value 3"),
+])
+def test_bad_shell_model_specs_are_refused_naming_the_field(spec, needle):
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        gym.make(ENV).unwrapped.set_randomization(spec)
