@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from sphere_env.cli import renamed
 from sphere_env.models.shell import SHELL_MODELS
 
 #: Env kwargs the enjoy command sets itself (refused in ``--env-kwargs``) and the option for each.
@@ -236,14 +237,15 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
 
 
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
-    from sphere_env.evaluation.evaluate import parse_env_kwargs
+    from sphere_env.cli import parse_env_kwargs
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best "
                                     "for its best model")
     parser.add_argument("--episodes", type=int, default=1, help="number of episodes (seeds seed, seed+1, ...)")
-    parser.add_argument("--pressure", type=float, default=None,
+    parser.add_argument("--pressure-kpa", type=float, default=None,
                         help="inflation pressure [kPa] (default: the calibration's nominal pressure)")
+    renamed(parser, "--pressure", "--pressure-kpa")
     parser.add_argument("--shell-model", default=None, help=f"{' | '.join(SHELL_MODELS)} (default: the run's)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     det = parser.add_mutually_exclusive_group()
@@ -261,11 +263,12 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--env", default=None, help="env id (default: the run's)")
     parser.add_argument("--allow-env-mismatch", action="store_true",
                         help="run the policy on an env id other than the one it was trained on")
-    parser.add_argument("--env-kwargs", default="{}", help="YAML mapping of extra env kwargs, e.g. "
-                                                            "'{render_size: [640, 480]}'")
+    parser.add_argument("--env-kwargs", nargs="+", default=[], metavar="KWARGS",
+                        help="extra env kwargs: one YAML mapping, e.g. '{render_size: [640, 480]}', or key:value "
+                             "items (as train)")
     args = parser.parse_args(argv)
     try:
-        spec = EnjoySpec(run=args.run, episodes=args.episodes, pressure_kpa=args.pressure, shell_model=args.shell_model,
+        spec = EnjoySpec(run=args.run, episodes=args.episodes, pressure_kpa=args.pressure_kpa, shell_model=args.shell_model,
                          seed=args.seed, deterministic=args.deterministic, env_id=args.env,
                          allow_env_mismatch=args.allow_env_mismatch, env_kwargs=parse_env_kwargs(args.env_kwargs),
                          label=args.label)

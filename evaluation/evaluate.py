@@ -1,7 +1,7 @@
 """Evaluate controllers on a sphere_env task over pressures × shell models × friction presets × seeds.
 
     python -m evaluation.evaluate --controller zero pd ppo=runs/<run> \\
-        --pressures 3 8.5 14 --shell-models point injected hydroelastic --seeds 0 1 2 --out out/eval
+        --pressure-kpa 3 8.5 14 --shell-models point injected hydroelastic --seeds 0 1 2 --out out/eval
     python -m evaluation.evaluate --controller mypkg.ctrl:policy --friction majd viscous
     python -m evaluation.evaluate --controller zero --pme-log my_ramp_log.csv --pme-log-pressure 8
     python -m evaluation.evaluate ... --ray-address local      # or auto / ray://host:10001
@@ -45,6 +45,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from sphere_env.cli import parse_env_kwargs, renamed  # noqa: F401 - parse_env_kwargs re-exported
 from sphere_env.evaluation.controller_specs import check_action, check_spec, env_kwargs_of, make_controller, split_label
 from sphere_env.evaluation.metrics import PME_MIN_SPEED_RAD_S, TRACE_CHANNELS, episode_metrics, pme_between
 from sphere_env.files import staged_folder
@@ -701,43 +702,19 @@ def _sweep(spec: SweepSpec, out: Path, workers, ray_address, replay_jobs, log, p
             "agg_model": agg_model}
 
 
-def parse_env_kwargs(text: str) -> dict[str, Any]:
-    """``--env-kwargs``: a YAML mapping without repeated keys."""
-    import yaml
-
-    class _UniqueKeys(yaml.SafeLoader):
-        pass
-
-    def mapping(loader, node, deep=False):
-        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
-        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
-        if dup:
-            raise ValueError(f"env_kwargs: key {dup[0]!r} given twice in {text!r}")
-        return loader.construct_mapping(node, deep=deep)
-
-    _UniqueKeys.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
-    try:
-        value = yaml.load(text, Loader=_UniqueKeys)  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as err:
-        raise ValueError(f"env_kwargs: {text!r} is not valid YAML: {err}".replace("\n", " ")) from None
-    if value is None:
-        return {}
-    if not isinstance(value, dict):
-        raise ValueError(f"env_kwargs: value {value!r} must be a YAML mapping such as "
-                         "'{observation_noise_scale: 0.5}'")
-    return value
-
-
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
                         help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
     parser.add_argument("--env", default="sphere_env/RampDescent-v3")
-    parser.add_argument("--pressures", type=float, nargs="+", default=[3.0, 8.5, 14.0], help="kPa")
+    parser.add_argument("--pressure-kpa", type=float, nargs="+", default=[3.0, 8.5, 14.0],
+                        help="inflation pressures [kPa] (default: 3 8.5 14, the demo's grid)")
+    renamed(parser, "--pressures", "--pressure-kpa")
     parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
     parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--env-kwargs", default="{}", help="YAML mapping of extra env kwargs")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds (default: the demo's 0 1 2)")
+    parser.add_argument("--env-kwargs", nargs="+", default=[], metavar="KWARGS",
+                        help="extra env kwargs: one YAML mapping '{k: v, ...}' or key:value items (as train)")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default out/eval/<time>)")
     parser.add_argument("--workers", type=int, default=None, help="process-pool size (default: all cores)")
     parser.add_argument("--ray-address", default=None, help="run on Ray: 'local' (start one), 'auto', or ray://host:port")
@@ -757,7 +734,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
 
     try:
         env_kwargs = parse_env_kwargs(args.env_kwargs)
-        spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressures,
+        spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressure_kpa,
                          shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
                          env_kwargs=env_kwargs, allow_env_mismatch=args.allow_env_mismatch)
         with sigterm_as_interrupt():

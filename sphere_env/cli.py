@@ -20,6 +20,84 @@ import importlib.util
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
+
+
+def renamed(parser: argparse.ArgumentParser, old: str, new: str) -> None:
+    """Refuse the former spelling ``old`` of an option with a message naming ``new`` (one CLI
+    convention across subcommands: ``--pressure-kpa``, YAML env kwargs)."""
+
+    class _Renamed(argparse.Action):
+        def __call__(self, parser, namespace, values, option_string=None):
+            parser.error(f"{old}: renamed; use {new}")
+
+    parser.add_argument(old, nargs="*", action=_Renamed, help=argparse.SUPPRESS)
+
+
+def parse_key_values(items: Sequence[str], field_name: str = "hyperparams") -> dict[str, Any]:
+    """``["key:value", ...]`` as rl-zoo3's StoreDict reads them: each value a Python literal
+    (``ast.literal_eval``); text that is not one stays a string (``lin_5e-4``), but text opening a
+    mapping or list must be a literal (``{'base': 'full'}``)."""
+    import ast
+
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition(":")
+        key = key.strip()
+        if not sep or not key:
+            hint = " (a hyperparameter file goes to -conf/--conf-file)" if item.endswith((".yml", ".yaml")) else ""
+            raise ValueError(f"{field_name}: {item!r} must be key:value{hint}")
+        try:
+            val = ast.literal_eval(text.strip())
+        except (ValueError, SyntaxError):
+            if text.strip().startswith(("{", "[", "(")):
+                raise ValueError(f"{field_name}.{key}: value {text!r} is not a Python literal (values are read as in "
+                                 "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'})") from None
+            val = text.strip()
+        out[key] = val
+    return out
+
+
+
+def parse_yaml_mapping(text: str, field_name: str = "env_kwargs") -> dict[str, Any]:
+    """A YAML mapping without repeated keys (``{}`` for empty text)."""
+    import yaml
+
+    class _UniqueKeys(yaml.SafeLoader):
+        pass
+
+    def mapping(loader, node, deep=False):
+        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
+        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
+        if dup:
+            raise ValueError(f"{field_name}: key {dup[0]!r} given twice in {text!r}")
+        return loader.construct_mapping(node, deep=deep)
+
+    _UniqueKeys.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+    try:
+        value = yaml.load(text, Loader=_UniqueKeys)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as err:
+        raise ValueError(f"{field_name}: {text!r} is not valid YAML: {err}".replace("\n", " ")) from None
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise ValueError(f"{field_name}: value {value!r} must be a YAML mapping such as "
+                         "'{observation_noise_scale: 0.5}'")
+    return value
+
+
+
+def parse_env_kwargs(items: str | Sequence[str], field_name: str = "env_kwargs") -> dict[str, Any]:
+    """``--env-kwargs``, the same in every subcommand: one YAML mapping (``'{shell_model: point}'``)
+    or rl-zoo3's ``key:value`` items (:func:`parse_key_values`)."""
+    items = [items] if isinstance(items, str) else list(items)
+    if len(items) == 1 and (not items[0].strip() or items[0].strip().startswith("{")):
+        return parse_yaml_mapping(items[0], field_name)
+    for item in items:
+        if ":" not in item or not item.partition(":")[0].strip():
+            raise ValueError(f"{field_name}: {item!r} must be a YAML mapping such as '{{shell_model: point}}' or "
+                             "key:value items")
+    return parse_key_values(items, field_name)
 
 
 @dataclass(frozen=True)

@@ -74,3 +74,35 @@ def test_errors_are_one_line_under_the_subcommands_name(capsys, argv):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"sphere-env {argv[0]}: error: "), err
+
+
+@pytest.mark.parametrize("module, argv, old", [
+    ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--pressures", "5"], "--pressures"),
+    ("sphere_env.evaluation.enjoy", ["pretrained", "--pressure", "5"], "--pressure"),
+    ("sphere_env.calibration.__main__", ["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "3", "14",
+                                         "--out", "x.yaml"], "--pressures-kpa"),
+])
+def test_former_pressure_spellings_fail_naming_the_new_one(module, argv, old, capsys):
+    import importlib
+
+    with pytest.raises(SystemExit) as exc:
+        importlib.import_module(module).main(argv)
+    assert exc.value.code == 2
+    assert f"{old}: renamed; use --pressure-kpa" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("items", [["{shell_model: point, randomization: 'off'}"],
+                                   ["shell_model:'point'", "randomization:'off'"]])
+def test_env_kwargs_read_the_same_in_every_subcommand(items):
+    """One YAML mapping or rl-zoo3's key:value items: the same dict, by the one parser train,
+    evaluate and enjoy use."""
+    assert cli.parse_env_kwargs(items) == {"shell_model": "point", "randomization": "off"}
+
+
+def test_env_kwargs_through_evaluate_and_train_command_lines(tmp_path):
+    from sphere_env.training.train import build_parser
+
+    args = build_parser().parse_args(["--env-kwargs", "{shell_model: point}"])
+    assert args.env_kwargs == {"shell_model": "point"}
+    args = build_parser().parse_args(["--env-kwargs", "shell_model:'point'", "incline_deg:6"])
+    assert args.env_kwargs == {"shell_model": "point", "incline_deg": 6}

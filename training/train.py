@@ -13,8 +13,9 @@ The flags are rl-zoo3's (``-conf/--conf-file``, ``-params/--hyperparams key:valu
 ``--env-kwargs``, ``--eval-env-kwargs``, ``-n``, ``--seed``, ``--eval-freq``, ``--eval-episodes``,
 ``--save-freq``, ``-f/--log-folder``, ``-tb/--tensorboard-log``, ``-i/--trained-agent``), and the
 hyperparameter files are rl-zoo3 files (:mod:`sphere_env.training.config`). ``key:value`` values
-are Python literals as in rl-zoo3; text that is not one stays a string. ``--env-kwargs`` are merged
-key by key over the file's ``env_kwargs`` (rl-zoo3 replaces the mapping). Everything is validated
+are Python literals as in rl-zoo3; text that is not one stays a string. ``--env-kwargs`` (as in
+``evaluate`` and ``enjoy``: ``key:value`` items or one YAML mapping ``'{shell_model: point}'``) are
+merged key by key over the file's ``env_kwargs`` (rl-zoo3 replaces the mapping). Everything is validated
 before a file is written.
 
 The best model is chosen on fixed evaluation episodes: randomization off (``--eval-env-kwargs``
@@ -54,6 +55,7 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
+from sphere_env.cli import parse_env_kwargs, parse_key_values
 from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
@@ -761,36 +763,10 @@ class StoreDict(argparse.Action):
 
     def __call__(self, parser, namespace, values, option_string=None):
         try:
-            setattr(namespace, self.dest, {**(getattr(namespace, self.dest) or {}), **parse_key_values(values, self.dest)})
+            parse = parse_env_kwargs if self.dest.endswith("env_kwargs") else parse_key_values
+            setattr(namespace, self.dest, {**(getattr(namespace, self.dest) or {}), **parse(values, self.dest)})
         except ValueError as err:
             parser.exit(2, f"{parser.prog}: error: {err}\n")
-
-
-def parse_key_values(items: Sequence[str], field_name: str = "hyperparams") -> dict[str, Any]:
-    """``["key:value", ...]`` as rl-zoo3's StoreDict reads them (see :class:`StoreDict`)."""
-    import ast
-
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, text = item.partition(":")
-        key = key.strip()
-        if not sep or not key:
-            hint = " (a hyperparameter file goes to -conf/--conf-file)" if item.endswith((".yml", ".yaml")) else ""
-            raise ValueError(f"{field_name}: {item!r} must be key:value{hint}")
-        try:
-            val = ast.literal_eval(text.strip())
-        except (ValueError, SyntaxError):
-            if text.strip().startswith(("{", "[", "(")):
-                raise ValueError(f"{field_name}.{key}: value {text!r} is not a Python literal (values are read as in "
-                                 "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'})") from None
-            val = text.strip()
-        out[key] = val
-    return out
-
-
-def _parse_params(items: Sequence[str]) -> dict[str, Any]:
-    """``--hyperparams key:value ...`` (:func:`parse_key_values`)."""
-    return parse_key_values(items, "hyperparams")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -653,7 +653,7 @@ def _interface_cases(work) -> list[dict]:
         shutil.copytree(run, broken)
         data = (broken / "model.zip").read_bytes()
         (broken / "model.zip").write_bytes(data[: len(data) // 3])
-    grid = ["--replay", "--pressures", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1"]
+    grid = ["--replay", "--pressure-kpa", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1"]
     a_file = _write(inputs / "a_file.txt", "not a folder\n")
     one_row = _write(inputs / "one_row_pme.csv", "t_s,omega_d\n0,1\n")
     eval_bad = [
@@ -666,7 +666,7 @@ def _interface_cases(work) -> list[dict]:
         (["--controller", "sphere_env.evaluation.scripts.robustness:_bad_shape_controller"], "shape"),
         (["--controller", "no_such_module:f"], "controller"),
         (["--controller", str(run), "--env", "sphere_env/Roll-v0"], "--allow-env-mismatch"),
-        (["--controller", "zero", "--pressures", "1000"], "pressures"),
+        (["--controller", "zero", "--pressure-kpa", "1000"], "pressure"),
         (["--controller", "zero", "--shell-models", "jelly"], "shell_models"),
         (["--controller", "zero", "--friction", "bogus"], "friction"),
         (["--controller", "zero", "--pme-log", str(inputs / "missing.csv")], "pme_log"),

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
+from sphere_env.cli import renamed
 from sphere_env.resources import asset_path
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
@@ -157,9 +158,9 @@ def cmd_sensitivity(args) -> int:
     from sphere_env.models.shell import ShellCalibration
 
     cal = ShellCalibration.load(args.calibration)
-    ps = args.pressures_kpa or [cal.pressure_range_kpa[0], cal.nominal_pressure_kpa, cal.pressure_range_kpa[1]]
+    ps = args.pressure_kpa or [cal.pressure_range_kpa[0], cal.nominal_pressure_kpa, cal.pressure_range_kpa[1]]
     for p in ps:
-        cal.check_pressure(p, "--pressures-kpa")
+        cal.check_pressure(p, "--pressure-kpa")
     if not (math.isfinite(args.duration_s) and 0 < args.duration_s <= 600):
         raise ValueError(f"--duration-s: value {args.duration_s!r} must be a simulated time in (0, 600] s")
     if args.workers is not None and args.workers < 1:
@@ -199,14 +200,14 @@ def cmd_kd_pressure(args) -> int:
     from sphere_env.models.shell import ShellCalibration, interpolate_k_d
 
     cal = ShellCalibration.load(args.calibration)  # validated before anything runs
-    if args.pressures_kpa is not None:
-        for q in args.pressures_kpa:
-            cal.check_pressure(q, "--pressures-kpa")
+    if args.pressure_kpa is not None:
+        for q in args.pressure_kpa:
+            cal.check_pressure(q, "--pressure-kpa")
         lo, hi = cal.pressure_range_kpa
-        if len(set(args.pressures_kpa)) < 2 or min(args.pressures_kpa) > lo or max(args.pressures_kpa) < hi:
-            raise ValueError(f"--pressures-kpa: value {args.pressures_kpa!r} must hold at least 2 pressures spanning "
+        if len(set(args.pressure_kpa)) < 2 or min(args.pressure_kpa) > lo or max(args.pressure_kpa) < hi:
+            raise ValueError(f"--pressure-kpa: value {args.pressure_kpa!r} must hold at least 2 pressures spanning "
                              f"the calibrated range [{lo}, {hi}] kPa (k_d is not extrapolated)")
-    rows = match_dissipation_by_pressure(args.calibration, args.time_step_s, args.pressures_kpa)
+    rows = match_dissipation_by_pressure(args.calibration, args.time_step_s, args.pressure_kpa)
     step = rows[0]["time_step_s"]
     table = [{"pressure_kpa": r["pressure_kpa"], "k_d": round(r["k_d"], 5)} for r in rows]
     # the single k_d of the step is the table's value at the nominal pressure (the loader checks it)
@@ -379,7 +380,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sensitivity", help="hydroelastic ±50%% sweep (paper Fig. 11)")
     p.add_argument("--calibration", default=None)
-    p.add_argument("--pressures-kpa", type=float, nargs="*")
+    p.add_argument("--pressure-kpa", type=float, nargs="*", help="pressures [kPa] (default: the calibration's)")
+    renamed(p, "--pressures-kpa", "--pressure-kpa")
     p.add_argument("--workers", type=int, default=None)
     p.add_argument("--duration-s", type=float, default=6.0)
     p.add_argument("--plot")
@@ -396,7 +398,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "the locked-steer decay has ζ(p) (k_d_by_pressure)")
     p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
     p.add_argument("--time-step-s", type=float, required=True, help="plant step [s] the decays run at")
-    p.add_argument("--pressures-kpa", type=float, nargs="+", default=None,
+    renamed(p, "--pressures-kpa", "--pressure-kpa")
+    p.add_argument("--pressure-kpa", type=float, nargs="+", default=None,
                    help="pressures [kPa] to fit k_d at, spanning the calibrated range (default: its ends, the "
                         "nominal, 5 even points and both sides of a low_pressure_mesh switch)")
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the table)")

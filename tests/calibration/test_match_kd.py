@@ -52,10 +52,10 @@ def test_kd_step_writes_a_calibration_whose_k_d_at_that_step_keeps_the_damping(t
 
 def test_kd_pressure_refuses_pressures_not_spanning_the_range_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "cal.yaml"
-    assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "3", "20", "--out", str(out)]) == 2
-    assert "--pressures-kpa: value 20.0 is outside the calibrated range" in capsys.readouterr().err
+    assert main(["kd-pressure", "--time-step-s", "0.01", "--pressure-kpa", "3", "20", "--out", str(out)]) == 2
+    assert "--pressure-kpa: value 20.0 is outside the calibrated range" in capsys.readouterr().err
     for bad in (["5", "5"], ["3", "10"]):  # one pressure; 10-14 kPa would be extrapolated
-        assert main(["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", *bad, "--out", str(out)]) == 2
+        assert main(["kd-pressure", "--time-step-s", "0.01", "--pressure-kpa", *bad, "--out", str(out)]) == 2
         assert "must hold at least 2 pressures spanning the calibrated range [3.0, 14.0] kPa" in capsys.readouterr().err
     assert not out.exists()
 
@@ -69,7 +69,7 @@ def test_kd_pressure_writes_a_table_whose_decays_follow_zeta_curve(tmp_path):
     base = tmp_path / "base.yaml"
     base.write_text(yaml.safe_dump(src))
     out = tmp_path / "table.yaml"
-    assert main(["kd-pressure", "--calibration", str(base), "--time-step-s", "0.008", "--pressures-kpa", "3", "14",
+    assert main(["kd-pressure", "--calibration", str(base), "--time-step-s", "0.008", "--pressure-kpa", "3", "14",
                  "--out", str(out)]) == 0
     cal = ShellCalibration.load(out)
     ((step, k_d),) = cal.k_d_by_time_step
@@ -90,7 +90,7 @@ def test_kd_pressure_at_the_fitted_step_replaces_k_d_and_drops_its_refits(tmp_pa
     the single k_d becomes its value at the nominal pressure; the k_d refits at other steps matched
     the replaced k_d, so they are dropped (and the command says so)."""
     out = tmp_path / "table.yaml"
-    assert main(["kd-pressure", "--time-step-s", "0.005", "--pressures-kpa", "3", "14", "--out", str(out)]) == 0
+    assert main(["kd-pressure", "--time-step-s", "0.005", "--pressure-kpa", "3", "14", "--out", str(out)]) == 0
     assert "dropped hydroelastic.k_d_by_time_step" in capsys.readouterr().out
     cal = ShellCalibration.load(out)
     assert cal.fitted_time_step_s == 0.005 and cal.k_d_by_time_step == ()

@@ -11,7 +11,7 @@ from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main, parse_env_
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import train
 
-GRID = ["--env", "sphere_env/RampDescent-v2", "--pressures", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1", "--replay"]
+GRID = ["--env", "sphere_env/RampDescent-v2", "--pressure-kpa", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1", "--replay"]
 
 
 def three_actions(obs, info=None):

@@ -37,7 +37,7 @@ def _alive(pid: int) -> bool:
 def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
     out = tmp_path / "eval"
     cmd = [sys.executable, "-m", "sphere_env.evaluation.evaluate", "--controller", "pd", "zero",
-           "--shell-models", "hydroelastic", "--pressures", "3", "8.5", "14", "--seeds", "0", "1", "2",
+           "--shell-models", "hydroelastic", "--pressure-kpa", "3", "8.5", "14", "--seeds", "0", "1", "2",
            "--workers", "2", "--out", str(out), "--replay"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120

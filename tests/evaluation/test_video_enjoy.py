@@ -126,7 +126,7 @@ def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, n
         "no_best": lambda: [_broken_copy(tiny_ppo_run, tmp_path, remove="best/best_model.zip") + "@best"],
         "other_env": [run, "--env", "sphere_env/Roll-v1"],
         "shell": [run, "--shell-model", "jelly"],
-        "pressure": [run, "--pressure", "99"],
+        "pressure": [run, "--pressure-kpa", "99"],
         "episodes": [run, "--episodes", "0"],
         "seed": [run, "--seed", "-1"],
         "env_kwargs": [run, "--env-kwargs", "{randomization: full}"],
