@@ -1,7 +1,7 @@
 """Watch a trained policy: roll out a training run folder on its env, live in Meshcat or as MP4s.
 
     python -m evaluation.enjoy runs/ppo_RampDescent-v2_<time>_s0 --meshcat
-    python -m evaluation.enjoy runs/<run>@best --episodes 3 --pressure 5 --shell-model hydroelastic \\
+    python -m evaluation.enjoy runs/<run>@best --episodes 3 --pressure-kpa 5 --shell-model hydroelastic \\
         --video out/videos
     sphere-env enjoy runs/<run> --stochastic --seed 4
 
