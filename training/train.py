@@ -42,7 +42,6 @@ import contextlib
 import csv
 import json
 import math
-import os
 import re
 import sys
 import time
@@ -56,14 +55,21 @@ import numpy as np
 import yaml
 
 from sphere_env.cli import parse_env_kwargs, parse_key_values
-from sphere_env.files import write_text_atomic
-from sphere_env.provenance import software_versions
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
-
-RUNS = Path("runs")
-CHECKPOINT_PREFIX = "rl_model"
-EVAL_SEED_OFFSET = 10_000
-
+from sphere_env.training.run_folder import (
+    CHECKPOINT_PREFIX,
+    RUNS,
+    _ckpt_file,
+    _clear_outputs,
+    _is_interrupted_run,
+    _truncate_history,
+    default_run_dir,
+    latest_checkpoint,
+    load_config,
+    run_lock,
+    write_config,
+    write_learning_curves,
+)
 
 # ---- env factories (module level: picklable for SubprocVecEnv) -------------------------------------
 _ENV_MONITOR = None
@@ -285,20 +291,6 @@ def _callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
 
 
 # ---- checkpoints -----------------------------------------------------------------------------------
-def latest_checkpoint(run_dir: Path) -> tuple[int, Path] | None:
-    """(steps, path) of the newest ``checkpoints/rl_model_<steps>_steps.zip``."""
-    best = None
-    for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
-        m = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", p.name)
-        if m and (best is None or int(m.group(1)) > best[0]):
-            best = (int(m.group(1)), p)
-    return best
-
-
-def _ckpt_file(run_dir: Path, kind: str, steps: int) -> Path:
-    return run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps.pkl"
-
-
 def save_checkpoint(model, run_dir: Path, cfg: TrainConfig) -> None:
     """Checkpoint at the model's current step count (same names as CheckpointCallback)."""
     n = model.num_timesteps
@@ -312,166 +304,9 @@ def save_checkpoint(model, run_dir: Path, cfg: TrainConfig) -> None:
 
 
 # ---- learning curves -------------------------------------------------------------------------------
-def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
-    """learning_curve.csv (kind = train episode / eval mean) and learning_curve.png."""
-    rows: list[dict[str, Any]] = []
-    train = run_dir / "learning_curve_train.csv"
-    if train.exists():
-        with open(train) as f:
-            for r in csv.DictReader(f):
-                rows.append(dict(kind="train", timesteps=int(r["timesteps"]), return_mean=float(r["return"]),
-                                 return_std=0.0, length_mean=float(r["length"]), success_rate=float(r["is_success"]),
-                                 pressure_kpa=float(r["pressure_kpa"])))
-    ev = run_dir / "eval" / "evaluations.npz"
-    if ev.exists():
-        d = np.load(ev)
-        for i, t in enumerate(d["timesteps"]):
-            succ = float(np.mean(d["successes"][i])) if "successes" in d and len(d["successes"]) > i else math.nan
-            rows.append(dict(kind="eval", timesteps=int(t), return_mean=float(np.mean(d["results"][i])),
-                             return_std=float(np.std(d["results"][i])), length_mean=float(np.mean(d["ep_lengths"][i])),
-                             success_rate=succ, pressure_kpa=math.nan))
-    rows.sort(key=lambda r: (r["timesteps"], r["kind"]))
-    csv_path = run_dir / "learning_curve.csv"
-    with open(csv_path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["kind", "timesteps", "return_mean", "return_std", "length_mean",
-                                          "success_rate", "pressure_kpa"])
-        w.writeheader()
-        w.writerows(rows)
-
-    from sphere_env.plotting import pyplot
-
-    plt = pyplot()
-
-    fig, ax = plt.subplots(figsize=(7, 4))
-    tr = [r for r in rows if r["kind"] == "train"]
-    if tr:
-        t = np.array([r["timesteps"] for r in tr])
-        y = np.array([r["return_mean"] for r in tr])
-        ax.plot(t, y, ".", ms=2, alpha=0.3, color="C0", label="training episodes")
-        k = max(len(y) // 20, 1)
-        if len(y) >= k:
-            ax.plot(t[k - 1:], np.convolve(y, np.ones(k) / k, mode="valid"), color="C0", label=f"training (mean of {k})")
-    evr = [r for r in rows if r["kind"] == "eval"]
-    if evr:
-        t = np.array([r["timesteps"] for r in evr])
-        m = np.array([r["return_mean"] for r in evr])
-        s = np.array([r["return_std"] for r in evr])
-        ax.errorbar(t, m, yerr=s, color="C3", marker="o", capsize=3, label="evaluation (deterministic)")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("episode return")
-    ax.set_title(run_dir.name, fontsize=9)
-    ax.grid(alpha=0.3)
-    if ax.get_legend_handles_labels()[0]:  # a tiny run may have neither a finished episode nor an evaluation
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    png = run_dir / "learning_curve.png"
-    fig.savefig(png, dpi=110)
-    plt.close(fig)
-    return csv_path, png
-
-
-# ---- training ----------------------------------------------------------------------------------------
-def default_run_dir(cfg: TrainConfig, root: Path = RUNS) -> Path:
-    """``<root>/<algo>_<env>_<UTC time>_s<seed>_<6 random hex digits>``: two runs started in the same
-    second get different folders (and :func:`train` creates a new folder exclusively)."""
-    import secrets
-
-    stamp = datetime.now(UTC).strftime("%Y%m%d-%H%M%S")
-    return root / f"{cfg.algo}_{cfg.env_id.split('/')[-1]}_{stamp}_s{cfg.seed}_{secrets.token_hex(3)}"
-
-
-LOCK_FILE = ".lock"
-
-
 class TrainingInterrupted(Exception):
     """Training stopped by Ctrl-C or SIGTERM after saving the model, its VecNormalize statistics and a
     resumable checkpoint; the message says where and how to continue."""
-
-
-@contextlib.contextmanager
-def run_lock(run_dir: Path):
-    """Hold an exclusive lock on a run folder for the whole training (``<run>/.lock``, ``flock``: the
-    system releases it when the process ends, however it ends). A second writer on the same folder
-    is refused with a ValueError naming the folder, before it reads or changes anything there."""
-    import fcntl
-
-    fd = os.open(run_dir / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise ValueError(f"run_dir: {str(run_dir)!r} is in use by another training process (it holds "
-                             f"{LOCK_FILE}); wait for it to end or use another folder") from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
-        yield
-    finally:
-        os.close(fd)
-
-
-def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None = None,
-                 extra: Mapping[str, Any] | None = None) -> Path:
-    """config.yaml: the resolved config, the resolved randomization, versions, command, seeds."""
-    from sphere_env.models.shell import ShellCalibration
-    from sphere_env.tasks.randomization import RandomizationSpec
-
-    data = cfg.as_dict()
-    cal = ShellCalibration.load(cfg.env_kwargs.get("calibration"))
-    ramp = "Ramp" in cfg.env_id
-    spec = RandomizationSpec.parse(cfg.randomization, ramp=ramp).resolved(cal.pressure_range_kpa)
-    data["randomization_resolved"] = _plain(spec)
-    data["seeds"] = {"seed": cfg.seed, "workers": cfg.worker_seeds, "eval": cfg.eval_seed}
-    data["monitor_info_keywords"] = list(MONITOR_KEYWORDS)
-    data["versions"] = software_versions()
-    data["command"] = list(command) if command is not None else []
-    data["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
-    data.update(extra or {})
-    return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(_plain(data), sort_keys=False))
-
-
-def _plain(x: Any) -> Any:
-    """Dataclasses/tuples/numpy to plain YAML-able types."""
-    from dataclasses import asdict, is_dataclass
-
-    if is_dataclass(x) and not isinstance(x, type):
-        return _plain(asdict(x))
-    if isinstance(x, Mapping):
-        return {str(k): _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, Path):
-        return str(x)
-    return x
-
-
-def load_config(run_dir: str | Path) -> TrainConfig:
-    """The TrainConfig stored in ``run_dir/config.yaml``."""
-    run_dir = Path(run_dir)
-    path = run_dir / "config.yaml"
-    if not path.exists():
-        raise ValueError(f"run: {str(run_dir)!r} has no config.yaml (not a training run folder)")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as err:
-        raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
-    fields = TrainConfig.__dataclass_fields__
-    if not isinstance(data, Mapping) or not {"env_id", "algo"} <= set(data):
-        raise ValueError(f"run: {str(path)!r} is not a training config (needs env_id and algo)")
-    data = dict(data)
-    if "randomization" in data and "randomization" not in (data.get("env_kwargs") or {}):
-        # run folders written before randomization moved into env_kwargs
-        data["env_kwargs"] = {**(data.get("env_kwargs") or {}), "randomization": data["randomization"]}
-    try:
-        return TrainConfig(**{k: v for k, v in data.items() if k in fields})
-    except TypeError as err:
-        raise ValueError(f"run: {str(path)!r} is not a training config: {err}") from None
-
-
-#: What a run writes into its folder (cleared when an interrupted run is restarted from scratch).
-RUN_OUTPUTS = ("checkpoints", "monitor", "eval", "best", "tb", "learning_curve_train.csv", "learning_curve.csv",
-               "learning_curve.png", "model.zip", "vecnormalize.pkl", "timing.json")
 
 
 def _say(msg: str) -> None:
@@ -519,65 +354,6 @@ def usable_checkpoint(cls, cfg: TrainConfig, run_dir: Path) -> tuple[tuple[int, 
             return (steps, path), skipped
         skipped.append(problem)
     return None, skipped
-
-
-def _truncate_monitor(path: Path, episodes: int) -> None:
-    """Keep a Monitor CSV's header lines and its first ``episodes`` episodes (atomic replace)."""
-    lines = path.read_text().splitlines(keepends=True)
-    head = 2 if len(lines) > 1 and lines[0].startswith("#") else 1  # SB3's JSON comment, then the columns
-    if len(lines) - head > episodes:
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text("".join(lines[:head + episodes]))
-        tmp.replace(path)
-
-
-def _is_interrupted_run(run_dir: Path) -> bool:
-    """A folder with config.yaml but no model and no checkpoint: a run stopped before its first checkpoint."""
-    return ((run_dir / "config.yaml").exists() and not (run_dir / "model.zip").exists()
-            and latest_checkpoint(run_dir) is None)
-
-
-def _clear_outputs(run_dir: Path) -> None:
-    import shutil
-
-    for name in RUN_OUTPUTS:
-        p = run_dir / name
-        if p.is_dir():
-            shutil.rmtree(p)
-        elif p.exists():
-            p.unlink()
-
-
-def _truncate_history(run_dir: Path, steps: int) -> None:
-    """Drop training episodes and evaluations logged after ``steps`` (past the restored checkpoint):
-    from ``learning_curve_train.csv``, the evaluations, and each training env's Monitor CSV (it keeps
-    as many episodes as ``learning_curve_train.csv`` has of that env up to ``steps``), so a resumed
-    run lists every episode once."""
-    train_csv = run_dir / "learning_curve_train.csv"
-    if train_csv.exists():
-        with open(train_csv, newline="") as f:
-            rows = list(csv.reader(f))
-        keep = rows[:1] + [r for r in rows[1:] if r and int(r[0]) <= steps]
-        if len(keep) != len(rows):
-            tmp = train_csv.with_suffix(".csv.tmp")
-            with open(tmp, "w", newline="") as f:
-                csv.writer(f).writerows(keep)
-            tmp.replace(train_csv)
-        if rows and "env" in rows[0]:
-            col = rows[0].index("env")
-            per_env: dict[str, int] = {}
-            for r in keep[1:]:
-                per_env[r[col]] = per_env.get(r[col], 0) + 1
-            for mon in (run_dir / "monitor").glob("train_*.monitor.csv"):
-                _truncate_monitor(mon, per_env.get(mon.name.split(".")[0].removeprefix("train_"), 0))
-    ev = run_dir / "eval" / "evaluations.npz"
-    if ev.exists():
-        d = dict(np.load(ev))
-        mask = np.asarray(d["timesteps"]) <= steps
-        if not mask.all():
-            tmp = ev.with_name("evaluations.tmp.npz")
-            np.savez(tmp, **{k: np.asarray(v)[mask] if len(v) == len(mask) else v for k, v in d.items()})
-            tmp.replace(ev)
 
 
 def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = False, progress_bar: bool = True,
