@@ -3,29 +3,9 @@
 Each fault is a set of events (:mod:`sphere_env.tasks.events`, the env's ``randomization``) and,
 where it needs one, an env kwarg, applied on top of the nominal evaluation grid (every shell model
 × 3, 8.5 and 14 kPa × evaluation seeds 0, 1, 2, deterministic controllers, nothing else
-randomized). The ranges and where they come from (``docs/faults.md`` says the same, with the
-numbers):
-
-* ``leak``: the pressure falls at 0.5 kPa/s from the start (a leaking valve or a puncture),
-  clipped at the calibrated floor of 3 kPa: a 14 kPa shell is at 3 kPa after 22 s, about two
-  descents; the training preset ``full`` draws leaks up to 0.2 kPa/s.
-* ``pressure_beyond_range``: 1.5, 16 and 17.5 kPa instead of 3, 8.5 and 14: a shell pumped by
-  hand without a gauge, up to 3.5 kPa (a third of the calibrated span) outside the range the
-  shell laws were fitted on; the laws are extrapolated (``pressure_extrapolation_kpa``).
-* ``sensor_noise``: the default observation noise σ (0.005 rad on angles, 0.05 rad/s on rates;
-  the env's default is no noise). That is at least 4× the largest high-frequency residual of the
-  shared logs' encoder and IMU channels, and 20-40× their median (1.1e-3 rad and 1.2e-2 rad/s at
-  most, ``evaluation/results/log_noise.json``): a vibrating mount or a cheaper IMU than the
-  logged robot's.
-* ``latency_1`` and ``latency_2``: each action reaches the motors one or two control steps (20 or
-  40 ms at 50 Hz) late: a slow bus or a busy onboard computer; the logs are sampled every 10 ms.
-* ``torque_saturation``: the motors deliver at most 60 % of the torque limit (12 N m steer,
-  13.2 N m drive): a sagging battery or thermal derating.
-* ``friction_high`` and ``friction_low``: both joints' friction torques × 1.5 and × 0.5. Gearhead
-  friction moves by tens of percent with temperature and wear, and Table I's own fits of one joint
-  differ by more (steer: viscous c = 0.104 against Majd–Simaan f_ω = 0.20 N m s/rad).
-* ``payload``: a 4 kg payload on the pendulum, 10 % of the robot's 41.35 kg (a battery or sensor
-  pack the calibration never saw).
+randomized). Each fault states its range and where the range comes from (``why``); the learning
+study's README (``evaluation/results/learning/README.md``) prints them beside every controller's
+success under each fault.
 """
 
 from __future__ import annotations
@@ -45,22 +25,40 @@ class Fault:
 
     name: str
     title: str
+    why: str
     randomization: Mapping[str, Any]
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     pressures_kpa: tuple[float, ...] | None = None
 
 
 FAULTS: dict[str, Fault] = {f.name: f for f in (
-    Fault("leak", "pressure leak, -0.5 kPa/s", {"pressure_schedule": {"rate_kpa_per_s": -0.5}}),
-    Fault("pressure_beyond_range", "1.5, 16 and 17.5 kPa (calibrated: 3-14)", {},
-          {"pressure_extrapolation_kpa": 3.5}, (1.5, 16.0, 17.5)),
-    Fault("sensor_noise", "observation noise at the default sigma", {"observation_noise_scale": 1.0}),
-    Fault("latency_1", "actions one control step late (20 ms)", {"action_latency_steps": 1}),
-    Fault("latency_2", "actions two control steps late (40 ms)", {"action_latency_steps": 2}),
-    Fault("torque_saturation", "motors saturate at 60 % of the limit", {"motor_torque_scale": 0.6}),
-    Fault("friction_high", "joint friction x 1.5", {"steer_friction_scale": 1.5, "drive_friction_scale": 1.5}),
-    Fault("friction_low", "joint friction x 0.5", {"steer_friction_scale": 0.5, "drive_friction_scale": 0.5}),
-    Fault("payload", "4 kg payload on the pendulum", {"payload_mass_kg": 4.0}),
+    Fault("leak", "pressure leak, -0.5 kPa/s",
+          "a leaking valve or a puncture; clipped at the calibrated floor of 3 kPa, so a 14 kPa shell is at 3 kPa "
+          "after 22 s, about two descents (the training preset full draws leaks up to 0.2 kPa/s)",
+          {"pressure_schedule": {"rate_kpa_per_s": -0.5}}),
+    Fault("pressure_beyond_range", "1.5, 16 and 17.5 kPa (calibrated: 3-14)",
+          "a shell pumped by hand without a gauge, up to 3.5 kPa (a third of the calibrated span) outside the range "
+          "the shell laws were fitted on; the laws are extrapolated (pressure_extrapolation_kpa)",
+          {}, {"pressure_extrapolation_kpa": 3.5}, (1.5, 16.0, 17.5)),
+    Fault("sensor_noise", "observation noise at the default sigma",
+          "0.005 rad on angles, 0.05 rad/s on rates: at least 4x the largest high-frequency residual of the shared "
+          "logs' encoder and IMU channels and 20-40x their median (evaluation/results/log_noise.json), a vibrating "
+          "mount or a cheaper IMU than the logged robot's",
+          {"observation_noise_scale": 1.0}),
+    Fault("latency_1", "actions one control step late (20 ms)",
+          "a slow bus or a busy onboard computer; the logs are sampled every 10 ms", {"action_latency_steps": 1}),
+    Fault("latency_2", "actions two control steps late (40 ms)",
+          "as latency_1, twice as late", {"action_latency_steps": 2}),
+    Fault("torque_saturation", "motors saturate at 60 % of the limit",
+          "12 N m steer, 13.2 N m drive: a sagging battery or thermal derating", {"motor_torque_scale": 0.6}),
+    Fault("friction_high", "joint friction x 1.5",
+          "gearhead friction moves by tens of percent with temperature and wear, and Table I's own fits of one joint "
+          "differ by more (steer: viscous c = 0.104 against Majd-Simaan f_w = 0.20 N m s/rad)",
+          {"steer_friction_scale": 1.5, "drive_friction_scale": 1.5}),
+    Fault("friction_low", "joint friction x 0.5", "as friction_high, the other way",
+          {"steer_friction_scale": 0.5, "drive_friction_scale": 0.5}),
+    Fault("payload", "4 kg payload on the pendulum",
+          "10 % of the robot's 41.35 kg: a battery or sensor pack the calibration never saw", {"payload_mass_kg": 4.0}),
 )}
 
 

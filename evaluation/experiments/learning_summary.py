@@ -100,15 +100,21 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
 
     cols = {name: base[name]["faults"] for name in ("zero", "pd", "pretrained") if "faults" in base.get(name, {})}
     faults = list(next(iter(cols.values())).keys()) if cols else []
+    from sphere_env.evaluation.faults import FAULTS
+
     rows = []
     for f in faults:
-        row = {"fault": f, **{c: _pct(v[f]["success_rate"]) for c, v in cols.items()}}
+        row = {"fault": f"{f}: {FAULTS[f].title}" if f in FAULTS else f,
+               **{c: _pct(v[f]["success_rate"]) for c, v in cols.items()}}
         for name, runs in runs_by_recipe.items():
             got = [r["faults"][f]["success_rate"] for r in runs if f in (r.get("faults") or {})]
             if got:
                 row[f"{name} ({len(got)} seeds): mean, worst"] = f"{_pct(float(np.mean(got)))}, {_pct(min(got))}"
         rows.append(row)
-    return pd_.DataFrame(rows).to_markdown(index=False) if rows else ""
+    if not rows:
+        return ""
+    why = "\n".join(f"- **{f}**: {FAULTS[f].why}." for f in faults if f in FAULTS)
+    return pd_.DataFrame(rows).to_markdown(index=False) + "\n\nWhere each range comes from:\n\n" + why
 
 
 def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
