@@ -72,3 +72,33 @@ def test_write_summary_gives_the_documented_shape(tmp_path):
     assert set(summary["runs"][0]["per_shell"]) == set(SHELLS) and summary["runs"][0]["from_scratch"] is True
     assert (tmp_path / "learning_curves.png").stat().st_size > 0
     assert "recipe_a" in (tmp_path / "README.md").read_text()
+
+
+def test_selected_checkpoints_and_faults_reach_the_summary(tmp_path):
+    """Runs with a validation-chosen checkpoint get a ``<recipe>@selected`` row judged on that
+    checkpoint's figures; the fault table lists every controller's success per fault and why each
+    fault's range is what it is."""
+    from sphere_env.evaluation.faults import FAULTS
+
+    faults = {f: {"success_rate": 0.5} for f in FAULTS}
+    base = {"pd": {**PD, "faults": faults}, "zero": {**PD, "success_rate": 1 / 27, "faults": faults},
+            "grid": {"shells": list(SHELLS), "pressures_kpa": [3.0, 8.5, 14.0], "seeds": [0, 1, 2], "episodes": 27}}
+    (tmp_path / "baselines.json").write_text(json.dumps(base))
+    folder = tmp_path / "runs" / "recipe_a"
+    folder.mkdir(parents=True)
+    good = {"point": 1.0, "injected": 1.0, "hydroelastic": 1.0}
+    for s in range(2):
+        run = _run(s, {"point": 0.0, "injected": 1.0, "hydroelastic": 1.0})
+        run["selected"] = {"checkpoint_steps": 500, "success_rate": 1.0, "tracking_rmse_rad_s": 0.2,
+                           "per_shell": good, "validation": {"success_rate": 1.0}}
+        run["faults"] = {f: {"success_rate": 0.25 * (s + 1)} for f in FAULTS}
+        (folder / f"seed{s}.json").write_text(json.dumps(run))
+    summary = json.loads(write_summary(tmp_path).read_text())
+    rows = {r["recipe"]: r for r in summary["recipes"]}
+    assert rows["recipe_a"]["mean_success"] == pytest.approx(2 / 3)
+    assert rows["recipe_a@selected"]["mean_success"] == 1.0 and rows["recipe_a@selected"]["aims"]["every_shell_ge_80"]
+    assert summary["runs"][0]["selected"]["checkpoint_steps"] == 500
+    readme = (tmp_path / "README.md").read_text()
+    assert "## Fault grid" in readme and "recipe_a (2 seeds): mean, worst" in readme
+    assert "38%, 25%" in readme  # the runs' mean and worst under each fault
+    assert all(f"**{f}**" in readme for f in FAULTS)
