@@ -202,7 +202,7 @@ class Tally:
         return rows
 
 
-def _kwarg_cases(env_id: str) -> list[tuple[dict, str]]:
+def kwarg_cases(env_id: str) -> list[tuple[dict, str]]:
     """(kwargs, field the error must name) for gym.make."""
     cases = [
         (dict(shell_model="rubber"), "shell_model"), (dict(shell_model=None), "shell_model"),
@@ -247,7 +247,7 @@ def _kwarg_cases(env_id: str) -> list[tuple[dict, str]]:
     return cases
 
 
-def _randomization_cases(env_id: str) -> list:
+def randomization_cases(env_id: str) -> list:
     """Randomization specs gym.make must refuse (the error names ``randomization``)."""
     sched = lambda rate, **kw: {"pressure_schedule": {"rate_kpa_per_s": rate, **kw}}  # noqa: E731
     cases = [
@@ -276,7 +276,7 @@ def _randomization_cases(env_id: str) -> list:
     return cases
 
 
-def _option_cases(env_id: str) -> list[tuple[Any, str]]:
+def option_cases(env_id: str) -> list[tuple[Any, str]]:
     """(options, field) for reset on a running episode. The first entry of a mapping is a valid
     change (pressure), so a reset that applied it before failing would be caught."""
     p = {"pressure_kpa": 12.0}
@@ -317,7 +317,7 @@ BAD_ACTIONS = [
 ]
 
 
-def _lockstep(env, ref, n: int = 3) -> bool:
+def lockstep(env, ref, n: int = 3) -> bool:
     """Step both with the same actions; True if everything returned is identical."""
     rng = np.random.default_rng(0)
     for _ in range(n):
@@ -335,9 +335,9 @@ def _lockstep(env, ref, n: int = 3) -> bool:
 def fuzz_env_inputs(env_id: str, shell_model: str, tally: Tally) -> None:
     """Hostile kwargs, randomization specs, reset options, seeds and actions for one env × shell."""
     name = f"{env_id.split('/')[1]}/{shell_model}"
-    for kw, field in _kwarg_cases(env_id):
+    for kw, field in kwarg_cases(env_id):
         tally.expect("make kwargs", f"{name} {kw}", lambda: gym.make(env_id, **{"shell_model": shell_model, **kw}), field)
-    for spec in _randomization_cases(env_id):
+    for spec in randomization_cases(env_id):
         tally.expect("randomization specs", f"{name} {spec}",
                      lambda: gym.make(env_id, shell_model=shell_model, randomization=spec), "randomization")
     env = gym.make(env_id, shell_model=shell_model, randomization="full", disable_env_checker=True)
@@ -349,13 +349,13 @@ def fuzz_env_inputs(env_id: str, shell_model: str, tally: Tally) -> None:
         if not tally.expect(group, case, fn, field, exc):
             for e in (env, ref):  # resynchronize after a bug so the next case is judged alone
                 e.reset(seed=0)
-        elif not _lockstep(env, ref):
+        elif not lockstep(env, ref):
             tally.counts[group]["clear_error"] -= 1
             tally.add(group, case, "half_written", "the episode changed")
             for e in (env, ref):
                 e.reset(seed=0)
 
-    for options, field in _option_cases(env_id):
+    for options, field in option_cases(env_id):
         guarded("reset options", f"{name} {options!r}", lambda: env.reset(options=options), field)
     for seed in (-1, 1.5, "7", True, [1, 2]):
         guarded("reset options", f"{name} seed={seed!r}", lambda: env.reset(seed=seed), "seed")

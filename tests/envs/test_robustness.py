@@ -22,9 +22,9 @@ def test_soak_memory_is_bounded():
     assert result["growth_from_build_mb"] <= 50.0, result
 
 
-def test_hostile_input_tally_can_tell_the_outcomes_apart(make):
+def test_hostile_input_tally_can_tell_the_outcomes_apart():
     """The classifier itself: each outcome is reachable, so zero counts mean something."""
-    from sphere_env.evaluation.scripts.robustness import Tally, _lockstep
+    from sphere_env.evaluation.scripts.robustness import Tally
 
     tally = Tally()
 
@@ -39,21 +39,3 @@ def test_hostile_input_tally_can_tell_the_outcomes_apart(make):
     assert not tally.expect("g", "type", bad_type, "pressure_kpa")
     assert not tally.expect("g", "accepted", lambda: None, "pressure_kpa")
     assert tally.counts["g"] == {"clear_error": 1, "other_exception": 2, "silent_acceptance": 1}
-    # The half-written detector: an env whose episode changed no longer steps with its twin.
-    env, ref = make("sphere_env/Roll-v0"), make("sphere_env/Roll-v0")
-    for e in (env, ref):
-        e.reset(seed=0)
-    assert _lockstep(env, ref)
-    env.reset(options={"pressure_kpa": 12.0})
-    ref.reset(options={"pressure_kpa": 4.0})
-    assert not _lockstep(env, ref)
-
-
-@pytest.mark.slow
-def test_hostile_env_inputs_all_end_in_clear_errors():
-    from sphere_env.evaluation.scripts.robustness import Tally, fuzz_env_inputs
-
-    tally = Tally()
-    fuzz_env_inputs("sphere_env/Roll-v0", "point", tally)
-    total = tally.rows()[-1]
-    assert total["tried"] > 100 and total["clear_error"] == total["tried"], tally.examples
