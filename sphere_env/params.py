@@ -30,7 +30,6 @@ DEFAULT_TIME_STEP_S = 0.005
 #: by changing only the ground's coefficient; that is the ground-friction bound below.
 SHELL_FRICTION = 1.0
 
-CHANGES = ("step", "reset", "build")
 #: The shell contact models (``docs/design.md`` §5).
 SHELL_MODELS = ("point", "injected", "hydroelastic")
 

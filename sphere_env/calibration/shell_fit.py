@@ -42,8 +42,6 @@ from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration, membrane_contact_volume_m3
 from sphere_env.physics.twin import Twin, TwinConfig
 
-AUTHORS_MODULUS_PA = 1.55e5  # the authors' tuned single-pressure modulus (docs/design.md §5)
-
 
 def pressure_for_modulus(modulus_pa: float, robot: RobotParameters | None = None,
                          bracket_kpa: tuple[float, float] = (0.2, 200.0)) -> float:
@@ -119,12 +117,6 @@ class ShellFit:
                 "rmse_rad": self.rmse, "ci95": {k: list(v) for k, v in self.ci95.items()}, "nfev": self.nfev}
 
 
-def steer_plane_twin(model: str, steer_friction: Any, calibration: str | None = None,
-                     pressure_kpa: float | None = None, time_step_s: float = 0.005) -> Twin:
-    """A ``steer_plane`` twin (drive locked, pendulum free) for one shell model."""
-    return fixture_twin("steer_plane", model, steer_friction, calibration, pressure_kpa, time_step_s)
-
-
 def fixture_twin(fixture: str, model: str, steer_friction: Any = "majd_steer", calibration: Any = None,
                  pressure_kpa: float | None = None, time_step_s: float = 0.005,
                  drive_friction: Any = "majd_drive") -> Twin:
@@ -158,11 +150,6 @@ class TwinPool:
             if self._cal is not None:
                 twin.set_calibration(*self._cal)
         return twin
-
-
-def install_calibration(twin: Twin, raw: Mapping[str, Any], pressure_kpa: float) -> None:
-    """Swap ``twin``'s calibration for ``raw`` and apply it at ``pressure_kpa`` (no rebuild)."""
-    twin.set_calibration(ShellCalibration.from_dict(dict(raw), source="<fit>"), pressure_kpa)
 
 
 def trial_rmse(twin: Twin | TwinPool, logs: Sequence[RobotLog]) -> dict[str, dict[str, float]]:

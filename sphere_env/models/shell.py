@@ -444,11 +444,6 @@ class ShellCalibration:
         return replace(self, pressure_range_kpa=(max(lo - margin_kpa, MIN_EXTRAPOLATED_KPA), hi + margin_kpa),
                        calibrated_range_kpa=(lo, hi))
 
-    def is_extrapolated(self, pressure_kpa: float) -> bool:
-        """Whether ``pressure_kpa`` lies outside the range the laws were calibrated on."""
-        lo, hi = self.calibrated_range_kpa or self.pressure_range_kpa
-        return not lo <= pressure_kpa <= hi
-
     # ---- curves ----------------------------------------------------------------------------------
     def check_pressure(self, pressure_kpa: float, field: str = "pressure_kpa") -> float:
         """Return ``pressure_kpa`` as float if finite and inside the calibrated range, else raise."""

@@ -26,8 +26,6 @@ import numpy as np
 from sphere_env.params import PARAMETERS
 from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter, schedule_pressure
 
-#: The event modes, in the order an episode meets them.
-EVENT_MODES = ("reset", "interval", "schedule")
 #: The pressure schedule pushes a new pressure when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to the environment's pressure grid: re-meshing the
 #: compliant shell costs ≈90 ms, restoring a cached mesh ≈2 ms.
