@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 import torch.nn as nn
 
-from sphere_env.training.config import parse_dict_call, resolve_config
+from sphere_env.training.config import resolve_config
+from sphere_env.training.hyperparam_checks import parse_dict_call
 
 ENV = "sphere_env/RampDescent-v2"
 
