@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections import OrderedDict, deque
+from collections import deque
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -24,6 +24,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 
 from sphere_env.checks import finite_number
+from sphere_env.envs.twins import INCLINE_RESOLUTION_DEG, TwinCache, quantize_incline, shared_inclines
 from sphere_env.models.friction import resolve_friction
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.params import DEFAULT_TIME_STEP_S, ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
@@ -34,20 +35,17 @@ from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_
 from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
 from sphere_env.tasks.observation import assemble_observation
 from sphere_env.tasks.randomization import PARAMETERS as RANDOMIZED
-from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter
+from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_failure
 
 #: Default motor torque limits at the joints [N m] (the registry's nominal values).
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
 DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
-#: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
-INCLINE_RESOLUTION_DEG = 1.0
 #: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's)
 #: and of the sensing and actuation parameters the environment applies itself.
 _NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS + ENV_PARAMETERS if name != "pressure_kpa"}
 __all__ = ["SphereEnv", "PRESSURE_RESOLUTION_KPA", "INCLINE_RESOLUTION_DEG"]
-_MAX_TWINS = 12
 
 
 class SphereEnv(gym.Env, EzPickle):
@@ -243,11 +241,8 @@ class SphereEnv(gym.Env, EzPickle):
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
         # ---- physics ----
-        self._twins: OrderedDict[float, Twin] = OrderedDict()
-        self._shared_twin: Twin | None = None
-        shared = self._shared_inclines()
-        if len(shared) > 1:
-            self._shared_twin = self._build_twin(float(self.incline_deg), shared)
+        shared = shared_inclines(self._randomization, shell_model, float(self.incline_deg), self.meshcat)
+        self._twin_cache = TwinCache(self._build_twin, shell_model, shared, float(self.incline_deg))
         self.twin = self._get_twin(self.incline_deg)
         # Friction and injected shell torques are explicit: refuse gains that diverge at this step
         # (at the largest friction scales the randomization can draw).
@@ -326,48 +321,9 @@ class SphereEnv(gym.Env, EzPickle):
         return None
 
     # ---- twins ---------------------------------------------------------------------------------
-    def _quantize_incline(self, incline_deg: float) -> float:
-        return round(float(incline_deg) / INCLINE_RESOLUTION_DEG) * INCLINE_RESOLUTION_DEG
-
-    def _shared_inclines(self) -> tuple[float, ...]:
-        """Inclines [deg] one hydroelastic twin serves: the env's and every 1° grid value the
-        randomization can draw. Each hydroelastic twin caches up to
-        :attr:`Twin.GEOMETRY_CACHE_SIZE` re-meshed shells (≈1.8 MB each), so one twin per incline
-        would multiply that memory; point and injected twins cache nothing and keep one twin per
-        incline. Without Meshcat only (its ground is drawn once)."""
-        term = next((t for t in self.randomization.terms if t.parameter == "incline_deg"), None)
-        if self.shell_model != "hydroelastic" or self.meshcat is not None or term is None:
-            return ()
-        d, rec = term.distribution, PARAMETERS["incline_deg"]
-        if d.kind == "fixed":
-            values = [d.value]
-        elif d.kind == "choice":
-            values = list(d.values)
-        elif d.kind == "uniform":
-            values = range(math.floor(d.low), math.ceil(d.high) + 1)
-        else:  # normal, clipped to the parameter's bounds
-            values = range(math.floor(rec.low), math.ceil(rec.high) + 1)
-        grid = {self._quantize_incline(clip_parameter("incline_deg", v, (0.0, 0.0))) for v in values}
-        return tuple(sorted(v for v in grid | {float(self.incline_deg)} if rec.contains(v)))
-
     def _get_twin(self, incline_deg: float, shell_model: str | None = None) -> Twin:
-        """The twin for a shell model (default: the env's) and an incline: the shared twin if it has
-        that incline (moved there), else the pair's own twin, built on first use (LRU, at most
-        ``_MAX_TWINS``)."""
-        shell = shell_model or self.shell_model
-        shared = self._shared_twin
-        if shared is not None and shell == self.shell_model and incline_deg in shared.inclines_deg:
-            return shared
-        key = (shell, incline_deg)
-        twin = self._twins.get(key)
-        if twin is not None:
-            self._twins.move_to_end(key)
-            return twin
-        twin = self._build_twin(incline_deg, shell_model=shell)
-        self._twins[key] = twin
-        if len(self._twins) > _MAX_TWINS:
-            self._twins.popitem(last=False)
-        return twin
+        """The twin for a shell model (default: the env's) and an incline (:class:`TwinCache`)."""
+        return self._twin_cache.get(incline_deg, shell_model)
 
     def _build_twin(self, incline_deg: float, inclines_deg: tuple[float, ...] = (),
                     shell_model: str | None = None) -> Twin:
@@ -385,7 +341,7 @@ class SphereEnv(gym.Env, EzPickle):
         return self.twin.ramp_end_x_m
 
     def _all_twins(self) -> list[Twin]:
-        return ([self._shared_twin] if self._shared_twin is not None else []) + list(self._twins.values())
+        return self._twin_cache.all()
 
     @property
     def cached_twin_count(self) -> int:
@@ -401,7 +357,7 @@ class SphereEnv(gym.Env, EzPickle):
     # ---- parameters ----------------------------------------------------------------------------
     def _snap_incline(self, incline_deg: float) -> float:
         """A drawn incline on the 1° terrain grid (the env's own incline is kept as given)."""
-        return incline_deg if incline_deg == self.incline_deg else self._quantize_incline(incline_deg)
+        return incline_deg if incline_deg == self.incline_deg else quantize_incline(incline_deg)
 
     def _quantize_pressure(self, p: float, params: Mapping[str, Any] | None = None) -> float:
         """Round to the hydroelastic pressure grid when the episode's shell model (in ``params``,
@@ -699,8 +655,7 @@ class SphereEnv(gym.Env, EzPickle):
         return self.twin.save_recording(path)
 
     def close(self) -> None:
-        self._twins.clear()
-        self._shared_twin = None
+        self._twin_cache.clear()
         self.meshcat = None
 
     # ---- copies ------------------------------------------------------------------------------------

@@ -1,0 +1,87 @@
+"""The twins an environment steps: one per shell model and incline, built on first use.
+
+Point and injected twins cache nothing heavy and keep one twin per (shell model, quantized
+incline), least recently used first out. A hydroelastic environment whose randomization draws the
+incline keeps one shared twin for every incline it can draw, moving its ground between episodes:
+each hydroelastic twin caches up to :attr:`Twin.GEOMETRY_CACHE_SIZE` re-meshed shells (≈1.8 MB
+each), so one twin per incline would multiply that memory.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from typing import Any, Callable
+
+from sphere_env.params import PARAMETERS
+from sphere_env.physics import Twin
+from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter
+
+#: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
+INCLINE_RESOLUTION_DEG = 1.0
+MAX_TWINS = 12
+
+
+def quantize_incline(incline_deg: float) -> float:
+    return round(float(incline_deg) / INCLINE_RESOLUTION_DEG) * INCLINE_RESOLUTION_DEG
+
+
+def shared_inclines(spec: RandomizationSpec, shell_model: str, incline_deg: float, meshcat: Any) -> tuple[float, ...]:
+    """Inclines [deg] one hydroelastic twin serves: the env's and every 1° grid value ``spec`` can
+    draw; empty unless the env's shell is hydroelastic, ``spec`` draws the incline and there is no
+    Meshcat (its ground is drawn once)."""
+    term = next((t for t in spec.terms if t.parameter == "incline_deg"), None)
+    if shell_model != "hydroelastic" or meshcat is not None or term is None:
+        return ()
+    d, rec = term.distribution, PARAMETERS["incline_deg"]
+    if d.kind == "fixed":
+        values = [d.value]
+    elif d.kind == "choice":
+        values = list(d.values)
+    elif d.kind == "uniform":
+        values = range(math.floor(d.low), math.ceil(d.high) + 1)
+    else:  # normal, clipped to the parameter's bounds
+        values = range(math.floor(rec.low), math.ceil(rec.high) + 1)
+    grid = {quantize_incline(clip_parameter("incline_deg", v, (0.0, 0.0))) for v in values}
+    return tuple(sorted(v for v in grid | {float(incline_deg)} if rec.contains(v)))
+
+
+class TwinCache:
+    """The twins of one environment.
+
+    :param build: ``build(incline_deg, inclines_deg, shell_model) -> Twin`` (the env's config).
+    :param shell_model: the env's own shell model (the only one the shared twin serves).
+    :param shared: the inclines the shared hydroelastic twin serves (:func:`shared_inclines`).
+    :param incline_deg: the env's own incline, where the shared twin starts.
+    """
+
+    def __init__(self, build: Callable[[float, tuple[float, ...], str], Twin], shell_model: str,
+                 shared: tuple[float, ...] = (), incline_deg: float = 0.0):
+        self._build, self.shell_model = build, shell_model
+        self._twins: OrderedDict[tuple[str, float], Twin] = OrderedDict()
+        self._shared = build(float(incline_deg), shared, shell_model) if len(shared) > 1 else None
+
+    def get(self, incline_deg: float, shell_model: str | None = None) -> Twin:
+        """The twin for a shell model (default: the env's) and an incline: the shared twin if it has
+        that incline (moved there), else the pair's own twin, built on first use (LRU, at most
+        :data:`MAX_TWINS`)."""
+        shell = shell_model or self.shell_model
+        if self._shared is not None and shell == self.shell_model and incline_deg in self._shared.inclines_deg:
+            return self._shared
+        key = (shell, incline_deg)
+        twin = self._twins.get(key)
+        if twin is not None:
+            self._twins.move_to_end(key)
+            return twin
+        twin = self._build(incline_deg, (), shell)
+        self._twins[key] = twin
+        if len(self._twins) > MAX_TWINS:
+            self._twins.popitem(last=False)
+        return twin
+
+    def all(self) -> list[Twin]:
+        return ([self._shared] if self._shared is not None else []) + list(self._twins.values())
+
+    def clear(self) -> None:
+        self._twins.clear()
+        self._shared = None
