@@ -325,8 +325,9 @@ def cmd_report(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="python -m sphere_env.calibration", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    # usage lines read "sphere-env calibrate ..." from the sphere-env command (which sets argv[0])
+    prog = sys.argv[0] if sys.argv[0].startswith("sphere-env") else "python -m sphere_env.calibration"
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True)
 
     def common(p, group=None):
@@ -466,16 +467,17 @@ def check_output_paths(args) -> None:
 def main(argv: list[str] | None = None) -> int:
     from sphere_env.parallel import sigterm_as_interrupt
 
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     try:
         check_output_paths(args)
         with sigterm_as_interrupt():  # SIGTERM unwinds as Ctrl-C: workers stopped, staging removed
             return args.func(args)
     except ValueError as err:  # LogError and config errors: named, nothing written
-        print(f"error: {err}", file=sys.stderr)
+        print(f"{parser.prog} {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("interrupted; workers stopped, no partial output", file=sys.stderr)
+        print(f"{parser.prog} {args.command}: interrupted; workers stopped, no partial output", file=sys.stderr)
         return 130
 
 
