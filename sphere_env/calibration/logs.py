@@ -53,22 +53,37 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from sphere_env.tasks.sensors import CHANNEL_ALIASES
+
 STATE_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate",
                   "pendulum_pitch", "pendulum_pitch_rate", "heading", "heading_rate")
 ANGLE_CHANNELS = ("theta", "phi", "drive_angle", "pendulum_pitch", "heading")
 
-# RoboBall log names -> project names, first match wins (module docstring).
+def _with_aliases(*columns: str) -> tuple[str, ...]:
+    """The RoboBall columns of a channel followed by their aliases (:data:`CHANNEL_ALIASES`)."""
+    out = list(columns)
+    for col in columns:
+        base, dot, field = col.partition(".")
+        for name, alias in CHANNEL_ALIASES.items():
+            for a, b in ((name, alias), (alias, name)):
+                if base == a and f"{b}{dot}{field}" not in out:
+                    out.append(f"{b}{dot}{field}")
+    return tuple(out)
+
+
+# RoboBall log names -> project names, first match wins (module docstring); each column's alias
+# comes from the one alias table, CHANNEL_ALIASES (pipe_roll/ball_roll, shell_yaw/ball_yaw).
 ROBOBALL_CHANNELS: dict[str, tuple[str, ...]] = {
     "theta": ("roll_joint.position",),
     "theta_dot": ("roll_joint.velocity",),
-    "phi": ("ball_roll.position", "pipe_roll.position", "pipe_roll", "ball_roll"),
-    "phi_dot": ("ball_roll.velocity", "pipe_roll.velocity"),
+    "phi": _with_aliases("ball_roll.position") + _with_aliases("pipe_roll"),
+    "phi_dot": _with_aliases("ball_roll.velocity"),
     "drive_angle": ("drive_shaft.position",),
     "drive_rate": ("drive_shaft.velocity",),
     "pendulum_pitch": ("pitch_joint.position",),
     "pendulum_pitch_rate": ("pitch_joint.velocity",),
-    "heading": ("shell_yaw.position", "ball_yaw.position", "shell_yaw", "ball_yaw"),
-    "heading_rate": ("shell_yaw.velocity", "ball_yaw.velocity"),
+    "heading": _with_aliases("shell_yaw.position") + _with_aliases("shell_yaw"),
+    "heading_rate": _with_aliases("shell_yaw.velocity"),
     "omega_d": ("omega_d",),
 }
 #: RoboBall timestamps are integer nanoseconds from an arbitrary origin: the free_robot log spans

@@ -80,8 +80,9 @@ FROM_SENSORS: dict[str, dict[str, Any]] = {
     "pendulum_pitch_rate": {"channels": ["pitch_joint.velocity"], "unit": "rad/s", "frame": "as α",
                             "computation": "α̇ = pitch_joint.velocity"},
 }
-#: Log column aliases: the name a log may use for the channel :data:`FROM_SENSORS` names.
-ALIASES = {"pipe_roll": "ball_roll", "shell_yaw": "ball_yaw"}
+#: The one table of channel aliases: a log may name a RoboBall channel either way (the log loader
+#: of :mod:`sphere_env.calibration.logs` reads it too).
+CHANNEL_ALIASES = {"pipe_roll": "ball_roll", "shell_yaw": "ball_yaw"}
 SPEED_ERROR_INTEGRAL_LIMIT_RAD = 3.0
 
 
@@ -90,7 +91,7 @@ def channel(sample: Mapping[str, float], name: str) -> float:
     if name in sample:
         return float(sample[name])
     base, _, field = name.partition(".")
-    alias = ALIASES.get(base)
+    alias = CHANNEL_ALIASES.get(base)
     if alias is not None and f"{alias}.{field}" in sample:
         return float(sample[f"{alias}.{field}"])
     raise KeyError(f"sensor channel {name!r} (or its alias) is missing; got {sorted(sample)}")
