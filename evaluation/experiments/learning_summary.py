@@ -117,6 +117,50 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
     return pd_.DataFrame(rows).to_markdown(index=False) + "\n\nWhere each range comes from:\n\n" + why
 
 
+def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
+    """Per training condition (the runs' ``condition``, over every recipe that has it): the nominal
+    grid's scores (runs × shells) and the fault grid's (runs × faults), each run by its
+    validation-chosen checkpoint when it has one. Runs without fault figures count for the nominal
+    grid only."""
+    from sphere_env.evaluation.faults import FAULTS
+
+    out: dict[str, dict[str, list]] = {}
+    for runs in runs_by_recipe.values():
+        for r in runs:
+            sel = r.get("selected") or r
+            d = out.setdefault(r.get("condition", "pressure"), {"nominal": [], "faults": []})
+            d["nominal"].append([sel["per_shell"][m] for m in SHELLS])
+            if all(f in (r.get("faults") or {}) for f in FAULTS):
+                d["faults"].append([r["faults"][f]["success_rate"] for f in FAULTS])
+    return {c: {k: np.array(v, dtype=float) for k, v in d.items()} for c, d in out.items()}
+
+
+def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
+    """The randomization study: per condition and grid, the number of runs and rliable's IQM and
+    mean with 95 % stratified-bootstrap intervals; per pair of conditions, rliable's probability
+    of improvement of the first over the second with its interval (0.5: no difference)."""
+    from rliable import library as rly
+    from rliable import metrics
+
+    rows = []
+    for grid in ("nominal", "faults"):
+        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= 2}
+        est = interval_estimates(have) if have else {}
+        for c, x in have.items():
+            rows.append({"grid": grid, "condition": c, "runs": len(x), **est[c]})
+        names = sorted(have)
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                np.random.seed(0)
+                point, ci = rly.get_interval_estimates(
+                    {f"{a},{b}": (have[a], have[b])}, lambda x, y: np.array([metrics.probability_of_improvement(x, y)]),
+                    reps=BOOTSTRAP_REPS)
+                rows.append({"grid": grid, "condition": f"P({a} > {b})", "runs": f"{len(have[a])} vs {len(have[b])}",
+                             "poi": float(point[f"{a},{b}"][0]),
+                             "poi_ci": [float(ci[f"{a},{b}"][0, 0]), float(ci[f"{a},{b}"][1, 0])]})
+    return rows
+
+
 def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
     """Grid success against env steps: per recipe the IQM over seeds with its 95 % stratified-
     bootstrap band (rliable), the PD's success and the PD level."""
@@ -157,7 +201,22 @@ def _pct(x: float | None) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f}%"
 
 
-def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults: str = "") -> str:
+def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
+    """The randomization study's table (:func:`study_rows`)."""
+    if not study:
+        return ""
+    lines = ["| grid | condition | runs | IQM [95% CI] / P(improvement) [95% CI] |", "| --- | --- | --- | --- |"]
+    for r in study:
+        if "poi" in r:
+            v = f"{r['poi']:.2f} [{r['poi_ci'][0]:.2f}, {r['poi_ci'][1]:.2f}]"
+        else:
+            v = f"{_pct(r['iqm'])} [{_pct(r['iqm_ci'][0])}, {_pct(r['iqm_ci'][1])}]"
+        lines.append(f"| {r['grid']} | {r['condition']} | {r['runs']} | {v} |")
+    return "\n".join(lines)
+
+
+def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults: str = "",
+             study: Sequence[Mapping[str, Any]] = ()) -> str:
     import pandas as pd_
 
     pd = base["pd"]
@@ -198,6 +257,12 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults:
         + ("\n## Fault grid\n\nThe nominal grid under one fault at a time (`evaluation/faults.py`: what each "
            "fault is and where its range comes from), deterministic actions; runs by their validation-chosen "
            "checkpoint.\n\n" + faults + "\n" if faults else "")
+        + ("\n## Randomization study\n\nTraining conditions (each run's `condition`: nominal, pressure, "
+           "pressure_faults), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
+           "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
+           "each pair the probability that a run of the first condition beats one of the second (0.5: no "
+           "difference; an interval that excludes 0.5 tells them apart). Conditions with fewer than 2 runs are "
+           "left out.\n\n" + study_markdown(study) + "\n" if study else "")
         + ("\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
            "early for the reason in their note, or not run yet.\n\n" + stopped + "\n" if stopped else "")
     )
@@ -207,8 +272,10 @@ def write_summary(results: Path) -> Path:
     base = json.loads((results / "baselines.json").read_text())
     runs_by_recipe = load_runs(results)
     rows = recipe_rows({**runs_by_recipe, **selected_runs(runs_by_recipe)}, base["pd"]) if runs_by_recipe else []
+    study = study_rows(condition_scores(runs_by_recipe)) if runs_by_recipe else []
     summary = {
         "commit": base.get("commit"), "cores": 2, "grid": base["grid"], "pd": base["pd"], "zero": base["zero"],
+        "randomization_study": study,
         "pretrained": base.get("pretrained"),
         "recipes": rows,
         "runs": [{k: r[k] for k in ("method", "condition", "from_scratch", "seed", "success_rate",
@@ -221,5 +288,5 @@ def write_summary(results: Path) -> Path:
     write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
     if runs_by_recipe:
         plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png")
-    write_text_atomic(results / "README.md", markdown(rows, base, fault_table(base, runs_by_recipe)))
+    write_text_atomic(results / "README.md", markdown(rows, base, fault_table(base, runs_by_recipe), study))
     return results / "summary.json"

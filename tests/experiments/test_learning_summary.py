@@ -102,3 +102,21 @@ def test_selected_checkpoints_and_faults_reach_the_summary(tmp_path):
     assert "## Fault grid" in readme and "recipe_a (2 seeds): mean, worst" in readme
     assert "38%, 25%" in readme  # the runs' mean and worst under each fault
     assert all(f"**{f}**" in readme for f in FAULTS)
+
+
+def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
+    """Two conditions whose runs differ by 30 points on every shell: the probability of improvement's
+    interval excludes 0.5; two conditions drawn alike: it includes 0.5."""
+    from sphere_env.evaluation.experiments.learning_summary import study_rows
+
+    rng = np.random.default_rng(0)
+    low = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
+    high = np.clip(0.8 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
+    same = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
+    rows = study_rows({"a": {"nominal": high, "faults": np.zeros((0, 9))},
+                       "b": {"nominal": low, "faults": np.zeros((0, 9))},
+                       "c": {"nominal": same, "faults": np.zeros((0, 9))}})
+    poi = {r["condition"]: r for r in rows if "poi" in r}
+    assert poi["P(a > b)"]["poi_ci"][0] > 0.5
+    assert poi["P(b > c)"]["poi_ci"][0] < 0.5 < poi["P(b > c)"]["poi_ci"][1]
+    assert {r["condition"] for r in rows if "iqm" in r} == {"a", "b", "c"}
