@@ -117,15 +117,23 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
     return pd_.DataFrame(rows).to_markdown(index=False) + "\n\nWhere each range comes from:\n\n" + why
 
 
+#: The randomization study's recipes, one per training condition (``recipes.yml``): the shipped
+#: recipe is the pressure condition. Other recipes (continuations, variants) are not independent
+#: runs of a condition and stay out of the study.
+STUDY_RECIPES = ("study_nominal", "shipped", "study_faults")
+
+
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
-    """Per training condition (the runs' ``condition``, over every recipe that has it): the nominal
+    """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the nominal
     grid's scores (runs × shells) and the fault grid's (runs × faults), each run by its
     validation-chosen checkpoint when it has one. Runs without fault figures count for the nominal
     grid only."""
     from sphere_env.evaluation.faults import FAULTS
 
     out: dict[str, dict[str, list]] = {}
-    for runs in runs_by_recipe.values():
+    for name, runs in runs_by_recipe.items():
+        if name not in STUDY_RECIPES:
+            continue
         for r in runs:
             sel = r.get("selected") or r
             d = out.setdefault(r.get("condition", "pressure"), {"nominal": [], "faults": []})
