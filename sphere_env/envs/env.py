@@ -252,6 +252,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
         self._events = self._event_manager(self._randomization)
+        self._next_events: EventManager | None = None  # set_randomization's, from the next reset
         self._fired: list[str] = []
         self._pending: deque[tuple[float, float]] = deque()
         self._obs = np.zeros(n_obs, dtype=np.float32)
@@ -451,7 +452,7 @@ class SphereEnv(gym.Env, EzPickle):
             rng, seed = seeding.np_random(seed)
         else:
             rng = copy.deepcopy(self.np_random)
-        events = getattr(self, "_next_events", None) or self._events
+        events = self._next_events or self._events
         params = events.draw(rng, fixed)
         if init is None:
             init = InitialState(**self.task.initial_state())

@@ -115,6 +115,7 @@ class SensorObserver:
             raise ValueError(f"names: {unknown} have no sensor computation; allowed: {sorted(FROM_SENSORS)}")
         self.names, self.period_s, self.fall_line_yaw_rad = tuple(names), float(control_period_s), fall_line_yaw_rad
         self._encoder0: float | None = None
+        self._integral = self._rate = self._omega_prev = 0.0  # the speed loop's state
         b = math.radians(incline_deg)
         self._normal = np.array([math.sin(b), 0.0, math.cos(b)])
 
