@@ -45,7 +45,6 @@ list of these (applied in order, the first innermost), e.g. ``sphere_env.wrapper
 from __future__ import annotations
 
 import copy
-import inspect
 import math
 import warnings
 from dataclasses import asdict, dataclass, field
@@ -55,26 +54,19 @@ from typing import Any, Callable, Mapping, Sequence
 import yaml
 
 from sphere_env.resources import hyperparams_path
-from sphere_env.training.hyperparam_checks import (
-    _eval_policy_kwargs,
-    _lin_value,
-    _number_or_str,
-    _policy_kwargs,
-    check_hyperparams,
-    parse_dict_call,
+from sphere_env.schemas.training import (
+    MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
+    MAX_N_ENVS,  # noqa: F401
+    MAX_N_TIMESTEPS,  # noqa: F401
+    SPECIAL_KEYS,
+    activation_class_name,
+    check_section,
+    lin_value,
 )
 
 ALGOS = ("ppo", "sac")
-#: Keys of a hyperparameter section that are not algorithm constructor arguments.
-SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
-#: rl-zoo3 section keys (popped by its ExpManager) that this trainer does not implement.
-ZOO_ONLY_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type",
-                 "noise_std")
 #: The former top-level key and where it lives now.
 MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
-#: Constructor arguments the trainer sets itself (refused in the YAML).
-RESERVED = ("self", "env", "tensorboard_log", "verbose", "seed", "device", "_init_setup_model")
-VECNORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
 MONITOR_KEYWORDS = ("pressure_kpa", "shell_model", "is_success")
 
 
@@ -157,15 +149,16 @@ class TrainConfig:
         return kwargs
 
     def algo_kwargs(self) -> dict[str, Any]:
-        """Hyperparameters turned into constructor arguments (schedules, policy_kwargs, tuples)."""
+        """Hyperparameters turned into constructor arguments: ``lin_<x>`` schedules into
+        functions, activation names into torch classes, ``train_freq`` pairs into tuples."""
         out: dict[str, Any] = {}
         for key, val in self.hyperparams.items():
             if key in ("learning_rate", "clip_range", "clip_range_vf") and isinstance(val, str):
-                out[key] = linear_schedule(_lin_value(key, val))
-            elif key == "policy_kwargs" and isinstance(val, str):
-                out[key] = _eval_policy_kwargs(val)
-            elif key == "policy_kwargs" and isinstance(val, Mapping):
-                out[key] = _policy_kwargs(dict(val))
+                out[key] = linear_schedule(lin_value(val))
+            elif key == "policy_kwargs" and isinstance(val, Mapping) and isinstance(val.get("activation_fn"), str):
+                import torch.nn as nn
+
+                out[key] = {**val, "activation_fn": getattr(nn, activation_class_name(val["activation_fn"]))}
             elif key == "train_freq" and isinstance(val, list):
                 out[key] = tuple(val)
             else:
@@ -200,12 +193,7 @@ def check_env_id(env_id: str) -> None:
         raise ValueError(f"env: unknown env id {env_id!r}; registered sphere_env ids: {ours}")
 
 
-#: Upper bounds checked before anything is built: more envs than this is a typo, not a study (each
-#: env holds a Drake diagram, ~20 MB; a process per env, ~150 MB more), and budgets beyond these
-#: would run for years on this kind of machine.
-MAX_N_ENVS = 256
-MAX_ENV_PROCESSES = 64  # one process per env (n_workers: null with SubprocVecEnv)
-MAX_N_TIMESTEPS = 10**10
+#: Evaluation episodes per evaluation at the most.
 MAX_EVAL_EPISODES = 10_000
 
 
@@ -242,29 +230,20 @@ def _device(value: Any) -> str:
 
 
 def _normalize(value: Any) -> dict[str, Any] | None:
+    """The validated ``normalize`` value as VecNormalize arguments (None: no VecNormalize)."""
     if value is None or value is False:
         return None
     if value is True:
         return {}
-    if isinstance(value, str):  # rl-zoo3's "dict(norm_obs=True, norm_reward=False)", read as data
-        value = parse_dict_call(value, "normalize")
-    if not isinstance(value, Mapping):
-        raise ValueError(f"normalize: value {value!r} must be true, false or a mapping of VecNormalize arguments")
-    for k in value:
-        if k not in VECNORMALIZE_KEYS:
-            raise ValueError(f"normalize.{k}: unknown VecNormalize argument; allowed: {list(VECNORMALIZE_KEYS)}")
-    return dict(value)
+    return value.model_dump(exclude_unset=True)
 
 
-def _layout_count(key: str, value, n_envs: int) -> int | str | None:
-    """``n_threads`` / ``n_workers``: None, ``"auto"`` or an integer within 1..n_envs."""
-    if value is None or value == "auto":
-        return value
-    if isinstance(value, str):
-        raise ValueError(f"{key}: value {value!r} must be an integer >= 1 or 'auto'")
-    value = _int(key, value)
-    if value > n_envs:
-        raise ValueError(f"{key}: value {value} must be <= n_envs={n_envs} (or 'auto')")
+def _plain(value: Any) -> Any:
+    """A validated value as YAML-ready data (tuples as lists)."""
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
     return value
 
 
@@ -304,7 +283,7 @@ def resolve_config(
         ``env_kwargs.<kwarg>``, ``env_kwargs.randomization.<parameter>``, ``eval_env_kwargs...``,
         ``eval_pressures_kpa``, ``n_envs``, ...).
     """
-    cls = algo_class(algo)
+    algo_class(algo)  # refuses an unknown algorithm; registers the project policies
     check_env_id(env_id)
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
@@ -318,40 +297,15 @@ def resolve_config(
     for key, val in overrides.items():
         section[key] = copy.deepcopy(val)
 
-    allowed = set(inspect.signature(cls.__init__).parameters) - set(RESERVED)
-    hyper = {}
-    for key, val in section.items():
-        if key in SPECIAL_KEYS:
-            continue
-        if key in ZOO_ONLY_KEYS:
-            raise ValueError(f"hyperparams.{key}: an rl-zoo3 key this trainer does not implement; "
-                             f"train with python -m rl_zoo3.train for it, or remove it")
-        if key not in allowed:
-            raise ValueError(
-                f"hyperparams.{key}: unknown hyperparameter for {cls.__name__}; "
-                f"allowed: {sorted(allowed - {'policy'}) + list(SPECIAL_KEYS)}"
-            )
-        hyper[key] = _number_or_str(val)
-    kwargs = _mapping("env_kwargs", section.get("env_kwargs") or {})
+    spec = check_section(algo, section)
+    given = spec.model_dump(exclude_unset=True)
+    hyper = {k: _plain(v) for k, v in given.items() if k not in SPECIAL_KEYS}
+    kwargs = dict(spec.env_kwargs)
     kwargs.update(copy.deepcopy(_mapping("env_kwargs", env_kwargs or {})))
     eval_kwargs = {"randomization": "off", **copy.deepcopy(_mapping("eval_env_kwargs", eval_env_kwargs or {}))}
-    policy = section.get("policy", "MlpPolicy")
-    if not isinstance(policy, str):
-        raise ValueError(f"policy: value {policy!r} must be a policy name such as 'MlpPolicy'")
-    n_envs = _int("n_envs", section.get("n_envs", 1), high=MAX_N_ENVS)
-    n_threads = _layout_count("n_threads", section.get("n_threads"), n_envs)
-    # Default layout: one block of envs per usable core (fastest measured); an explicit null: one
-    # process per env.
-    n_workers = _layout_count("n_workers", section.get("n_workers", "auto" if n_threads is None else None), n_envs)
-    if n_threads is not None and n_workers is not None:
-        raise ValueError(f"n_threads: value {n_threads!r} cannot be combined with n_workers={n_workers!r}; "
-                         "set one of them to null (threads in this process, or worker processes)")
-    if n_threads is None and n_workers is None and n_envs > MAX_ENV_PROCESSES:
-        raise ValueError(f"n_envs: value {n_envs} with n_workers: null starts one process per env; allowed: at most "
-                         f"{MAX_ENV_PROCESSES} (or set n_workers to step blocks of envs per process)")
-    n_timesteps = _int("n_timesteps", section.get("n_timesteps", 100_000), high=MAX_N_TIMESTEPS)
-    env_wrapper = parse_env_wrappers(section.get("env_wrapper"))
-    hyper = check_hyperparams(algo, hyper)
+    policy, n_envs, n_threads, n_workers, n_timesteps = (spec.policy, spec.n_envs, spec.n_threads, spec.n_workers,
+                                                         spec.n_timesteps)
+    env_wrapper = parse_env_wrappers(spec.env_wrapper)
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
     # default evaluation and checkpoint periods are never shorter, so a tiny budget (--n-timesteps 10)
     # gives a handful of checkpoints, not one per env step of the first rollout.
@@ -359,7 +313,7 @@ def resolve_config(
     cfg = TrainConfig(
         env_id=env_id, algo=algo, seed=_int("seed", seed, 0), n_timesteps=n_timesteps, n_envs=n_envs,
         n_workers=n_workers, n_threads=n_threads,
-        policy=policy, normalize=_normalize(section.get("normalize", False)), env_kwargs=kwargs,
+        policy=policy, normalize=_normalize(spec.normalize), env_kwargs=kwargs,
         hyperparams=hyper,
         eval_freq=_period("eval_freq", eval_freq, max(n_timesteps // 10, chunk)),
         eval_episodes=_int("eval_episodes", eval_episodes, high=MAX_EVAL_EPISODES),

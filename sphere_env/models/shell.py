@@ -56,11 +56,18 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-import yaml
 
 from sphere_env.models.mathbackend import NUMPY
 from sphere_env.params import SHELL_MODELS  # the registry's names, re-exported here
 from sphere_env.resources import asset_path
+from sphere_env.schemas.calibration import (
+    STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
+    CalibrationFile,
+    check_calibration,
+    interpolate_k_d,
+    read_calibration_file,
+    table_pairs,
+)
 
 DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
 
@@ -119,11 +126,6 @@ def injected_gains(omega_n: float, zeta: float, M_eq: float, K_eq: float) -> tup
 #   saturating  τ_s = −K_inject Δ − K_a φ_a tanh(Δ / φ_a)           stiffness K_inject + K_a sech²(Δ/φ_a):
 #               K_a + K_inject at small swings, K_inject at large ones (bounded: no run-away)
 #   quadratic   τ_s = −K_inject Δ − K_2 Δ |Δ|                       stiffness K_inject + 2 K_2 |Δ|
-STEER_LAW_FORMS: dict[str, tuple[str, ...]] = {
-    "linear": (),
-    "saturating": ("amplitude_stiffness_nm_per_rad", "amplitude_scale_rad"),
-    "quadratic": ("quadratic_stiffness_nm_per_rad2",),
-}
 PHI_REACH_RAD = 1.2  # largest |φ| the robot reaches on flat ground (pendulum at its stop)
 
 # The law's numbers in the order the physics layer feeds them (one vector, updated in the context
@@ -201,59 +203,6 @@ def gravity_stiffness_free_pendulum(robot) -> float:
     return robot.m_pc * robot.r_pc * GRAVITY_M_S2
 
 
-#: Gauge pressures [kPa] a calibration may cover: RoboBall runs 3-14 kPa and a fabric/rubber shell
-#: does not hold 1 bar (100 kPa) over ambient; a range written in Pa (thousands) or MPa (thousandths)
-#: falls outside.
-PLAUSIBLE_PRESSURE_KPA = (0.5, 100.0)
-#: Contact (sphere–plane intersection) volumes must be below a hemisphere of the 0.305 m shell [m³].
-MAX_CONTACT_VOLUME_M3 = 0.06
-#: Hydroelastic mesh resolution hint [m]: from 2 mm (a mesh of ~10⁵ facets) to about the shell radius.
-RESOLUTION_HINT_RANGE_M = (0.002, 0.3)
-#: Plant time step at which k_d was matched [s].
-FITTED_TIME_STEP_RANGE_S = (1e-5, 0.1)
-#: Keys a calibration file may hold, per section (``None``: the top level). Anything else (a typo such
-#: as ``nominal_pressure_kpaa``) is refused rather than silently ignored.
-CALIBRATION_KEYS: dict[str | None, tuple[str, ...]] = {
-    None: ("name", "pressure_range_kpa", "nominal_pressure_kpa", "omega_n", "zeta", "steer_law", "contact_volume",
-           "hydroelastic", "provenance", "fit_ci", "trial_fits", "steer_fit", "notes"),
-    "omega_n": ("model", "intercept_rad_s", "slope_rad_s_per_kpa", "ci95", "notes"),
-    "zeta": ("model", "scale", "rate_per_kpa", "ci95", "notes"),
-    "contact_volume": ("model", "pressure_kpa", "volume_m3", "notes"),
-    "hydroelastic": ("k_d", "resolution_hint_m", "low_pressure_mesh", "fitted_time_step_s", "k_d_by_time_step",
-                     "k_d_by_pressure", "couple_stiffness_factor", "couple_damping_factor", "ci95", "notes"),
-}
-#: Keys of each ``hydroelastic.k_d_by_time_step`` entry.
-K_D_STEP_KEYS = ("time_step_s", "k_d", "k_d_by_pressure")
-#: Keys of each ``k_d_by_pressure`` point.
-K_D_PRESSURE_KEYS = ("pressure_kpa", "k_d")
-#: Relative tolerance between a step's single ``k_d`` and its ``k_d_by_pressure`` at the nominal
-#: pressure (files hold 5 significant digits).
-K_D_NOMINAL_REL_TOL = 1e-3
-#: Keys of ``hydroelastic.low_pressure_mesh``.
-LOW_PRESSURE_MESH_KEYS = ("below_kpa", "resolution_hint_m")
-
-
-def _check_keys(data: Mapping[str, Any], path: str) -> None:
-    for section, allowed in CALIBRATION_KEYS.items():
-        node = data if section is None else data.get(section)
-        if not isinstance(node, Mapping):
-            continue  # a missing or non-mapping section is reported by its own check
-        unknown = sorted(str(k) for k in node if k not in allowed)
-        if unknown:
-            where = unknown[0] if section is None else f"{section}.{unknown[0]}"
-            raise ValueError(f"calibration file {path!r}: field '{where}' is not a calibration key; allowed"
-                             f"{'' if section is None else ' in ' + repr(section)}: {sorted(allowed)}")
-
-
-def _number(data: Mapping[str, Any], key: str, where: str, path: str) -> float:
-    if key not in data:
-        raise ValueError(f"calibration file {path!r}: field '{where}.{key}' is missing")
-    val = data[key]
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
-        raise ValueError(f"calibration file {path!r}: field '{where}.{key}' = {val!r} must be a finite number")
-    return float(val)
-
-
 @dataclass(frozen=True)
 class ShellCalibration:
     """Pressure curves of the shell (paper Fig. 10 form), the steer law and hydroelastic settings.
@@ -306,127 +255,48 @@ class ShellCalibration:
             raise ValueError(f"calibration: value {path!r} must be the path of a calibration YAML file, the name "
                              f"of a shipped one {shipped_calibrations()} (or None for the default)")
         path = calibration_file(path)
-        p = str(path)
-        try:
-            data = yaml.safe_load(Path(path).read_text())
-        except (OSError, yaml.YAMLError) as err:
-            raise ValueError(f"calibration file {p!r}: cannot read: {err}") from err
-        return cls.from_dict(data, source=p)
+        data, spec = read_calibration_file(path)
+        return cls.from_schema(spec, data, str(path))
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<dict>", check_stand_still: bool = True) -> "ShellCalibration":
-        """Validate a calibration mapping. Refuses (``ValueError`` naming file and field) curves
-        outside their ranges and, unless ``check_stand_still`` is False, a steer law that leaves
-        the robot unable to stand still on flat ground (:meth:`check_stand_still`)."""
-        p = source
-        if not isinstance(data, Mapping):
-            raise ValueError(f"calibration file {p!r}: top level must be a mapping")
-        for section in ("pressure_range_kpa", "omega_n", "zeta", "contact_volume", "hydroelastic"):
-            if section not in data:
-                raise ValueError(f"calibration file {p!r}: field '{section}' is missing")
-        _check_keys(data, p)
-        rng = data["pressure_range_kpa"]
-        plo, phi_ = PLAUSIBLE_PRESSURE_KPA
-        if (
-            not isinstance(rng, (list, tuple))
-            or len(rng) != 2
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in rng)
-            or not plo <= rng[0] < rng[1] <= phi_
-        ):
-            raise ValueError(
-                f"calibration file {p!r}: field 'pressure_range_kpa' = {rng!r} must be [low, high] "
-                f"with {plo} <= low < high <= {phi_} (kPa gauge of an inflatable shell; Pa or MPa fall outside)"
-            )
-        lo, hi = float(rng[0]), float(rng[1])
-        nominal = data.get("nominal_pressure_kpa", 0.5 * (lo + hi))
-        if isinstance(nominal, bool) or not isinstance(nominal, (int, float)) or not lo <= nominal <= hi:
-            raise ValueError(
-                f"calibration file {p!r}: field 'nominal_pressure_kpa' = {nominal!r} must lie in [{lo}, {hi}]"
-            )
-        om, ze, vol, hyd = data["omega_n"], data["zeta"], data["contact_volume"], data["hydroelastic"]
-        for name, sec in (("omega_n", om), ("zeta", ze), ("contact_volume", vol), ("hydroelastic", hyd)):
-            if not isinstance(sec, Mapping):
-                raise ValueError(f"calibration file {p!r}: field '{name}' must be a mapping")
-        if om.get("model") != "linear":
-            raise ValueError(f"calibration file {p!r}: field 'omega_n.model' = {om.get('model')!r}; allowed: ['linear']")
-        if ze.get("model") != "exponential":
-            raise ValueError(f"calibration file {p!r}: field 'zeta.model' = {ze.get('model')!r}; allowed: ['exponential']")
-        vmodel = vol.get("model")
-        table = None
-        if vmodel == "table":
-            pk, vm = vol.get("pressure_kpa"), vol.get("volume_m3")
-            if (
-                not isinstance(pk, list) or not isinstance(vm, list) or len(pk) != len(vm) or len(pk) < 2
-                or any(isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) for x in pk + vm)
-                or any(b <= a for a, b in zip(pk, pk[1:])) or any(not 0 < v < MAX_CONTACT_VOLUME_M3 for v in vm)
-            ):
-                raise ValueError(
-                    f"calibration file {p!r}: field 'contact_volume' table needs finite, increasing 'pressure_kpa' "
-                    f"and 'volume_m3' lists of equal length >= 2, volumes in (0, {MAX_CONTACT_VOLUME_M3}) m³ "
-                    f"(got pressure_kpa={pk!r}, volume_m3={vm!r})"
-                )
-            table = (tuple(map(float, pk)), tuple(map(float, vm)))
-        elif vmodel != "membrane":
-            raise ValueError(
-                f"calibration file {p!r}: field 'contact_volume.model' = {vmodel!r}; allowed: ['membrane', 'table']"
-            )
-        law = _steer_law(data.get("steer_law"), p)
-        factors = {}
-        for key in ("couple_stiffness_factor", "couple_damping_factor"):
-            factors[key] = _number(hyd, key, "hydroelastic", p) if key in hyd else 0.0
-            if factors[key] < 0:
-                raise ValueError(f"calibration file {p!r}: field 'hydroelastic.{key}' = {factors[key]!r} must be >= 0")
-        low_mesh = _low_pressure_mesh(hyd.get("low_pressure_mesh"), (lo, hi), p)
-        k_d_steps, k_d_tables = _k_d_by_time_step(hyd.get("k_d_by_time_step"), hyd.get("fitted_time_step_s"),
-                                                  (lo, hi), float(nominal), p)
-        k_d_table = _k_d_by_pressure(hyd.get("k_d_by_pressure"), "hydroelastic.k_d_by_pressure", (lo, hi), p)
-        if k_d_table:
-            _check_k_d_at_nominal(_number(hyd, "k_d", "hydroelastic", p), k_d_table, float(nominal),
-                                  "hydroelastic", p)
+        """A calibration mapping, validated by :func:`~sphere_env.schemas.calibration.check_calibration`
+        (``ValueError`` naming file and field). Unless ``check_stand_still`` is False, a steer law
+        that leaves the robot unable to stand still on flat ground is refused too
+        (:meth:`check_stand_still`)."""
+        return cls.from_schema(check_calibration(data, source), data, source, check_stand_still)
+
+    @classmethod
+    def from_schema(cls, spec: CalibrationFile, data: Mapping[str, Any], source: str,
+                    check_stand_still: bool = True) -> "ShellCalibration":
+        """The calibration of a validated file (``data``: the mapping as written, kept as ``raw``)."""
+        hyd, vol = spec.hydroelastic, spec.contact_volume
+        mesh = hyd.low_pressure_mesh
+        steps = hyd.k_d_by_time_step or ()
         cal = cls(
-            pressure_range_kpa=(lo, hi),
-            nominal_pressure_kpa=float(nominal),
-            omega_n_intercept=_number(om, "intercept_rad_s", "omega_n", p),
-            omega_n_slope=_number(om, "slope_rad_s_per_kpa", "omega_n", p),
-            zeta_scale=_number(ze, "scale", "zeta", p),
-            zeta_rate=_number(ze, "rate_per_kpa", "zeta", p),
-            volume_model=vmodel,
-            volume_table=table,
-            k_d=_number(hyd, "k_d", "hydroelastic", p),
-            resolution_hint_m=_number(hyd, "resolution_hint_m", "hydroelastic", p),
-            fitted_time_step_s=(
-                _number(hyd, "fitted_time_step_s", "hydroelastic", p) if "fitted_time_step_s" in hyd else None
-            ),
-            source=p,
+            pressure_range_kpa=tuple(spec.pressure_range_kpa),
+            nominal_pressure_kpa=spec.nominal_kpa,
+            omega_n_intercept=spec.omega_n.intercept_rad_s,
+            omega_n_slope=spec.omega_n.slope_rad_s_per_kpa,
+            zeta_scale=spec.zeta.scale,
+            zeta_rate=spec.zeta.rate_per_kpa,
+            volume_model=vol.model,
+            volume_table=(tuple(vol.pressure_kpa), tuple(vol.volume_m3)) if vol.model == "table" else None,
+            k_d=hyd.k_d,
+            resolution_hint_m=hyd.resolution_hint_m,
+            fitted_time_step_s=hyd.fitted_time_step_s,
+            source=source,
             raw=dict(data),
-            steer_law=law,
+            steer_law=SteerLaw() if spec.steer_law is None else SteerLaw(**spec.steer_law.parameters()),
+            couple_stiffness_factor=hyd.couple_stiffness_factor,
+            couple_damping_factor=hyd.couple_damping_factor,
             stand_still_checked=check_stand_still,
-            low_pressure_mesh=low_mesh,
-            k_d_by_time_step=k_d_steps,
-            k_d_by_pressure=k_d_table,
-            k_d_by_pressure_at_steps=k_d_tables,
-            **factors,
+            low_pressure_mesh=None if mesh is None else (mesh.below_kpa, mesh.resolution_hint_m),
+            k_d_by_time_step=tuple((e.time_step_s, e.k_d) for e in steps),
+            k_d_by_pressure=table_pairs(hyd.k_d_by_pressure),
+            k_d_by_pressure_at_steps=tuple((e.time_step_s, table_pairs(e.k_d_by_pressure))
+                                           for e in steps if e.k_d_by_pressure),
         )
-        for q in (lo, hi):
-            if cal.omega_n(q) <= 0 or not 0 <= cal.zeta(q) < 1:
-                raise ValueError(
-                    f"calibration file {p!r}: curves give omega_n={cal.omega_n(q):.3g} rad/s, "
-                    f"zeta={cal.zeta(q):.3g} at {q} kPa; need omega_n > 0 and 0 <= zeta < 1 over the range"
-                )
-        if cal.k_d < 0:
-            raise ValueError(f"calibration file {p!r}: field 'hydroelastic.k_d' = {cal.k_d!r} must be >= 0")
-        rlo, rhi = RESOLUTION_HINT_RANGE_M
-        if not rlo <= cal.resolution_hint_m <= rhi:
-            raise ValueError(
-                f"calibration file {p!r}: field 'hydroelastic.resolution_hint_m' = {cal.resolution_hint_m!r} must "
-                f"lie in [{rlo}, {rhi}] m (a mesh edge length on a shell of radius ~0.3 m)"
-            )
-        tlo, thi = FITTED_TIME_STEP_RANGE_S
-        if cal.fitted_time_step_s is not None and not tlo <= cal.fitted_time_step_s <= thi:
-            raise ValueError(
-                f"calibration file {p!r}: field 'hydroelastic.fitted_time_step_s' = {cal.fitted_time_step_s!r} "
-                f"must lie in [{tlo}, {thi}] s (a plant time step)"
-            )
         if check_stand_still:
             cal.check_stand_still(_default_robot())
         return cal
@@ -637,160 +507,10 @@ def _default_robot():
     return RobotParameters.from_urdf()
 
 
-def _low_pressure_mesh(sec: Any, pressure_range_kpa: tuple[float, float], path: str) -> tuple[float, float] | None:
-    """Parse the optional ``hydroelastic.low_pressure_mesh`` section: (below_kpa, resolution_hint_m)."""
-    if sec is None:
-        return None
-    where = "hydroelastic.low_pressure_mesh"
-    if not isinstance(sec, Mapping):
-        raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be a mapping "
-                         f"{{below_kpa: ..., resolution_hint_m: ...}}")
-    unknown = sorted(str(k) for k in sec if k not in LOW_PRESSURE_MESH_KEYS)
-    if unknown:
-        raise ValueError(f"calibration file {path!r}: field '{where}.{unknown[0]}' is not a calibration key; "
-                         f"allowed in '{where}': {list(LOW_PRESSURE_MESH_KEYS)}")
-    below = _number(sec, "below_kpa", where, path)
-    hint = _number(sec, "resolution_hint_m", where, path)
-    lo, hi = pressure_range_kpa
-    if not lo < below <= hi:
-        raise ValueError(f"calibration file {path!r}: field '{where}.below_kpa' = {below!r} must lie in "
-                         f"({lo}, {hi}] kPa (inside pressure_range_kpa, else the low-pressure mesh is never used)")
-    rlo, rhi = RESOLUTION_HINT_RANGE_M
-    if not rlo <= hint <= rhi:
-        raise ValueError(f"calibration file {path!r}: field '{where}.resolution_hint_m' = {hint!r} must lie in "
-                         f"[{rlo}, {rhi}] m (a mesh edge length on a shell of radius ~0.3 m)")
-    return below, hint
-
-
-def _records(sec: list, where: str, keys: tuple[str, ...], shape: str, path: str):
-    """(``"<where>[i]"``, entry) for each entry of a calibration list of records, each checked to be a
-    mapping with no key outside ``keys`` (``ValueError`` naming the field otherwise)."""
-    for i, entry in enumerate(sec):
-        at = f"{where}[{i}]"
-        if not isinstance(entry, Mapping):
-            raise ValueError(f"calibration file {path!r}: field '{at}' = {entry!r} must be a mapping {shape}")
-        unknown = sorted(str(k) for k in entry if k not in keys)
-        if unknown:
-            raise ValueError(f"calibration file {path!r}: field '{at}.{unknown[0]}' is not a calibration key; "
-                             f"allowed: {list(keys)}")
-        yield at, entry
-
-
 #: The least gauge pressure an extrapolated calibration accepts [kPa]: a shell below it is barely
 #: inflated, and no shell law here was fitted near zero pressure.
 MIN_EXTRAPOLATED_KPA = 0.5
 
 
-def interpolate_k_d(table: tuple[tuple[float, float], ...], pressure_kpa: float) -> float:
-    """k_d of a ``k_d_by_pressure`` table at a pressure, linear between its points."""
-    return float(np.interp(float(pressure_kpa), [q for q, _ in table], [k for _, k in table]))
-
-
 def _table_raw(table: tuple[tuple[float, float], ...]) -> list[dict[str, float]]:
     return [{"pressure_kpa": q, "k_d": k} for q, k in table]
-
-
-def _k_d_by_pressure(sec: Any, where: str, pressure_range_kpa: tuple[float, float],
-                     path: str) -> tuple[tuple[float, float], ...]:
-    """Parse an optional ``k_d_by_pressure`` list: ((pressure_kpa, k_d), ...), pressures increasing
-    and spanning the calibrated range (k_d is never extrapolated)."""
-    if sec is None:
-        return ()
-    shape = "a list of at least 2 {pressure_kpa: ..., k_d: ...} spanning pressure_range_kpa"
-    if not isinstance(sec, list) or len(sec) < 2:
-        raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be {shape}")
-    out: list[tuple[float, float]] = []
-    plo, phi_ = PLAUSIBLE_PRESSURE_KPA
-    for at, entry in _records(sec, where, K_D_PRESSURE_KEYS, "{pressure_kpa: ..., k_d: ...}", path):
-        q, k_d = _number(entry, "pressure_kpa", at, path), _number(entry, "k_d", at, path)
-        if not plo <= q <= phi_:
-            raise ValueError(f"calibration file {path!r}: field '{at}.pressure_kpa' = {q!r} must lie in "
-                             f"[{plo}, {phi_}] kPa (gauge)")
-        if out and not q > out[-1][0]:
-            raise ValueError(f"calibration file {path!r}: field '{at}.pressure_kpa' = {q!r} must be greater "
-                             f"than the previous point's {out[-1][0]!r} kPa (pressures increasing)")
-        if k_d < 0:
-            raise ValueError(f"calibration file {path!r}: field '{at}.k_d' = {k_d!r} must be >= 0")
-        out.append((q, k_d))
-    lo, hi = pressure_range_kpa
-    if out[0][0] > lo or out[-1][0] < hi:
-        raise ValueError(f"calibration file {path!r}: field '{where}' covers [{out[0][0]!r}, {out[-1][0]!r}] kPa; "
-                         f"it must span pressure_range_kpa [{lo}, {hi}] kPa (k_d is not extrapolated)")
-    return tuple(out)
-
-
-def _check_k_d_at_nominal(k_d: float, table: tuple[tuple[float, float], ...], nominal_kpa: float,
-                          where: str, path: str) -> None:
-    """A step's single k_d beside its pressure table must be the table's value at the nominal pressure."""
-    expected = interpolate_k_d(table, nominal_kpa)
-    if not math.isclose(k_d, expected, rel_tol=K_D_NOMINAL_REL_TOL):
-        raise ValueError(f"calibration file {path!r}: field '{where}.k_d' = {k_d!r} must equal its "
-                         f"k_d_by_pressure at nominal_pressure_kpa {nominal_kpa:g} kPa ({expected:.5g}, within "
-                         f"{100 * K_D_NOMINAL_REL_TOL:g}%)")
-
-
-def _k_d_by_time_step(sec: Any, fitted_step: Any, pressure_range_kpa: tuple[float, float], nominal_kpa: float,
-                      path: str) -> tuple[tuple[tuple[float, float], ...], tuple]:
-    """Parse the optional ``hydroelastic.k_d_by_time_step`` list: ((time_step_s, k_d), ...) and
-    ((time_step_s, k_d_by_pressure table), ...) of the entries that have a table."""
-    if sec is None:
-        return (), ()
-    where = "hydroelastic.k_d_by_time_step"
-    if not isinstance(sec, list):
-        raise ValueError(f"calibration file {path!r}: field '{where}' = {sec!r} must be a list of "
-                         "{time_step_s: ..., k_d: ...}")
-    out: list[tuple[float, float]] = []
-    tables: list[tuple[float, tuple[tuple[float, float], ...]]] = []
-    tlo, thi = FITTED_TIME_STEP_RANGE_S
-    for at, entry in _records(sec, where, K_D_STEP_KEYS, "{time_step_s: ..., k_d: ...}", path):
-        step, k_d = _number(entry, "time_step_s", at, path), _number(entry, "k_d", at, path)
-        if not tlo <= step <= thi:
-            raise ValueError(f"calibration file {path!r}: field '{at}.time_step_s' = {step!r} must lie in "
-                             f"[{tlo}, {thi}] s (a plant time step)")
-        if k_d < 0:
-            raise ValueError(f"calibration file {path!r}: field '{at}.k_d' = {k_d!r} must be >= 0")
-        taken = [s for s, _ in out] + ([float(fitted_step)] if isinstance(fitted_step, (int, float)) else [])
-        if any(math.isclose(step, s, rel_tol=1e-9) for s in taken):
-            raise ValueError(f"calibration file {path!r}: field '{at}.time_step_s' = {step!r} has a k_d already "
-                             "(hydroelastic.fitted_time_step_s or an earlier entry); one k_d per step")
-        table = _k_d_by_pressure(entry.get("k_d_by_pressure"), f"{at}.k_d_by_pressure", pressure_range_kpa, path)
-        if table:
-            _check_k_d_at_nominal(k_d, table, nominal_kpa, at, path)
-            tables.append((step, table))
-        out.append((step, k_d))
-    return tuple(out), tuple(tables)
-
-
-def _steer_law(sec: Any, path: str) -> SteerLaw:
-    """Parse the optional ``steer_law`` section (absent: linear about φ = 0)."""
-    if sec is None:
-        return SteerLaw()
-    if not isinstance(sec, Mapping):
-        raise ValueError(f"calibration file {path!r}: field 'steer_law' must be a mapping")
-    form = sec.get("form")
-    if form not in STEER_LAW_FORMS:
-        raise ValueError(
-            f"calibration file {path!r}: field 'steer_law.form' = {form!r}; allowed: {list(STEER_LAW_FORMS)}"
-        )
-    allowed = {"form", "rest_angle_rad", *STEER_LAW_FORMS[form]}
-    extra = sorted(set(sec) - allowed - {"ci95", "notes"})
-    if extra:
-        raise ValueError(
-            f"calibration file {path!r}: field 'steer_law' has {extra} not used by form {form!r}; "
-            f"allowed: {sorted(allowed)}"
-        )
-    kw: dict[str, Any] = {"form": form}
-    kw["rest_angle_rad"] = _number(sec, "rest_angle_rad", "steer_law", path) if "rest_angle_rad" in sec else 0.0
-    if abs(kw["rest_angle_rad"]) > 0.3:
-        raise ValueError(
-            f"calibration file {path!r}: field 'steer_law.rest_angle_rad' = {kw['rest_angle_rad']!r} "
-            "must lie in [-0.3, 0.3] rad"
-        )
-    for key in STEER_LAW_FORMS[form]:
-        kw[key] = _number(sec, key, "steer_law", path)
-    if form == "saturating" and not kw["amplitude_scale_rad"] > 0:
-        raise ValueError(
-            f"calibration file {path!r}: field 'steer_law.amplitude_scale_rad' = {kw['amplitude_scale_rad']!r} "
-            "must be > 0 rad"
-        )
-    return SteerLaw(**kw)

@@ -12,11 +12,12 @@ error message quotes it, else it says what pydantic expected.
 
 from __future__ import annotations
 
-from typing import Any, Mapping, TypeVar, get_args
+from typing import Annotated, Any, Mapping, TypeVar, get_args
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 S = TypeVar("S", bound="Schema")
+FIELD = "field '"  # how every message names a field
 
 
 class Schema(BaseModel):
@@ -30,34 +31,92 @@ def allowed(text: str) -> dict[str, Any]:
     return {"allowed": text}
 
 
-def validate(schema: type[S], data: Any, where: str, error: type[Exception] = ValueError) -> S:
-    """``data`` as ``schema``, or ``error`` with one line per the first problem:
-    ``<where>: <path>: field '<name>' = <value>: <problem>; allowed: <allowed>``."""
+def _integral(value: Any) -> Any:
+    """A float with an integer value as that int (YAML's ``!!float 2e6`` for a count); anything else
+    unchanged, for the strict int check to judge."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+def count(low: int = 1, high: int | None = None) -> Any:
+    """An integer within [low, high] (``2e6`` written as a float is one; a bool is not)."""
+    words = f"an integer >= {low}" if high is None else f"an integer within [{low}, {high}]"
+    return Annotated[int, BeforeValidator(_integral), Field(ge=low, le=high, json_schema_extra=allowed(words))]
+
+
+#: A finite real number (an int is one; a bool or a string is not).
+Finite = Annotated[float, Field(allow_inf_nan=False, json_schema_extra=allowed("a finite number"))]
+
+
+def number(*, gt: float | None = None, ge: float | None = None, lt: float | None = None,
+           le: float | None = None) -> Any:
+    """A finite real number within the given bounds, its allowed range stated in words."""
+    parts = [f"{op} {v:g}" for op, v in ((">", gt), (">=", ge), ("<", lt), ("<=", le)) if v is not None]
+    words = "a finite number" + (" " + " and ".join(parts) if parts else "")
+    return Annotated[float, Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False,
+                                  json_schema_extra=allowed(words))]
+
+
+def validate(schema: type[S], data: Any, where: str = "", error: type[Exception] = ValueError,
+             root: str = "") -> S:
+    """``data`` as ``schema``, or ``error`` with one line naming the first problem (an unknown key
+    before any other): ``<where>: field '<root>.<dotted.path>' = <value>: <problem>; allowed:
+    <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name)."""
+    head = f"{where}: " if where else ""
     if not isinstance(data, Mapping):
-        raise error(f"{where}: must be a mapping of {sorted(schema.model_fields)}, got {type(data).__name__}")
+        name = f"field {root!r}" if root else "the input"
+        raise error(f"{head}{name} = {data!r} must be a mapping; allowed keys: {sorted(schema.model_fields)}")
     try:
         return schema.model_validate(dict(data))
     except ValidationError as err:
-        raise error(f"{where}: {describe(schema, err.errors()[0])}") from None
+        errors = [{**e, "loc": field_loc(schema, e["loc"])} for e in err.errors()]
+        # an unknown key first: a typo also makes the key it was meant to be "missing"
+        first = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+        # of a union's branches failing at one field, the one with a validator's own words
+        first = next((e for e in errors if e["loc"] == first["loc"] and e["type"] == "value_error"), first)
+        raise error(f"{head}{describe(schema, first, root)}") from None
 
 
-def describe(schema: type[BaseModel], e: Mapping[str, Any]) -> str:
-    """One pydantic error as ``path: field 'name' = value: problem; allowed: ...``."""
-    loc = tuple(p for p in e["loc"] if not (isinstance(p, str) and "[" in p))  # drop union branch tags
+def field_loc(schema: type[BaseModel], loc: tuple) -> tuple:
+    """A pydantic error location without its union branch tags (``constrained-float``,
+    ``function-after[...]``, ``str``): only field names, list indices and mapping keys stay."""
+    out: list = []
+    model: type[BaseModel] | None = schema
+    for i, p in enumerate(loc):
+        last = i == len(loc) - 1
+        if isinstance(p, int):
+            out.append(p)
+        elif model is not None and p in model.model_fields:
+            out.append(p)
+            model = _model_in(model.model_fields[p].annotation)
+        elif model is None and not _is_tag(p):
+            out.append(p)  # a key of a free mapping
+        elif last and model is not None:
+            out.append(p)  # an unknown key of a model
+    return tuple(out)
+
+
+def _is_tag(part: str) -> bool:
+    return not part.isidentifier() or part in ("str", "int", "float", "bool", "list", "dict", "tuple", "none")
+
+
+def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> str:
+    """One pydantic error as ``field '<root>.<dotted.path[i]>' = value: problem; allowed: ...``, the
+    path counted from the schema's top level."""
+    loc = tuple(e["loc"])
     model, field = _owner(schema, loc)
-    name = loc[-1] if loc else ""
-    path = _path(loc[:-1])
-    prefix = f"{path}: " if path else ""
+    where = _path(((root,) if root else ()) + loc)
     if e["type"] == "missing":
-        return f"{prefix}field {name!r} is missing"
+        return f"field {where!r} is missing"
     if e["type"] == "extra_forbidden":
         fields = sorted(model.model_fields) if model is not None else []
-        return f"{prefix}unknown field {name!r}; allowed: {fields}"
+        return f"unknown field {where!r}; allowed: {fields}"
     msg = e["msg"].removeprefix("Value error, ").removeprefix("Assertion failed, ")
-    value = e.get("input")
-    if isinstance(name, int):  # an item of a list field: name the field and the item
-        prefix, name = (f"{_path(loc[:-2])}: " if len(loc) > 2 else ""), f"{loc[-2]}[{name}]"
-    text = f"{prefix}field {name!r} = {value!r}: {msg}"
+    if e["type"] == "value_error" and msg.startswith("field '"):
+        # a validator of a section, naming its fields relative to the section
+        return f"field '{where}.{msg.removeprefix(FIELD)}" if where else msg
+    text = f"field {where!r} = {e.get('input')!r}: {msg}"
     words = ((field.json_schema_extra or {}).get("allowed") if field is not None
              and isinstance(field.json_schema_extra, dict) else None)
     return text + (f"; allowed: {words}" if words else "")

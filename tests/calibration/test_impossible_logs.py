@@ -69,7 +69,7 @@ def test_microsecond_timestamps_read_as_ns_refused(tmp_path):
 def test_manifest_pressure_outside_a_shell_gauge_range_refused(tmp_path, pressure):
     man = write_manifest(tmp_path / "m.yaml", [{"name": "a", "file": "a.csv", "fixture": "steer_plane",
                                                 "pressure_kpa": pressure}])
-    with pytest.raises(LogError, match=r"trials\[0\]: field 'pressure_kpa' = .* within \[0.5, 100.0\]"):
+    with pytest.raises(LogError, match=r"field 'trials\[0\].pressure_kpa' = .* within \[0.5, 100.0\]"):
         load_manifest(man)
 
 

@@ -100,12 +100,12 @@ def test_manifest_and_transient(tmp_path):
 
 
 @pytest.mark.parametrize("entry, needle", [
-    ({"file": "x.csv", "fixture": "table"}, "field 'fixture' = 'table'"),
-    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": -3}, "field 'pressure_kpa' = -3"),
-    ({"fixture": "stand"}, "field 'file' is missing"),
+    ({"file": "x.csv", "fixture": "table"}, "field 'trials[0].fixture' = 'table'"),
+    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": -3}, "field 'trials[0].pressure_kpa' = -3"),
+    ({"fixture": "stand"}, "field 'trials[0].file' is missing"),
 ])
 def test_bad_manifest(tmp_path, entry, needle):
-    with pytest.raises(LogError, match=needle):
+    with pytest.raises(LogError, match=re.escape(needle)):
         load_manifest(_manifest(tmp_path, [entry]))
 
 
@@ -134,11 +134,11 @@ def test_report_without_logs_writes_nothing(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("entry, needle", [
-    ({"file": "x.csv", "fixture": "stand", "windw_s": [0, 1]}, "unknown field 'windw_s'; allowed: ["),
-    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": "4.0"}, "field 'pressure_kpa' = '4.0': Input should be a valid number"),
-    ({"file": "x.csv", "fixture": "stand", "transient_s": True}, "field 'transient_s' = True"),
-    ({"file": 3, "fixture": "stand"}, "field 'file' = 3: Input should be a valid string"),
-    ({"file": "x.csv", "fixture": "stand", "time_unit": "fortnight"}, "field 'time_unit' = 'fortnight'"),
+    ({"file": "x.csv", "fixture": "stand", "windw_s": [0, 1]}, "unknown field 'trials[0].windw_s'; allowed: ["),
+    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": "4.0"}, "field 'trials[0].pressure_kpa' = '4.0': Input should be a valid number"),
+    ({"file": "x.csv", "fixture": "stand", "transient_s": True}, "field 'trials[0].transient_s' = True"),
+    ({"file": 3, "fixture": "stand"}, "field 'trials[0].file' = 3: Input should be a valid string"),
+    ({"file": "x.csv", "fixture": "stand", "time_unit": "fortnight"}, "field 'trials[0].time_unit' = 'fortnight'"),
 ])
 def test_manifest_unknown_keys_and_wrong_types_are_refused_by_name(tmp_path, entry, needle):
     with pytest.raises(LogError, match=re.escape(needle)):

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import yaml
 
-from sphere_env.training.config import check_hyperparams, resolve_config
+from sphere_env.schemas.training import check_section
+from sphere_env.training.config import resolve_config
 from sphere_env.training.train import latest_checkpoint, main, train
 
 RAMP = "sphere_env/RampDescent-v0"
@@ -51,10 +52,10 @@ def test_bad_hyperparameters_refused_before_anything_is_written(tmp_path, capsys
                                        ("autox", False), (-0.1, False), (True, False)])
 def test_sac_entropy_coefficient(value, ok):
     if ok:
-        check_hyperparams("sac", {"ent_coef": value})
+        check_section("sac", {"ent_coef": value})
     else:
-        with pytest.raises(ValueError, match=r"^hyperparams\.ent_coef"):
-            check_hyperparams("sac", {"ent_coef": value})
+        with pytest.raises(ValueError, match=r"^field 'hyperparams\.ent_coef'"):
+            check_section("sac", {"ent_coef": value})
 
 
 def test_shipped_hyperparameters_pass_the_checks():
@@ -161,7 +162,7 @@ def test_one_process_per_env_is_bounded_before_anything_starts(tmp_path, capsys)
         main(["--hyperparams", "n_envs:100", "n_workers:None", "--run-dir", str(tmp_path / "run"),
               "--n-timesteps", "10", "--no-progress"])
     assert exc.value.code == 2
-    assert "n_envs: value 100 with n_workers: null" in capsys.readouterr().err
+    assert "field 'hyperparams.n_envs' = 100 with n_workers: null" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
-    with pytest.raises(ValueError, match=r"^n_timesteps: value 1000000000000.0 must be an integer within \[1, 10000000000\]"):
+    with pytest.raises(ValueError, match=r"^field 'hyperparams.n_timesteps' = 1000000000000.0: .*allowed: an integer within \[1, 10000000000\]"):
         resolve_config(RAMP, "ppo", overrides={**TINY, "n_timesteps": 1e12}, build_env=False)

@@ -1,0 +1,292 @@
+"""Typed schemas of a training configuration: one hyperparameter-file section per algorithm.
+
+A section of an rl-zoo3 hyperparameter file (``training/hyperparams/ppo.yml``) holds the
+algorithm's constructor arguments and the keys of :data:`SPECIAL_KEYS`. :func:`check_section`
+validates a section (with ``--hyperparams`` overrides already merged in) against
+:class:`PPOSection` or :class:`SACSection`: an unknown key, a value of the wrong type, a count
+that is not an integer and a number out of its range are refused, before anything is built, as
+``field 'hyperparams.<key>' = <value>: <problem>; allowed: <what>``.
+
+rl-zoo3's string forms are read as data, never evaluated: ``lin_<x>`` schedules, ``"dict(...)"``
+policy kwargs and ``normalize`` arguments (:func:`parse_dict_call`). Activation functions are named
+(``nn.Tanh``, ``tanh``, ...) and turned into torch classes only when the model is built.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from typing import Annotated, Any, Literal, Mapping
+
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
+
+from sphere_env.schemas import Finite, Schema, allowed, count, number, validate
+
+#: Keys of a hyperparameter section that are not algorithm constructor arguments.
+SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
+#: rl-zoo3 section keys (popped by its ExpManager) that this trainer does not implement.
+ZOO_ONLY_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type", "noise_std")
+#: Upper bounds: more envs than this is a typo, not a study (each env holds a Drake diagram, ~20 MB;
+#: a process per env, ~150 MB more), and budgets beyond these would run for years on this kind of
+#: machine.
+MAX_N_ENVS = 256
+MAX_ENV_PROCESSES = 64  # one process per env (n_workers: null with SubprocVecEnv)
+MAX_N_TIMESTEPS = 10**10
+#: Activation names a configuration may give (rl-zoo3 writes ``nn.ReLU``), by torch.nn class.
+ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
+               "silu": "SiLU"}
+
+
+def lin_value(text: str) -> float:
+    """The initial value of rl-zoo3's ``lin_<x>`` schedule (x > 0), else ValueError."""
+    try:
+        x = float(text.removeprefix("lin_")) if text.startswith("lin_") else math.nan
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise ValueError(f"{text!r} is not 'lin_<number > 0>'")
+    return x
+
+
+def _lin(text: str) -> str:
+    lin_value(text)
+    return text
+
+
+def activation_class_name(name: str) -> str:
+    """The torch.nn class name of an activation given as ``nn.ReLU``, ``ReLU`` or ``relu``."""
+    bare = name.removeprefix("nn.")
+    out = ACTIVATIONS.get(bare.lower(), bare)
+    if out not in ACTIVATIONS.values():
+        raise ValueError(f"unknown activation {name!r}")
+    return out
+
+
+def _activation(name: str) -> str:
+    activation_class_name(name)
+    return name
+
+
+#: A positive number or rl-zoo3's linear schedule ``lin_<x>`` (x → 0 over training).
+Schedule = (number(gt=0.0) | Annotated[str, AfterValidator(_lin)])
+PositiveSchedule = Annotated[Schedule, Field(json_schema_extra=allowed("a number > 0 or 'lin_<number > 0>'"))]
+Layers = list[count(1, 65536)]
+
+
+class NetArch(Schema):
+    """Separate layer sizes for the actor (``pi``) and the critic (``vf``; SAC: ``qf``)."""
+
+    pi: Layers | None = None
+    vf: Layers | None = None
+    qf: Layers | None = None
+
+
+class PolicyKwargs(Schema):
+    """SB3 policy keyword arguments a configuration may set."""
+
+    net_arch: Layers | NetArch | None = Field(None, json_schema_extra=allowed(
+        "a list of layer sizes >= 1, or {pi: [...], vf: [...]}"))
+    activation_fn: Annotated[str, AfterValidator(_activation)] | None = Field(None, json_schema_extra=allowed(
+        f"one of {sorted(ACTIVATIONS.values())} (as nn.<Name> or a lower-case name)"))
+    log_std_init: Finite | list[Finite] | None = Field(None, json_schema_extra=allowed(
+        "a number, or one per action component"))
+    ortho_init: bool | None = None
+    squash_output: bool | None = None
+    full_std: bool | None = None
+    use_expln: bool | None = None
+    share_features_extractor: bool | None = None
+    normalize_images: bool | None = None
+    n_critics: count(1, 16) | None = None
+    privileged_dims: count(0, 1024) | None = None
+    optimizer_kwargs: dict[str, Any] | None = None
+
+
+def parse_dict_call(text: str, field_name: str, names: tuple[str, ...] = ()) -> dict[str, Any]:
+    """rl-zoo3's ``"dict(key=value, ...)"`` strings (policy kwargs, VecNormalize arguments) read as
+    data, never evaluated: the text must be one ``dict(...)`` call (or a ``{...}`` literal) whose
+    values are Python literals, nested ``dict(...)`` calls, lists/tuples of these, or one of
+    ``names`` (such as ``nn.ReLU``, kept as its text). Anything else raises ValueError naming the
+    field (``field_name``, when given)."""
+    head = f"{field_name}: " if field_name else ""
+
+    def value(node: ast.AST) -> Any:
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+            return {kw.arg: value(kw.value) for kw in node.keywords if kw.arg is not None}
+        if isinstance(node, ast.Dict):
+            return {value(k): value(v) for k, v in zip(node.keys, node.values) if k is not None}
+        if isinstance(node, (ast.List, ast.Tuple)):
+            items = [value(e) for e in node.elts]
+            return items if isinstance(node, ast.List) else tuple(items)
+        if isinstance(node, (ast.Attribute, ast.Name)):
+            dotted = ast.unparse(node)
+            if dotted in names:
+                return dotted
+            if dotted in ("True", "False", "None"):
+                return ast.literal_eval(dotted)
+            raise ValueError(f"name {dotted!r} is not allowed; allowed names: {sorted(names) or 'none'}")
+        return ast.literal_eval(node)  # numbers, strings, -x; raises ValueError on anything else
+
+    try:
+        out = value(ast.parse(text.strip(), mode="eval").body)
+    except (SyntaxError, ValueError, TypeError) as err:
+        raise ValueError(f"{head}cannot read {text!r} as data: {err}; allowed: dict(key=value, ...) with "
+                         "literal values") from None
+    if not isinstance(out, dict):
+        raise ValueError(f"{head}{text!r} must be a dict(...) of keyword arguments")
+    return out
+
+
+def _dict_text(names: tuple[str, ...] = ()):
+    """A before-validator reading rl-zoo3's ``"dict(...)"`` text as a mapping."""
+    def read(value: Any) -> Any:
+        return parse_dict_call(value, "", names) if isinstance(value, str) else value
+    return read
+
+
+ACTIVATION_NAMES = tuple(f"nn.{n}" for n in ACTIVATIONS.values())
+PolicyKwargsField = Annotated[PolicyKwargs, BeforeValidator(_dict_text(ACTIVATION_NAMES))]
+
+
+class NormalizeArgs(Schema):
+    """``VecNormalize`` arguments."""
+
+    norm_obs: bool | None = None
+    norm_reward: bool | None = None
+    clip_obs: number(gt=0.0) | None = None
+    clip_reward: number(gt=0.0) | None = None
+    gamma: number(gt=0.0, le=1.0) | None = None
+    epsilon: number(gt=0.0) | None = None
+
+
+VECNORMALIZE_KEYS = tuple(NormalizeArgs.model_fields)
+Layout = count(1, MAX_N_ENVS) | Literal["auto"] | None
+
+
+class Section(Schema):
+    """The keys every section may hold besides the algorithm's arguments."""
+
+    n_envs: count(1, MAX_N_ENVS) = 1
+    n_timesteps: count(1, MAX_N_TIMESTEPS) = 100_000
+    n_workers: Layout = Field("auto", json_schema_extra=allowed("an integer within [1, n_envs], 'auto' or null"))
+    n_threads: Layout = Field(None, json_schema_extra=allowed("an integer within [1, n_envs], 'auto' or null"))
+    policy: str = "MlpPolicy"
+    normalize: bool | Annotated[NormalizeArgs, BeforeValidator(_dict_text())] | None = False
+    env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
+    env_wrapper: Any = None
+    # arguments PPO and SAC share
+    learning_rate: PositiveSchedule = 3e-4
+    gamma: number(gt=0.0, le=1.0) = 0.99
+    batch_size: count(1) = 64
+    use_sde: bool = False
+    sde_sample_freq: count(-1) = -1
+    stats_window_size: count(1) = 100
+    policy_kwargs: PolicyKwargsField | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_layout(cls, data: Any) -> Any:
+        """Without either layout key, one block of envs per usable core (``n_workers: auto``, the
+        fastest measured); with ``n_threads`` alone, no worker processes."""
+        if isinstance(data, Mapping) and data.get("n_threads") is not None and "n_workers" not in data:
+            data = {**data, "n_workers": None}
+        return data
+
+    @model_validator(mode="after")
+    def _layout(self) -> "Section":
+        for key in ("n_workers", "n_threads"):
+            v = getattr(self, key)
+            if isinstance(v, int) and v > self.n_envs:
+                raise ValueError(f"field {key!r} = {v} must be <= n_envs={self.n_envs} (or 'auto')")
+        if self.n_threads is not None and self.n_workers is not None:
+            raise ValueError(f"field 'n_threads' = {self.n_threads!r} cannot be combined with n_workers="
+                             f"{self.n_workers!r}; set one of them to null (threads in this process, or worker processes)")
+        if self.n_threads is None and self.n_workers is None and self.n_envs > MAX_ENV_PROCESSES:
+            raise ValueError(f"field 'n_envs' = {self.n_envs} with n_workers: null starts one process per env; allowed: "
+                             f"at most {MAX_ENV_PROCESSES} (or set n_workers to step blocks of envs per process)")
+        return self
+
+
+class PPOSection(Section):
+    """A PPO section."""
+
+    n_steps: count(1) = 2048
+    n_epochs: count(1) = 10
+    gae_lambda: number(ge=0.0, le=1.0) = 0.95
+    clip_range: PositiveSchedule = 0.2
+    clip_range_vf: PositiveSchedule | None = None
+    normalize_advantage: bool = True
+    ent_coef: number(ge=0.0) = 0.0
+    vf_coef: number(ge=0.0) = 0.5
+    max_grad_norm: number(gt=0.0) = 0.5
+    target_kl: number(gt=0.0) | None = None
+    rollout_buffer_kwargs: dict[str, Any] | None = None
+
+
+def _sac_ent_coef(value: Any) -> Any:
+    if isinstance(value, str) and value != "auto":
+        try:
+            x = float(value.removeprefix("auto_")) if value.startswith("auto_") else math.nan
+        except ValueError:
+            x = math.nan
+        if not (math.isfinite(x) and x > 0):
+            raise ValueError(f"{value!r} is not 'auto' or 'auto_<number > 0>'")
+    return value
+
+
+class SACSection(Section):
+    """A SAC section."""
+
+    buffer_size: count(1) = 1_000_000
+    learning_starts: count(0) = 100
+    tau: number(gt=0.0, le=1.0) = 0.005
+    train_freq: count(1) | tuple[count(1), Literal["step", "episode"]] = Field(1, json_schema_extra=allowed(
+        "an integer >= 1 or [n, 'step'|'episode']"))
+    gradient_steps: Annotated[count(-1), AfterValidator(lambda v: v if v != 0 else _refuse_zero_steps())] = 1
+    n_steps: count(1) = 1
+    ent_coef: number(ge=0.0) | Annotated[str, AfterValidator(_sac_ent_coef)] = Field("auto", json_schema_extra=allowed(
+        "a number >= 0, 'auto' or 'auto_<number > 0>'"))
+    target_update_interval: count(1) = 1
+    target_entropy: Finite | Literal["auto"] = "auto"
+    use_sde_at_warmup: bool = False
+    optimize_memory_usage: bool = False
+    replay_buffer_kwargs: dict[str, Any] | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _train_freq_list(cls, data: Any) -> Any:
+        """YAML has no tuples: ``train_freq: [1, episode]`` is read as the (n, unit) pair."""
+        if isinstance(data, Mapping) and isinstance(data.get("train_freq"), list):
+            data = {**data, "train_freq": tuple(data["train_freq"])}
+        return data
+
+
+def _refuse_zero_steps() -> int:
+    raise ValueError("must be an integer >= 1 or -1 (as many as env steps)")
+
+
+SECTIONS: dict[str, type[Section]] = {"ppo": PPOSection, "sac": SACSection}
+
+
+def numbers_from_yaml_strings(section: Mapping[str, Any]) -> dict[str, Any]:
+    """YAML 1.1 reads ``1e-3`` (no dot) as a string: such top-level values that read as finite
+    numbers become floats (rl-zoo3 files write ``!!float 1e-3`` for the same reason)."""
+    out = dict(section)
+    for key, val in section.items():
+        if isinstance(val, str):
+            try:
+                x = float(val)
+            except ValueError:
+                continue
+            if math.isfinite(x) and "e" in val.lower():
+                out[key] = x
+    return out
+
+
+def check_section(algo: str, section: Mapping[str, Any]) -> Section:
+    """The section (overrides merged) as ``algo``'s schema; ``ValueError`` naming
+    ``hyperparams.<key>`` otherwise."""
+    for key in ZOO_ONLY_KEYS:
+        if key in section:
+            raise ValueError(f"field 'hyperparams.{key}': an rl-zoo3 key this trainer does not implement; "
+                             "train with python -m rl_zoo3.train for it, or remove it")
+    return validate(SECTIONS[algo], numbers_from_yaml_strings(section), root="hyperparams")
