@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import math
 import os
@@ -52,14 +53,13 @@ from sphere_env.evaluation.plots import plot_drive_velocity, plot_error_bars, pl
 from sphere_env.files import staged_folder
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.parallel import run_parallel
+from sphere_env.schemas import validate
+from sphere_env.schemas.evaluation import SweepFields
 
 METRIC_COLUMNS = ("return", "length", "is_success", "reached_runout", "terminated", "truncated",
                   "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm",
                   "time_on_ramp_s", "omega_ref_rad_s", "omega_ref_after_rad_s")
 KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
-#: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
-GRID_KWARGS = {"shell_model": "--shell-models", "friction_model": "--friction", "randomization": "off",
-               "record_replay": "--replay"}
 #: What a sweep writes into ``out`` (replaced as a whole when ``out`` is reused).
 OUTPUT_NAMES = ("episodes.csv", "traces.npz", "pme.csv", "report.md", "plots")
 
@@ -97,35 +97,20 @@ class SweepSpec:
 
         import sphere_env  # noqa: F401
 
+        validate(SweepFields, dataclasses.asdict(self))
         if self.env_id not in gym.registry:
-            raise ValueError(f"env: unknown env id {self.env_id!r}")
-        if not isinstance(self.env_kwargs, Mapping):
-            raise ValueError(f"env_kwargs: value {self.env_kwargs!r} must be a mapping of env kwargs")
-        for k in self.env_kwargs:
-            if k in GRID_KWARGS:
-                raise ValueError(f"env_kwargs.{k}: set by the sweep itself ({GRID_KWARGS[k]}); "
-                                 f"not allowed in --env-kwargs")
-        if not self.controllers:
-            raise ValueError("controller: give at least one controller")
+            raise ValueError(f"field 'env_id' = {self.env_id!r}: unknown env id")
         labels = [split_label(c)[0] for c in self.controllers]
         if len(set(labels)) != len(labels):
-            raise ValueError(f"controller: labels must be unique, got {labels}")
+            raise ValueError(f"field 'controllers' = {self.controllers!r}: labels must be unique, got {labels}")
         for c in self.controllers:
             check_spec(split_label(c)[1], self.env_id, self.allow_env_mismatch)
-        for m in self.shell_models:
-            if m not in SHELL_MODELS:
-                raise ValueError(f"shell_models: unknown model {m!r}; allowed: {list(SHELL_MODELS)}")
         from sphere_env.models.shell import ShellCalibration
 
         lo, hi = ShellCalibration.load(self.env_kwargs.get("calibration")).pressure_range_kpa
         for p in self.pressures_kpa:
             if not lo <= float(p) <= hi:
                 raise ValueError(f"pressures: {p} kPa outside the calibrated range [{lo}, {hi}] kPa")
-        if not self.seeds:
-            raise ValueError("seeds: give at least one seed")
-        for sd in self.seeds:
-            if isinstance(sd, bool) or not isinstance(sd, (int, np.integer)) or sd < 0:
-                raise ValueError(f"seeds: value {sd!r} must be an integer >= 0")
         envs: dict[str, Any] = {}
         try:
             for c in self.controllers:  # each controller acts once: the action must be 2 numbers
