@@ -42,7 +42,7 @@ test-fast: $(STAMP) chromium
 	$(PY) -m pytest -n 2 -m "not slow"
 
 bench: $(STAMP)
-	$(PY) -m evaluation.scripts.benchmark
+	$(PY) -m evaluation.experiments.benchmark
 
 clean:
 	rm -rf $(VENV) build *.egg-info

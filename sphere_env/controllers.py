@@ -125,7 +125,7 @@ class PendulumPDController:
 #:
 #: * ``RampDescent-v2`` (8° ramp, command change at mid-ramp, 1 m lane): tuned on the twin by a
 #:   random search over all gains followed by a local search (``python -m
-#:   evaluation.scripts.tune_pd`` repeats it), maximizing the success rate and then minimizing
+#:   evaluation.experiments.tune_pd`` repeats it), maximizing the success rate and then minimizing
 #:   the tracking RMSE on tuning seeds 100–103 (the evaluation uses 0, 1, 2, …) × point and
 #:   injected shells at 3, 8.5 and 14 kPa plus the hydroelastic shell at 8.5 kPa. The lean loop is on: the fitted steer law curves the robot
 #:   out of the lane otherwise.

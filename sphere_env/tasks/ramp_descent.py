@@ -30,7 +30,7 @@ class RampDescentTask(Task):
     more than ``settle_time_s`` after the start and after the change, is at most
     ``tracking_tolerance_rad_s``.
 
-    **What the twin allows on the 8° ramp** (``python -m evaluation.scripts.command_span``, table in
+    **What the twin allows on the 8° ramp** (``python -m evaluation.experiments.command_span``, table in
     ``evaluation/results/command_span.md``): with zero torque the soft shells' rolling resistance
     settles ω_d between 3 and 6 s at ≈2.5–3.6 rad/s (injected, 3–14 kPa) and ≈3.0–5.5 rad/s
     (hydroelastic), while rigid point contact keeps accelerating (≈7.4 rad/s by then). The tuned

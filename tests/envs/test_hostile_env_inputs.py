@@ -1,5 +1,5 @@
 """Hostile inputs to the environments, one pytest case each (the cases of
-``evaluation/scripts/robustness.py``): every bad ``gym.make`` kwarg, randomization spec, ``reset``
+``evaluation/experiments/robustness.py``): every bad ``gym.make`` kwarg, randomization spec, ``reset``
 option and action is refused with a ``ValueError`` naming its field, and a refused ``reset`` or
 ``step`` leaves the running episode exactly as it was."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import sphere_env  # noqa: F401
-from sphere_env.evaluation.scripts.robustness import (
+from sphere_env.evaluation.experiments.robustness import (
     BAD_ACTIONS,
     kwarg_cases,
     lockstep,

@@ -1,8 +1,8 @@
-"""Short versions of evaluation/scripts/robustness.py (the full run: 1e5 fuzzed steps, 2e5-step soak)."""
+"""Short versions of evaluation/experiments/robustness.py (the full run: 1e5 fuzzed steps, 2e5-step soak)."""
 
 import pytest
 
-from sphere_env.evaluation.scripts.robustness import fuzz, soak
+from sphere_env.evaluation.experiments.robustness import fuzz, soak
 
 
 @pytest.mark.slow
@@ -24,7 +24,7 @@ def test_soak_memory_is_bounded():
 
 def test_hostile_input_tally_can_tell_the_outcomes_apart():
     """The classifier itself: each outcome is reachable, so zero counts mean something."""
-    from sphere_env.evaluation.scripts.robustness import Tally
+    from sphere_env.evaluation.experiments.robustness import Tally
 
     tally = Tally()
 

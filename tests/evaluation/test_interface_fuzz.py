@@ -3,7 +3,7 @@ is refused with a named error and leaves nothing in its output folder."""
 
 import pytest
 
-from sphere_env.evaluation.scripts.robustness import fuzz_interfaces, interfaces_markdown
+from sphere_env.evaluation.experiments.robustness import fuzz_interfaces, interfaces_markdown
 
 
 @pytest.mark.slow

@@ -17,8 +17,8 @@
 
 Writes ``evaluation/results/robustness.md`` and ``.json`` (temp name, then renamed).
 
-    python -m evaluation.scripts.robustness [--fuzz-steps 60000] [--soak-steps 40000] [--hydroelastic-soak-steps N]
-    python -m evaluation.scripts.robustness --soak-only ...   # replace only the soak results
+    python -m evaluation.experiments.robustness [--fuzz-steps 60000] [--soak-steps 40000] [--hydroelastic-soak-steps N]
+    python -m evaluation.experiments.robustness --soak-only ...   # replace only the soak results
 """
 
 from __future__ import annotations
@@ -663,7 +663,7 @@ def _interface_cases(work) -> list[dict]:
         (["--controller", "zero", "--env-kwargs", "{a: [1"], "env_kwargs"),
         (["--controller", "zero", "--env-kwargs", "[1, 2]"], "env_kwargs"),
         (["--controller", "zero", "--env-kwargs", "{no_such_kwarg: 1}"], "no_such_kwarg"),
-        (["--controller", "sphere_env.evaluation.scripts.robustness:_bad_shape_controller"], "shape"),
+        (["--controller", "sphere_env.evaluation.experiments.robustness:_bad_shape_controller"], "shape"),
         (["--controller", "no_such_module:f"], "controller"),
         (["--controller", str(run), "--env", "sphere_env/Roll-v0"], "--allow-env-mismatch"),
         (["--controller", "zero", "--pressure-kpa", "1000"], "pressure"),
@@ -926,7 +926,7 @@ def main(argv: list[str] | None = None) -> None:
 
     info = machine_info()  # at the start: the commit that is actually run
     load0 = os.getloadavg()
-    soak_cmd = (f"python -m evaluation.scripts.robustness --soak-steps {args.soak_steps} "
+    soak_cmd = (f"python -m evaluation.experiments.robustness --soak-steps {args.soak_steps} "
                 f"--hydroelastic-soak-steps {hydro_steps}")
     if args.soak_only:
         md_path, json_path = RESULTS / "robustness.md", RESULTS / "robustness.json"
@@ -969,7 +969,7 @@ def main(argv: list[str] | None = None) -> None:
         "# sphere_env robustness",
         "",
         f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.scripts.robustness --fuzz-steps {args.fuzz_steps} --soak-steps {args.soak_steps} "
+        f"by `python -m evaluation.experiments.robustness --fuzz-steps {args.fuzz_steps} --soak-steps {args.soak_steps} "
         f"--hydroelastic-soak-steps {hydro_steps}` "
         f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, shared with other jobs "
         f"(load average {load0[0]:.1f} at the start, {load1[0]:.1f} at the end).",
@@ -983,7 +983,7 @@ def main(argv: list[str] | None = None) -> None:
         "",
         markdown_table(rows, cols),
         "",
-        *soak_markdown(soaks, f"python -m evaluation.scripts.robustness --fuzz-steps {args.fuzz_steps} --soak-steps "
+        *soak_markdown(soaks, f"python -m evaluation.experiments.robustness --fuzz-steps {args.fuzz_steps} --soak-steps "
                               f"{args.soak_steps} --hydroelastic-soak-steps {hydro_steps}", info["commit"], (load0, load_soak)),
     ]
     md += [""] + interfaces_markdown(interfaces)

@@ -31,7 +31,7 @@ shipped block layout with n envs on N cores as ``u + (c0 + c1 n) / n + e_b / min
 PPO update per sample, c0 + c1 n the main process's work per vectorized step outside the env
 stepping, e_b one env step inside a block, all measured.
 
-    python -m evaluation.scripts.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
+    python -m evaluation.experiments.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
 
 writes ``evaluation/results/benchmark_train.{md,json}`` (with the commit; ``--no-write``: print only).
 """
@@ -378,7 +378,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     result = run_train_benchmark(args.seconds, tuple(args.shell_models), args.rounds, one_core=not args.no_one_core)
     info = machine_info()
-    command = " ".join(["python -m evaluation.scripts.benchmark_train", *(argv if argv is not None else sys.argv[1:])])
+    command = " ".join(["python -m evaluation.experiments.benchmark_train", *(argv if argv is not None else sys.argv[1:])])
     text = "\n".join([
         "# sphere_env training throughput", "",
         f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `{command}` (commit {info['commit']}).",

@@ -17,7 +17,7 @@ accuracy (deterministic)
     at 0.5 ms), else refitted so that the locked-steer decay at the nominal pressure keeps the ζ its
     k_d gives at the calibration's ``fitted_time_step_s`` (the CLI's ``kd-step`` matching; the
     shipped mesh). Not constraints: the RMSE against the shipped setting at 0.5 ms with k_d not
-    refitted (the reference of ``evaluation/scripts/timestep_study.py``), and against the shipped
+    refitted (the reference of ``evaluation/experiments/timestep_study.py``), and against the shipped
     mesh at 0.5 ms with k_d refitted so that the decay has ζ(p0);
   * contact polygons at rest (end of the decay): what Drake's contact solver works on.
 
@@ -41,7 +41,7 @@ ramp against k_d (deterministic): the ramp run and the locked-steer decay at the
 with one k_d swept over :data:`RAMP_K_D_SWEEP` at 10 ms on the low-pressure mesh: how far the ramp's
 ω_d moves from the reference as the contact dissipation rises towards what ζ(p) needs there.
 
-    python -m evaluation.scripts.hydro_tradeoff [--rounds 3] [--env-seconds 3] [--only NAME ...]
+    python -m evaluation.experiments.hydro_tradeoff [--rounds 3] [--env-seconds 3] [--only NAME ...]
 """
 
 from __future__ import annotations
@@ -409,11 +409,11 @@ def report(acc: dict, spd: dict, pressures, args, info: dict) -> tuple[str, dict
     md = "\n".join([
         "# Hydroelastic speed/accuracy trade-off",
         "",
-        (f"Generated {datetime.now(UTC):%Y-%m-%d %H:%M} UTC by `python -m evaluation.scripts.hydro_tradeoff` "
+        (f"Generated {datetime.now(UTC):%Y-%m-%d %H:%M} UTC by `python -m evaluation.experiments.hydro_tradeoff` "
         f"(commit {info['commit']}, drake {info['drake']}); {info['cpu']}, {info['cores']} cores, 1-min load "
         f"average at start {info['load_1min']:.1f} (absolute rates fall "
         "when other jobs share the machine; the speed-ups are interleaved ratios). Method: module docstring of "
-        "`evaluation/scripts/hydro_tradeoff.py`."),
+        "`evaluation/experiments/hydro_tradeoff.py`."),
         "",
         (f"Constraints (all at once): |ω err| ≤ {MAX_OMEGA_ERR_PCT:g}%, |ζ err| ≤ {MAX_ZETA_ERR_PCT:g}% at {ps} kPa, "
         f"ramp RMSE ≤ {MAX_RAMP_RMSE_PCT:g}% of peak. Aims: ≥ {AIM_ENV_STEPS_PER_S:.0f} env steps/s and a mean "

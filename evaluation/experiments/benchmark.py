@@ -4,11 +4,11 @@ Twin section: 10 s of free rolling from rest down the 16° ramp (4 m, then a fla
 run-out), Majd friction on both joints, advanced in 20 ms chunks as an environment would; per
 shell model, plus the same run on the bare plant (no friction system, no injected torques) of the
 same contact model. Real-time factor = simulated seconds / wall seconds; best of ``--repeats``.
-Environment section: ``evaluation.scripts.benchmark_env.run_env_benchmarks``.
-Training section: ``evaluation.scripts.benchmark_train.run_train_benchmark`` (PPO layouts against the
+Environment section: ``evaluation.experiments.benchmark_env.run_env_benchmarks``.
+Training section: ``evaluation.experiments.benchmark_train.run_train_benchmark`` (PPO layouts against the
 single-env rate, 1 and all cores, interleaved).
 
-    python -m evaluation.scripts.benchmark [--seconds 10] [--repeats 3] [--skip-env] [--skip-train]
+    python -m evaluation.experiments.benchmark [--seconds 10] [--repeats 3] [--skip-env] [--skip-train]
 """
 
 from __future__ import annotations
@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> None:
         "# sphere_env benchmark",
         "",
         f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.scripts.benchmark` "
+        f"by `python -m evaluation.experiments.benchmark` "
         f"(commit {info['commit']}), single process.",
         f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
         f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.",
@@ -131,14 +131,14 @@ def main(argv: list[str] | None = None) -> None:
     ]
     env_rows = []
     if not args.skip_env:
-        from sphere_env.evaluation.scripts.benchmark_env import ENV_COLUMNS, run_env_benchmarks
+        from sphere_env.evaluation.experiments.benchmark_env import ENV_COLUMNS, run_env_benchmarks
 
         env_rows = run_env_benchmarks(args.env_seconds)
         md += ["", "## Environments: env steps/s at 50 Hz control, random actions", "",
                markdown_table(env_rows, ENV_COLUMNS)]
     train = {}
     if not args.skip_train:
-        from sphere_env.evaluation.scripts.benchmark_train import report_markdown, run_train_benchmark
+        from sphere_env.evaluation.experiments.benchmark_train import report_markdown, run_train_benchmark
 
         train = run_train_benchmark(args.train_seconds, rounds=args.train_rounds)
         md += ["", "## Training: PPO throughput against the single-env rate (RampDescent, shipped hyperparameters)", "",

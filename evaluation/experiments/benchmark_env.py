@@ -15,7 +15,7 @@ Per env id × shell model, single process, 50 Hz control (20 ms chunks, 5 ms pla
 * **reset ms**: mean wall time of ``env.reset()`` (diagram reused; no rebuild); hydroelastic
   after its per-pressure shell-mesh cache is warm.
 
-    python -m evaluation.scripts.benchmark_env [--seconds 5] [--write]
+    python -m evaluation.experiments.benchmark_env [--seconds 5] [--write]
 """
 
 from __future__ import annotations
@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> None:
         "# sphere_env environment benchmark",
         "",
         f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.scripts.benchmark_env` "
+        f"by `python -m evaluation.experiments.benchmark_env` "
         f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, 1-min load average at start "
         f"{load:.1f}. {args.seconds:g} s of env stepping per case.",
         "",

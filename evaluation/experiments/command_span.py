@@ -7,7 +7,7 @@ For each shell model and pressure, on the v2 incline (8°) with a long ramp and 
 * the PD baseline commanded a constant ω_ref from 0.5 to 7 rad/s: the speeds it holds, i.e. the
   mean |ω_d − ω_ref| between 3 and 8 s is below ``--hold-tolerance`` (0.25 rad/s).
 
-    python -m evaluation.scripts.command_span [--out evaluation/results/command_span.md]
+    python -m evaluation.experiments.command_span [--out evaluation/results/command_span.md]
 
 "Held" is what the shipped PD baseline achieves, a lower bound of what the physics allows.
 ``tests/tasks/test_ramp_descent.py`` checks on the twin that the PD tracks, and zero torque misses,
@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     text = "\n".join([
         "# What ω_ref the twin can hold on the RampDescent-v2 ramp (8°)",
         "",
-        f"`python -m evaluation.scripts.command_span`; commit {machine_info()['commit']}. A command is held when "
+        f"`python -m evaluation.experiments.command_span`; commit {machine_info()['commit']}. A command is held when "
         f"the PD baseline keeps the mean |ω_d − ω_ref| over 3–8 s below {args.hold_tolerance:g} rad/s (20 m ramp, "
         "9 m lane); what the PD holds is a lower bound of what the physics allows. Zero torque: mean ω_d "
         "over 3–6 s; nan = does not leave the lane within 8 s.",

@@ -6,7 +6,7 @@ Writes ``evaluation/results/timestep_study.md``. For each shell model and time s
   * rock: locked-steer free decay from φ = 0.05 rad: ω_n and ζ relative errors;
 and for the stand fixture (Majd steer friction, θ0 = 0.4 rad) the θ RMSE against the reference.
 
-    python -m evaluation.scripts.timestep_study [--steps-ms 0.5 1 2 5 10]
+    python -m evaluation.experiments.timestep_study [--steps-ms 0.5 1 2 5 10]
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> None:
         "# Plant time-step study",
         "",
         f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.scripts.timestep_study` "
+        f"by `python -m evaluation.experiments.timestep_study` "
         f"(commit {info['commit']}, drake {info['drake']}). Reference: the {min(args.steps_ms):g} ms run of the same case.",
         "",
         markdown_table(rows, cols),

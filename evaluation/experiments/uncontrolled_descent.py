@@ -1,6 +1,6 @@
 """The paper's uncontrolled ramp descent (§IV) on the twin: one run per shell model and pressure.
 
-    python -m evaluation.scripts.uncontrolled_descent [--pressures 3 4.6 14] [--replay out/ramp.html]
+    python -m evaluation.experiments.uncontrolled_descent [--pressures 3 4.6 14] [--replay out/ramp.html]
 """
 
 from __future__ import annotations

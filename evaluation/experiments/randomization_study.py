@@ -13,7 +13,7 @@ rate over training seeds with a 95 % bootstrap confidence interval across traini
 (``scipy.stats.bootstrap``, percentile method; with three seeds the interval is coarse), and the
 worst case: the success rate of the worst training seed at that pressure.
 
-    python -m evaluation.scripts.randomization_study [--train-steps 200000] [--seeds 0 1 2]
+    python -m evaluation.experiments.randomization_study [--train-steps 200000] [--seeds 0 1 2]
         [--out out/randomization_study] [--publish]
 
 Writes into ``--out``: ``runs/<condition>_s<seed>/`` (training run folders), ``eval/`` (the
@@ -135,7 +135,7 @@ def report(summary, seed_rows, args, timings: dict[str, float]) -> str:
     lines = [
         "# What pressure randomization buys",
         "",
-        f"`python -m evaluation.scripts.randomization_study --train-steps {args.train_steps} --seeds "
+        f"`python -m evaluation.experiments.randomization_study --train-steps {args.train_steps} --seeds "
         f"{' '.join(map(str, args.seeds))}` on `{ENV_ID}`; commit {info['commit']}, {info['cpu']}, {info['cores']} cores.",
         "",
         f"PPO (`training/hyperparams/ppo.yml`, injected shell) trained {args.train_steps} env steps per run, "
@@ -216,7 +216,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             if run.exists():
                 shutil.rmtree(run)
             print(f"[train] {cond} seed {seed}: {args.train_steps} steps -> {run}", flush=True)
-            train(cfg, run, progress_bar=False, command=["python", "-m", "evaluation.scripts.randomization_study"])
+            train(cfg, run, progress_bar=False, command=["python", "-m", "evaluation.experiments.randomization_study"])
         runs[(cond, seed)] = run
     t_train = time.perf_counter() - t0
     # ---- evaluate ----

@@ -6,7 +6,7 @@ a candidate when it raises the success rate, or keeps it and lowers the mean tra
 tuning episodes use their own seeds (default 100–103), not the evaluation's (0, 1, 2, …): point and
 injected shells at 3, 8.5 and 14 kPa, the hydroelastic shell at 8.5 kPa (two seeds: it is slow).
 
-    python -m evaluation.scripts.tune_pd [--random 40] [--local 40] [--seed 0] [--out pd_gains.json]
+    python -m evaluation.experiments.tune_pd [--random 40] [--local 40] [--seed 0] [--out pd_gains.json]
 
 Prints every candidate and writes the best gains as JSON (``--out``).
 """
