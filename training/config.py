@@ -45,7 +45,6 @@ list of these (applied in order, the first innermost), e.g. ``sphere_env.wrapper
 from __future__ import annotations
 
 import copy
-import math
 import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -60,6 +59,7 @@ from sphere_env.schemas.training import (
     MAX_N_TIMESTEPS,  # noqa: F401
     SPECIAL_KEYS,
     activation_class_name,
+    check_run_options,
     check_section,
     lin_value,
 )
@@ -193,21 +193,6 @@ def check_env_id(env_id: str) -> None:
         raise ValueError(f"env: unknown env id {env_id!r}; registered sphere_env ids: {ours}")
 
 
-#: Evaluation episodes per evaluation at the most.
-MAX_EVAL_EPISODES = 10_000
-
-
-def _int(field_name: str, value: Any, low: int = 1, high: int | None = None) -> int:
-    allowed = f"an integer >= {low}" if high is None else f"an integer within [{low}, {high}]"
-    if isinstance(value, bool):
-        raise ValueError(f"{field_name}: value {value!r} must be {allowed}")
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{field_name}: value {value!r} must be {allowed}") from None
-    if not math.isfinite(f) or f != int(f) or int(f) < low or (high is not None and int(f) > high):
-        raise ValueError(f"{field_name}: value {value!r} must be {allowed}")
-    return int(f)
 
 
 def _device(value: Any) -> str:
@@ -236,6 +221,13 @@ def _normalize(value: Any) -> dict[str, Any] | None:
     if value is True:
         return {}
     return value.model_dump(exclude_unset=True)
+
+
+def _plain_mapping(value: Any) -> Any:
+    """A given mapping as a dict ({} for None); anything else unchanged, for the schema to refuse."""
+    if value is None:
+        return {}
+    return dict(value) if isinstance(value, Mapping) else value
 
 
 def _plain(value: Any) -> Any:
@@ -300,9 +292,14 @@ def resolve_config(
     spec = check_section(algo, section)
     given = spec.model_dump(exclude_unset=True)
     hyper = {k: _plain(v) for k, v in given.items() if k not in SPECIAL_KEYS}
+    opts = check_run_options(seed=seed, eval_freq=eval_freq, eval_episodes=eval_episodes,
+                             checkpoint_freq=checkpoint_freq, torch_threads=torch_threads,
+                             env_kwargs=_plain_mapping(env_kwargs), eval_env_kwargs=_plain_mapping(eval_env_kwargs),
+                             eval_pressures_kpa=(list(eval_pressures_kpa) if isinstance(eval_pressures_kpa, tuple)
+                                                 else eval_pressures_kpa))
     kwargs = dict(spec.env_kwargs)
-    kwargs.update(copy.deepcopy(_mapping("env_kwargs", env_kwargs or {})))
-    eval_kwargs = {"randomization": "off", **copy.deepcopy(_mapping("eval_env_kwargs", eval_env_kwargs or {}))}
+    kwargs.update(copy.deepcopy(opts.env_kwargs))
+    eval_kwargs = {"randomization": "off", **copy.deepcopy(opts.eval_env_kwargs)}
     policy, n_envs, n_threads, n_workers, n_timesteps = (spec.policy, spec.n_envs, spec.n_threads, spec.n_workers,
                                                          spec.n_timesteps)
     env_wrapper = parse_env_wrappers(spec.env_wrapper)
@@ -311,16 +308,16 @@ def resolve_config(
     # gives a handful of checkpoints, not one per env step of the first rollout.
     chunk = n_envs * (hyper.get("n_steps", 2048) if algo == "ppo" else 1)
     cfg = TrainConfig(
-        env_id=env_id, algo=algo, seed=_int("seed", seed, 0), n_timesteps=n_timesteps, n_envs=n_envs,
+        env_id=env_id, algo=algo, seed=opts.seed, n_timesteps=n_timesteps, n_envs=n_envs,
         n_workers=n_workers, n_threads=n_threads,
         policy=policy, normalize=_normalize(spec.normalize), env_kwargs=kwargs,
         hyperparams=hyper,
-        eval_freq=_period("eval_freq", eval_freq, max(n_timesteps // 10, chunk)),
-        eval_episodes=_int("eval_episodes", eval_episodes, high=MAX_EVAL_EPISODES),
+        eval_freq=max(n_timesteps // 10, chunk) if opts.eval_freq is None else opts.eval_freq,
+        eval_episodes=opts.eval_episodes,
         eval_env_kwargs=eval_kwargs,
-        eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, eval_pressures_kpa),
-        checkpoint_freq=_period("checkpoint_freq", checkpoint_freq, max(n_timesteps // 5, chunk)),
-        device=_device(device), torch_threads=_int("torch_threads", torch_threads), hyperparams_file=str(path),
+        eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, opts.eval_pressures_kpa),
+        checkpoint_freq=max(n_timesteps // 5, chunk) if opts.checkpoint_freq is None else opts.checkpoint_freq,
+        device=_device(device), torch_threads=opts.torch_threads, hyperparams_file=str(path),
         tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
         trained_agent=None if trained_agent is None else str(trained_agent),
         save_replay_buffer=bool(save_replay_buffer),
@@ -341,21 +338,6 @@ def _refuse_moved_keys(section: Mapping[str, Any], where: str) -> None:
                 f"command line '--env-kwargs {key}:...'")
 
 
-def _mapping(field_name: str, value: Any) -> dict[str, Any]:
-    if not isinstance(value, Mapping):
-        raise ValueError(f"{field_name}: value {value!r} must be a mapping of env kwargs")
-    return dict(value)
-
-
-def _period(field_name: str, value: Any, default: int) -> int:
-    """Steps between evaluations/checkpoints; rl-zoo3's negative values (off) become 0."""
-    if value is None:
-        return default
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
-        return 0
-    return _int(field_name, value)
-
-
 def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None) -> list[float]:
     """The evaluation pressures [kPa]: given (each within the calibrated range) or the
     calibration's low, nominal and high pressures."""
@@ -368,8 +350,6 @@ def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None
     if pressures is None:
         lo, hi = cal.pressure_range_kpa
         return [float(lo), float(cal.nominal_pressure_kpa), float(hi)]
-    if isinstance(pressures, (str, bytes)) or not isinstance(pressures, Sequence):
-        raise ValueError(f"eval_pressures_kpa: value {pressures!r} must be a list of pressures [kPa]")
     return [cal.check_pressure(p, "eval_pressures_kpa") for p in pressures]
 
 

@@ -55,7 +55,7 @@ import numpy as np
 import yaml
 
 from sphere_env.cli import parse_env_kwargs, parse_key_values
-from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, _int, algo_class, resolve_config
+from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
 from sphere_env.training.run_folder import (
     CHECKPOINT_PREFIX,
     RUNS,
@@ -666,7 +666,7 @@ def default_sweep_dir(args: argparse.Namespace) -> Path:
 def _resume(args: argparse.Namespace, command: Sequence[str]) -> Path:
     cfg = load_config(args.resume)
     if args.n_timesteps is not None:
-        cfg.n_timesteps = _int("n_timesteps", args.n_timesteps)
+        cfg.n_timesteps = args.n_timesteps  # checked with the rest by resolve_config
     cfg = resolve_config(cfg.env_id, cfg.algo, cfg.hyperparams_file or None, overrides=_stored_overrides(cfg),
                          seed=cfg.seed, eval_freq=cfg.eval_freq, eval_episodes=cfg.eval_episodes,
                          eval_env_kwargs=cfg.eval_env_kwargs, eval_pressures_kpa=cfg.eval_pressures_kpa,

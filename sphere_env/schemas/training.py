@@ -290,3 +290,39 @@ def check_section(algo: str, section: Mapping[str, Any]) -> Section:
             raise ValueError(f"field 'hyperparams.{key}': an rl-zoo3 key this trainer does not implement; "
                              "train with python -m rl_zoo3.train for it, or remove it")
     return validate(SECTIONS[algo], numbers_from_yaml_strings(section), root="hyperparams")
+
+
+#: Evaluation episodes per evaluation at the most.
+MAX_EVAL_EPISODES = 10_000
+def _period_value(value: Any) -> Any:
+    """rl-zoo3's "off" (0 or a negative number) as 0; an integer-valued float as an int."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if value <= 0:
+            return 0
+        if isinstance(value, float) and value.is_integer():
+            return int(value)
+    return value
+
+
+#: Steps between evaluations or checkpoints (<= 0: none).
+Period = Annotated[int, BeforeValidator(_period_value), Field(ge=0, le=MAX_N_TIMESTEPS, json_schema_extra=allowed(
+    "an integer number of env steps (<= 0: none)"))]
+
+
+class RunOptions(Schema):
+    """The trainer's own options (command line or :func:`~sphere_env.training.config.resolve_config`)."""
+
+    seed: count(0)
+    eval_freq: Period | None = None
+    eval_episodes: count(1, MAX_EVAL_EPISODES) = 6
+    checkpoint_freq: Period | None = None
+    torch_threads: count(1, 1024) = 1
+    env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
+    eval_env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed(
+        "a mapping of env kwargs"))
+    eval_pressures_kpa: list[Finite] | None = Field(None, json_schema_extra=allowed("a list of pressures [kPa]"))
+
+
+def check_run_options(**options: Any) -> RunOptions:
+    """The trainer's options as :class:`RunOptions`; ``ValueError`` naming the option otherwise."""
+    return validate(RunOptions, options)

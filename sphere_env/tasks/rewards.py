@@ -39,6 +39,10 @@ class RampRewardWeights:
     :param ctrl: × Σ a² per s (penalty, subtracted).
     :param success: bonus on reaching the flat run-out.
     :param off_ramp: penalty (subtracted) on leaving the ramp sideways.
+    :param speed_error: × |ω_d − ω_ref| [rad/s] per s (penalty, subtracted; default 0: off). The
+        gaussian ``speed`` term is flat more than a few widths from ω_ref (at 4 rad/s off it pays
+        e⁻⁸ of its weight), so a policy that coasts far too fast, or far too slow, feels no pull
+        toward the command; this term's slope is the same at every error.
     """
 
     speed: float = 1.0
@@ -48,6 +52,7 @@ class RampRewardWeights:
     ctrl: float = 0.1
     success: float = 2.0
     off_ramp: float = 2.0
+    speed_error: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -122,6 +127,7 @@ def ramp_descent_terms(
     """
     return {
         "speed": w.speed * dt_s * gaussian_tolerance(omega_d - omega_ref, w.speed_width),
+        "speed_error": -w.speed_error * dt_s * abs(omega_d - omega_ref),
         "lateral": -w.lateral * dt_s * abs(lateral_m),
         "heading": -w.heading * dt_s * (1.0 - math.cos(heading_rad)),
         "ctrl": -w.ctrl * dt_s * control_cost(action),

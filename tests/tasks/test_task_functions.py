@@ -111,3 +111,20 @@ def test_pressure_schedule_leaks_and_clips():
     assert schedule_pressure(10.0, -1.0, 0.0, 2.0, (3.0, 14.0)) == pytest.approx(8.0)
     assert schedule_pressure(10.0, -1.0, 1.0, 0.5, (3.0, 14.0)) == 10.0
     assert schedule_pressure(4.0, -1.0, 0.0, 10.0, (3.0, 14.0)) == 3.0
+
+
+def test_speed_error_term_pulls_where_the_gaussian_is_flat():
+    """Far from the command the gaussian speed term barely changes with the error; the opt-in
+    speed_error term falls by the same amount per rad/s at every error, and is 0 by default."""
+    default = rewards.RampRewardWeights()
+    w = rewards.RampRewardWeights(speed_error=0.5)
+
+    def total(weights, omega_d):
+        return sum(rewards.ramp_descent_terms(weights, 0.02, omega_d, 3.0, 0.0, 0.0, (0.0, 0.0), False, False).values())
+
+    assert rewards.ramp_descent_terms(default, 0.02, 7.0, 3.0, 0.0, 0.0, (0.0, 0.0), False, False)["speed_error"] == 0.0
+    flat = total(default, 7.0) - total(default, 8.0)  # 4 → 5 rad/s too fast
+    pulled = total(w, 7.0) - total(w, 8.0)
+    assert 0.0 < flat < 1e-5
+    assert pulled == pytest.approx(flat + 0.5 * 0.02, rel=1e-6)
+    assert total(w, 3.0) - total(w, 4.0) > total(default, 3.0) - total(default, 4.0)
