@@ -37,13 +37,19 @@ ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "Leak
                "silu": "SiLU"}
 
 
+def _positive_after(prefix: str, text: str) -> float:
+    """The number x > 0 of a text ``<prefix><x>`` (rl-zoo3's ``lin_3e-4``, SB3's ``auto_0.1``), else NaN."""
+    try:
+        x = float(text.removeprefix(prefix)) if text.startswith(prefix) else math.nan
+    except ValueError:
+        return math.nan
+    return x if math.isfinite(x) and x > 0 else math.nan
+
+
 def lin_value(text: str) -> float:
     """The initial value of rl-zoo3's ``lin_<x>`` schedule (x > 0), else ValueError."""
-    try:
-        x = float(text.removeprefix("lin_")) if text.startswith("lin_") else math.nan
-    except ValueError:
-        x = math.nan
-    if not (math.isfinite(x) and x > 0):
+    x = _positive_after("lin_", text)
+    if math.isnan(x):
         raise ValueError(f"{text!r} is not 'lin_<number > 0>'")
     return x
 
@@ -223,13 +229,8 @@ class PPOSection(Section):
 
 
 def _sac_ent_coef(value: Any) -> Any:
-    if isinstance(value, str) and value != "auto":
-        try:
-            x = float(value.removeprefix("auto_")) if value.startswith("auto_") else math.nan
-        except ValueError:
-            x = math.nan
-        if not (math.isfinite(x) and x > 0):
-            raise ValueError(f"{value!r} is not 'auto' or 'auto_<number > 0>'")
+    if isinstance(value, str) and value != "auto" and math.isnan(_positive_after("auto_", value)):
+        raise ValueError(f"{value!r} is not 'auto' or 'auto_<number > 0>'")
     return value
 
 
