@@ -230,13 +230,23 @@ def _plain_mapping(value: Any) -> Any:
     return dict(value) if isinstance(value, Mapping) else value
 
 
-def _plain(value: Any) -> Any:
-    """A validated value as YAML-ready data (tuples as lists)."""
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return value
+def plain_data(x: Any) -> Any:
+    """Dataclasses, tuples, numpy scalars and paths as plain YAML-ready data."""
+    from dataclasses import is_dataclass
+
+    import numpy as np
+
+    if is_dataclass(x) and not isinstance(x, type):
+        return plain_data(asdict(x))
+    if isinstance(x, Mapping):
+        return {str(k): plain_data(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [plain_data(v) for v in x]
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, Path):
+        return str(x)
+    return x
 
 
 def resolve_config(
@@ -291,7 +301,7 @@ def resolve_config(
 
     spec = check_section(algo, section)
     given = spec.model_dump(exclude_unset=True)
-    hyper = {k: _plain(v) for k, v in given.items() if k not in SPECIAL_KEYS}
+    hyper = {k: plain_data(v) for k, v in given.items() if k not in SPECIAL_KEYS}
     opts = check_run_options(seed=seed, eval_freq=eval_freq, eval_episodes=eval_episodes,
                              checkpoint_freq=checkpoint_freq, torch_threads=torch_threads,
                              env_kwargs=_plain_mapping(env_kwargs), eval_env_kwargs=_plain_mapping(eval_env_kwargs),

@@ -27,7 +27,7 @@ import yaml
 
 from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
-from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig
+from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -147,31 +147,15 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     cal = ShellCalibration.load(cfg.env_kwargs.get("calibration"))
     ramp = "Ramp" in cfg.env_id
     spec = RandomizationSpec.parse(cfg.randomization, ramp=ramp).resolved(cal.pressure_range_kpa)
-    data["randomization_resolved"] = _plain(spec)
+    data["randomization_resolved"] = plain_data(spec)
     data["seeds"] = {"seed": cfg.seed, "workers": cfg.worker_seeds, "eval": cfg.eval_seed}
     data["monitor_info_keywords"] = list(MONITOR_KEYWORDS)
     data["versions"] = software_versions()
     data["command"] = list(command) if command is not None else []
     data["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
     data.update(extra or {})
-    return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(_plain(data), sort_keys=False))
+    return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(plain_data(data), sort_keys=False))
 
-
-def _plain(x: Any) -> Any:
-    """Dataclasses/tuples/numpy to plain YAML-able types."""
-    from dataclasses import asdict, is_dataclass
-
-    if is_dataclass(x) and not isinstance(x, type):
-        return _plain(asdict(x))
-    if isinstance(x, Mapping):
-        return {str(k): _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, Path):
-        return str(x)
-    return x
 
 
 def load_config(run_dir: str | Path) -> TrainConfig:
