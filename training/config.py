@@ -460,6 +460,8 @@ def validate_with_env(cfg: TrainConfig) -> None:
     env = _make_checked(cfg.env_id, cfg.make_kwargs(), "env_kwargs", cfg.env_wrapper)
     _try_episode_start(env, cfg.seed, "env_kwargs")
     if cfg.trained_agent is not None:
+        from sphere_env.training.trained_agent import check_trained_agent
+
         check_trained_agent(cfg, env)
     venv = DummyVecEnv([lambda env=env: env])
     try:
@@ -487,76 +489,3 @@ def validate_with_env(cfg: TrainConfig) -> None:
         eval_env.close()
     finally:
         venv.close()
-
-
-def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
-    """The model zip ``cfg.trained_agent`` and the VecNormalize statistics saved with it (None
-    without normalization). Statistics are looked for where this trainer and rl-zoo3 put them:
-    ``vecnormalize.pkl`` beside the zip (a run's ``model.zip``, ``best/best_model.zip``),
-    ``checkpoints/rl_model_vecnormalize_<n>_steps.pkl`` for ``rl_model_<n>_steps.zip``, and
-    rl-zoo3's ``<dir>/<env id with / as ->/vecnormalize.pkl``.
-
-    :raises ValueError: ``trained_agent: ...`` (missing, unreadable, statistics missing).
-    """
-    import re
-
-    path = Path(str(cfg.trained_agent))
-    if path.is_dir() and (path / "model.zip").exists():
-        path = path / "model.zip"
-    if path.suffix != ".zip" or not path.is_file():
-        raise ValueError(f"trained_agent: {str(path)!r} is not a saved model (.zip file, or a run folder with model.zip)")
-    if cfg.normalize is None:
-        return path, None
-    candidates = [path.parent / "vecnormalize.pkl", path.parent / cfg.env_id.replace("/", "-") / "vecnormalize.pkl"]
-    m = re.fullmatch(r"(.+)_(\d+)_steps\.zip", path.name)
-    if m:
-        candidates.insert(0, path.parent / f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl")
-    for c in candidates:
-        if c.is_file():
-            return path, c
-    raise ValueError(f"trained_agent: no VecNormalize statistics for {str(path)!r} (looked for "
-                     f"{[str(c) for c in candidates]}); the config normalizes observations, so the model "
-                     "cannot continue without them (or set normalize: false)")
-
-
-def check_trained_agent(cfg: TrainConfig, env) -> None:
-    """Load ``cfg.trained_agent`` and its statistics; refuse them unless they fit ``env``'s spaces."""
-    import pickle
-
-    path, stats = trained_agent_files(cfg)
-    try:
-        model = algo_class(cfg.algo).load(path, device="cpu")
-    except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
-        raise ValueError(f"trained_agent: {str(path)!r} cannot be loaded as {cfg.algo.upper()}: "
-                         f"{type(err).__name__}: {err}") from None
-    for name in ("observation_space", "action_space"):
-        have, want = getattr(model, name), getattr(env, name)
-        if have.shape != want.shape:
-            raise ValueError(f"trained_agent: {str(path)!r} has {name} shape {have.shape}; "
-                             f"{cfg.env_id} with these env_kwargs has {want.shape}")
-    # -i continues the saved network: policy_kwargs that differ from its own would be recorded in
-    # config.yaml as used while the run trains the saved network, so they are refused
-    given = cfg.algo_kwargs().get("policy_kwargs")
-    saved = dict(getattr(model, "policy_kwargs", {}) or {})
-    if given is not None:
-        differ = {k: v for k, v in given.items() if k not in saved or saved[k] != v}
-        if differ:
-            raise ValueError(f"hyperparams.policy_kwargs: {differ} differ from the network of trained_agent "
-                             f"{str(path)!r} ({ {k: saved[k] for k in differ if k in saved} or 'not set there'}), "
-                             "which -i continues as it is; leave them out or train a new run")
-    if stats is not None:
-        try:
-            with open(stats, "rb") as f:
-                vn = pickle.load(f)
-        except Exception as err:  # noqa: BLE001
-            raise ValueError(f"trained_agent: {str(stats)!r} cannot be read: {type(err).__name__}: {err}") from None
-        shape = getattr(getattr(vn, "obs_rms", None), "mean", None)
-        if shape is None or np_shape(shape) != env.observation_space.shape:
-            raise ValueError(f"trained_agent: {str(stats)!r} does not hold VecNormalize statistics for "
-                             f"observations of shape {env.observation_space.shape}")
-
-
-def np_shape(x: Any) -> tuple[int, ...]:
-    import numpy as np
-
-    return tuple(np.shape(x))

@@ -473,7 +473,7 @@ def _train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] 
         stats = _ckpt_file(run_dir, "vecnormalize", start_steps) if resume and cfg.normalize is not None else None
         agent = None
         if not resume and cfg.trained_agent is not None:
-            from sphere_env.training.config import trained_agent_files
+            from sphere_env.training.trained_agent import trained_agent_files
 
             agent, stats = trained_agent_files(cfg)
         venv = wrap_normalize(cfg, venv, stats=stats)
