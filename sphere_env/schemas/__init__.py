@@ -65,8 +65,9 @@ def validate(schema: type[S], data: Any, where: str = "", error: type[Exception]
     <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name)."""
     head = f"{where}: " if where else ""
     if not isinstance(data, Mapping):
-        name = f"field {root!r}" if root else "the input"
-        raise error(f"{head}{name} = {data!r} must be a mapping; allowed keys: {sorted(schema.model_fields)}")
+        name = f"field {root!r}" if root else "the input"  # its type only: never echo a file's contents
+        raise error(f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: "
+                    f"{sorted(schema.model_fields)}")
     try:
         return schema.model_validate(dict(data))
     except ValidationError as err:

@@ -20,7 +20,7 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
-from sphere_env.schemas import Finite, Schema, allowed, count, number, validate
+from sphere_env.schemas import Finite, Schema, _integral, allowed, count, number, validate
 
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
 SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
@@ -297,12 +297,9 @@ def check_section(algo: str, section: Mapping[str, Any]) -> Section:
 MAX_EVAL_EPISODES = 10_000
 def _period_value(value: Any) -> Any:
     """rl-zoo3's "off" (0 or a negative number) as 0; an integer-valued float as an int."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        if value <= 0:
-            return 0
-        if isinstance(value, float) and value.is_integer():
-            return int(value)
-    return value
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
+        return 0
+    return _integral(value)
 
 
 #: Steps between evaluations or checkpoints (<= 0: none).
