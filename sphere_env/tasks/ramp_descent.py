@@ -97,7 +97,7 @@ class RampDescentTask(Task):
 
     **Reward** = Σ terms, each reported as ``info["reward_<term>"]``
     (:class:`~sphere_env.tasks.rewards.RampRewardWeights`; per-step terms scale with the control
-    period): ``speed`` (+ tolerance of ω_d − ω_ref), ``speed_error`` (− |ω_d − ω_ref|, weight 0
+    period): ``speed`` (+ tolerance of ω_d − ω_ref), ``speed_linear`` (+ linear tolerance of ω_d − ω_ref, weight 0
     unless set), ``lateral`` (− |y| off the fall line),
     ``heading`` (− (1 − cos ψ)), ``ctrl`` (− Σa²), ``success`` (+ on success, paid at the run-out),
     ``off_ramp`` (− on leaving the lane).
@@ -158,7 +158,7 @@ class RampDescentTask(Task):
 
     name = "RampDescent"
     ramp = True
-    reward_terms = ("speed", "speed_error", "lateral", "heading", "ctrl", "success", "off_ramp")
+    reward_terms = ("speed", "speed_linear", "lateral", "heading", "ctrl", "success", "off_ramp")
     command_names = ("omega_ref", "heading_error")  # v0/v1; v2 adds "lateral_error"
     # ω_ref bounds [rad/s]: those of omega_ref_range_rad_s
     command_option_bounds = {"omega_ref": (0.0, 30.0), "omega_ref_after": (0.0, 30.0)}

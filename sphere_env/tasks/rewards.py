@@ -20,6 +20,11 @@ def gaussian_tolerance(error: float, width: float) -> float:
     return math.exp(-0.5 * z * z)
 
 
+def linear_tolerance(error: float, margin: float) -> float:
+    """max(0, 1 − |error|/margin) ∈ [0, 1]: 1 at zero error, 0 from ``margin`` on."""
+    return max(0.0, 1.0 - abs(error) / margin)
+
+
 def control_cost(action) -> float:
     """Σ a_i² of the normalized action (a ∈ [-1, 1]²) [-]."""
     return float(sum(a * a for a in action))
@@ -39,10 +44,13 @@ class RampRewardWeights:
     :param ctrl: × Σ a² per s (penalty, subtracted).
     :param success: bonus on reaching the flat run-out.
     :param off_ramp: penalty (subtracted) on leaving the ramp sideways.
-    :param speed_error: × |ω_d − ω_ref| [rad/s] per s (penalty, subtracted; default 0: off). The
-        gaussian ``speed`` term is flat more than a few widths from ω_ref (at 4 rad/s off it pays
-        e⁻⁸ of its weight), so a policy that coasts far too fast, or far too slow, feels no pull
-        toward the command; this term's slope is the same at every error.
+    :param speed_linear: × max(0, 1 − |ω_d − ω_ref| / speed_linear_margin) per s (default 0: off),
+        dm_control's linear tolerance. The gaussian ``speed`` term is flat more than a few widths
+        from ω_ref (at 4 rad/s off it pays e⁻⁸ of its weight), so a policy that coasts far too
+        fast, or far too slow, feels no pull toward the command; this term's slope is the same at
+        every error inside the margin. It is a bonus, never a penalty, so that ending an episode
+        early (leaving the lane) never pays more than descending with a large error.
+    :param speed_linear_margin: error at which ``speed_linear`` reaches 0 [rad/s] (not a term).
     """
 
     speed: float = 1.0
@@ -52,7 +60,8 @@ class RampRewardWeights:
     ctrl: float = 0.1
     success: float = 2.0
     off_ramp: float = 2.0
-    speed_error: float = 0.0
+    speed_linear: float = 0.0
+    speed_linear_margin: float = 4.0
 
 
 @dataclass(frozen=True)
@@ -102,7 +111,7 @@ def make_weights(cls, overrides: Mapping[str, float] | None, kwarg: str = "rewar
         if key not in names:
             raise ValueError(f"{kwarg}: unknown term {key!r}; allowed: {sorted(names)}")
         fval = finite_number(f"{kwarg}.{key}", val)
-        if key.endswith("width") and fval <= 0:
+        if key.endswith(("width", "margin")) and fval <= 0:
             raise ValueError(f"{kwarg}: {key}={val!r} must be > 0")
         out[key] = fval
     return cls(**out)
@@ -127,7 +136,7 @@ def ramp_descent_terms(
     """
     return {
         "speed": w.speed * dt_s * gaussian_tolerance(omega_d - omega_ref, w.speed_width),
-        "speed_error": -w.speed_error * dt_s * abs(omega_d - omega_ref),
+        "speed_linear": w.speed_linear * dt_s * linear_tolerance(omega_d - omega_ref, w.speed_linear_margin),
         "lateral": -w.lateral * dt_s * abs(lateral_m),
         "heading": -w.heading * dt_s * (1.0 - math.cos(heading_rad)),
         "ctrl": -w.ctrl * dt_s * control_cost(action),

@@ -113,18 +113,26 @@ def test_pressure_schedule_leaks_and_clips():
     assert schedule_pressure(4.0, -1.0, 0.0, 10.0, (3.0, 14.0)) == 3.0
 
 
-def test_speed_error_term_pulls_where_the_gaussian_is_flat():
+def test_speed_linear_term_pulls_where_the_gaussian_is_flat():
     """Far from the command the gaussian speed term barely changes with the error; the opt-in
-    speed_error term falls by the same amount per rad/s at every error, and is 0 by default."""
+    speed_linear term rises by the same amount per rad/s at every error inside its margin, never
+    goes below 0 (no reward for ending early), and is 0 by default."""
     default = rewards.RampRewardWeights()
-    w = rewards.RampRewardWeights(speed_error=0.5)
+    w = rewards.RampRewardWeights(speed_linear=0.5, speed_linear_margin=5.0)
 
     def total(weights, omega_d):
         return sum(rewards.ramp_descent_terms(weights, 0.02, omega_d, 3.0, 0.0, 0.0, (0.0, 0.0), False, False).values())
 
-    assert rewards.ramp_descent_terms(default, 0.02, 7.0, 3.0, 0.0, 0.0, (0.0, 0.0), False, False)["speed_error"] == 0.0
+    def linear(weights, omega_d):
+        return rewards.ramp_descent_terms(weights, 0.02, omega_d, 3.0, 0.0, 0.0, (0.0, 0.0), False, False)["speed_linear"]
+
+    assert linear(default, 7.0) == 0.0
     flat = total(default, 7.0) - total(default, 8.0)  # 4 → 5 rad/s too fast
     pulled = total(w, 7.0) - total(w, 8.0)
     assert 0.0 < flat < 1e-5
-    assert pulled == pytest.approx(flat + 0.5 * 0.02, rel=1e-6)
+    assert pulled == pytest.approx(flat + 0.5 * 0.02 / 5.0, rel=1e-6)
     assert total(w, 3.0) - total(w, 4.0) > total(default, 3.0) - total(default, 4.0)
+    assert linear(w, 3.0) == pytest.approx(0.5 * 0.02)
+    assert linear(w, 9.0) == linear(w, -5.0) == 0.0  # beyond the margin: 0, never negative
+    with pytest.raises(ValueError, match="speed_linear_margin"):
+        rewards.make_weights(rewards.RampRewardWeights, {"speed_linear_margin": 0.0})
