@@ -93,7 +93,7 @@ def test_reset_reuses_diagram_and_explicit_options(make):
     assert info["heading_ref"] == 0.3
     with pytest.raises(ValueError, match="options.pressure_kpa"):
         env.reset(options={"pressure_kpa": 99.0})
-    with pytest.raises(ValueError, match="options: unknown key 'bogus'"):
+    with pytest.raises(ValueError, match="unknown field 'options.bogus'"):
         env.reset(options={"bogus": 1})
 
 

@@ -5,6 +5,8 @@ import math
 
 import pytest
 
+from sphere_env.schemas import validate
+from sphere_env.schemas.env import reset_options
 from sphere_env.tasks import RampDescentTask, RollTask
 from sphere_env.tasks.randomization import Distribution, PressureSchedule, RandomizationSpec
 
@@ -40,21 +42,32 @@ def test_valid_schedules_still_parse():
 
 
 @pytest.mark.parametrize("task, options, field", [
-    (RollTask(), {"omega_ref": "abc"}, "options.omega_ref"),
-    (RollTask(), {"omega_ref": [1.0, 2.0]}, "options.omega_ref"),
-    (RollTask(), {"omega_ref": 1e9}, "options.omega_ref: value 1000000000.0 outside allowed [-30, 30]"),
+    (RollTask(), {"omega_ref": "abc"}, "field 'options.omega_ref' = 'abc'"),
+    (RollTask(), {"omega_ref": [1.0, 2.0]}, "field 'options.omega_ref'"),
+    (RollTask(), {"omega_ref": True}, "field 'options.omega_ref' = True"),  # a bool is not a number
+    (RollTask(), {"omega_ref": None}, "field 'options.omega_ref' = None"),
+    (RollTask(), {"omega_ref": 1e9}, "field 'options.omega_ref' = 1000000000.0: Input should be less than or equal to 30; "
+                                     "allowed: [-30, 30]"),
     (RollTask(), {"heading_ref": "x"}, "options.heading_ref"),
     (RollTask(), {"heading_ref": 10.0}, "options.heading_ref"),
+    (RollTask(), {"yaw_rate_ref": 1.0}, "unknown field 'options.yaw_rate_ref'"),  # heading mode
     (RollTask(command_mode="yaw_rate"), {"yaw_rate_ref": 9.0}, "options.yaw_rate_ref"),
-    (RampDescentTask(), {"omega_ref": -1.0}, "options.omega_ref: value -1.0 outside allowed [0, 30]"),
+    (RampDescentTask(), {"omega_ref": -1.0}, "field 'options.omega_ref' = -1.0: Input should be greater than or equal "
+                                             "to 0; allowed: [0, 30]"),
     (RampDescentTask(), {"omega_ref": float("nan")}, "options.omega_ref"),
+    (RampDescentTask(omega_ref_change_min_rad_s=None), {"omega_ref_after": 3.0}, "unknown field 'options.omega_ref_after'"),
+    (RampDescentTask(), {"pressure_rate_kpa_per_s": "0.1"}, "field 'options.pressure_rate_kpa_per_s' = '0.1'"),
+    (RampDescentTask(), {"initial_state": {"theta": "0.1"}}, "field 'options.initial_state.theta' = '0.1'"),
 ])
 def test_command_options_are_checked_with_their_range(task, options, field):
     with pytest.raises(ValueError) as err:
-        task.check_options(options)
+        validate(reset_options(task), options, root="options")
     assert field in str(err.value)
 
 
-def test_command_options_in_range_pass_unchanged():
-    assert RollTask().check_options({"omega_ref": 2, "heading_ref": -math.pi}) == {"omega_ref": 2.0, "heading_ref": -math.pi}
-    assert RampDescentTask().check_options({"omega_ref": 6.0, "pressure_kpa": 5.0}) == {"omega_ref": 6.0}
+def test_command_options_in_range_pass_as_floats():
+    def given(task, options):
+        return validate(reset_options(task), options, root="options").model_dump(exclude_unset=True)
+
+    assert given(RollTask(), {"omega_ref": 2, "heading_ref": -math.pi}) == {"omega_ref": 2.0, "heading_ref": -math.pi}
+    assert given(RampDescentTask(), {"omega_ref": 6.0, "pressure_kpa": 5.0}) == {"omega_ref": 6.0, "pressure_kpa": 5.0}
