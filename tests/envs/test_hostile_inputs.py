@@ -40,6 +40,45 @@ def test_bad_pressure_schedule_is_refused_at_make(rate):
         gym.make(ROLL, randomization={"pressure_schedule": {"rate_kpa_per_s": rate}})
 
 
+# ---- kwargs load through the id's schema before anything is built ---------------------------------
+@pytest.mark.parametrize("env_id, kwargs, message", [
+    (ROLL, {"time_step_s": "0.005"}, "field 'time_step_s' = '0.005': Input should be a valid number; allowed: (0, 0.05] s"),
+    (ROLL, {"steer_torque_limit_nm": True}, "field 'steer_torque_limit_nm' = True: Input should be a valid number"),
+    (ROLL, {"observation_noise_scale": np.bool_(True)}, "field 'observation_noise_scale' = np.True_: a bool is not a number"),
+    (ROLL, {"hydroelastic_pressure_step_kpa": "0.5"}, "field 'hydroelastic_pressure_step_kpa' = '0.5'"),
+    (ROLL, {"render_size": (640, "480")}, "field 'render_size[1]' = '480'"),
+    (ROLL, {"render_size": (640, 480, 3)}, "field 'render_size' = (640, 480, 3)"),
+    (ROLL, {"observe_shell_model": "yes"}, "field 'observe_shell_model' = 'yes'"),
+    (ROLL, {"calibration": 3}, "field 'calibration' = 3"),
+    (ROLL, {"heading_range_rad": "1"}, "field 'heading_range_rad' = '1'"),
+    (ROLL, {"lane_half_width_m": 1.0}, "Roll kwargs: unknown field 'lane_half_width_m'; allowed: ["),  # RampDescent's
+    (RAMP, {"command_mode": "heading"}, "RampDescent kwargs: unknown field 'command_mode'; allowed: ["),  # Roll's
+    (RAMP, {"incline_deg": "16"}, "field 'incline_deg' = '16'"),
+    (RAMP, {"settle_time_s": False}, "field 'settle_time_s' = False"),
+    (RAMP, {"omega_ref_range_rad_s": ("2", 4.5)}, "field 'omega_ref_range_rad_s[0]' = '2'"),
+    (RAMP, {"reward_weights": {"speed": "1"}}, "field 'reward_weights.speed' = '1'"),
+    (RAMP, {"reward_weights": {"speed": True}}, "field 'reward_weights.speed' = True"),
+])
+def test_strings_bools_and_unknown_kwargs_are_refused_before_anything_is_built(monkeypatch, env_id, kwargs, message):
+    def no_twin(*args, **kw):
+        raise AssertionError("a twin was built for refused kwargs")
+
+    monkeypatch.setattr("sphere_env.envs.env.Twin", no_twin)
+    with pytest.raises(ValueError) as err:
+        gym.make(env_id, **kwargs)
+    assert message in str(err.value)
+
+
+def test_sphere_env_loads_its_kwargs_through_the_schema():
+    from sphere_env.envs import SphereEnv
+    from sphere_env.tasks import RollTask
+
+    with pytest.raises(ValueError, match="Roll kwargs: field 'time_step_s' = '0.005'"):
+        SphereEnv(RollTask(), time_step_s="0.005")
+    with pytest.raises(ValueError, match="Roll kwargs: unknown field 'command_mode'"):
+        SphereEnv(RollTask(), command_mode="heading")  # a task kwarg goes to the task, not the env
+
+
 # ---- a reset that raises changes nothing ------------------------------------------------------------
 @pytest.mark.parametrize("options, field", [
     ({"pressure_kpa": 12.0, "initial_state": {"roll": math.nan}}, "initial_state.roll"),
