@@ -36,7 +36,7 @@ from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.params import ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import validate
-from sphere_env.schemas.env import EnvKwargs, reset_options
+from sphere_env.schemas.env import RENDER_MODES, EnvKwargs, reset_options
 from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
 from sphere_env.tasks.observation import assemble_observation
 from sphere_env.tasks.randomization import PARAMETERS as RANDOMIZED
@@ -79,7 +79,7 @@ class SphereEnv(gym.Env, EzPickle):
     it is reset; after ``reset(seed=s)`` it behaves exactly like the original reset with ``s``.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 50}
 
     def __init__(self, task: Task, **kwargs: Any):
         meshcat = kwargs.get("meshcat", False)
@@ -299,8 +299,10 @@ class SphereEnv(gym.Env, EzPickle):
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
         * task command values (the task's ``command_options``, within the task's bounds).
 
-        Everything (seed, options, initial state, command values) is checked before anything
-        changes: a reset that raises ``ValueError`` leaves the environment as it was (the running
+        The options load through the task's schema (:func:`~sphere_env.schemas.env.reset_options`):
+        an unknown option, a string or a bool where a number belongs, a value out of range is a
+        ``ValueError`` naming ``options.<name>``. Everything (seed, options, initial state, command
+        values) is checked before anything changes: a reset that raises ``ValueError`` leaves the environment as it was (the running
         episode, if any, carries on; a fresh env still needs a successful reset).
         """
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
