@@ -55,6 +55,7 @@ import numpy as np
 import yaml
 
 from sphere_env.cli import parse_env_kwargs, parse_key_values
+from sphere_env.schemas.training import check_sweep_options
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, algo_class, resolve_config
 from sphere_env.training.run_folder import (
     CHECKPOINT_PREFIX,
@@ -647,15 +648,11 @@ def _config_from_args(args: argparse.Namespace, hyperparams: Mapping[str, Any], 
 
 def sweep_configs(args: argparse.Namespace) -> list[TrainConfig]:
     """One validated config per trial: every ``--trial`` (or the plain overrides) × every seed."""
-    if args.trained_agent is not None or args.tensorboard_log is not None:
-        raise ValueError("seeds: a sweep does not take -i/--trained-agent or --tensorboard-log (each trial "
-                         "writes its own run folder)")
+    opts = check_sweep_options(seeds=args.seeds if args.seeds is not None else [args.seed],
+                               trained_agent=args.trained_agent, tensorboard_log=args.tensorboard_log)
     trials = [dict(args.hyperparams)] if not args.trial else [
         {**args.hyperparams, **parse_key_values(t.split(), "trial")} for t in args.trial]
-    seeds = args.seeds if args.seeds is not None else [args.seed]
-    if len(set(seeds)) != len(seeds):
-        raise ValueError(f"seeds: value {seeds} repeats a seed")
-    return [_config_from_args(args, h, s) for h in trials for s in seeds]
+    return [_config_from_args(args, h, s) for h in trials for s in opts.seeds]
 
 
 def default_sweep_dir(args: argparse.Namespace) -> Path:
