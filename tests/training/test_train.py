@@ -32,7 +32,7 @@ def no_workers(monkeypatch):
         raise AssertionError("a worker was started")
 
     monkeypatch.setattr("stable_baselines3.common.vec_env.SubprocVecEnv.__init__", boom)
-    monkeypatch.setattr(train_mod, "make_vec_env", boom)
+    monkeypatch.setattr("sphere_env.training.session.make_vec_env", boom)
 
 
 @pytest.mark.parametrize(
