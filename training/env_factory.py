@@ -22,6 +22,7 @@ from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, apply_env_
 
 _ENV_MONITOR = None
 
+
 def _monitor_class():
     """SB3's ``Monitor`` that passes assignments to settable properties of the wrapped env (such as
     ``SphereEnv.randomization``) through, so ``venv.set_attr("randomization", spec)`` reaches the env,
