@@ -34,6 +34,7 @@ def say(msg: str) -> None:
     """A note of the trainer on stderr (a fallback taken, a file missing)."""
     print(f"training.train: {msg}", file=sys.stderr, flush=True)
 
+
 @contextlib.contextmanager
 def sigterm_interrupts():
     """Inside the block SIGTERM ends a training as Ctrl-C does (saved, then

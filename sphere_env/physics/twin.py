@@ -46,6 +46,7 @@ __all__ = ["FIXTURES", "MAX_INITIAL_PENETRATION_M", "InitialState", "Twin", "Twi
 
 _log = logging.getLogger("sphere_env")
 
+
 class Twin:
     """The robot in Drake, advanced in chunks like an environment would.
 
