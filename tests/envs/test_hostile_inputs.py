@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M
+from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M
 from sphere_env.resources import asset_path
 
 from .conftest import rollout

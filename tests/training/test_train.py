@@ -32,7 +32,7 @@ def no_workers(monkeypatch):
         raise AssertionError("a worker was started")
 
     monkeypatch.setattr("stable_baselines3.common.vec_env.SubprocVecEnv.__init__", boom)
-    monkeypatch.setattr(train_mod, "make_vec_env", boom)
+    monkeypatch.setattr("sphere_env.training.session.make_vec_env", boom)
 
 
 @pytest.mark.parametrize(
@@ -99,7 +99,7 @@ def test_top_level_randomization_refused_with_where_it_moved(no_workers, tmp_pat
         with pytest.raises(SystemExit):
             main(["--env", RAMP, *argv, "--run-dir", str(tmp_path / "run"), "--no-progress"])
         err = capsys.readouterr().err
-        assert "randomization: a top-level key" in err and "env_kwargs.randomization" in err, err
+        assert "field 'hyperparams.randomization': a top-level key" in err and "moved to env_kwargs.randomization" in err, err
     assert not (tmp_path / "run").exists()
 
 
