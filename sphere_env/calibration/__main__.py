@@ -454,7 +454,8 @@ def check_output_paths(args) -> None:
     that a bad second output cannot fail after the first one was written."""
     for name in OUTPUT_OPTIONS:
         value = getattr(args, name, None)
-        if not value or (args.command == "report" and name == "out"):  # report --out is a folder
+        # report --out is a folder; events --json is a flag (print JSON), not a path
+        if not isinstance(value, str) or not value or (args.command == "report" and name == "out"):
             continue
         path = Path(value)
         if path.is_dir():
