@@ -417,10 +417,10 @@ def cross_validate(
     base: ShellCalibration | None = None,
     steer_friction: FrictionModel | str = "majd_steer",
     max_nfev: int = 40,
-    pool: TwinPool | None = None,
     blocks: int = 3,
     models: Sequence[str] = ("injected",),
     drive_friction: FrictionModel | str = "majd_drive",
+    workers: int | None = 1,
 ) -> list[dict[str, Any]]:
     """Held-out φ/θ RMSE [rad] of each steer-law form for each shell model in ``models``.
 
@@ -430,14 +430,15 @@ def cross_validate(
     is once held out, and no form is judged only on extrapolation from large swings to small ones).
     Within a fold the models are fitted in order, each on top of the previous one's fit as
     :func:`steer_fit` does (``hydroelastic`` after ``injected`` keeps the fold's injected law), so
-    nothing of the held-out segment reaches any fit. ``pool`` is the injected model's twins.
+    nothing of the held-out segment reaches any fit. The (form, fold) fits run on ``workers``
+    processes (:func:`~sphere_env.parallel.run_parallel`; 1: in this process).
     Returns one row per (model, form, fold) with the held-out RMSE and the fit; a fold whose fit is
     refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the reason under
     ``refused``, so that form is never chosen.
     """
+    from sphere_env.parallel import run_parallel
+
     base = base or ShellCalibration.load()
-    pools = {m: TwinPool(m, steer_friction, drive_friction=drive_friction) for m in models if m != "injected"}
-    pools["injected"] = pool or TwinPool("injected", steer_friction, drive_friction=drive_friction)
     if len(logs) >= 2:
         folds = [([lg for j, lg in enumerate(logs) if j != i], [logs[i]]) for i in range(len(logs))]
     else:
@@ -445,25 +446,33 @@ def cross_validate(
         edges = np.linspace(0.0, float(lg.t_s[-1]), blocks + 1)
         parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
         folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
-    rows = []
-    for form in forms:
-        for train, test in folds:
-            cur = base
-            for model in models:
-                where = {"model": model, "form": form, "fit_on": [t.name for t in train]}
-                try:
-                    fit = fit_shell(train, model, pressure_kpa, steer_friction=steer_friction, base=cur,
-                                    form=form if model == "injected" else None, max_nfev=max_nfev, pool=pools[model],
-                                    require_convergence=False, drive_friction=drive_friction)
-                except FitError as err:  # this model and every one fitted on top of it are refused
-                    rows += [dict(where, model=m, test=lg.name, rmse_phi_rad=math.inf, rmse_theta_rad=math.inf,
-                                  refused=str(err)) for m in models[list(models).index(model):] for lg in test]
-                    break
-                cur = ShellCalibration.from_dict(fit.calibration, source="<cv>")
-                pools[model].install(cur, pressure_kpa)
-                for name, r in trial_rmse(pools[model], test).items():
-                    rows.append(dict(where, test=name, rmse_phi_rad=r["phi"], rmse_theta_rad=r["theta"],
-                                     train_rmse_rad=fit.rmse, params=fit.params))
+    jobs = [{"train": train, "test": test, "form": form, "models": tuple(models), "base": dict(base.raw),
+             "source": base.source, "pressure_kpa": pressure_kpa, "steer_friction": steer_friction,
+             "drive_friction": drive_friction, "max_nfev": max_nfev} for form in forms for train, test in folds]
+    return [row for rows in run_parallel(_fold_job, jobs, workers=workers) for row in rows]
+
+
+def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One (form, fold) of :func:`cross_validate`: fit its models in order on the training segments
+    (twins built here: Drake diagrams never cross processes) and score the held-out ones."""
+    train, test, form, models, p0 = job["train"], job["test"], job["form"], job["models"], job["pressure_kpa"]
+    cur = ShellCalibration.from_dict(job["base"], source=job["source"])
+    rows: list[dict[str, Any]] = []
+    for i, model in enumerate(models):
+        where = {"model": model, "form": form, "fit_on": [t.name for t in train]}
+        pool = TwinPool(model, job["steer_friction"], drive_friction=job["drive_friction"])
+        try:
+            fit = fit_shell(train, model, p0, steer_friction=job["steer_friction"], base=cur,
+                            form=form if model == "injected" else None, max_nfev=job["max_nfev"], pool=pool,
+                            require_convergence=False, drive_friction=job["drive_friction"])
+        except FitError as err:  # this model and every one fitted on top of it are refused
+            return rows + [dict(where, model=m, test=lg.name, rmse_phi_rad=math.inf, rmse_theta_rad=math.inf,
+                                refused=str(err)) for m in models[i:] for lg in test]
+        cur = ShellCalibration.from_dict(fit.calibration, source="<cv>")
+        pool.install(cur, p0)
+        for name, r in trial_rmse(pool, test).items():
+            rows.append(dict(where, test=name, rmse_phi_rad=r["phi"], rmse_theta_rad=r["theta"],
+                             train_rmse_rad=fit.rmse, params=fit.params))
     return rows
 
 
@@ -489,6 +498,7 @@ def steer_fit(
     max_nfev: int = 60,
     log_to=None,
     hold_out_windows: bool = True,
+    workers: int | None = 1,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``steer-fit`` does: fit each shell model in ``models`` on ``logs``, in order, each on top of
     the previous one's calibration (``hydroelastic`` after ``injected`` keeps the injected ω_n, ζ and
@@ -500,7 +510,7 @@ def steer_fit(
     slightly optimistic: the form was picked on them). Returns (calibration mapping, record of the
     fit: per model its parameters, 95 % intervals and ``unidentified`` ones; under
     ``leave_one_window_out`` each window's held-out RMSE); ``log_to`` (e.g. ``print``) receives a
-    readable account.
+    readable account. ``workers``: processes for the cross-validation folds.
     """
     say = log_to or (lambda *_: None)
     record: dict[str, Any] = {"fit_on": [log.name for log in logs], "pressure_kpa": pressure_kpa, "models": {}}
@@ -508,7 +518,7 @@ def steer_fit(
     form_rows: list[dict[str, Any]] = []
     if "injected" in models and len(forms) > 1:
         form_rows = cross_validate(logs, forms, pressure_kpa, base=base, steer_friction=steer_friction,
-                                   max_nfev=max_nfev, drive_friction=drive_friction)
+                                   max_nfev=max_nfev, drive_friction=drive_friction, workers=workers)
         form, mean = choose_form(form_rows)
         say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
         for r in form_rows:
@@ -535,7 +545,7 @@ def steer_fit(
             rows = [r for r in form_rows if r["form"] == form]
         else:
             rows = cross_validate(logs, [form], pressure_kpa, base=base, steer_friction=steer_friction,
-                                  max_nfev=max_nfev, models=models, drive_friction=drive_friction)
+                                  max_nfev=max_nfev, models=models, drive_friction=drive_friction, workers=workers)
         say(f"leave-one-window-out (form {form!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
         for r in rows:
             say(f"  {r['model']:12s} {'+'.join(r['fit_on'])} -> {r['test']}: "
