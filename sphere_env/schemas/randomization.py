@@ -112,6 +112,9 @@ class Draw(Schema):
     def _infer_distribution(cls, data: Any) -> Any:
         if isinstance(data, Mapping) and "distribution" not in data:
             given = [kind for kind, fields in DISTRIBUTIONS.items() if any(f in data for f in fields)]
+            if len(given) > 1:
+                raise ValueError(f"field 'distribution' is missing: the fields given belong to {given}; allowed: "
+                                 "the fields of one distribution, or 'distribution' naming it")
             data = {**data, "distribution": given[0] if given else "fixed"}
         return data
 
