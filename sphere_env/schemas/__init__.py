@@ -98,19 +98,20 @@ def ordered_pair(low: float, high: float, unit: str) -> Any:
 
 
 def validate(schema: type[S], data: Any, where: str = "", error: type[Exception] = ValueError,
-             root: str = "") -> S:
+             root: str = "", context: Mapping[str, Any] | None = None) -> S:
     """``data`` as ``schema``, or ``error`` with one line naming the first problem (an unknown key
     before any other): ``<where>: field '<root>.<dotted.path>' = <value>: <problem>; allowed:
-    <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name)."""
+    <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name;
+    ``context``: what validators that depend on the caller read, as pydantic's validation context)."""
     head = f"{where}: " if where else ""
     if not isinstance(data, Mapping):
         name = f"field {root!r}" if root else "the input"  # its type only: never echo a file's contents
         raise error(f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: "
                     f"{sorted(schema.model_fields)}")
     try:
-        return schema.model_validate(dict(data))
+        return schema.model_validate(dict(data), context=context)
     except ValidationError as err:
-        errors = [{**e, "loc": field_loc(schema, e["loc"])} for e in err.errors()]
+        errors = [{**e, "loc": field_loc(schema, e["loc"], e["type"] == "extra_forbidden")} for e in err.errors()]
         # an unknown key first: a typo also makes the key it was meant to be "missing"
         first = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
         # of a union's branches failing at one field, the one with a validator's own words
@@ -118,9 +119,10 @@ def validate(schema: type[S], data: Any, where: str = "", error: type[Exception]
         raise error(f"{head}{describe(schema, first, root)}") from None
 
 
-def field_loc(schema: type[BaseModel], loc: tuple) -> tuple:
+def field_loc(schema: type[BaseModel], loc: tuple, unknown_key: bool = False) -> tuple:
     """A pydantic error location without its union branch tags (``constrained-float``,
-    ``function-after[...]``, ``str``): only field names, list indices and mapping keys stay."""
+    ``function-after[...]``, ``str``, a tagged union's tags): only field names, list indices and
+    mapping keys stay, and the last part of an ``unknown_key`` error (the key refused)."""
     out: list = []
     model: type[BaseModel] | None = schema
     for i, p in enumerate(loc):
@@ -132,7 +134,7 @@ def field_loc(schema: type[BaseModel], loc: tuple) -> tuple:
             model = _model_in(model.model_fields[p].annotation)
         elif model is None and not _is_tag(p):
             out.append(p)  # a key of a free mapping
-        elif last and model is not None:
+        elif last and unknown_key:
             out.append(p)  # an unknown key of a model
     return tuple(out)
 

@@ -2,6 +2,7 @@
 allowed ranges are refused with an error naming the field (pure Python, no Drake)."""
 
 import math
+import re
 
 import pytest
 
@@ -18,7 +19,7 @@ from sphere_env.tasks.randomization import Distribution, PressureSchedule, Rando
     ({"distribution": "uniform", "low": -0.1}, "uniform needs both"),
     ({"distribution": "choice", "values": []}, "values"),
     ({"distribution": "choice", "values": 3}, "values"),
-    ({"distribution": "fixed", "value": float("nan")}, "not finite"),
+    ({"distribution": "fixed", "value": float("nan")}, "finite number"),
     ({"distribution": "poisson"}, "distribution"),
 ])
 def test_bad_pressure_schedule_distributions_are_refused(rate, field):
@@ -29,7 +30,7 @@ def test_bad_pressure_schedule_distributions_are_refused(rate, field):
 
 def test_schedule_objects_are_validated_too():
     bad = RandomizationSpec(pressure_schedule=PressureSchedule(Distribution("uniform", low=0.2, high=-0.2)))
-    with pytest.raises(ValueError, match="pressure_schedule.rate_kpa_per_s: uniform low"):
+    with pytest.raises(ValueError, match=re.escape("field 'pressure_schedule.rate_kpa_per_s.low' = 0.2 > high -0.2")):
         RandomizationSpec.parse(bad)
     with pytest.raises(ValueError, match="delay_s"):
         RandomizationSpec.parse(RandomizationSpec(pressure_schedule=PressureSchedule(Distribution("fixed", value=0.0), -1.0)))

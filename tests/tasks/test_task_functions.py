@@ -96,14 +96,14 @@ def test_randomization_mapping_formats():
 
 
 @pytest.mark.parametrize("bad, match", [
-    ({"bogus": 1.0}, "unknown parameter 'bogus'"),
+    ({"bogus": 1.0}, "unknown field 'bogus'"),
     ({"pressure_kpa": [1.0, 8.0]}, "outside the calibrated range"),
     ({"ground_friction": {"distribution": "uniform", "low": 2.0, "high": 1.0}}, "low"),
     ({"incline_deg": {"distribution": "uniform", "low": 10, "high": 12, "mode": "interval", "interval_s": 1}}, "interval"),
     ({"ground_friction": {"distribution": "uniform", "low": 0.5, "high": 1.0, "mode": "interval"}}, "interval_s"),
-    ({"payload_mass_kg": -1.0}, "outside allowed"),
+    ({"payload_mass_kg": -1.0}, "field 'payload_mass_kg' = -1.0: Input should be greater than or equal to 0"),
     ({"pressure_schedule": {"rate": 1}}, "pressure_schedule"),
-    ("sometimes", "unknown preset"),
+    ("sometimes", "field 'base' = 'sometimes'"),
 ])
 def test_randomization_bad_specs_name_the_field(bad, match):
     with pytest.raises(ValueError, match=match) as err:
