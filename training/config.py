@@ -47,6 +47,7 @@ list of these (applied in order, the first innermost), e.g. ``sphere_env.wrapper
 from __future__ import annotations
 
 import copy
+import re
 import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -323,7 +324,23 @@ def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None
 def _env_error(err: Exception, prefix: str) -> ValueError:
     """An env's ValueError as one naming the configuration field (``env_kwargs.<kwarg>``)."""
     msg = str(err)
+    named = _named_field(msg, prefix)
+    if named is not None:
+        return ValueError(named)
     return ValueError(f"{prefix}.{msg}" if not msg.startswith(("options", prefix)) else msg)
+
+
+def _named_field(msg: str, prefix: str) -> str | None:
+    """A schema's one-line error with the configuration's own path in front of the field's:
+    the env kwargs schema names fields from the kwargs' top (``RampDescent kwargs: field
+    'shell_model'`` -> ``field 'env_kwargs.shell_model'``), the randomization schema from the
+    spec's (``randomization: field 'pressure_kpa'`` -> ``field
+    'env_kwargs.randomization.pressure_kpa'``); None for any other message."""
+    m = re.match(r"^(?:\w+ kwargs|(randomization)): (unknown )?field '", msg)
+    if m is None:
+        return None
+    root = f"{prefix}.randomization." if m.group(1) else f"{prefix}."
+    return f"{m.group(2) or ''}field '{root}{msg[m.end():]}"
 
 
 def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | None = None) -> None:
@@ -337,8 +354,9 @@ def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | 
     except Exception as err:  # noqa: BLE001 - whatever the env raises, the configuration is at fault
         env.close()
         msg = str(err)
-        if msg.startswith("randomization"):
-            raise ValueError(f"{where}.{msg}") from None
+        named = _named_field(msg, where)
+        if named is not None or msg.startswith("randomization"):
+            raise ValueError(named or f"{where}.{msg}") from None
         raise ValueError(f"{where}: the env failed its first reset/step with this configuration: "
                          f"{type(err).__name__}: {msg}") from None
 

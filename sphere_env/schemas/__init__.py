@@ -66,7 +66,7 @@ def _as_tuple(value: Any) -> Any:
 
 
 def fixed_tuple(item: Any, size: int, words: str) -> Any:
-    """A tuple of ``size`` ``item``\ s (a list or numpy array is one), its allowed values in words."""
+    """A tuple of ``size`` ``item`` values (a list or numpy array is one), its allowed values in words."""
     return Annotated[tuple[(item,) * size], BeforeValidator(_as_tuple), Field(json_schema_extra=allowed(words))]
 
 
