@@ -63,7 +63,7 @@ def run_folder(spec: str) -> tuple[Path, str] | None:
     p = run_path(path)
     if (p / "config.yaml").exists():
         if which not in ("", "best", "model") and not which.isdigit():
-            raise ValueError(f"controller: {spec!r}: use <run>, <run>@best or <run>@<checkpoint steps>")
+            raise ValueError("use <run>, <run>@best or <run>@<checkpoint steps>")
         return p, which or "model"
 
 
@@ -81,9 +81,10 @@ def model_files(folder: Path, which: str) -> tuple[Path, Path]:
 
 
 def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = False) -> None:
-    """Refuse a spec that cannot be resolved (called in the main process before a sweep): an
-    unknown baseline or callable, a run folder whose model is missing or unreadable, or a policy
-    trained on another env id than ``env_id`` (unless ``allow_env_mismatch``)."""
+    """Refuse a spec (of the form :class:`sphere_env.schemas.evaluation.ControllerSpec` admits) that
+    cannot be resolved, in the main process before a sweep: a callable that does not import, a run
+    folder whose model is missing or unreadable, or a policy trained on another env id than
+    ``env_id`` (unless ``allow_env_mismatch``)."""
     if spec in BASELINES:
         return
     rf = run_folder(spec)
@@ -117,9 +118,6 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
             except Exception as err:  # noqa: BLE001
                 raise ValueError(f"controller: {spec!r}: {vn} cannot be loaded ({type(err).__name__}: {err})") from None
         return
-    if ":" not in spec:
-        raise ValueError(f"controller: {spec!r} is not a baseline {list(BASELINES)}, a run folder with config.yaml, "
-                         "or module:function")
     load_callable(spec)
 
 

@@ -9,76 +9,52 @@ The run folder is what ``training/train.py`` writes (``config.yaml``, ``model.zi
 ``vecnormalize.pkl``; ``<run>@best`` takes ``best/``). The policy is loaded as the evaluation loads a
 ``<run>`` controller (:class:`sphere_env.evaluation.controller_specs.PolicyController`: its
 VecNormalize statistics and training env kwargs come with it) and each episode is rolled out as one
-evaluation cell (:func:`sphere_env.evaluation.evaluate.rollout`): randomization off, the pressure
+evaluation cell (:func:`sphere_env.evaluation.cells.rollout`): randomization off, the pressure
 fixed (default: the calibration's nominal pressure), episode ``k`` seeded with ``seed + k``.
 
 ``--meshcat`` shows the episodes live (the URL is printed; paced at ``--realtime-rate``).
 ``--video FOLDER`` renders them (``rgb_array``) into ``FOLDER/<label>_<shell model>_<p>kPa_s<seed>.mp4``
 through ``RecordVideo`` (the ``video`` extra), moved into place when every episode has finished.
 
-Refused before anything runs, with the field named: a run folder without ``config.yaml``, without its
-model, or without the VecNormalize statistics it was trained with; a model that does not load; an env
-id other than the run's (unless ``--allow-env-mismatch``); an unknown shell model; a pressure outside
-the calibrated range; fewer than one episode; a negative seed; a video folder that is a file.
+Refused before anything runs, with the field named: options the schema
+(:class:`sphere_env.schemas.evaluation.EnjoyFields`) refuses (a run that is not a folder, an unknown
+shell model or env id, a pressure that is not a finite number, episodes outside [1, 10000], a
+negative seed, env kwargs the command sets itself, a video folder that is a file); then a run folder
+without ``config.yaml``, without its model, or without the VecNormalize statistics it was trained
+with; a model that does not load; an env id other than the run's (unless ``--allow-env-mismatch``);
+a pressure outside the calibrated range.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from sphere_env.cli import renamed
 from sphere_env.models.shell import SHELL_MODELS
-
-#: Env kwargs the enjoy command sets itself (refused in ``--env-kwargs``) and the option for each.
-OWN_KWARGS = {"shell_model": "--shell-model", "friction_model": "the run's config", "randomization": "off",
-              "render_mode": "--meshcat / --video", "meshcat": "--meshcat", "record_replay": "not used by enjoy"}
+from sphere_env.schemas import validate
+from sphere_env.schemas.evaluation import EnjoyFields, ViewOptions
 
 
-@dataclass
-class EnjoySpec:
-    """What to watch. ``run`` is a run folder, optionally ``@best``; ``None`` fields take the run's
-    own values (env id, shell model) or the calibration's nominal pressure [kPa]."""
-
-    run: str
-    episodes: int = 1
-    pressure_kpa: float | None = None
-    shell_model: str | None = None
-    seed: int = 0
-    deterministic: bool = True
-    env_id: str | None = None
-    allow_env_mismatch: bool = False
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    label: str | None = None
+class EnjoySpec(EnjoyFields):
+    """What to watch (fields and their checks: :class:`sphere_env.schemas.evaluation.EnjoyFields`).
+    ``run`` is a run folder, optionally ``@best``; ``None`` fields take the run's own values (env id,
+    shell model) or the calibration's nominal pressure [kPa]."""
 
     def resolve(self) -> dict[str, Any]:
-        """Validate everything (ValueError naming the field) and return the resolved settings:
-        ``folder``, ``which``, ``config``, ``env_id``, ``shell_model``, ``friction``,
-        ``pressure_kpa``, ``env_kwargs``, ``label``."""
-        import gymnasium as gym
-
-        import sphere_env  # noqa: F401 - registers the ids
-        from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of
+        """Check the run folder against the options (ValueError naming the field) and return the
+        resolved settings: ``folder``, ``which``, ``config``, ``env_id``, ``shell_model``,
+        ``friction``, ``pressure_kpa``, ``env_kwargs``, ``label``."""
+        from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, run_path
         from sphere_env.models.shell import ShellCalibration
         from sphere_env.training.train import load_config
 
-        path, _, which = str(self.run).partition("@")
-        if which not in ("", "best", "model"):
-            raise ValueError(f"run: {self.run!r}: use <run folder> or <run folder>@best")
-        from sphere_env.evaluation.controller_specs import run_path
-
+        path, _, which = self.run.partition("@")
         folder = run_path(path)
-        if not folder.is_dir():
-            raise ValueError(f"run: {path!r} is not a folder (a training run folder holds config.yaml, model.zip, "
-                             "vecnormalize.pkl)")
         cfg = load_config(folder)  # "run: ... has no config.yaml" / cannot be read
         which = which or "model"
         model_dir = folder / "best" if which == "best" else folder
@@ -90,8 +66,6 @@ class EnjoySpec:
             raise ValueError(f"run: {str(stats)!r} is missing: the policy was trained on VecNormalize-d "
                              "observations and cannot act without those statistics")
         env_id = self.env_id or cfg.env_id
-        if env_id not in gym.registry:
-            raise ValueError(f"env: unknown env id {env_id!r}")
         if env_id != cfg.env_id and not self.allow_env_mismatch:
             raise ValueError(f"env: {self.run!r} was trained on {cfg.env_id!r}, not on {env_id!r}; pass "
                              "--allow-env-mismatch to run it there anyway")
@@ -99,27 +73,11 @@ class EnjoySpec:
             check_spec(f"{folder}@{which}", None)  # the model and its statistics load
         except ValueError as err:
             raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
-        try:
-            extra = dict(self.env_kwargs)
-        except (TypeError, ValueError):
-            raise ValueError(f"env_kwargs: value {self.env_kwargs!r} must be a mapping of env kwargs") from None
-        for k in extra:
-            if k in OWN_KWARGS:
-                raise ValueError(f"env_kwargs.{k}: set by the enjoy command itself ({OWN_KWARGS[k]}); not allowed "
-                                 "in --env-kwargs")
-        env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **extra}
+        env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **self.env_kwargs}
         shell = self.shell_model or cfg.env_kwargs.get("shell_model", "injected")
-        if shell not in SHELL_MODELS:
-            raise ValueError(f"shell_model: unknown model {shell!r}; allowed: {list(SHELL_MODELS)}")
         cal = ShellCalibration.load(env_kwargs.get("calibration"))
         pressure = cal.nominal_pressure_kpa if self.pressure_kpa is None else self.pressure_kpa
-        if isinstance(pressure, bool) or not isinstance(pressure, (int, float)) or not math.isfinite(pressure):
-            raise ValueError(f"pressure_kpa: value {pressure!r} must be a finite number [kPa]")
-        cal.check_pressure(float(pressure), "pressure_kpa")
-        if isinstance(self.episodes, bool) or not isinstance(self.episodes, (int, np.integer)) or self.episodes < 1:
-            raise ValueError(f"episodes: value {self.episodes!r} must be an integer >= 1")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise ValueError(f"seed: value {self.seed!r} must be an integer >= 0")
+        cal.check_pressure(pressure, "field 'pressure_kpa'")
         name = path if path == "pretrained" else folder.name
         label = self.label or (name if which == "model" else f"{name}@best")
         return {"folder": folder, "which": which, "config": cfg, "env_id": env_id, "shell_model": shell,
@@ -179,7 +137,7 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
     columns). ``video``: folder for the MP4s; ``meshcat``: live view."""
     import gymnasium as gym
 
-    from sphere_env.evaluation.evaluate import rollout
+    from sphere_env.evaluation.cells import rollout
     from sphere_env.evaluation.video import (
         check_video_support,
         record_episode,
@@ -187,10 +145,10 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
         video_name,
     )
 
+    view = validate(ViewOptions, dict(meshcat=meshcat, video=video, realtime_rate=realtime_rate))
+    meshcat, video = view.meshcat, view.video
     if video is not None:
-        video = check_video_support(video)
-    if not (isinstance(realtime_rate, (int, float)) and math.isfinite(realtime_rate) and realtime_rate >= 0):
-        raise ValueError(f"realtime_rate: value {realtime_rate!r} must be a number >= 0 (0: as fast as possible)")
+        check_video_support()
     r = spec.resolve()
     import torch
 
@@ -206,7 +164,7 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
         controller = make_policy(r["folder"], r["which"], spec.deterministic, spec.seed, env)
         if meshcat:
             say(f"Meshcat: {env.unwrapped.meshcat.web_url()}")
-            controller = Paced(controller, env, realtime_rate)
+            controller = Paced(controller, env, view.realtime_rate)
         with staged_videos(video) as video_work:
             for k in range(spec.episodes):
                 job = {"controller": r["label"], "spec": str(spec.run), "env_id": r["env_id"],
@@ -256,7 +214,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     parser.add_argument("--meshcat", action="store_true", help="show the episodes live in Meshcat (URL printed)")
     parser.add_argument("--realtime-rate", type=float, default=1.0,
                         help="with --meshcat: simulated seconds per wall-clock second (0: as fast as possible)")
-    parser.add_argument("--video", type=Path, default=None,
+    parser.add_argument("--video", default=None,
                         help="folder for one MP4 per episode (<label>_<shell model>_<p>kPa_s<seed>.mp4)")
     parser.add_argument("--label", default=None, help="controller name in the video file names (default: the run "
                                                       "folder's name)")

@@ -49,9 +49,10 @@ from typing import Any
 
 import numpy as np
 
+from sphere_env.schemas import validate
+from sphere_env.schemas.evaluation import EXPORT_FORMATS, ExportOptions
 from sphere_env.tasks.sensors import FROM_SENSORS
 
-FORMATS = {"onnx": "policy.onnx", "torchscript": "policy.pt"}
 ONNX_PACKAGES = ("onnx", "onnxscript", "onnxruntime")
 DEFAULT_TOL = 1e-5
 #: Steps recorded per check episode (one episode per pressure: lowest, nominal, highest).
@@ -132,16 +133,14 @@ def check_supported(model: Any, algo: str) -> None:
             raise ValueError(message)
 
 
-def check_format(fmt: str) -> None:
+def check_onnx_support() -> None:
+    """Refuse an ONNX export without its packages, before anything runs."""
     import importlib.util
 
-    if fmt not in FORMATS:
-        raise ValueError(f"format: unknown value {fmt!r}; allowed: {list(FORMATS)}")
-    if fmt == "onnx":
-        missing = [m for m in ONNX_PACKAGES if importlib.util.find_spec(m) is None]
-        if missing:
-            raise ValueError(f"format: onnx needs {', '.join(missing)}; install them with "
-                             "pip install \"sphere_env[export]\", or use --format torchscript")
+    missing = [m for m in ONNX_PACKAGES if importlib.util.find_spec(m) is None]
+    if missing:
+        raise ValueError(f"format: onnx needs {', '.join(missing)}; install them with "
+                         "pip install \"sphere_env[export]\", or use --format torchscript")
 
 
 def record_observations(controller: Any, env: Any, pressures_kpa: Sequence[float], steps: int = CHECK_STEPS,
@@ -237,7 +236,8 @@ def _versions(fmt: str) -> dict[str, str]:
 
 def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: float = DEFAULT_TOL,
            env_id: str | None = None, allow_env_mismatch: bool = False) -> dict[str, Path]:
-    """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``."""
+    """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``.
+    The options are loaded as :class:`~sphere_env.schemas.evaluation.ExportOptions` first."""
     import gymnasium as gym
     import torch
 
@@ -245,14 +245,13 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
     from sphere_env.evaluation.enjoy import EnjoySpec
     from sphere_env.models.shell import ShellCalibration
 
-    check_format(fmt)
-    if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
-        raise ValueError(f"tol: value {tol!r} must be a number > 0")
-    r = EnjoySpec(run, env_id=env_id, allow_env_mismatch=allow_env_mismatch).resolve()
-    out = Path(out) if out is not None else r["folder"] / ("export_best" if r["which"] == "best" else "export")
-    for p in (out, *out.parents):
-        if p.exists() and not p.is_dir():
-            raise ValueError(f"out: {str(out)!r} cannot be an output folder: {str(p)!r} is a file")
+    opts = validate(ExportOptions, dict(run=run, format=fmt, out=out, tol=tol, env_id=env_id,
+                                        allow_env_mismatch=allow_env_mismatch))
+    fmt, tol = opts.format, opts.tol
+    if fmt == "onnx":
+        check_onnx_support()
+    r = EnjoySpec(run=opts.run, env_id=opts.env_id, allow_env_mismatch=opts.allow_env_mismatch).resolve()
+    out = opts.out
     torch.set_num_threads(1)
     controller = PolicyController(r["folder"], r["which"])
     cfg = r["config"]
@@ -286,7 +285,7 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
 
     from sphere_env.files import staged_folder
 
-    name = FORMATS[fmt]
+    name = EXPORT_FORMATS[fmt]
     # The files are written into a staging folder beside ``out`` that replaces it whole when every
     # check passed (_swap_in), so policy file and policy.json are never from two exports.
     with staged_folder(out, _swap_in) as work:
@@ -351,7 +350,7 @@ def _swap_in(work: Path, out: Path) -> None:
 
     old = out.with_name(f".{out.name}.old-{os.getpid()}")
     for p in out.iterdir():
-        if p.name not in (*FORMATS.values(), "policy.json"):
+        if p.name not in (*EXPORT_FORMATS.values(), "policy.json"):
             (shutil.copytree if p.is_dir() else shutil.copy2)(p, work / p.name)
     out.rename(old)
     work.rename(out)
@@ -361,8 +360,8 @@ def _swap_in(work: Path, out: Path) -> None:
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best")
-    parser.add_argument("--format", default="onnx", help=f"{' | '.join(FORMATS)} (default onnx)")
-    parser.add_argument("--out", type=Path, default=None, help="output folder (default <run>/export)")
+    parser.add_argument("--format", default="onnx", help=f"{' | '.join(EXPORT_FORMATS)} (default onnx)")
+    parser.add_argument("--out", default=None, help="output folder (default <run>/export)")
     parser.add_argument("--tol", type=float, default=DEFAULT_TOL,
                         help="largest allowed |exported - SB3| action difference in the check")
     parser.add_argument("--env", default=None, help="env id for the check rollouts and the layout (default: the run's)")

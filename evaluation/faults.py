@@ -64,7 +64,7 @@ FAULTS: dict[str, Fault] = {f.name: f for f in (
 
 def fault_jobs(fault: str | Fault, controller: str, spec: str, env_id: str, env_kwargs: Mapping[str, Any],
                shells: Sequence[str] = SHELLS, seeds: Sequence[int] = SEEDS) -> list[dict[str, Any]]:
-    """The fault grid's episodes of one fault as :func:`sphere_env.evaluation.evaluate.rollout`
+    """The fault grid's episodes of one fault as :func:`sphere_env.evaluation.cells.rollout`
     jobs (the fault's events as the env's randomization, its kwargs over ``env_kwargs``)."""
     f = FAULTS[fault] if isinstance(fault, str) else fault
     kwargs = {**dict(env_kwargs), **dict(f.env_kwargs)}

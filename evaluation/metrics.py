@@ -25,7 +25,12 @@ from typing import Mapping
 
 import numpy as np
 
-#: Trace channels recorded per control step by :mod:`sphere_env.evaluation.evaluate`.
+#: Columns naming an episode's cell, then its metrics, in a row of the episodes CSV.
+KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
+METRIC_COLUMNS = ("return", "length", "is_success", "reached_runout", "terminated", "truncated",
+                  "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm",
+                  "time_on_ramp_s", "omega_ref_rad_s", "omega_ref_after_rad_s")
+#: Trace channels recorded per control step by :mod:`sphere_env.evaluation.cells`.
 TRACE_CHANNELS = ("t_s", "omega_d", "omega_ref", "x_m", "y_m", "z_m", "tau_steer_nm", "tau_drive_nm",
                   "theta_dot", "drive_rate", "on_ramp", "reward")
 

@@ -8,8 +8,6 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
-from sphere_env.evaluation.controller_specs import split_label
-
 if TYPE_CHECKING:
     from sphere_env.evaluation.evaluate import SweepSpec
 
@@ -26,7 +24,7 @@ def plot_drive_velocity(rows, traces, spec: SweepSpec, path: Path) -> Path:
     plt = _plt()
     nr, nc = len(spec.shell_models), len(spec.pressures_kpa)
     fig, axes = plt.subplots(nr, nc, figsize=(3.2 * nc, 2.4 * nr), sharex=True, sharey=True, squeeze=False)
-    labels = [split_label(c)[0] for c in spec.controllers]
+    labels = spec.labels
     s0, f0 = spec.seeds[0], spec.frictions[0]
     for (r, tr) in zip(rows, traces):
         if r["seed"] != s0 or r["friction"] != f0:
@@ -61,7 +59,7 @@ def plot_error_bars(rows, traces, spec: SweepSpec, path: Path) -> Path:
     std over the on-ramp samples of all seeds (top) and tracking RMSE ± std over seeds (bottom);
     one column per controller."""
     plt = _plt()
-    labels = [split_label(c)[0] for c in spec.controllers]
+    labels = spec.labels
     fig, axes = plt.subplots(2, len(labels), figsize=(3.6 * len(labels), 5.2), squeeze=False, sharey="row")
     w = 0.8 / len(spec.shell_models)
     x = np.arange(len(spec.pressures_kpa))
@@ -97,7 +95,7 @@ def plot_error_bars(rows, traces, spec: SweepSpec, path: Path) -> Path:
 def plot_success_tracking(agg_rows, spec: SweepSpec, path: Path) -> Path:
     """Success rate and tracking RMSE against pressure; colour = controller, line style = model."""
     plt = _plt()
-    labels = [split_label(c)[0] for c in spec.controllers]
+    labels = spec.labels
     styles = ["-", "--", ":", "-."]
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     for c, lab in enumerate(labels):

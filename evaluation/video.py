@@ -21,18 +21,12 @@ from typing import Any
 from sphere_env.files import staged_folder
 
 
-def check_video_support(folder: str | Path) -> Path:
-    """Refuse a video folder that is a file (or lies under one), or a missing moviepy, before any
-    episode runs. Returns the folder as a Path."""
-    folder = Path(folder)
-    for p in (folder, *folder.parents):
-        if p.exists() and not p.is_dir():
-            raise ValueError(f"video: {str(folder)!r} cannot be a video folder: {str(p)!r} is a file")
+def check_video_support() -> None:
+    """Refuse to record videos without moviepy, before any episode runs."""
     try:
         import moviepy  # noqa: F401
     except ImportError:
         raise ValueError("video: writing MP4s needs moviepy; install it with pip install \"sphere_env[video]\"") from None
-    return folder
 
 
 def video_name(controller: str, shell_model: str, pressure_kpa: float, seed: int, extra: str = "") -> str:

@@ -1,4 +1,5 @@
-"""Input checks shared by configs, environments and randomization specs.
+"""The number check shared by the parameter registry, randomization specs and wrappers (the
+typed schemas of :mod:`sphere_env.schemas` check everything else).
 
 Every failure is a ``ValueError`` that names the field, the value and what is allowed.
 """
@@ -22,22 +23,3 @@ def finite_number(field: str, value: Any, allowed: str = "a finite number") -> f
         raise ValueError(f"{field}: value {value!r} is not finite; allowed: {allowed}")
     return val
 
-
-def positive(field: str, value: Any, upper: float | None = None) -> float:
-    """``value`` as a float in (0, ``upper``] (or > 0 without ``upper``)."""
-    allowed = f"(0, {upper}]" if upper is not None else "> 0"
-    val = finite_number(field, value, allowed)
-    if val <= 0 or (upper is not None and val > upper):
-        raise ValueError(f"{field}: value {value!r} outside allowed {allowed}")
-    return val
-
-
-def ordered_pair(field: str, value: Any, lo: float, hi: float) -> tuple[float, float]:
-    """``value`` as a pair (low, high) with ``lo`` <= low <= high <= ``hi``."""
-    try:
-        a, b = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{field}: value {value!r} must be a pair (low, high)") from None
-    if not (math.isfinite(a) and math.isfinite(b) and lo <= a <= b <= hi):
-        raise ValueError(f"{field}: value {value!r} must satisfy {lo} <= low <= high <= {hi}")
-    return a, b

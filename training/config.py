@@ -1,8 +1,10 @@
 """Training configuration: rl-zoo3-style hyperparameter YAML, resolved and validated up front.
 
-Everything that can be wrong with a configuration (algorithm, env id, hyperparameter names and
-values, env kwargs, randomization ranges) is refused here, in the main process, before any
-worker starts, with a ``ValueError`` whose message begins with the offending field.
+Everything that can be wrong with a configuration (algorithm, env id, device, hyperparameter
+names and values, env kwargs, randomization ranges) is refused here, in the main process, before
+any worker starts, with a ``ValueError`` whose message begins with the offending field. The inputs
+load through the typed schemas of :mod:`sphere_env.schemas.training` (a section, the trainer's own
+options); env kwargs and randomization are checked by the env itself, built once in-process.
 
 A hyperparameter file is an rl-zoo3 file: it maps env ids to mappings of SB3 constructor
 arguments plus these keys, and the shipped files hold nothing else, so
@@ -34,7 +36,7 @@ auto``, the fastest measured layout):
 ==================  ==========================================================================
 
 A top-level ``randomization`` key (the former layout) is refused with a message saying where it
-moved; rl-zoo3 keys this trainer does not implement (``env_wrapper``, ``frame_stack``, ...) are
+moved; rl-zoo3 keys this trainer does not implement (``frame_stack``, ``callback``, ...) are
 refused too. ``env_wrapper`` is read as rl-zoo3 reads it: a class path, ``{path: {kwargs}}``, or a
 list of these (applied in order, the first innermost), e.g. ``sphere_env.wrappers.PDResidualAction``.
 
@@ -45,6 +47,7 @@ list of these (applied in order, the first innermost), e.g. ``sphere_env.wrapper
 from __future__ import annotations
 
 import copy
+import re
 import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -57,23 +60,23 @@ from sphere_env.schemas.training import (
     MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
     MAX_N_ENVS,  # noqa: F401
     MAX_N_TIMESTEPS,  # noqa: F401
+    SECTIONS,
     SPECIAL_KEYS,
     activation_class_name,
+    check_algo,
     check_run_options,
     check_section,
     lin_value,
+    wrapper_class,
 )
 
-ALGOS = ("ppo", "sac")
-#: The former top-level key and where it lives now.
-MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
+ALGOS = tuple(SECTIONS)
 MONITOR_KEYWORDS = ("pressure_kpa", "shell_model", "is_success")
 
 
 def algo_class(algo: str):
-    """The SB3 class for ``algo`` (``"ppo"``/``"sac"``)."""
-    if algo not in ALGOS:
-        raise ValueError(f"algo: unknown algorithm {algo!r}; allowed: {list(ALGOS)}")
+    """The SB3 class for ``algo`` (``"ppo"``/``"sac"``; anything else: ``ValueError`` naming ``algo``)."""
+    algo = check_algo(algo)
     from stable_baselines3 import PPO, SAC
 
     from sphere_env.training.policies import register
@@ -182,38 +185,6 @@ def load_section(path: str | Path, env_id: str) -> dict[str, Any]:
     return copy.deepcopy(dict(section))
 
 
-def check_env_id(env_id: str) -> None:
-    """Refuse ids that are not registered (sphere_env ids register on import)."""
-    import gymnasium as gym
-
-    import sphere_env  # noqa: F401 - registers the ids
-
-    if not isinstance(env_id, str) or env_id not in gym.registry:
-        ours = sorted(k for k in gym.registry if k.startswith("sphere_env/"))
-        raise ValueError(f"env: unknown env id {env_id!r}; registered sphere_env ids: {ours}")
-
-
-
-
-def _device(value: Any) -> str:
-    """A torch device name this machine has (``cpu``, ``cuda``, ``cuda:1``, ``auto``), else a ValueError
-    naming the field."""
-    import torch
-
-    if value == "auto":
-        return value
-    try:
-        dev = torch.device(value)
-    except (RuntimeError, TypeError):
-        raise ValueError(f"device: value {value!r} is not a torch device; allowed: 'cpu', 'cuda', 'cuda:<n>', "
-                         "'auto'") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise ValueError(f"device: value {value!r} names a CUDA device and this machine has none; allowed: 'cpu'")
-    if dev.type not in ("cpu", "cuda"):
-        raise ValueError(f"device: value {value!r}; allowed: 'cpu', 'cuda', 'cuda:<n>', 'auto'")
-    return str(value)
-
-
 def _normalize(value: Any) -> dict[str, Any] | None:
     """The validated ``normalize`` value as VecNormalize arguments (None: no VecNormalize)."""
     if value is None or value is False:
@@ -286,12 +257,14 @@ def resolve_config(
         ``eval_pressures_kpa``, ``n_envs``, ...).
     """
     algo_class(algo)  # refuses an unknown algorithm; registers the project policies
-    check_env_id(env_id)
+    opts = check_run_options(env_id=env_id, device=device, seed=seed, eval_freq=eval_freq,
+                             eval_episodes=eval_episodes, checkpoint_freq=checkpoint_freq, torch_threads=torch_threads,
+                             env_kwargs=_plain_mapping(env_kwargs), eval_env_kwargs=_plain_mapping(eval_env_kwargs),
+                             eval_pressures_kpa=(list(eval_pressures_kpa) if isinstance(eval_pressures_kpa, tuple)
+                                                 else eval_pressures_kpa))
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
-    _refuse_moved_keys(section, f"the section {env_id!r} of {str(path)!r}")
     overrides = dict(overrides or {})
-    _refuse_moved_keys(overrides, "--hyperparams")
     # An override choosing one layout replaces the file's other one (n_threads vs n_workers).
     for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
         if overrides.get(key) is not None and other not in overrides:
@@ -302,17 +275,11 @@ def resolve_config(
     spec = check_section(algo, section)
     given = spec.model_dump(exclude_unset=True)
     hyper = {k: plain_data(v) for k, v in given.items() if k not in SPECIAL_KEYS}
-    opts = check_run_options(seed=seed, eval_freq=eval_freq, eval_episodes=eval_episodes,
-                             checkpoint_freq=checkpoint_freq, torch_threads=torch_threads,
-                             env_kwargs=_plain_mapping(env_kwargs), eval_env_kwargs=_plain_mapping(eval_env_kwargs),
-                             eval_pressures_kpa=(list(eval_pressures_kpa) if isinstance(eval_pressures_kpa, tuple)
-                                                 else eval_pressures_kpa))
     kwargs = dict(spec.env_kwargs)
     kwargs.update(copy.deepcopy(opts.env_kwargs))
     eval_kwargs = {"randomization": "off", **copy.deepcopy(opts.eval_env_kwargs)}
     policy, n_envs, n_threads, n_workers, n_timesteps = (spec.policy, spec.n_envs, spec.n_threads, spec.n_workers,
                                                          spec.n_timesteps)
-    env_wrapper = parse_env_wrappers(spec.env_wrapper)
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
     # default evaluation and checkpoint periods are never shorter, so a tiny budget (--n-timesteps 10)
     # gives a handful of checkpoints, not one per env step of the first rollout.
@@ -327,25 +294,16 @@ def resolve_config(
         eval_env_kwargs=eval_kwargs,
         eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, opts.eval_pressures_kpa),
         checkpoint_freq=max(n_timesteps // 5, chunk) if opts.checkpoint_freq is None else opts.checkpoint_freq,
-        device=_device(device), torch_threads=opts.torch_threads, hyperparams_file=str(path),
+        device=opts.device, torch_threads=opts.torch_threads, hyperparams_file=str(path),
         tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
         trained_agent=None if trained_agent is None else str(trained_agent),
         save_replay_buffer=bool(save_replay_buffer),
-        env_wrapper=env_wrapper,
+        env_wrapper=copy.deepcopy(spec.env_wrapper),
     )
     cfg.algo_kwargs()  # schedules and policy_kwargs parse
     if build_env:
         validate_with_env(cfg)
     return cfg
-
-
-def _refuse_moved_keys(section: Mapping[str, Any], where: str) -> None:
-    for key, now in MOVED_KEYS.items():
-        if key in section:
-            raise ValueError(
-                f"{key}: a top-level key in {where}; it moved to {now} (rl-zoo3's layout, which passes "
-                f"env_kwargs to gymnasium.make): in a YAML section write 'env_kwargs: {{{key}: ...}}', on the "
-                f"command line '--env-kwargs {key}:...'")
 
 
 def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None) -> list[float]:
@@ -366,7 +324,23 @@ def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None
 def _env_error(err: Exception, prefix: str) -> ValueError:
     """An env's ValueError as one naming the configuration field (``env_kwargs.<kwarg>``)."""
     msg = str(err)
+    named = _named_field(msg, prefix)
+    if named is not None:
+        return ValueError(named)
     return ValueError(f"{prefix}.{msg}" if not msg.startswith(("options", prefix)) else msg)
+
+
+def _named_field(msg: str, prefix: str) -> str | None:
+    """A schema's one-line error with the configuration's own path in front of the field's:
+    the env kwargs schema names fields from the kwargs' top (``RampDescent kwargs: field
+    'shell_model'`` -> ``field 'env_kwargs.shell_model'``), the randomization schema from the
+    spec's (``randomization: field 'pressure_kpa'`` -> ``field
+    'env_kwargs.randomization.pressure_kpa'``); None for any other message."""
+    m = re.match(r"^(?:\w+ kwargs|(randomization)): (unknown )?field '", msg)
+    if m is None:
+        return None
+    root = f"{prefix}.randomization." if m.group(1) else f"{prefix}."
+    return f"{m.group(2) or ''}field '{root}{msg[m.end():]}"
 
 
 def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | None = None) -> None:
@@ -380,8 +354,9 @@ def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | 
     except Exception as err:  # noqa: BLE001 - whatever the env raises, the configuration is at fault
         env.close()
         msg = str(err)
-        if msg.startswith("randomization"):
-            raise ValueError(f"{where}.{msg}") from None
+        named = _named_field(msg, where)
+        if named is not None or msg.startswith("randomization"):
+            raise ValueError(named or f"{where}.{msg}") from None
         raise ValueError(f"{where}: the env failed its first reset/step with this configuration: "
                          f"{type(err).__name__}: {msg}") from None
 
@@ -401,46 +376,6 @@ def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str,
     except (ValueError, TypeError) as err:
         env.close()
         raise ValueError(f"env_wrapper: {err}") from None
-
-
-def wrapper_class(path: str) -> type:
-    """The gymnasium wrapper class at ``path`` (``module.Class``), or a ValueError naming it."""
-    import importlib
-
-    import gymnasium as gym
-
-    module, _, name = path.rpartition(".")
-    try:
-        cls = getattr(importlib.import_module(module), name) if module else None
-    except ImportError as err:
-        raise ValueError(f"env_wrapper: {path!r} cannot be imported: {err}") from None
-    except AttributeError:
-        cls = None
-    if not (isinstance(cls, type) and issubclass(cls, gym.Wrapper)):
-        raise ValueError(f"env_wrapper: {path!r} is not a gymnasium.Wrapper class; allowed: 'module.Class' "
-                         "paths such as 'sphere_env.wrappers.PDResidualAction'")
-    return cls
-
-
-def parse_env_wrappers(value: Any) -> list[dict[str, dict[str, Any]]]:
-    """rl-zoo3's ``env_wrapper`` value (a class path, ``{path: kwargs}``, a list of these, or
-    null) as ``[{path: kwargs}]``; every class is imported and checked."""
-    if value is None:
-        return []
-    out = []
-    for item in value if isinstance(value, list) else [value]:
-        if isinstance(item, str):
-            path, kwargs = item, {}
-        elif isinstance(item, Mapping) and len(item) == 1:
-            path, kwargs = next(iter(item.items()))
-            kwargs = {} if kwargs is None else kwargs
-            if not isinstance(path, str) or not isinstance(kwargs, Mapping):
-                raise ValueError(f"env_wrapper: entry {dict(item)!r} must map a class path to a mapping of kwargs")
-        else:
-            raise ValueError(f"env_wrapper: entry {item!r} must be a class path or {{path: {{kwargs}}}}")
-        wrapper_class(path)
-        out.append({path: copy.deepcopy(dict(kwargs))})
-    return out
 
 
 def apply_env_wrappers(env: Any, env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]]) -> Any:

@@ -7,8 +7,9 @@
     <run>/learning_curve_train.csv    every training episode at its exact global step
     <run>/learning_curve.csv, .png    training and evaluation curves
 
-:func:`sphere_env.training.train.train` writes it; a resume restores the newest usable checkpoint and
-drops the history logged after it (:func:`_truncate_history`), so every episode is listed once.
+:func:`sphere_env.training.trainer.train` writes it; a resume restores the newest usable checkpoint
+(:func:`usable_checkpoint`) and drops the history logged after it (:func:`_truncate_history`), so
+every episode is listed once.
 """
 
 from __future__ import annotations
@@ -39,6 +40,49 @@ def latest_checkpoint(run_dir: Path) -> tuple[int, Path] | None:
         if m and (best is None or int(m.group(1)) > best[0]):
             best = (int(m.group(1)), p)
     return best
+
+
+def _checkpoint_problem(cls, cfg: TrainConfig, run_dir: Path, steps: int, path: Path) -> str | None:
+    """Why the checkpoint at ``steps`` cannot be resumed from (None: it can)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            bad = z.testzip()
+        if bad is not None:
+            return f"{path.name} is corrupt ({bad})"
+        cls.load(path, device="cpu")
+    except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
+        return f"{path.name} cannot be read ({type(err).__name__}: {err})"
+    if cfg.normalize is not None:
+        vn = _ckpt_file(run_dir, "vecnormalize", steps)
+        if not vn.exists():
+            return f"{vn.name} (its VecNormalize statistics) is missing"
+        try:
+            import pickle
+
+            with open(vn, "rb") as f:
+                pickle.load(f)
+        except Exception as err:  # noqa: BLE001
+            return f"{vn.name} cannot be read ({type(err).__name__}: {err})"
+    return None
+
+
+def usable_checkpoint(cls, cfg: TrainConfig, run_dir: Path) -> tuple[tuple[int, Path] | None, list[str]]:
+    """The newest checkpoint that loads (model and, with normalization, its VecNormalize file) and
+    the reasons the newer ones were skipped."""
+    found = []
+    for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"):
+        m = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", p.name)
+        if m:
+            found.append((int(m.group(1)), p))
+    skipped = []
+    for steps, path in sorted(found, reverse=True):
+        problem = _checkpoint_problem(cls, cfg, run_dir, steps, path)
+        if problem is None:
+            return (steps, path), skipped
+        skipped.append(problem)
+    return None, skipped
 
 
 def _ckpt_file(run_dir: Path, kind: str, steps: int) -> Path:

@@ -11,7 +11,7 @@ A sweep folder holds::
     learning_curve_aggregate.csv/.png mean evaluation return per configuration against env steps,
                                       with a 95% bootstrap interval over the seeds
 
-Every trial is an ordinary :func:`sphere_env.training.train.train` call in its own folder with its
+Every trial is an ordinary :func:`sphere_env.training.trainer.train` call in its own folder with its
 own seed, so a trial's result does not depend on where it ran: on Ray each trial is one task
 (``num_cpus=1``), locally the trials run one after the other in this process. The aggregate is
 computed from the run folders afterwards, the same way in both cases.
@@ -58,7 +58,7 @@ def trial_folders(cfgs: Sequence[TrainConfig]) -> list[tuple[int, str]]:
 
 def _run_trial(job: Mapping[str, Any]) -> str:
     """One trial (module level: Ray and process pools pickle it by reference)."""
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     cfg = TrainConfig(**job["cfg"])
     return str(train(cfg, job["run_dir"], progress_bar=False, command=job["command"]))

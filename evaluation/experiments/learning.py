@@ -56,7 +56,7 @@ def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
 def grid_jobs(controller: str, spec: str, env_kwargs: Mapping[str, Any], env_id: str = ENV_ID,
               seeds: Sequence[int] = EVAL_SEEDS) -> list[dict[str, Any]]:
     """The demo grid's episodes (or, with other ``seeds``, the validation grid's) as
-    :func:`sphere_env.evaluation.evaluate.rollout` jobs."""
+    :func:`sphere_env.evaluation.cells.rollout` jobs."""
     return [dict(controller=controller, spec=spec, env_id=env_id, shell_model=m, friction="majd",
                  pressure_kpa=p, seed=s, env_kwargs=dict(env_kwargs))
             for m in SHELLS for p in PRESSURES_KPA for s in seeds]
@@ -74,8 +74,8 @@ def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL_SEEDS) -> dict:
     """A run's model (``<run>``, ``<run>@<checkpoint steps>``) on the grid, deterministic actions, in
     an env built with the run's own kwargs."""
+    from sphere_env.evaluation.cells import rollout
     from sphere_env.evaluation.controller_specs import PolicyController, env_kwargs_of, run_folder
-    from sphere_env.evaluation.evaluate import rollout
 
     ctrl = PolicyController(*run_folder(spec))
     rows = [rollout(job, controller=ctrl)[0] for job in grid_jobs("policy", spec, env_kwargs_of(spec), env_id, seeds)]
@@ -89,8 +89,8 @@ def fault_figures(spec: str, env_kwargs: Mapping[str, Any], cache: Path | None =
     """A controller (``pd``, ``zero``, or a run spec of a policy) on every fault of
     :data:`sphere_env.evaluation.faults.FAULTS`: grid figures per fault, each cached as
     ``<cache>/fault_<name>.json`` so an interrupted evaluation continues."""
+    from sphere_env.evaluation.cells import rollout
     from sphere_env.evaluation.controller_specs import PolicyController, run_folder
-    from sphere_env.evaluation.evaluate import rollout
     from sphere_env.evaluation.faults import FAULTS, fault_jobs
 
     ctrl = None if spec in ("pd", "zero") else PolicyController(*run_folder(spec))
@@ -282,7 +282,7 @@ def _job(job: Mapping[str, Any]) -> str:
 
 def baselines(results: Path = RESULTS) -> Path:
     """The PD and zero-torque controllers on the grid: ``baselines.json``."""
-    from sphere_env.evaluation.evaluate import rollout
+    from sphere_env.evaluation.cells import rollout
 
     out = {}
     for name in ("pd", "zero"):

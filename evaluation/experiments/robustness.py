@@ -610,7 +610,7 @@ def _interface_cases(work) -> list[dict]:
         (["--env-kwargs", "randomization:{'pressure_kpa': [14, 3]}"], "env_kwargs.randomization.pressure_kpa"),
         (["--env-kwargs", "randomization:{'pressure_kpa': {'distribution': 'uniform'}, "
                           "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}"], "env_kwargs.randomization"),
-        (["--params", "randomization:'off'"], "randomization: a top-level key"),
+        (["--params", "randomization:'off'"], "hyperparams.randomization': a top-level key"),
         (["--params", "env_kwargs:[1, 2]"], "env_kwargs"), (["--env-kwargs", "shell_model:'jelly'"], "shell_model"),
         (["--params", "env_kwargs:{shell_model: jelly}"], "hyperparams.env_kwargs"),
         (["--params", "normalize:{'norm_ob': True}"], "normalize.norm_ob"), (["--algo", "dqn"], "algo"),

@@ -90,8 +90,11 @@ def cmd_steer_fit(args) -> int:
         if missing:
             raise LogError(f"--fit-on {missing}: no such trial in {names} (manifest {args.manifest})")
     fit_logs = [log for log in logs if not args.fit_on or log.name in args.fit_on]
+    if args.workers is not None and args.workers < 1:
+        raise LogError(f"--workers: value {args.workers!r} must be >= 1")
     raw, record = steer_fit(fit_logs, args.models, p0, base, forms=args.forms, steer_friction=args.steer_friction,
-                            drive_friction=args.drive_friction, max_nfev=args.max_nfev, log_to=print)
+                            drive_friction=args.drive_friction, max_nfev=args.max_nfev, log_to=print,
+                            workers=args.workers)
     for model, fit in record["models"].items():
         per = trial_rmse(fit.pop("pool"), logs)
         for name, r in per.items():
@@ -353,7 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pressure-kpa", type=float, default=None,
                    help="pressure the fit is stated at (default: the base calibration's nominal; the segments' "
                         "own pressure may be unknown)")
-    p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation)")
+    p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation); with two or more, "
+                   "each is also left out in turn (leave-one-window-out) and its held-out RMSE recorded")
+    p.add_argument("--workers", type=int, default=1, help="processes for the cross-validation folds (default 1)")
     p.add_argument("--max-nfev", type=int, default=60, help="simulations allowed per fit (refused if not converged)")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
@@ -454,7 +459,8 @@ def check_output_paths(args) -> None:
     that a bad second output cannot fail after the first one was written."""
     for name in OUTPUT_OPTIONS:
         value = getattr(args, name, None)
-        if not value or (args.command == "report" and name == "out"):  # report --out is a folder
+        # report --out is a folder; events --json is a flag (print JSON), not a path
+        if not isinstance(value, str) or not value or (args.command == "report" and name == "out"):
             continue
         path = Path(value)
         if path.is_dir():

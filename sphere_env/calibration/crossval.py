@@ -34,13 +34,14 @@ def fit_calibration(train: Sequence[RobotLog], model: str, pressure_kpa: float, 
     """Fit ``model`` on ``train`` exactly as ``steer-fit --fit-on`` does (:func:`steer_fit`: the
     steer-law form chosen by held-out error within ``train``; ``hydroelastic`` fitted on top of an
     ``injected`` fit of the same segments, so nothing of a held-out segment leaks in through the
-    base calibration); returns (params, calibration)."""
+    base calibration; no leave-one-window-out within ``train``: the caller holds segments out);
+    returns (params, calibration)."""
     from sphere_env.calibration.shell_fit import steer_fit
     from sphere_env.models.shell import STEER_LAW_FORMS
 
     models = ("injected",) if model == "injected" else ("injected", model)
     raw, record = steer_fit(list(train), models, pressure_kpa, base, forms=tuple(forms or STEER_LAW_FORMS),
-                            steer_friction=steer_friction, max_nfev=max_nfev)
+                            steer_friction=steer_friction, max_nfev=max_nfev, hold_out_windows=False)
     params: dict[str, float] = {}
     for m in models:
         params.update({f"{m}.{k}" if m != model else k: v for k, v in record["models"][m]["params"].items()})

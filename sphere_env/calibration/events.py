@@ -21,8 +21,16 @@ hand moving the robot from standstill, so the hand may still touch it while the 
 ``free_start_s`` is then the first turning point of the moving channel (its rate changes sign),
 by which time the robot swings on its own. Manifest entries start their windows there.
 
-Thresholds are constants of this module, chosen on physical grounds (sensor rest noise ~1e-3
-rad/s, swings of 0.1–1 rad/s), not tuned per log.
+Thresholds are constants of this module, chosen on physical grounds, not tuned per log. Swings
+worth fitting move at 0.1–1.5 rad/s (:data:`ACTIVE_RAD_S`). "At rest" is not "not moving": a robot
+that has settled on its soft shell, or is ending a decay, still rocks on the floor by a few hundredths
+of a radian (up to ~0.03 rad peak to peak in the free-robot logs), and a held pendulum sways in the
+hand by as much. Rest is therefore rocking smaller than :data:`REST_SWING_RAD` peak to peak; a
+rocking of amplitude A at angular frequency ω peaks at a rate A ω, and the fastest steer-direction
+mode of this robot is the pendulum's own swing with the shell held (5.6 rad/s on the stand; on free
+ground every rocking mode is slower), so :data:`REST_RAD_S` = (REST_SWING_RAD / 2) × that frequency
+bounds the rate of any rest wobble. A rest threshold at sensor noise (~1e-3 rad/s) would see no
+rest between pushes a few seconds apart, whose decays have not quite died out.
 """
 
 from __future__ import annotations
@@ -38,7 +46,9 @@ from sphere_env.calibration.logs import MIN_MOTION_RAD, LogError, RobotLog
 from sphere_env.files import write_text_atomic
 
 SMOOTH_S = 0.1  # moving-average length of the activity signal [s]
-REST_RAD_S = 0.03  # below: at rest or held [rad/s]
+REST_SWING_RAD = 0.03  # peak-to-peak rocking still counted as rest [rad] (module docstring)
+FASTEST_MODE_RAD_S = 5.6  # the pendulum's small-swing frequency with the shell held (stand_swing) [rad/s]
+REST_RAD_S = 0.5 * REST_SWING_RAD * FASTEST_MODE_RAD_S  # below: at rest or held (0.084) [rad/s]
 ACTIVE_RAD_S = 0.15  # above: moving [rad/s]
 QUIET_BEFORE_S = 0.5  # rest needed before a release or push [s]
 QUIET_AFTER_S = 0.5  # rest that ends an event [s]

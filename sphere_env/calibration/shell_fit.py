@@ -19,9 +19,13 @@ contact-volume table V(p) = f_n / modulus scaled along the membrane shape, the d
 k_d = d / C_inject(p₀). A candidate calibration is installed in one twin per fixture
 (``twin.set_calibration(cal, p₀)``), so the Drake diagram is built once per model and fixture.
 
+Several segments are fitted at once, each weighted by its length (every sample counts the same).
 Fitted values carry 95 % confidence intervals from the Jacobian at the optimum (residual variance
-× (JᵀJ)⁻¹; the residuals of one decay are correlated, so these intervals are optimistic). The law's
-form is chosen by held-out error (:func:`cross_validate`), never by training error.
+× (JᵀJ)⁻¹; the residuals of one decay are correlated, so these intervals are optimistic); a value
+whose interval is wider than the value itself, or that sits at a bound of the search, is marked
+unidentified (:func:`unidentified`). The law's form is chosen by held-out error
+(:func:`cross_validate`), never by training error; with two or more segments :func:`steer_fit`
+also reports each segment's error when it is left out of the fit (leave-one-window-out).
 """
 
 from __future__ import annotations
@@ -101,7 +105,8 @@ class FitError(ValueError):
 
 @dataclass
 class ShellFit:
-    """Fitted shell parameters at p₀, their 95 % CIs, and per-trial RMSE [rad] of φ and θ on the fit trials."""
+    """Fitted shell parameters at p₀, their 95 % CIs, the parameters the data do not pin down
+    (name -> reason, :func:`unidentified`), and per-trial RMSE [rad] of φ and θ on the fit trials."""
 
     model: str
     pressure_kpa: float
@@ -111,10 +116,12 @@ class ShellFit:
     ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
     form: str = "linear"
     nfev: int = 0
+    unidentified: dict[str, str] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         return {"model": self.model, "form": self.form, "pressure_kpa": self.pressure_kpa, "params": self.params,
-                "rmse_rad": self.rmse, "ci95": {k: list(v) for k, v in self.ci95.items()}, "nfev": self.nfev}
+                "rmse_rad": self.rmse, "ci95": {k: list(v) for k, v in self.ci95.items()},
+                "unidentified": dict(self.unidentified), "nfev": self.nfev}
 
 
 def fixture_twin(fixture: str, model: str, steer_friction: Any = "majd_steer", calibration: Any = None,
@@ -237,6 +244,27 @@ def omega_n_floor(base: ShellCalibration, p0: float, robot: RobotParameters, mar
     return w_min + max(base.omega_n_slope * (p0 - lo), base.omega_n_slope * (p0 - hi), 0.0)
 
 
+def unidentified(values: Mapping[str, float], ci95: Mapping[str, tuple[float, float]],
+                 bounds: Mapping[str, tuple[float, float]], at_bound_frac: float = 1e-3) -> dict[str, str]:
+    """The fitted parameters the data do not pin down, name -> reason: a 95 % interval wider than
+    |value| (the data cannot tell the value from one of twice its size or from none), an interval
+    that could not be computed, or a value within ``at_bound_frac`` of its search range from a bound
+    (the optimum is the bound, not a minimum of the error)."""
+    out = {}
+    for k, (lo, hi) in bounds.items():
+        v = values[k]
+        c_lo, c_hi = ci95.get(k, (math.nan, math.nan))
+        tol = at_bound_frac * (hi - lo)
+        if v <= lo + tol or v >= hi - tol:
+            which = "lower" if v <= lo + tol else "upper"
+            out[k] = f"at the {which} bound {lo if which == 'lower' else hi:.4g} of the search"
+        elif not (math.isfinite(c_lo) and math.isfinite(c_hi)):
+            out[k] = "95 % interval not computable"
+        elif c_hi - c_lo > abs(v):
+            out[k] = f"95 % interval [{c_lo:.4g}, {c_hi:.4g}] wider than |value| {abs(v):.4g}"
+    return out
+
+
 def _moving(log: RobotLog, min_swing_rad: float = 0.02) -> bool:
     return float(np.ptp(log["phi"])) >= min_swing_rad or float(np.ptp(log["theta"])) >= min_swing_rad
 
@@ -262,7 +290,9 @@ def fit_shell(
     """Fit the shell ``model`` at p₀ = ``pressure_kpa`` to free-motion segments (``steer_plane`` or ``free``).
 
     Residuals are φ and θ errors [rad] of every log (θ times ``theta_weight``: the pendulum angle
-    also depends on steer friction, which this fit does not touch), each log weighted equally. Parameters:
+    also depends on steer friction, which this fit does not touch), each log weighted by its length:
+    every sample counts the same, so a window's say in the fit grows with how much of the motion it
+    records, and the cost is the mean square error over all samples. Parameters:
     ``injected``: :func:`law_params` of ``form`` (default: the base calibration's form);
     ``hydroelastic``: :data:`HYDRO_PARAMS` (the steer couple's factors) unless ``params`` names
     others (``log10_modulus_pa``, ``dissipation_s_per_m``). ``fixed_injected``: ω_n, ζ at p₀ held
@@ -313,8 +343,8 @@ def fit_shell(
         raw = calibration_with(base, p0, vals, form if model == "injected" else None, robot)
         return ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
 
-    weights = [1.0 / math.sqrt(2 * len(log.t_s)) for log in logs]
     n_res = sum(2 * len(log.t_s) for log in logs)
+    w = 1.0 / math.sqrt(n_res)  # one weight for every sample: each log weighs by its length
 
     def residuals(x) -> np.ndarray:
         try:
@@ -323,7 +353,7 @@ def fit_shell(
             return np.full(n_res, 1.0 / math.sqrt(n_res))
         pool.install(cal, p0)
         parts = []
-        for w, log in zip(weights, logs):
+        for log in logs:
             tr = simulate_log(pool.get(log.fixture), log)
             parts += [w * (tr["phi"] - log["phi"]), theta_weight * w * (tr["theta"] - log["theta"])]
         return np.concatenate(parts)
@@ -358,6 +388,7 @@ def fit_shell(
         std = np.full(len(names), np.nan)
     ci = {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(names, res.x, std)}
     values = {k: float(v) for k, v in zip(names, res.x)}
+    poor = unidentified(values, ci, {k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)})
     if "log10_modulus_pa" in values:
         values["modulus_pa"] = 10 ** values["log10_modulus_pa"]
         ci["modulus_pa"] = tuple(10 ** c for c in ci["log10_modulus_pa"])
@@ -365,7 +396,8 @@ def fit_shell(
         values["k_d"] = float(raw["hydroelastic"]["k_d"])
     K, C = cal.bind(robot).injected_gains(p0)
     values.update(K_inject=K, C_inject=C)
-    return ShellFit(model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev)
+    return ShellFit(model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev,
+                    poor)
 
 
 def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None) -> RobotLog:
@@ -385,21 +417,28 @@ def cross_validate(
     base: ShellCalibration | None = None,
     steer_friction: FrictionModel | str = "majd_steer",
     max_nfev: int = 40,
-    pool: TwinPool | None = None,
     blocks: int = 3,
+    models: Sequence[str] = ("injected",),
+    drive_friction: FrictionModel | str = "majd_drive",
+    workers: int | None = 1,
 ) -> list[dict[str, Any]]:
-    """Held-out φ/θ RMSE [rad] of each steer-law form for the ``injected`` model.
+    """Held-out φ/θ RMSE [rad] of each steer-law form for each shell model in ``models``.
 
     Two or more segments: leave one segment out, fit on the others, test on it. One segment: cut it
     into ``blocks`` consecutive blocks, each replayed from the logged state at its start; leave one
     block out, fit on the others, test on it (blocked cross-validation: every amplitude of the decay
     is once held out, and no form is judged only on extrapolation from large swings to small ones).
-    Returns one row per (form, fold) with the held-out RMSE and the fit; a fold
-    whose fit is refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the
-    reason under ``refused``, so that form is never chosen.
+    Within a fold the models are fitted in order, each on top of the previous one's fit as
+    :func:`steer_fit` does (``hydroelastic`` after ``injected`` keeps the fold's injected law), so
+    nothing of the held-out segment reaches any fit. The (form, fold) fits run on ``workers``
+    processes (:func:`~sphere_env.parallel.run_parallel`; 1: in this process).
+    Returns one row per (model, form, fold) with the held-out RMSE and the fit; a fold whose fit is
+    refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the reason under
+    ``refused``, so that form is never chosen.
     """
+    from sphere_env.parallel import run_parallel
+
     base = base or ShellCalibration.load()
-    pool = pool or TwinPool("injected", steer_friction)
     if len(logs) >= 2:
         folds = [([lg for j, lg in enumerate(logs) if j != i], [logs[i]]) for i in range(len(logs))]
     else:
@@ -407,22 +446,33 @@ def cross_validate(
         edges = np.linspace(0.0, float(lg.t_s[-1]), blocks + 1)
         parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
         folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
-    rows = []
-    for form in forms:
-        for train, test in folds:
-            try:
-                fit = fit_shell(train, "injected", pressure_kpa, steer_friction=steer_friction, base=base, form=form,
-                                max_nfev=max_nfev, pool=pool, require_convergence=False)
-            except FitError as err:
-                rows += [{"form": form, "fit_on": [t.name for t in train], "test": lg.name, "rmse_phi_rad": math.inf,
-                          "rmse_theta_rad": math.inf, "refused": str(err)} for lg in test]
-                continue
-            pool.install(ShellCalibration.from_dict(fit.calibration, source="<cv>"), pressure_kpa)
-            held = trial_rmse(pool, test)
-            for name, r in held.items():
-                rows.append({"form": form, "fit_on": [t.name for t in train], "test": name,
-                             "rmse_phi_rad": r["phi"], "rmse_theta_rad": r["theta"],
-                             "train_rmse_rad": fit.rmse, "params": fit.params})
+    jobs = [{"train": train, "test": test, "form": form, "models": tuple(models), "base": dict(base.raw),
+             "source": base.source, "pressure_kpa": pressure_kpa, "steer_friction": steer_friction,
+             "drive_friction": drive_friction, "max_nfev": max_nfev} for form in forms for train, test in folds]
+    return [row for rows in run_parallel(_fold_job, jobs, workers=workers) for row in rows]
+
+
+def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One (form, fold) of :func:`cross_validate`: fit its models in order on the training segments
+    (twins built here: Drake diagrams never cross processes) and score the held-out ones."""
+    train, test, form, models, p0 = job["train"], job["test"], job["form"], job["models"], job["pressure_kpa"]
+    cur = ShellCalibration.from_dict(job["base"], source=job["source"])
+    rows: list[dict[str, Any]] = []
+    for i, model in enumerate(models):
+        where = {"model": model, "form": form, "fit_on": [t.name for t in train]}
+        pool = TwinPool(model, job["steer_friction"], drive_friction=job["drive_friction"])
+        try:
+            fit = fit_shell(train, model, p0, steer_friction=job["steer_friction"], base=cur,
+                            form=form if model == "injected" else None, max_nfev=job["max_nfev"], pool=pool,
+                            require_convergence=False, drive_friction=job["drive_friction"])
+        except FitError as err:  # this model and every one fitted on top of it are refused
+            return rows + [dict(where, model=m, test=lg.name, rmse_phi_rad=math.inf, rmse_theta_rad=math.inf,
+                                refused=str(err)) for m in models[i:] for lg in test]
+        cur = ShellCalibration.from_dict(fit.calibration, source="<cv>")
+        pool.install(cur, p0)
+        for name, r in trial_rmse(pool, test).items():
+            rows.append(dict(where, test=name, rmse_phi_rad=r["phi"], rmse_theta_rad=r["theta"],
+                             train_rmse_rad=fit.rmse, params=fit.params))
     return rows
 
 
@@ -447,27 +497,35 @@ def steer_fit(
     drive_friction: FrictionModel | str = "majd_drive",
     max_nfev: int = 60,
     log_to=None,
+    hold_out_windows: bool = True,
+    workers: int | None = 1,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``steer-fit`` does: fit each shell model in ``models`` on ``logs``, in order, each on top of
     the previous one's calibration (``hydroelastic`` after ``injected`` keeps the injected ω_n, ζ and
     steer law just fitted). With several ``forms`` and ``injected`` among the models, the steer-law
     form is the one with the least held-out φ RMSE (:func:`cross_validate`, :func:`choose_form`) —
-    never the training error. Returns (calibration mapping, record of the fit); ``log_to`` (e.g.
-    ``print``) receives a readable account.
+    never the training error. With two or more ``logs`` and ``hold_out_windows``, every model is
+    then cross-validated leave-one-window-out with the chosen form (:func:`cross_validate`; the
+    injected rows of the form choice are reused when injected is the only model, and are then
+    slightly optimistic: the form was picked on them). Returns (calibration mapping, record of the
+    fit: per model its parameters, 95 % intervals and ``unidentified`` ones; under
+    ``leave_one_window_out`` each window's held-out RMSE); ``log_to`` (e.g. ``print``) receives a
+    readable account. ``workers``: processes for the cross-validation folds.
     """
     say = log_to or (lambda *_: None)
     record: dict[str, Any] = {"fit_on": [log.name for log in logs], "pressure_kpa": pressure_kpa, "models": {}}
     form = forms[0]
+    form_rows: list[dict[str, Any]] = []
     if "injected" in models and len(forms) > 1:
-        rows = cross_validate(logs, forms, pressure_kpa, base=base, steer_friction=steer_friction, max_nfev=max_nfev)
-        form, mean = choose_form(rows)
+        form_rows = cross_validate(logs, forms, pressure_kpa, base=base, steer_friction=steer_friction,
+                                   max_nfev=max_nfev, drive_friction=drive_friction, workers=workers)
+        form, mean = choose_form(form_rows)
         say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
-        for r in rows:
+        for r in form_rows:
             say(f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
                 f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}")
         say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> form {form!r}")
-        record["form_cross_validation"] = [
-            {k: r[k] for k in ("form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad")} for r in rows]
+        record["form_cross_validation"] = [_cv_row(r) for r in form_rows]
     raw = dict(base.raw)
     for model in models:
         cur = ShellCalibration.from_dict(raw, source=base.source)
@@ -479,6 +537,27 @@ def steer_fit(
         say(f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:")
         for k, v in fit.params.items():
             ci = fit.ci95.get(k)
-            say(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else ""))
+            say(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
+                + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else ""))
         record["models"][model] = dict(fit.as_dict(), pool=pool)
+    if hold_out_windows and len(logs) >= 2:
+        if tuple(models) == ("injected",) and form_rows:
+            rows = [r for r in form_rows if r["form"] == form]
+        else:
+            rows = cross_validate(logs, [form], pressure_kpa, base=base, steer_friction=steer_friction,
+                                  max_nfev=max_nfev, models=models, drive_friction=drive_friction, workers=workers)
+        say(f"leave-one-window-out (form {form!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
+        for r in rows:
+            say(f"  {r['model']:12s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}" + (" (refused)" if r.get("refused") else ""))
+        record["leave_one_window_out"] = [_cv_row(r) for r in rows]
+        for model in models:
+            record["models"][model]["held_out_rmse_rad"] = {
+                r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in rows if r["model"] == model}
     return raw, record
+
+
+def _cv_row(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A cross-validation row as recorded in a calibration file (no fitted mappings, the refusal kept)."""
+    return {k: row[k] for k in ("model", "form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad", "refused")
+            if k in row}

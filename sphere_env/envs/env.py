@@ -13,7 +13,6 @@ are built by :mod:`sphere_env.envs.factories`.
 from __future__ import annotations
 
 import copy
-import math
 from collections import deque
 from pathlib import Path
 from typing import Any, Mapping
@@ -23,25 +22,28 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 
-from sphere_env.checks import finite_number
-from sphere_env.envs.twins import INCLINE_RESOLUTION_DEG, TwinCache, quantize_incline, shared_inclines
-from sphere_env.models.friction import resolve_friction
+from sphere_env.envs.interface import action_layout, failed_info, read_action, step_info
+from sphere_env.envs.twins import (
+    INCLINE_RESOLUTION_DEG,
+    TwinCache,
+    check_above_ground,
+    drawn_shells,
+    quantize_incline,
+    shared_inclines,
+    stability_problem,
+)
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
-from sphere_env.params import DEFAULT_TIME_STEP_S, ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
-from sphere_env.params import check as check_param
+from sphere_env.params import ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
-from sphere_env.physics.terrain import Terrain
-from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
+from sphere_env.schemas import validate
+from sphere_env.schemas.env import RENDER_MODES, EnvKwargs, reset_options
 from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
 from sphere_env.tasks.observation import assemble_observation
 from sphere_env.tasks.randomization import PARAMETERS as RANDOMIZED
 from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
-from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S, physics_failure
+from sphere_env.tasks.termination import physics_failure
 
-#: Default motor torque limits at the joints [N m] (the registry's nominal values).
-DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
-DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 #: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's)
 #: and of the sensing and actuation parameters the environment applies itself.
 _NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS + ENV_PARAMETERS if name != "pressure_kpa"}
@@ -59,48 +61,11 @@ class SphereEnv(gym.Env, EzPickle):
 
     :param task: the :class:`~sphere_env.tasks.Task` (command, rewards, termination).
 
-    Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``):
+    Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``): the
+    fields of :class:`~sphere_env.schemas.env.EnvKwargs` (documented there), loaded through it
+    before anything is built, so a wrong name, type or value is a ``ValueError`` naming the kwarg.
 
-    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (``docs/design.md``).
-    :param friction_model: joint friction: a law/preset name for both joints (``"majd"`` default,
-        ``"viscous"``, ``"coulomb"``, ``"none"``: the Table I presets) or ``{"steer": ..., "drive": ...}``.
-    :param calibration: path of a shell calibration YAML, or the name of a shipped one
-        (``"hydroelastic_fast"``: hydroelastic RL at a 10 ms step); ``None`` = the shipped default.
-    :param control_frequency_hz: policy rate [Hz], default 50; its period must be a multiple of
-        ``time_step_s``.
-    :param time_step_s: plant time step [s], default 0.005.
-    :param steer_torque_limit_nm: steer motor torque at action ±1 [N m], default 20.
-    :param drive_torque_limit_nm: drive motor torque at action ±1 [N m], default 22 (gravity caps
-        the useful pendulum torque near 21.9 N m).
-    :param randomization: domain randomization spec (:mod:`sphere_env.tasks.randomization`):
-        ``"default"`` (pressure uniform over the calibration range per reset), ``"off"``,
-        ``"full"``, a mapping, or a :class:`RandomizationSpec`. Sampled values are in
-        ``info["params"]``.
-    :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
-    :param observe_shell_model: append the (privileged) shell model as a one-hot [point, injected,
-        hydroelastic] after the pressure; default False. With both, a critic can tell the episodes
-        of a shell and pressure mixture apart while the actor drops them
-        (:class:`sphere_env.training.policies.AsymmetricActorCriticPolicy`).
-    :param observation_noise_scale: × default per-component noise σ, within [0, 100] (0 = off,
-        default; 100× already buries every measured signal, larger values overflow float32); the
-        nominal value of the randomizable parameter of that name.
-    :param pressure_extrapolation_kpa: accept pressures up to this far outside the shell
-        calibration's range [kPa], within [0, 5] (default 0): the pressure laws are evaluated beyond
-        the range they were fitted on (the fault grid's pressures), and the ``default``
-        randomization draws from the widened range.
-    :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
-    :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
-
-    Bounds and nominal values of the physical kwargs are the records of :mod:`sphere_env.params`.
-    :param render_mode: ``None`` | ``"human"`` (Meshcat) | ``"rgb_array"`` (VTK/EGL frames).
-    :param meshcat: ``True`` or a Meshcat (:func:`sphere_env.physics.start_meshcat`) to visualize without
-        ``render_mode="human"``; default False (never created in vector workers unless asked).
-    :param record_replay: record every episode for :meth:`save_replay` (creates a Meshcat).
-    :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).
-    :param hydroelastic_pressure_step_kpa: hydroelastic pressures snap to this grid [kPa], default
-        0.5, so re-meshed shells (≈90 ms each) are cached (≈2 ms); 0 = exact pressures.
-
-    **Refused at construction** (``ValueError`` naming the kwarg): joint friction and injected shell
+    **Also refused at construction** (``ValueError`` naming the kwarg): joint friction and injected shell
     torques are explicit, so a friction law whose damping slope (× the largest friction scale the
     randomization can draw), or an injected calibration whose ω_n, would diverge at
     ``time_step_s`` (:meth:`~sphere_env.physics.Twin.explicit_stability_problem`; at 5 ms: viscous
@@ -114,115 +79,45 @@ class SphereEnv(gym.Env, EzPickle):
     it is reset; after ``reset(seed=s)`` it behaves exactly like the original reset with ``s``.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 50}
 
-    def __init__(
-        self,
-        task: Task,
-        *,
-        shell_model: str = "injected",
-        friction_model: str | Mapping[str, Any] = "majd",
-        calibration: str | Path | None = None,
-        control_frequency_hz: float = 50.0,
-        time_step_s: float = DEFAULT_TIME_STEP_S,
-        steer_torque_limit_nm: float = DEFAULT_STEER_TORQUE_LIMIT_NM,
-        drive_torque_limit_nm: float = DEFAULT_DRIVE_TORQUE_LIMIT_NM,
-        randomization: Any = "default",
-        observe_pressure: bool = False,
-        observe_shell_model: bool = False,
-        observation_noise_scale: float = 0.0,
-        incline_deg: float = 0.0,
-        ramp_length_m: float | None = None,
-        render_mode: str | None = None,
-        meshcat: Any = False,
-        record_replay: bool = False,
-        render_size: tuple[int, int] = (480, 360),
-        hydroelastic_pressure_step_kpa: float = 0.5,
-        pressure_extrapolation_kpa: float = 0.0,
-        **unknown: Any,
-    ):
-        EzPickle.__init__(
-            self, task, shell_model=shell_model, friction_model=friction_model, calibration=calibration,
-            control_frequency_hz=control_frequency_hz, time_step_s=time_step_s,
-            steer_torque_limit_nm=steer_torque_limit_nm, drive_torque_limit_nm=drive_torque_limit_nm,
-            randomization=randomization, observe_pressure=observe_pressure, observe_shell_model=observe_shell_model,
-            observation_noise_scale=observation_noise_scale, incline_deg=incline_deg,
-            ramp_length_m=ramp_length_m, render_mode=render_mode,
-            meshcat=meshcat if isinstance(meshcat, bool) else True, record_replay=record_replay,
-            render_size=render_size, hydroelastic_pressure_step_kpa=hydroelastic_pressure_step_kpa,
-            pressure_extrapolation_kpa=pressure_extrapolation_kpa,
-        )
-        # ---- validate kwargs (each error names its kwarg) ----
-        if unknown:
-            raise ValueError(f"{next(iter(unknown))}: unknown keyword argument for {getattr(task, 'name', task)!r}")
+    def __init__(self, task: Task, **kwargs: Any):
+        meshcat = kwargs.get("meshcat", False)
+        # a Meshcat instance cannot be pickled: a copy starts its own
+        EzPickle.__init__(self, task, **{**kwargs, "meshcat": meshcat if isinstance(meshcat, bool) else True})
         if not isinstance(task, Task):
             raise ValueError(f"task: value {task!r} must be a sphere_env.tasks.Task")
+        where = f"{task.name} kwargs"
+        kw = validate(EnvKwargs, kwargs, where)
         self.task = task
-        if shell_model not in SHELL_MODELS:
-            raise ValueError(f"shell_model: unknown value {shell_model!r}; allowed: {list(SHELL_MODELS)}")
-        self.shell_model = shell_model
-        if isinstance(friction_model, Mapping) and set(friction_model) <= {"steer", "drive"} and friction_model:
-            steer_f, drive_f = friction_model.get("steer", "majd"), friction_model.get("drive", "majd")
-        else:
-            steer_f = drive_f = friction_model
+        self.shell_model = shell_model = kw.shell_model
+        self._steer_friction, self._drive_friction = kw.friction_model
+        self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
         try:
-            self._steer_friction = resolve_friction(steer_f, "steer")
-            self._drive_friction = resolve_friction(drive_f, "drive")
-        except (ValueError, TypeError) as err:
-            raise ValueError(f"friction_model: {err}") from None
-        if calibration is not None and not isinstance(calibration, (str, Path)):
-            raise ValueError(f"calibration: value {calibration!r} must be the path of a shell calibration YAML, the "
-                             "name of a shipped one, or None")
-        self.pressure_extrapolation_kpa = check_param("pressure_extrapolation_kpa", pressure_extrapolation_kpa)
-        try:
-            self.calibration = ShellCalibration.load(calibration).extrapolated(self.pressure_extrapolation_kpa)
+            self.calibration = ShellCalibration.load(kw.calibration).extrapolated(self.pressure_extrapolation_kpa)
         except ValueError as err:
-            raise ValueError(f"calibration: {err}") from None
-        self._calibration_path = calibration
-        f_hz = check_param("control_frequency_hz", control_frequency_hz)
-        dt_plant = check_param("time_step_s", time_step_s)
-        ratio = (1.0 / f_hz) / dt_plant
-        if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
-            raise ValueError(
-                f"control_frequency_hz: value {control_frequency_hz!r} must make the control period "
-                f"an integer multiple of time_step_s={time_step_s} s"
-            )
-        self.control_period_s = 1.0 / f_hz
-        self.time_step_s = dt_plant
-        self.steer_torque_limit_nm = check_param("steer_torque_limit_nm", steer_torque_limit_nm)
-        self.drive_torque_limit_nm = check_param("drive_torque_limit_nm", drive_torque_limit_nm)
-        self._randomization = self._check_randomization(randomization, steer_check=False)
-        if not isinstance(observe_pressure, bool):
-            raise ValueError(f"observe_pressure: value {observe_pressure!r} must be a bool")
-        self.observe_pressure = observe_pressure
-        if not isinstance(observe_shell_model, bool):
-            raise ValueError(f"observe_shell_model: value {observe_shell_model!r} must be a bool")
-        self.observe_shell_model = observe_shell_model
+            raise ValueError(f"{where}: field 'calibration' = {kw.calibration!r}: {err}") from None
+        self._calibration_path = kw.calibration
+        self.control_period_s = 1.0 / kw.control_frequency_hz
+        self.time_step_s = kw.time_step_s
+        self.steer_torque_limit_nm = kw.steer_torque_limit_nm
+        self.drive_torque_limit_nm = kw.drive_torque_limit_nm
+        self._options_schema = reset_options(task)
+        self._randomization = self._check_randomization(kw.randomization, steer_check=False)
+        self.observe_pressure = observe_pressure = kw.observe_pressure
+        self.observe_shell_model = observe_shell_model = kw.observe_shell_model
         self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) \
             if observe_shell_model else ()
-        self.observation_noise_scale = check_param("observation_noise_scale", observation_noise_scale)
+        self.observation_noise_scale = kw.observation_noise_scale
         self._noise_std = task.observation_layout().noise_std()  # × the episode's observation_noise_scale
-        self.incline_deg = check_param("incline_deg", incline_deg)
-        self.ramp_length_m = None if ramp_length_m is None else check_param("ramp_length_m", ramp_length_m)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode: value {render_mode!r}; allowed: {self.metadata['render_modes'] + [None]}")
-        self.render_mode = render_mode
-        if not isinstance(record_replay, bool):
-            raise ValueError(f"record_replay: value {record_replay!r} must be a bool")
-        self.record_replay = record_replay
-        try:
-            w, h = (int(v) for v in render_size)
-        except (TypeError, ValueError):
-            raise ValueError(f"render_size: value {render_size!r} must be (width, height) in pixels") from None
-        if not (16 <= w <= 4096 and 16 <= h <= 4096):
-            raise ValueError(f"render_size: value {render_size!r} must be within 16..4096 pixels")
-        self.render_size = (w, h)
-        step = finite_number("hydroelastic_pressure_step_kpa", hydroelastic_pressure_step_kpa, "[0, 5] kPa")
-        if not 0.0 <= step <= 5.0:
-            raise ValueError(f"hydroelastic_pressure_step_kpa: value {hydroelastic_pressure_step_kpa!r} outside allowed [0, 5] kPa")
+        self.incline_deg = kw.incline_deg
+        self.ramp_length_m = kw.ramp_length_m
+        self.render_mode = render_mode = kw.render_mode
+        self.record_replay = record_replay = kw.record_replay
+        self.render_size = kw.render_size
         # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
-        self._hydro_step_kpa = step
-        self.metadata = {**self.metadata, "render_fps": f_hz}
+        self._hydro_step_kpa = kw.hydroelastic_pressure_step_kpa
+        self.metadata = {**self.metadata, "render_fps": kw.control_frequency_hz}
 
         # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
         self.meshcat = None
@@ -311,15 +206,10 @@ class SphereEnv(gym.Env, EzPickle):
         draw must not diverge at this time step, on the env's shell model and, when ``spec`` can
         draw it, on the injected shell (its drive damping adds to the friction's; the other shells
         add none)."""
-        scales = (_max_of(spec, "steer_friction_scale"), _max_of(spec, "drive_friction_scale"))
         twins = [self.twin]
-        if self.shell_model != "injected" and "injected" in _shells_of(spec):
+        if self.shell_model != "injected" and "injected" in drawn_shells(spec):
             twins.append(self._get_twin(self.incline_deg, "injected"))
-        for twin in twins:
-            problem = twin.explicit_stability_problem(*scales)
-            if problem:
-                return problem
-        return None
+        return stability_problem(spec, twins)
 
     # ---- twins ---------------------------------------------------------------------------------
     def _get_twin(self, incline_deg: float, shell_model: str | None = None) -> Twin:
@@ -372,61 +262,30 @@ class SphereEnv(gym.Env, EzPickle):
         return min(max(round(q, 9), lo), hi)
 
     def _check_options(self, options: Any) -> tuple[dict[str, Any], dict[str, Any], InitialState | None]:
-        """Check every ``reset`` option; returns (all options, fixed parameter values, initial
-        state or None). Pure: raises ``ValueError`` naming the option before anything changes."""
+        """Load the ``reset`` options through the task's options schema
+        (:func:`~sphere_env.schemas.env.reset_options`) and read the fixed randomization values;
+        returns (the options given, fixed parameter values, initial state or None). Pure: raises
+        ``ValueError`` naming the option before anything changes."""
         if options is None:
             return {}, {}, None
-        if not isinstance(options, Mapping):
-            raise ValueError(f"options: value {options!r} must be a mapping (dict) of option names to values, or None")
-        options = dict(options)
-        allowed = set(RANDOMIZED) | {"initial_state", "pressure_rate_kpa_per_s"} | set(self.task.command_options)
-        for key in options:
-            if key not in allowed:
-                raise ValueError(f"options: unknown key {key!r}; allowed: {sorted(allowed)}")
+        given = validate(self._options_schema, options, root="options").model_dump(exclude_unset=True)
         fixed: dict[str, Any] = {}
-        rng_p = self.calibration.pressure_range_kpa
-        for name, val in options.items():
+        for name, val in given.items():
             if name in RANDOMIZED:
                 spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
-                spec = spec.resolved(rng_p, kwarg="options")
-                d = spec.terms[0].distribution
+                d = spec.resolved(self.calibration.pressure_range_kpa, kwarg="options").terms[0].distribution
                 if d.kind != "fixed":
-                    raise ValueError(f"options.{name}: value {val!r} must be a fixed value, not a distribution")
+                    raise ValueError(f"field 'options.{name}' = {val!r} is a distribution; allowed: a fixed value")
                 fixed[name] = d.value
             elif name == "pressure_rate_kpa_per_s":
-                fixed[name] = finite_number("options.pressure_rate_kpa_per_s", val, "a finite number [kPa/s]")
+                fixed[name] = val
         if "steer_friction_scale" in fixed or "drive_friction_scale" in fixed:
             problem = self.twin.explicit_stability_problem(
                 fixed.get("steer_friction_scale", 1.0), fixed.get("drive_friction_scale", 1.0))
             if problem:
                 raise ValueError(f"options: {problem}")
-        options.update(self.task.check_options(options))
-        init = options.get("initial_state")
-        if init is not None:
-            if isinstance(init, Mapping):
-                try:
-                    init = InitialState(**init)
-                except TypeError as err:
-                    raise ValueError(f"options.initial_state: {err}; allowed fields: {list(InitialState.__dataclass_fields__)}") from None
-            elif not isinstance(init, InitialState):
-                raise ValueError(f"options.initial_state: value {init!r} must be an InitialState or a mapping of its fields")
-            init.validate()
-            _check_initial_rates(init)
-        return options, fixed, init
-
-    def _check_above_ground(self, init: InitialState, incline_deg: float) -> None:
-        """Refuse an initial sphere centre more than MAX_INITIAL_PENETRATION_M inside the ground."""
-        if init.position_m is None:
-            return
-        clearance = ground_clearance_m(Terrain(incline_deg, self.ramp_length_m), init.position_m)
-        radius = self.twin.robot.radius_m
-        if clearance < radius - MAX_INITIAL_PENETRATION_M:
-            raise ValueError(
-                f"options.initial_state.position_m: value {tuple(init.position_m)!r} puts the sphere centre "
-                f"{clearance:.3g} m from the ground (incline {incline_deg:g}°); allowed: at least "
-                f"{radius - MAX_INITIAL_PENETRATION_M:.3g} m (shell radius {radius:.3g} m minus "
-                f"{MAX_INITIAL_PENETRATION_M} m of penetration)"
-            )
+        init = given.get("initial_state")
+        return given, fixed, None if init is None else InitialState(**init)
 
     # ---- gym API -------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
@@ -440,8 +299,10 @@ class SphereEnv(gym.Env, EzPickle):
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
         * task command values (the task's ``command_options``, within the task's bounds).
 
-        Everything (seed, options, initial state, command values) is checked before anything
-        changes: a reset that raises ``ValueError`` leaves the environment as it was (the running
+        The options load through the task's schema (:func:`~sphere_env.schemas.env.reset_options`):
+        an unknown option, a string or a bool where a number belongs, a value out of range is a
+        ``ValueError`` naming ``options.<name>``. Everything (seed, options, initial state, command
+        values) is checked before anything changes: a reset that raises ``ValueError`` leaves the environment as it was (the running
         episode, if any, carries on; a fresh env still needs a successful reset).
         """
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
@@ -457,7 +318,7 @@ class SphereEnv(gym.Env, EzPickle):
         if init is None:
             init = InitialState(**self.task.initial_state())
         else:
-            self._check_above_ground(init, params["incline_deg"])
+            check_above_ground(self.twin, init, params["incline_deg"], self.ramp_length_m)
         twin = self._get_twin(params["incline_deg"], params["shell_model"])
         # ---- checked: from here on the environment changes ----
         if seed is not None:
@@ -490,29 +351,13 @@ class SphereEnv(gym.Env, EzPickle):
         self._tau[:] = 0.0
         self.task.reset(state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m))
         obs = self._observe(state)
-        info = self._info(state, {}, False)
+        info = step_info(self.task, state, {}, False, self._params, self._tau, self._fired, self._reward_keys)
         if self.render_mode == "human":
             self.render()
         return obs, info
 
     def step(self, action):
-        if type(action) is np.ndarray and action.shape == (2,) and action.dtype.kind == "f":
-            a0, a1 = action.tolist()  # fast path: the usual float32 array
-        else:
-            try:
-                a = np.asarray(action)
-            except (TypeError, ValueError):
-                a = np.asarray(None)
-            if a.dtype.kind not in "iuf":  # refuses str, bool, complex, object (None, mixed)
-                raise ValueError(
-                    f"action: value {action!r} (dtype {a.dtype}) is not real numbers; expected [steer, drive] floats in [-1, 1]"
-                )
-            a = a.astype(np.float64)
-            if a.shape != (2,):
-                raise ValueError(f"action: shape {a.shape} invalid; expected (2,) = [steer, drive] in [-1, 1]")
-            a0, a1 = a.tolist()
-        if not (math.isfinite(a0) and math.isfinite(a1)):
-            raise ValueError(f"action: value {action!r} is not finite (NaN or inf); expected [steer, drive] in [-1, 1]")
+        a0, a1 = read_action(action)
         if self._needs_reset:
             if self._copied_mid_episode:
                 raise RuntimeError(
@@ -551,14 +396,14 @@ class SphereEnv(gym.Env, EzPickle):
             self._failed = physics_failure(state)
         if self._failed is not None:
             self._ended = "truncated: " + self._failed
-            info = self._failed_info()
+            info = failed_info(self.task, self._params, self._failed, self._tau, self._fired)
             return self._obs.copy(), 0.0, False, True, info
         terms, terminated, success = self.task.step(state, (a0, a1), self.np_random)
         reward = 0.0
         for v in terms.values():
             reward += v
         obs = self._observe(state)
-        info = self._info(state, terms, success)
+        info = step_info(self.task, state, terms, success, self._params, self._tau, self._fired, self._reward_keys)
         if terminated:
             self._ended = "terminated"
         if self.render_mode == "human":
@@ -588,52 +433,11 @@ class SphereEnv(gym.Env, EzPickle):
         self._obs = obs
         return obs
 
-    def _info(self, state, terms: Mapping[str, float], success: bool) -> dict[str, Any]:
-        keys = self._reward_keys
-        info = {keys[k]: v for k, v in terms.items()} if terms else self._zero_terms()
-        params = self._params
-        info["shell_model"] = params["shell_model"]
-        info["pressure_kpa"] = params["pressure_kpa"]
-        info["theta"] = state.theta
-        info["phi"] = state.phi
-        info["omega_d"] = state.omega_d
-        info["heading"] = state.heading
-        info["position_m"] = state.position_m
-        info["time_s"] = state.time_s
-        info["is_success"] = success
-        info["motor_torque_nm"] = self._tau.copy()
-        info["params"] = params.copy()
-        info["events"] = self._fired
-        info.update(self.task.info())
-        return info
-
-    def _zero_terms(self) -> dict[str, float]:
-        return {f"reward_{k}": 0.0 for k in self.task.reward_terms}
-
-    def _failed_info(self) -> dict[str, Any]:
-        info = self._zero_terms()
-        info.update(
-            shell_model=self._params["shell_model"], pressure_kpa=self._params["pressure_kpa"], is_success=False,
-            truncation_reason=self._failed, motor_torque_nm=self._tau.copy(), params=dict(self._params),
-            events=self._fired,
-        )
-        info.update(self.task.info())
-        return info
-
     def action_layout(self) -> list[dict[str, Any]]:
         """The action components as :meth:`step` applies them: ``index``, ``name``, the normalized
         ``range`` [-1, 1], the motor ``torque_limit_nm`` at ±1 [N m], the URDF ``joint``, the joint
         torque ``joint_torque_sign`` × a × limit, and the sign convention in words."""
-        return [
-            {"index": 0, "name": "steer", "range": [-1.0, 1.0], "torque_limit_nm": float(self.steer_torque_limit_nm),
-             "joint": "steer", "joint_torque_sign": 1.0,
-             "meaning": "steer motor torque / limit; +1 leans the pendulum toward +θ (URDF steer axis +x_PC), "
-                        "which turns the robot left (heading ψ increases)"},
-            {"index": 1, "name": "drive", "range": [-1.0, 1.0], "torque_limit_nm": float(self.drive_torque_limit_nm),
-             "joint": "drive", "joint_torque_sign": -1.0,
-             "meaning": "drive motor torque / limit; +1 drives forward (ω_d > 0); the URDF drive axis is −y_PC, "
-                        "so the joint torque is −a · limit"},
-        ]
+        return action_layout(self.steer_torque_limit_nm, self.drive_torque_limit_nm)
 
     # ---- rendering / replay -----------------------------------------------------------------------
     def render(self):
@@ -675,38 +479,3 @@ class SphereEnv(gym.Env, EzPickle):
         EzPickle.__setstate__(self, state)
         self._copied_mid_episode = mid
 
-
-def _check_initial_rates(init: InitialState) -> None:
-    """Refuse initial speeds and rates beyond the physics-failure limits: such an episode would end
-    at its first step (and rates far beyond overflow the float32 observation)."""
-    for name, limit, unit in (("velocity_m_s", MAX_SPEED_M_S, "m/s"), ("angular_velocity_rad_s", MAX_RATE_RAD_S, "rad/s"),
-                              ("theta_dot", MAX_RATE_RAD_S, "rad/s"), ("drive_rate", MAX_RATE_RAD_S, "rad/s")):
-        val = getattr(init, name)
-        if np.max(np.abs(np.asarray(val, dtype=float))) > limit:
-            raise ValueError(f"options.initial_state.{name}: value {val!r} outside allowed [-{limit:g}, {limit:g}] {unit} "
-                             f"(beyond, the state counts as a physics failure)")
-
-
-def _shells_of(spec: RandomizationSpec) -> set[str]:
-    """The shell models ``spec`` can draw (empty: none drawn, the env's own)."""
-    for t in spec.terms:
-        if t.parameter == "shell_model":
-            d = t.distribution
-            return {d.value} if d.kind == "fixed" else set(d.values)
-    return set()
-
-
-def _max_of(spec: RandomizationSpec, name: str) -> float:
-    """The largest value a spec can give ``name`` (nominal 1 when not randomized; a normal
-    distribution is clipped to the registry bound)."""
-    for t in spec.terms:
-        if t.parameter == name:
-            d = t.distribution
-            if d.kind == "fixed":
-                return float(d.value)
-            if d.kind == "uniform":
-                return float(d.high)
-            if d.kind == "choice":
-                return max(float(v) for v in d.values)
-            return float(PARAMETERS[name].high)
-    return float(PARAMETERS[name].nominal)

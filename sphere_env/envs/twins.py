@@ -14,7 +14,9 @@ from collections import OrderedDict
 from typing import Any, Callable
 
 from sphere_env.params import PARAMETERS
-from sphere_env.physics import Twin
+from sphere_env.physics import InitialState, Twin
+from sphere_env.physics.terrain import Terrain
+from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
 from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter
 
 #: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
@@ -44,6 +46,59 @@ def shared_inclines(spec: RandomizationSpec, shell_model: str, incline_deg: floa
         values = range(math.floor(rec.low), math.ceil(rec.high) + 1)
     grid = {quantize_incline(clip_parameter("incline_deg", v, (0.0, 0.0))) for v in values}
     return tuple(sorted(v for v in grid | {float(incline_deg)} if rec.contains(v)))
+
+
+def drawn_shells(spec: RandomizationSpec) -> set[str]:
+    """The shell models ``spec`` can draw (empty: none drawn, the env's own)."""
+    for t in spec.terms:
+        if t.parameter == "shell_model":
+            d = t.distribution
+            return {d.value} if d.kind == "fixed" else set(d.values)
+    return set()
+
+
+def largest(spec: RandomizationSpec, name: str) -> float:
+    """The largest value a spec can give ``name`` (nominal when not randomized; a normal
+    distribution is clipped to the registry bound)."""
+    for t in spec.terms:
+        if t.parameter == name:
+            d = t.distribution
+            if d.kind == "fixed":
+                return float(d.value)
+            if d.kind == "uniform":
+                return float(d.high)
+            if d.kind == "choice":
+                return max(float(v) for v in d.values)
+            return float(PARAMETERS[name].high)
+    return float(PARAMETERS[name].nominal)
+
+
+def stability_problem(spec: RandomizationSpec, twins: list[Twin]) -> str | None:
+    """Friction and injected shell torques are explicit: the largest friction scales ``spec`` can
+    draw must not diverge at the time step of any of ``twins``; the first problem, or None."""
+    scales = (largest(spec, "steer_friction_scale"), largest(spec, "drive_friction_scale"))
+    for twin in twins:
+        problem = twin.explicit_stability_problem(*scales)
+        if problem:
+            return problem
+    return None
+
+
+def check_above_ground(twin: Twin, init: InitialState, incline_deg: float, ramp_length_m: float | None) -> None:
+    """Refuse an initial sphere centre more than MAX_INITIAL_PENETRATION_M inside the ground of
+    ``incline_deg`` (``ValueError`` naming the option): the ground's geometry is needed, so this
+    is the one check of ``initial_state`` the options' schema cannot make."""
+    if init.position_m is None:
+        return
+    clearance = ground_clearance_m(Terrain(incline_deg, ramp_length_m), init.position_m)
+    radius = twin.robot.radius_m
+    if clearance < radius - MAX_INITIAL_PENETRATION_M:
+        raise ValueError(
+            f"field 'options.initial_state.position_m' = {tuple(init.position_m)!r} puts the sphere centre "
+            f"{clearance:.3g} m from the ground (incline {incline_deg:g}°); allowed: at least "
+            f"{radius - MAX_INITIAL_PENETRATION_M:.3g} m (shell radius {radius:.3g} m minus "
+            f"{MAX_INITIAL_PENETRATION_M} m of penetration)"
+        )
 
 
 class TwinCache:

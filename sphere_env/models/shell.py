@@ -58,7 +58,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from sphere_env.models.mathbackend import NUMPY
-from sphere_env.params import SHELL_MODELS  # the registry's names, re-exported here
+from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
 from sphere_env.resources import asset_path
 from sphere_env.schemas.calibration import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
@@ -94,12 +94,6 @@ def calibration_file(calibration: str | Path | None) -> Path:
                          f"shipped: {shipped_calibrations()}")
     return path
 
-
-
-def check_shell_model(name: str) -> str:
-    if name not in SHELL_MODELS:
-        raise ValueError(f"shell_model: unknown value {name!r}; allowed: {list(SHELL_MODELS)}")
-    return name
 
 
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:

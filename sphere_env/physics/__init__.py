@@ -1,8 +1,10 @@
 """Drake physics: the only subpackage that imports pydrake.
 
 ``Twin`` (:mod:`.twin`) with its config and state types (:mod:`.config`), terrain (:mod:`.terrain`),
-diagram building (:mod:`.diagram`), friction/shell force systems (:mod:`.forces`) and views
-(:mod:`.render`: Meshcat, RGB frames).
+diagram building (:mod:`.diagram`), friction/shell force systems (:mod:`.forces`), views
+(:mod:`.render`: Meshcat, RGB frames), the state read from the plant (:mod:`.state`), the
+explicit-torque margins and initial clearance (:mod:`.admissibility`) and the cache of re-meshed
+hydroelastic shells (:mod:`.shell_cache`).
 """
 
 import logging

@@ -20,20 +20,18 @@ from typing import Any
 
 import numpy as np
 
-from sphere_env.checks import finite_number
-from sphere_env.models.friction import resolve_friction
-from sphere_env.models.shell import check_shell_model
 from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS
-from sphere_env.params import check as check_param
+from sphere_env.schemas import validate
+from sphere_env.schemas.twin import FIXTURES, InitialStateFields, TwinConfigFields
 
-FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
-CONTACT_APPROXIMATIONS = ("sap", "lagged", "similar", "tamsi")
+__all__ = ["FIXTURES", "InitialState", "TwinConfig", "TwinState", "DEFAULT_CONTACT_APPROXIMATION"]
 DEFAULT_CONTACT_APPROXIMATION = {"point": "sap", "injected": "sap", "hydroelastic": "lagged"}
 
 
 @dataclass(frozen=True)
 class TwinConfig:
-    """Everything that defines one twin. Frozen; validated on construction.
+    """Everything that defines one twin. Frozen; loaded through
+    :class:`~sphere_env.schemas.twin.TwinConfigFields` on construction.
 
     :param fixture: ``free`` | ``locked_steer`` | ``steer_plane`` | ``stand`` (``docs/design.md``).
     :param shell_model: ``point`` | ``injected`` | ``hydroelastic``.
@@ -83,34 +81,11 @@ class TwinConfig:
     pressure_extrapolation_kpa: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.fixture not in FIXTURES:
-            raise ValueError(f"fixture: unknown value {self.fixture!r}; allowed: {list(FIXTURES)}")
-        check_shell_model(self.shell_model)
-        inc = check_param("incline_deg", self.incline_deg)
-        if self.fixture in ("steer_plane", "stand") and inc != 0.0:
-            raise ValueError(f"incline_deg: value {inc} not allowed for fixture {self.fixture!r}; allowed: 0")
-        if isinstance(self.inclines_deg, (str, bytes)) or not hasattr(self.inclines_deg, "__iter__"):
-            raise ValueError(f"inclines_deg: value {self.inclines_deg!r} must be a sequence of inclines [deg]")
-        incs = {check_param("incline_deg", v, "inclines_deg") for v in self.inclines_deg}
-        if incs and self.fixture in ("steer_plane", "stand") and incs != {0.0}:
-            raise ValueError(f"inclines_deg: value {tuple(self.inclines_deg)!r} not allowed for fixture "
-                             f"{self.fixture!r}; allowed: () or (0,)")
-        object.__setattr__(self, "inclines_deg", tuple(sorted(incs | {inc})) if incs else ())
-        if self.ramp_length_m is not None:
-            check_param("ramp_length_m", self.ramp_length_m)
-        check_param("time_step_s", self.time_step_s)
-        check_param("ground_friction", self.ground_friction)
-        check_param("pressure_extrapolation_kpa", self.pressure_extrapolation_kpa)
-        if self.resolution_hint_m is not None and not finite_number("resolution_hint_m", self.resolution_hint_m) > 0:
-            raise ValueError(f"resolution_hint_m: value {self.resolution_hint_m!r} must be > 0 m")
-        if self.contact_approximation is not None and self.contact_approximation not in CONTACT_APPROXIMATIONS:
-            raise ValueError(
-                f"contact_approximation: unknown value {self.contact_approximation!r}; "
-                f"allowed: {list(CONTACT_APPROXIMATIONS)}"
-            )
-        # Resolve friction early so bad names fail here, before anything is built.
-        object.__setattr__(self, "steer_friction", resolve_friction(self.steer_friction, "steer"))
-        object.__setattr__(self, "drive_friction", resolve_friction(self.drive_friction, "drive"))
+        # Loaded through the schema, so bad names and values fail here, before anything is built;
+        # the frictions come back resolved and inclines_deg sorted, without duplicates.
+        fields = validate(TwinConfigFields, vars(self), "TwinConfig")
+        for name in ("steer_friction", "drive_friction", "inclines_deg"):
+            object.__setattr__(self, name, getattr(fields, name))
 
 
 @dataclass
@@ -135,19 +110,9 @@ class InitialState:
     velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def validate(self) -> "InitialState":
-        for name in ("theta", "drive_angle", "roll", "pitch", "heading", "theta_dot", "drive_rate"):
-            finite_number(f"initial_state.{name}", getattr(self, name))
-        for name in ("position_m", "angular_velocity_rad_s", "velocity_m_s"):
-            val = getattr(self, name)
-            if val is None:
-                continue
-            try:
-                arr = np.asarray(val, dtype=float)
-            except (TypeError, ValueError):
-                arr = None
-            if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
-                raise ValueError(f"initial_state.{name}: value {val!r} must be 3 finite numbers")
-        return self
+        """This state loaded through :class:`~sphere_env.schemas.twin.InitialStateFields`: a copy
+        with plain floats and tuples, or ``ValueError`` naming the field."""
+        return InitialState(**validate(InitialStateFields, vars(self), root="initial_state").model_dump())
 
 
 @dataclass(frozen=True)

@@ -2,14 +2,15 @@
 
 Frames and signs: :mod:`sphere_env.physics.config`. The diagram is built by
 :mod:`sphere_env.physics.diagram`, the ground by :mod:`sphere_env.physics.terrain`, views by
-:mod:`sphere_env.physics.render`.
+:mod:`sphere_env.physics.render`; the state is read by :mod:`sphere_env.physics.state` and the
+explicit-torque margins judged by :mod:`sphere_env.physics.admissibility`. :class:`Twin` itself
+holds the context: its parameters (pressure, friction, payload, incline), reset and stepping.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections import OrderedDict
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping
@@ -26,6 +27,7 @@ from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.params import check as check_param
+from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M, ExplicitStability, ground_clearance_m
 from sphere_env.physics.config import FIXTURES, InitialState, TwinConfig, TwinState
 from sphere_env.physics.diagram import (
     build_diagram,
@@ -33,50 +35,16 @@ from sphere_env.physics.diagram import (
     hydroelastic_resolution_hint_m,
     shell_properties,
 )
-from sphere_env.physics.forces import cross3, pipe_angle_expressions
 from sphere_env.physics.render import RgbCamera
+from sphere_env.physics.shell_cache import ShellCache
+from sphere_env.physics.state import read_state
 from sphere_env.physics.terrain import Terrain
 
-__all__ = ["FIXTURES", "InitialState", "Twin", "TwinConfig", "TwinState"]
+# MAX_INITIAL_PENETRATION_M and ground_clearance_m stay importable from here (the env imports them).
+__all__ = ["FIXTURES", "MAX_INITIAL_PENETRATION_M", "InitialState", "Twin", "TwinConfig", "TwinState",
+           "ground_clearance_m"]
 
 _log = logging.getLogger("sphere_env")
-
-#: An initial sphere centre may sit at most this far inside the ground [m] (a settled shell
-#: deflects by a few cm); deeper, the contact pushes the robot out violently on the first step.
-MAX_INITIAL_PENETRATION_M = 0.05
-#: Joint friction and the injected shell torques are evaluated explicitly, from the state at the
-#: start of each plant step. An explicit damper of slope c [N m s/rad] on a joint of inverse
-#: inertia m⁻¹ (diagonal of the free-body M⁻¹) is unstable for c·dt·m⁻¹ ≥ 2 whenever the robot is
-#: off the ground; such gains are refused. Ground contact stiffens the joints, so below the limit
-#: most runs are fine, but near it long full-torque runs can still diverge (at dt = 5 ms: drive
-#: c = 120 N m s/rad under point contact after 52–92 steps; hydroelastic drive c = 150 within 5
-#: steps, steer c = 180 within 11); the physics-failure truncation reports those.
-EXPLICIT_DAMPING_LIMIT = 2.0
-#: The injected shell stiffness is explicit too: refused for ω_n·dt above this (at dt = 5 ms,
-#: ω_n = 250 rad/s diverged within 16 steps at full torque, 200 rad/s ran; the measured shell
-#: ω_n is ≈3 rad/s).
-INJECTED_OMEGA_DT_LIMIT = 1.0
-
-
-def ground_clearance_m(terrain: Terrain, position_m) -> float:
-    """Signed distance of a point from the ground surface [m] (< 0 inside the ground).
-
-    The ground is the plane through the origin with normal ``terrain.n_ramp``, or for a finite ramp
-    the union of that half-space and the run-out's (horizontal plane through the ramp's end).
-    """
-    p = np.asarray(position_m, dtype=float)
-    d = float(np.dot(terrain.n_ramp, p))
-    end = terrain.ramp_end_W
-    if end is not None:
-        d = min(d, float(p[2] - end[2]))
-    return d
-
-
-def friction_peak_slope(model) -> float:
-    """The largest damping slope −dτ/dv of a friction law over |v| ≤ 50 rad/s [N m s/rad]."""
-    v = np.linspace(-50.0, 50.0, 200_001)
-    tau = np.asarray(model.torque(v), dtype=float)
-    return float(max(np.max(-np.gradient(tau, v)), 0.0))
 
 
 class Twin:
@@ -143,7 +111,7 @@ class Twin:
         self._ground_friction = float(self.config.ground_friction)
         self._pendulum_inertia = self.pendulum.default_spatial_inertia()
         self._payload = (0.0, (0.0, 0.0, 0.0))
-        self._geometry_cache: OrderedDict = OrderedDict()
+        self._shells = ShellCache(self.sg_context)
         self._camera: RgbCamera | None = None
         self._apply_pressure_to_context()
         self.reset()
@@ -256,36 +224,28 @@ class Twin:
         """Push the current pressure into the context.
 
         injected: new K_inject, C_inject gains. hydroelastic: new shell proximity properties
-        (modulus, dissipation) via ``AssignRole(kReplace)``. Drake re-meshes the compliant shell
-        for that (≈80 ms at the shipped 0.05 m resolution), so the resulting GeometryState is
-        cached per shell (modulus, dissipation, mesh resolution), LRU, and restored in ≈2 ms when they recur; the
-        current ground friction and incline are re-applied after a restore. Results are bit-identical to a
-        fresh re-mesh.
+        (modulus, dissipation) via ``AssignRole(kReplace)``; Drake re-meshes the compliant shell for
+        that, and the result is kept per shell (:class:`~sphere_env.physics.shell_cache.ShellCache`)
+        and restored when the shell recurs, the current ground friction and incline re-applied
+        after a restore.
         """
         self._apply_gains()
         if self.config.shell_model != "hydroelastic":
             return
-        idx = self._geometry_state_index()
         # a shell is its modulus, dissipation and mesh (the mesh may change with pressure)
         key = (*self.shell.hydroelastic(self._pressure_kpa),
                hydroelastic_resolution_hint_m(self.config, self.shell, self._pressure_kpa))
-        entry = self._geometry_cache.get(key)
-        if entry is not None:
-            snap, mu, incline = entry
-            self.sg_context.get_mutable_abstract_parameter(idx).SetFrom(snap)
-            self._geometry_cache.move_to_end(key)
+        ground = self._shells.restore(key)
+        if ground is not None:
             # The snapshot holds the ground (pose, μ) of its time: synced before the next step.
-            self._ground_incline, self._ground_mu_in_context = incline, mu
+            self._ground_mu_in_context, self._ground_incline = ground
             self._ground_dirty = True
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
             shell_properties(self.config, self.shell, self._pressure_kpa), RoleAssign.kReplace,
         )
-        self._geometry_cache[key] = (self.sg_context.get_abstract_parameter(idx).Clone(),
-                                     self._ground_mu_in_context, self._ground_incline)
-        if len(self._geometry_cache) > self.GEOMETRY_CACHE_SIZE:
-            self._geometry_cache.popitem(last=False)
+        self._shells.store(key, self._ground_mu_in_context, self._ground_incline, self.GEOMETRY_CACHE_SIZE)
 
     def set_payload(self, mass_kg: float = 0.0, offset_m=(0.0, 0.0, 0.0)) -> None:
         """Add a point-mass payload to the pendulum, at its nominal COM shifted by ``offset_m``
@@ -361,78 +321,31 @@ class Twin:
         if cur["pressure_kpa"] != self._pressure_kpa:
             self.set_pressure(cur["pressure_kpa"])
 
-    # Hydroelastic pressure changes re-mesh the compliant shell (≈90 ms). The SceneGraph context's
-    # GeometryState for a given shell is cached and restored (≈2 ms, ≈1.8 MB each, LRU), then
-    # the current ground friction re-applied if it differs — bit-identical to a fresh set_pressure.
-    def _geometry_state_index(self) -> int:
-        idx = self.__dict__.get("_geometry_index")
-        if idx is None:
-            for i in range(self.sg_context.num_abstract_parameters()):
-                try:
-                    self.sg_context.get_abstract_parameter(i).get_value()
-                except RuntimeError as err:  # C++ type unknown to Python: the message names it
-                    if "GeometryState" in str(err):
-                        idx = i
-                        break
-            if idx is None:
-                raise RuntimeError("SceneGraph context: GeometryState parameter not found")
-            self._geometry_index = idx
-        return idx
-
     @property
     def cached_shell_count(self) -> int:
         """Hydroelastic shells (one per distinct modulus, dissipation, mesh) cached in this twin."""
-        return len(self._geometry_cache)
+        return len(self._shells)
 
     def clear_shell_cache(self) -> None:
         """Forget cached hydroelastic shells: the next pressure change re-meshes."""
-        self._geometry_cache.clear()
+        self._shells.clear()
 
     # ---- numerical admissibility ------------------------------------------------------------------
     def explicit_stability_problem(self, steer_friction_scale: float = 1.0, drive_friction_scale: float = 1.0) -> str | None:
         """Why this twin's explicit torques would diverge at its time step, or ``None``.
 
-        Checks the joint friction slopes (× the given scales) against :data:`EXPLICIT_DAMPING_LIMIT`
-        and, for the injected shell, ω_n·dt over the calibration's pressure range against
-        :data:`INJECTED_OMEGA_DT_LIMIT` and the drive-direction damping C_inject (which acts on the
-        drive joint) together with the drive friction.
+        Checks the joint friction slopes (× the given scales) against
+        :data:`~sphere_env.physics.admissibility.EXPLICIT_DAMPING_LIMIT` and, for the injected shell,
+        ω_n·dt over the calibration's pressure range against
+        :data:`~sphere_env.physics.admissibility.INJECTED_OMEGA_DT_LIMIT` and the drive-direction
+        damping C_inject (which acts on the drive joint) together with the drive friction; the
+        margins are computed on the first call (:class:`~sphere_env.physics.admissibility.ExplicitStability`).
         """
-        cache = self.__dict__.get("_stability_cache")
-        if cache is None:
-            ctx = self.plant.CreateDefaultContext()
-            minv = np.diag(np.linalg.inv(self.plant.CalcMassMatrix(ctx)))
-            lay = self._layout
-            cache = {
-                "steer": (friction_peak_slope(self.config.steer_friction), lay["steer_v"]),
-                "drive": (friction_peak_slope(self.config.drive_friction), lay["drive_v"]),
-                "minv": minv,
-            }
-            if self.config.shell_model == "injected":
-                lo, hi = self.calibration.pressure_range_kpa
-                ps = np.linspace(lo, hi, 23)
-                cache["omega_n"] = float(np.max(self.calibration.omega_n(ps)))
-                cache["C"] = max(self.shell.injected_gains(float(p))[1] for p in ps)
-            self._stability_cache = cache
-        dt = self.config.time_step_s
-        if "omega_n" in cache and cache["omega_n"] * dt > INJECTED_OMEGA_DT_LIMIT:
-            lo, hi = self.calibration.pressure_range_kpa
-            return (f"calibration: omega_n reaches {cache['omega_n']:.4g} rad/s over [{lo:g}, {hi:g}] kPa; the injected "
-                    f"shell torques are explicit and diverge for omega_n·time_step_s > {INJECTED_OMEGA_DT_LIMIT:g}; "
-                    f"allowed at time_step_s={dt:g} s: omega_n <= {INJECTED_OMEGA_DT_LIMIT / dt:.4g} rad/s")
-        for joint, scale in (("steer", steer_friction_scale), ("drive", drive_friction_scale)):
-            slope, idx = cache[joint]
-            if idx is None:
-                continue
-            damping = slope * scale + (cache.get("C", 0.0) if joint == "drive" else 0.0)
-            ratio = damping * dt * cache["minv"][idx]
-            if ratio > EXPLICIT_DAMPING_LIMIT:
-                allowed = EXPLICIT_DAMPING_LIMIT / (dt * cache["minv"][idx])
-                extra = f" + injected C_inject {cache['C']:.4g}" if joint == "drive" and "C" in cache else ""
-                return (f"friction_model: {joint} joint damping {damping:.4g} N m s/rad (friction law "
-                        f"{getattr(self.config, joint + '_friction').law!r} peak slope {slope:.4g} × "
-                        f"{joint}_friction_scale {scale:g}{extra}) diverges at time_step_s={dt:g} s: explicit "
-                        f"torques need damping·dt/inertia <= {EXPLICIT_DAMPING_LIMIT:g}; allowed: <= {allowed:.4g} N m s/rad")
-        return None
+        stability = self.__dict__.get("_stability")
+        if stability is None:
+            stability = self._stability = ExplicitStability(self.plant, self._layout, self.config, self.calibration,
+                                                             self.shell)
+        return stability.problem(steer_friction_scale, drive_friction_scale)
 
     # ---- state -----------------------------------------------------------------------------------
     def reset(self, initial: InitialState | None = None, pressure_kpa: float | None = None) -> TwinState:
@@ -495,66 +408,10 @@ class Twin:
         return self.plant.GetPositions(self.plant_context), self.plant.GetVelocities(self.plant_context)
 
     def state(self) -> TwinState:
-        """Read θ, φ, ω_d, heading, pose and rates from the plant state (names and signs: docs/design.md).
-
-        Plain float math on [q; v] (≈10 µs): R_WPC from the normalized base quaternion, φ and φ̇
-        from :func:`pipe_angle_expressions` (the same definition the injected law uses),
-        ω_d = ω_WPC·ŷ − q̇_d, ψ = atan2(−ŷ_x, ŷ_y), gravity in the pipe frame
-        g_P = −(row z of R_WP)ᵀ with R_WP = R_WPC R_y(−q_d) (the drive axis is −y_PC).
-        Pendulum pitch α = atan2(−r_x, r_z) with r = R_WPCᵀ ẑ_W (row z of R_WPC); its rate from
-        ṙ = −ω_PC × r, ω_PC = R_WPCᵀ ω_W.
-        """
-        lay = self._layout
-        x = self.plant.GetPositionsAndVelocities(self.plant_context).tolist()
-        nq = lay["nq"]
-        q_d, qd_dot = x[lay["drive_q"]], x[nq + lay["drive_v"]]
-        if lay["base"] == "quaternion":
-            i, j = lay["base_q"], nq + lay["base_v"]
-            qw, qx, qy, qz = x[i : i + 4]
-            k = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-            y_W = (k * (qx * qy - qw * qz), 1.0 - k * (qx * qx + qz * qz), k * (qy * qz + qw * qx))
-            row_z = (k * (qx * qz - qw * qy), k * (qy * qz + qw * qx), 1.0 - k * (qx * qx + qy * qy))
-            p_W, w_W, v_W = x[i + 4 : i + 7], x[j : j + 3], x[j + 3 : j + 6]
-            x_W = (1.0 - k * (qy * qy + qz * qz), k * (qx * qy + qw * qz), k * (qx * qz - qw * qy))
-            z_W = (k * (qx * qz + qw * qy), k * (qy * qz - qw * qx), 1.0 - k * (qx * qx + qy * qy))
-            w0 = w_W[0] * x_W[0] + w_W[1] * x_W[1] + w_W[2] * x_W[2]  # ω_PC in PC
-            w1 = w_W[0] * y_W[0] + w_W[1] * y_W[1] + w_W[2] * y_W[2]
-            w2 = w_W[0] * z_W[0] + w_W[1] * z_W[1] + w_W[2] * z_W[2]
-            r0, r1, r2 = row_z
-            r0_dot, r2_dot = -(w1 * r2 - w2 * r1), -(w0 * r1 - w1 * r0)
-            alpha = math.atan2(-r0, r2)
-            alpha_dot = (r0 * r2_dot - r2 * r0_dot) / max(r0 * r0 + r2 * r2, 1e-12)
-        elif lay["base"] == "planar":  # coords (y_W, z_W, φ) about world x
-            i, j = lay["base_q"], nq + lay["base_v"]
-            c, sn = math.cos(x[i + 2]), math.sin(x[i + 2])
-            y_W, row_z = (0.0, c, sn), (0.0, sn, c)
-            p_W, w_W, v_W = (0.0, x[i], x[i + 1]), (x[j + 2], 0.0, 0.0), (0.0, x[j], x[j + 1])
-            alpha = alpha_dot = 0.0  # rotation about world x only: no pitch
-        else:  # stand: pitch center welded 1 m above the origin
-            y_W, row_z = (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
-            p_W, w_W, v_W = (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-            alpha = alpha_dot = 0.0
-        phi, phi_dot, _ = pipe_angle_expressions(y_W, w_W, self.terrain.normal_at(p_W))
-        y_dot = cross3(w_W, y_W)
-        c, sn = math.cos(q_d), -math.sin(q_d)
-        return TwinState(
-            time_s=self.context.get_time(),
-            theta=x[lay["steer_q"]],
-            theta_dot=x[nq + lay["steer_v"]],
-            drive_angle=q_d,
-            drive_rate=qd_dot,
-            phi=phi,
-            phi_dot=phi_dot,
-            omega_d=w_W[0] * y_W[0] + w_W[1] * y_W[1] + w_W[2] * y_W[2] - qd_dot,
-            heading=math.atan2(-y_W[0], y_W[1]),
-            heading_rate=(y_W[0] * y_dot[1] - y_W[1] * y_dot[0]) / max(y_W[0] ** 2 + y_W[1] ** 2, 1e-12),
-            position_m=np.array(p_W),
-            velocity_m_s=np.array(v_W),
-            gravity_in_pipe=-np.array((row_z[0] * c - row_z[2] * sn, row_z[1], row_z[0] * sn + row_z[2] * c)),
-            pressure_kpa=self._pressure_kpa,
-            pendulum_pitch=alpha,
-            pendulum_pitch_rate=alpha_dot,
-        )
+        """Read θ, φ, ω_d, heading, pose and rates from the plant state (names and signs: docs/design.md;
+        the math: :func:`~sphere_env.physics.state.read_state`)."""
+        return read_state(self.plant.GetPositionsAndVelocities(self.plant_context), self._layout, self.terrain,
+                          self.context.get_time(), self._pressure_kpa)
 
     def advance_unchecked(self, duration_s: float, motor_torque_nm: np.ndarray) -> None:
         """:meth:`advance` without input validation; ``motor_torque_nm`` must be a finite float64 (2,)."""
@@ -614,5 +471,5 @@ class Twin:
         self._sync_ground()
         if self._camera is None:
             self._camera = RgbCamera(self.scene_graph, self.sg_context, width, height)
-            self._geometry_cache.clear()
+            self._shells.clear()
         return self._camera.render(self.state().position_m, width, height)

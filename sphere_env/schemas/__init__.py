@@ -14,7 +14,9 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Mapping, TypeVar, get_args
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+import numpy as np
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic.fields import FieldInfo
 
 S = TypeVar("S", bound="Schema")
 FIELD = "field '"  # how every message names a field
@@ -45,33 +47,71 @@ def count(low: int = 1, high: int | None = None) -> Any:
     return Annotated[int, BeforeValidator(_integral), Field(ge=low, le=high, json_schema_extra=allowed(words))]
 
 
-#: A finite real number (an int is one; a bool or a string is not).
-Finite = Annotated[float, Field(allow_inf_nan=False, json_schema_extra=allowed("a finite number"))]
+def _real(value: Any) -> Any:
+    """A numpy number as the Python number it holds (a numpy bool is refused: a bool is not a
+    number); anything else unchanged, for the strict float check to judge."""
+    if isinstance(value, np.bool_):
+        raise ValueError("a bool is not a number")
+    if isinstance(value, (np.generic, np.ndarray)) and np.ndim(value) == 0 and value.dtype.kind in "iuf":
+        return value.item()
+    return value
+
+
+def _as_tuple(value: Any) -> Any:
+    """A list or a 1-d numpy array as a tuple of its items (YAML and numpy have no tuples); anything
+    else unchanged, for the tuple check to judge."""
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        return tuple(value.tolist())
+    return tuple(value) if isinstance(value, list) else value
+
+
+def fixed_tuple(item: Any, size: int, words: str) -> Any:
+    """A tuple of ``size`` ``item`` values (a list or numpy array is one), its allowed values in words."""
+    return Annotated[tuple[(item,) * size], BeforeValidator(_as_tuple), Field(json_schema_extra=allowed(words))]
+
+
+#: A finite real number (an int or a numpy number is one; a bool or a string is not).
+Finite = Annotated[float, BeforeValidator(_real), Field(allow_inf_nan=False, json_schema_extra=allowed("a finite number"))]
 
 
 def number(*, gt: float | None = None, ge: float | None = None, lt: float | None = None,
-           le: float | None = None) -> Any:
-    """A finite real number within the given bounds, its allowed range stated in words."""
+           le: float | None = None, words: str | None = None) -> Any:
+    """A finite real number within the given bounds, its allowed range stated in words (``words``,
+    else the bounds)."""
     parts = [f"{op} {v:g}" for op, v in ((">", gt), (">=", ge), ("<", lt), ("<=", le)) if v is not None]
-    words = "a finite number" + (" " + " and ".join(parts) if parts else "")
-    return Annotated[float, Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False,
-                                  json_schema_extra=allowed(words))]
+    words = words or "a finite number" + (" " + " and ".join(parts) if parts else "")
+    return Annotated[float, BeforeValidator(_real), Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False,
+                                                          json_schema_extra=allowed(words))]
+
+
+def _ordered(pair: tuple[float, float]) -> tuple[float, float]:
+    if pair[0] > pair[1]:
+        raise ValueError(f"low {pair[0]!r} is above high {pair[1]!r}")
+    return pair
+
+
+def ordered_pair(low: float, high: float, unit: str) -> Any:
+    """A pair (low, high) of finite numbers with ``low`` <= low <= high <= ``high`` [``unit``]."""
+    words = f"a pair (low, high) with {low:g} <= low <= high <= {high:g} {unit}"
+    return Annotated[tuple[number(ge=low, le=high), number(ge=low, le=high)], AfterValidator(_ordered),
+                     BeforeValidator(_as_tuple), Field(json_schema_extra=allowed(words))]
 
 
 def validate(schema: type[S], data: Any, where: str = "", error: type[Exception] = ValueError,
-             root: str = "") -> S:
+             root: str = "", context: Mapping[str, Any] | None = None) -> S:
     """``data`` as ``schema``, or ``error`` with one line naming the first problem (an unknown key
     before any other): ``<where>: field '<root>.<dotted.path>' = <value>: <problem>; allowed:
-    <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name)."""
+    <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name;
+    ``context``: what validators that depend on the caller read, as pydantic's validation context)."""
     head = f"{where}: " if where else ""
     if not isinstance(data, Mapping):
         name = f"field {root!r}" if root else "the input"  # its type only: never echo a file's contents
         raise error(f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: "
                     f"{sorted(schema.model_fields)}")
     try:
-        return schema.model_validate(dict(data))
+        return schema.model_validate(dict(data), context=context)
     except ValidationError as err:
-        errors = [{**e, "loc": field_loc(schema, e["loc"])} for e in err.errors()]
+        errors = [{**e, "loc": field_loc(schema, e["loc"], e["type"] == "extra_forbidden")} for e in err.errors()]
         # an unknown key first: a typo also makes the key it was meant to be "missing"
         first = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
         # of a union's branches failing at one field, the one with a validator's own words
@@ -79,9 +119,10 @@ def validate(schema: type[S], data: Any, where: str = "", error: type[Exception]
         raise error(f"{head}{describe(schema, first, root)}") from None
 
 
-def field_loc(schema: type[BaseModel], loc: tuple) -> tuple:
+def field_loc(schema: type[BaseModel], loc: tuple, unknown_key: bool = False) -> tuple:
     """A pydantic error location without its union branch tags (``constrained-float``,
-    ``function-after[...]``, ``str``): only field names, list indices and mapping keys stay."""
+    ``function-after[...]``, ``str``, a tagged union's tags): only field names, list indices and
+    mapping keys stay, and the last part of an ``unknown_key`` error (the key refused)."""
     out: list = []
     model: type[BaseModel] | None = schema
     for i, p in enumerate(loc):
@@ -93,7 +134,7 @@ def field_loc(schema: type[BaseModel], loc: tuple) -> tuple:
             model = _model_in(model.model_fields[p].annotation)
         elif model is None and not _is_tag(p):
             out.append(p)  # a key of a free mapping
-        elif last and model is not None:
+        elif last and unknown_key:
             out.append(p)  # an unknown key of a model
     return tuple(out)
 
@@ -108,6 +149,9 @@ def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> s
     loc = tuple(e["loc"])
     model, field = _owner(schema, loc)
     where = _path(((root,) if root else ()) + loc)
+    if e["type"] == "missing" and loc and isinstance(loc[-1], int):  # a sequence too short
+        where = _path(((root,) if root else ()) + loc[:-1])
+        return f"field {where!r} = {e.get('input')!r}: too few items" + _allowed(field)
     if e["type"] == "missing":
         return f"field {where!r} is missing"
     if e["type"] == "extra_forbidden":
@@ -117,10 +161,29 @@ def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> s
     if e["type"] == "value_error" and msg.startswith("field '"):
         # a validator of a section, naming its fields relative to the section
         return f"field '{where}.{msg.removeprefix(FIELD)}" if where else msg
-    text = f"field {where!r} = {e.get('input')!r}: {msg}"
-    words = ((field.json_schema_extra or {}).get("allowed") if field is not None
-             and isinstance(field.json_schema_extra, dict) else None)
-    return text + (f"; allowed: {words}" if words else "")
+    # a nested schema's message may already say what is allowed
+    return f"field {where!r} = {e.get('input')!r}: {msg}" + ("" if "allowed" in msg else _allowed(field))
+
+
+def _allowed(field: FieldInfo | None) -> str:
+    """``; allowed: <words>`` of a field: its own, else those of an optional type's branch (``... or
+    None``); empty without words."""
+    if field is None:
+        return ""
+    words = _words(field)
+    if words is None:
+        args = get_args(field.annotation)
+        branch = next((w for w in map(_words, args) if w is not None), None)
+        words = None if branch is None else branch + (" or None" if type(None) in args else "")
+    return f"; allowed: {words}" if words else ""
+
+
+def _words(part: Any) -> str | None:
+    """The allowed words of a FieldInfo or of an ``Annotated`` type's FieldInfo metadata."""
+    if isinstance(part, FieldInfo):
+        extra = part.json_schema_extra
+        return extra.get("allowed") if isinstance(extra, dict) else None
+    return next((w for w in map(_words, getattr(part, "__metadata__", ())) if w is not None), None)
 
 
 def _path(loc: tuple) -> str:

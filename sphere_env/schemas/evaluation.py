@@ -1,41 +1,344 @@
-"""The evaluation sweep's typed schema: what ``evaluate`` runs, checked before any worker starts.
+"""Typed schemas of the evaluation tools' inputs: what ``evaluate``, ``enjoy`` and ``export`` run,
+checked when loaded, before any env is built, any worker starts or anything is written.
 
-:class:`SweepFields` holds every field of :class:`sphere_env.evaluation.evaluate.SweepSpec` with its
-type and range; checks that need an env, a controller or the calibration (pressures inside the
-calibrated range, a controller's first action) stay in ``SweepSpec.validate``.
+:class:`ControllerSpec` reads a controller (``label=spec`` text or ``{label, spec}``);
+:class:`SweepFields` is the grid of :class:`sphere_env.evaluation.evaluate.SweepSpec`;
+:class:`EvaluateOptions`, :class:`EnjoyFields`, :class:`ViewOptions` and :class:`ExportOptions` are
+the rest of each command's options. An unknown key, a value of the wrong type and a value out of
+range are refused as ``field '<name>' = <value>: <problem>; allowed: <what>``. What needs a loaded
+model or a built env (a policy's training env id, its observation size, a controller's first
+action) is checked after loading, by the tools themselves.
+
+A schema deriving from :class:`Loaded` gives the same one-line error when built directly
+(``SweepSpec(controllers=[...])``) as through :func:`~sphere_env.schemas.validate`.
 """
 
 from __future__ import annotations
 
-from typing import Any, Literal
+import math
+from contextvars import ContextVar
+from pathlib import Path
+from typing import Annotated, Any, Literal, Mapping
 
-from pydantic import Field, field_validator
+from pydantic import AfterValidator, BeforeValidator, Field, ValidationError, field_validator, model_validator
 
 from sphere_env.params import SHELL_MODELS
-from sphere_env.schemas import Finite, Schema, allowed, count
+from sphere_env.schemas import Finite, Schema, allowed, count, number, validate
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
 GRID_KWARGS = {"shell_model": "--shell-models", "friction_model": "--friction", "randomization": "off",
                "record_replay": "--replay"}
+#: Env kwargs the enjoy command sets itself (refused in ``--env-kwargs``) and the option for each.
+ENJOY_KWARGS = {"shell_model": "--shell-model", "friction_model": "the run's config", "randomization": "off",
+                "render_mode": "--meshcat / --video", "meshcat": "--meshcat", "record_replay": "not used by enjoy"}
+#: Episodes of one sweep at the most: every episode's trace (12 channels per control step, ~60 kB) is
+#: held in memory until traces.npz is written.
+MAX_SWEEP_EPISODES = 100_000
+#: Episodes one enjoy command rolls out at the most (one after the other, in one process).
+MAX_ENJOY_EPISODES = 10_000
+#: Worker processes at the most: more than this on one machine is a typo (each holds its own Drake
+#: diagrams, ~150 MB).
+MAX_WORKERS = 1024
+#: Seeds are 32-bit, as NumPy's legacy seeding and most RL tooling take them.
+MAX_SEED = 2**32 - 1
+Seed = count(0, MAX_SEED)
+#: Export formats and the file each writes.
+EXPORT_FORMATS = {"onnx": "policy.onnx", "torchscript": "policy.pt"}
 
 
-class SweepFields(Schema):
-    """A grid to evaluate (see ``SweepSpec``)."""
+#: Set while :meth:`Loaded.model_validate` runs (pydantic validates a model that has its own
+#: ``__init__`` by calling that ``__init__``; :func:`validate` reports the errors itself then).
+_VALIDATING: ContextVar[bool] = ContextVar("_VALIDATING", default=False)
 
-    controllers: list[str] = Field(min_length=1, json_schema_extra=allowed("at least one controller"))
-    env_id: str
-    pressures_kpa: list[Finite] = Field(min_length=1, json_schema_extra=allowed("at least one pressure [kPa]"))
-    shell_models: list[Literal[SHELL_MODELS]] = Field(  # type: ignore[valid-type]
-        min_length=1, json_schema_extra=allowed(f"a non-empty list of {list(SHELL_MODELS)}"))
-    frictions: list[str] = Field(min_length=1, json_schema_extra=allowed("at least one friction law"))
-    seeds: list[count(0)] = Field(min_length=1, json_schema_extra=allowed("at least one integer >= 0"))
-    env_kwargs: dict[str, Any] = Field(json_schema_extra=allowed("a mapping of env kwargs"))
+
+class Loaded(Schema):
+    """A schema whose constructor refuses bad input as :func:`validate` does: one ``ValueError``
+    line naming the field, the value and what is allowed."""
+
+    def __init__(self, /, **data: Any) -> None:
+        if _VALIDATING.get():
+            super().__init__(**data)
+            return
+        try:
+            super().__init__(**data)
+        except ValidationError:
+            validate(type(self), data)  # the same input again, for validate's one-line message
+            raise
+
+    @classmethod
+    def model_validate(cls, obj: Any, **kwargs: Any) -> Any:
+        token = _VALIDATING.set(True)
+        try:
+            return super().model_validate(obj, **kwargs)
+        finally:
+            _VALIDATING.reset(token)
+
+
+def _as_path(value: Any) -> Any:
+    return Path(value) if isinstance(value, str) and value else value
+
+
+def _output_folder(folder: Path) -> Path:
+    """A folder to write into: neither it nor any of its parents may be a file."""
+    for p in (folder, *folder.parents):
+        if p.exists() and not p.is_dir():
+            raise ValueError(f"cannot be an output folder: {str(p)!r} is a file")
+    return folder
+
+
+#: A folder to write into (created when missing; neither it nor a parent may be a file).
+OutputFolder = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_folder), Field(
+    json_schema_extra=allowed("a folder path (created when missing); none of its parents a file"))]
+#: A file to read (its contents are checked by the reader).
+InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]
+
+
+def _registered(env_id: str) -> str:
+    import gymnasium as gym
+
+    import sphere_env  # noqa: F401 - registers the ids
+
+    if env_id not in gym.registry:
+        raise ValueError("unknown env id")
+    return env_id
+
+
+EnvId = Annotated[str, AfterValidator(_registered), Field(json_schema_extra=allowed(
+    "a registered env id, such as sphere_env/RampDescent-v3"))]
+ShellModel = Annotated[Literal[SHELL_MODELS], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
+    f"one of {list(SHELL_MODELS)}"))]
+
+
+def _friction(name: str) -> str:
+    from sphere_env.models.friction import resolve_friction
+
+    resolve_friction(name, "drive")
+    resolve_friction(name, "steer")
+    return name
+
+
+Friction = Annotated[str, AfterValidator(_friction)]
+
+
+def _env_kwargs_without(own: Mapping[str, str], command: str):
+    """An after-validator refusing env kwargs that ``command`` sets itself (``own``: kwarg -> the
+    option that sets it)."""
+    def check(value: dict[str, Any]) -> dict[str, Any]:
+        for k in value:
+            if k in own:
+                raise ValueError(f"field {k!r} is set by {command} itself ({own[k]}); not allowed in --env-kwargs")
+        return value
+    return check
+
+
+def _controller_form(spec: str) -> str:
+    """A baseline, a run folder (``<run>``, ``<run>@best``, ``<run>@<checkpoint steps>``) or
+    ``module:function``; whether the model loads or the function imports is checked later."""
+    from sphere_env.evaluation.controller_specs import BASELINES, run_folder
+
+    if spec in BASELINES or run_folder(spec) is not None:  # run_folder refuses another @suffix
+        return spec
+    module, sep, attr = spec.partition(":")
+    if sep and all(p.isidentifier() for p in module.split(".")) and attr.isidentifier():
+        return spec
+    raise ValueError(f"not a baseline {list(BASELINES)}, a run folder with config.yaml, or module:function")
+
+
+def _label(label: str) -> str:
+    if not label or "," in label:
+        raise ValueError("a label must be non-empty and hold no ','")
+    return label
+
+
+class ControllerSpec(Schema):
+    """A controller of a sweep: ``label=spec`` text (a bare spec names itself,
+    :func:`sphere_env.evaluation.controller_specs.split_label`) or a mapping ``{label, spec}``."""
+
+    label: Annotated[str, AfterValidator(_label), Field(json_schema_extra=allowed(
+        "a non-empty name without ','"))]
+    spec: Annotated[str, AfterValidator(_controller_form), Field(json_schema_extra=allowed(
+        "zero | pd | pretrained | <run folder>[@best|@<checkpoint steps>] | module:function"))]
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_text(cls, data: Any) -> Any:
+        if isinstance(data, str):
+            from sphere_env.evaluation.controller_specs import split_label
+
+            label, spec = split_label(data)
+            return {"label": label, "spec": spec}
+        return data
+
+    def __str__(self) -> str:
+        return f"{self.label}={self.spec}"
+
+
+class SweepFields(Loaded):
+    """A grid to evaluate (see ``SweepSpec``): every controller × shell model × friction preset ×
+    pressure [kPa] × seed."""
+
+    controllers: list[ControllerSpec] = Field(min_length=1, json_schema_extra=allowed(
+        "at least one controller, each label once"))
+    env_id: EnvId = "sphere_env/RampDescent-v3"
+    pressures_kpa: list[Finite] = Field([3.0, 8.5, 14.0], min_length=1, json_schema_extra=allowed(
+        "at least one pressure [kPa] inside the calibrated range"))
+    shell_models: list[ShellModel] = Field(list(SHELL_MODELS), min_length=1, json_schema_extra=allowed(
+        f"a non-empty list of {list(SHELL_MODELS)}"))
+    frictions: list[Friction] = Field(["majd"], min_length=1, json_schema_extra=allowed(
+        "at least one friction preset or law (majd, viscous, coulomb, none, ...)"))
+    seeds: list[Seed] = Field([0, 1], min_length=1, json_schema_extra=allowed(
+        f"at least one integer within [0, {MAX_SEED}]"))
+    env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(GRID_KWARGS, "the sweep"))] = Field(
+        default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
+    allow_env_mismatch: bool = False  # evaluate a policy on an env id it was not trained on
+
+    @field_validator("controllers")
+    @classmethod
+    def _unique_labels(cls, value: list[ControllerSpec]) -> list[ControllerSpec]:
+        labels = [c.label for c in value]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"labels must be unique, got {labels}")
+        return value
+
+    @model_validator(mode="after")
+    def _grid(self) -> "SweepFields":
+        from sphere_env.models.shell import ShellCalibration
+
+        axes = ("controllers", "shell_models", "frictions", "pressures_kpa", "seeds")
+        sizes = [len(getattr(self, a)) for a in axes]
+        if math.prod(sizes) > MAX_SWEEP_EPISODES:
+            raise ValueError(f"field '{' × '.join(axes)}' = {' × '.join(map(str, sizes))} = {math.prod(sizes)} "
+                             f"episodes; allowed: at most {MAX_SWEEP_EPISODES} per sweep")
+        cal = ShellCalibration.load(self.env_kwargs.get("calibration"))
+        for i, p in enumerate(self.pressures_kpa):
+            cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
+        return self
+
+    @property
+    def labels(self) -> list[str]:
+        return [c.label for c in self.controllers]
+
+
+def _replay_parts(data: Any) -> Any:
+    """``controller,shell_model,pressure_kpa,seed`` text as a mapping (blank or missing parts:
+    None, the grid's defaults); the numbers read as numbers where they are ones."""
+    if not isinstance(data, str):
+        return data
+    parts = [p.strip() for p in data.split(",")] if data.strip() else []
+    if len(parts) > 4:
+        raise ValueError(f"{data!r} has {len(parts)} parts; allowed: controller,shell_model,pressure_kpa,seed")
+    out: dict[str, Any] = {}
+    for key, text, kind in zip(("controller", "shell_model", "pressure_kpa", "seed"), parts, (str, str, float, int)):
+        if text:
+            try:
+                out[key] = kind(text)
+            except ValueError:
+                out[key] = text  # the typed field refuses it by name
+    return out
+
+
+class ReplayCell(Schema):
+    """An episode to save as a Meshcat replay; None fields take the grid's first controller, shell
+    model and seed and its middle pressure."""
+
+    controller: str | None = Field(None, json_schema_extra=allowed("a label of the sweep's controllers"))
+    shell_model: ShellModel | None = Field(None, json_schema_extra=allowed(f"one of {list(SHELL_MODELS)}"))
+    pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed("a pressure [kPa] inside the calibrated range"))
+    seed: Seed | None = Field(None, json_schema_extra=allowed(f"an integer within [0, {MAX_SEED}]"))
+
+
+Replay = Annotated[ReplayCell, BeforeValidator(_replay_parts), Field(json_schema_extra=allowed(
+    "controller,shell_model,pressure_kpa,seed (blank parts: the grid's)"))]
+
+
+class EvaluateOptions(Schema):
+    """The sweep's options besides the grid (:func:`sphere_env.evaluation.evaluate.evaluate`)."""
+
+    out: OutputFolder
+    workers: count(1, MAX_WORKERS) | None = Field(None, json_schema_extra=allowed(
+        f"an integer within [1, {MAX_WORKERS}], or none for every usable core"))
+    ray_address: Annotated[str, Field(min_length=1)] | None = Field(None, json_schema_extra=allowed(
+        "local, auto or ray://host:port"))
+    replays: list[Replay] = Field(default_factory=lambda: [ReplayCell()])
+    pme_log: InputFile | None = None
+    pme_log_pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed("a finite pressure [kPa]"))
+    pme_reference: Literal[(*SHELL_MODELS, "log")] = Field(  # type: ignore[valid-type]
+        "hydroelastic", json_schema_extra=allowed(f"one of {[*SHELL_MODELS, 'log']}"))
+    plots: bool = True
+    progress: bool = False
+    extra_report: str = ""
+    video: OutputFolder | None = None
+
+    @model_validator(mode="after")
+    def _video_local(self) -> "EvaluateOptions":
+        if self.video is not None and self.ray_address is not None:
+            raise ValueError(f"field 'video' = {str(self.video)!r}: not available with --ray-address (Ray workers "
+                             "may not share this file system); record videos with the local process pool")
+        return self
+
+
+def _run_text(run: str) -> str:
+    """``<run folder>`` or ``<run folder>@best``/``@model``, the folder existing."""
+    from sphere_env.evaluation.controller_specs import run_path
+
+    path, _, which = run.partition("@")
+    if which not in ("", "best", "model"):
+        raise ValueError("use <run folder> or <run folder>@best")
+    if not run_path(path).is_dir():
+        raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.pkl)")
+    return run
+
+
+RunText = Annotated[str, AfterValidator(_run_text), Field(json_schema_extra=allowed(
+    "a training run folder or pretrained, optionally @best"))]
+
+
+class EnjoyFields(Loaded):
+    """What the enjoy command watches (see ``EnjoySpec``). ``None`` fields take the run's own
+    values (env id, shell model) or the calibration's nominal pressure [kPa]."""
+
+    run: RunText
+    episodes: count(1, MAX_ENJOY_EPISODES) = 1
+    pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed(
+        "a pressure [kPa] inside the calibrated range"))
+    shell_model: ShellModel | None = None
+    seed: Seed = 0
+    deterministic: bool = True
+    env_id: EnvId | None = None
+    allow_env_mismatch: bool = False
+    env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(ENJOY_KWARGS, "the enjoy command"))] = \
+        Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
+    label: Annotated[str, Field(min_length=1)] | None = Field(None, json_schema_extra=allowed(
+        "a non-empty name (default: the run folder's)"))
+
+
+class ViewOptions(Schema):
+    """How the enjoy command shows its episodes."""
+
+    meshcat: bool = False
+    video: OutputFolder | None = None
+    realtime_rate: number(ge=0.0) = Field(1.0, json_schema_extra=allowed(
+        "a finite number >= 0 (simulated s per wall-clock s; 0: as fast as possible)"))
+
+
+class ExportOptions(Schema):
+    """The export command's options (:func:`sphere_env.evaluation.export.export`); ``out`` defaults
+    to ``<run>/export`` (``<run>/export_best`` for ``@best``)."""
+
+    run: RunText
+    format: Literal[tuple(EXPORT_FORMATS)] = Field(  # type: ignore[valid-type]
+        "onnx", json_schema_extra=allowed(f"one of {list(EXPORT_FORMATS)}"))
+    out: OutputFolder
+    tol: number(gt=0.0) = 1e-5
+    env_id: EnvId | None = None
     allow_env_mismatch: bool = False
 
-    @field_validator("env_kwargs")
+    @model_validator(mode="before")
     @classmethod
-    def _not_grid_kwargs(cls, value: dict[str, Any]) -> dict[str, Any]:
-        for k in value:
-            if k in GRID_KWARGS:
-                raise ValueError(f"field {k!r} is set by the sweep itself ({GRID_KWARGS[k]}); not allowed in --env-kwargs")
-        return value
+    def _default_out(cls, data: Any) -> Any:
+        if isinstance(data, Mapping) and data.get("out") is None and isinstance(data.get("run"), str):
+            from sphere_env.evaluation.controller_specs import run_path
+
+            path, _, which = data["run"].partition("@")
+            data = {**data, "out": run_path(path) / ("export_best" if which == "best" else "export")}
+        return data

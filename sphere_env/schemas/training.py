@@ -7,6 +7,13 @@ validates a section (with ``--hyperparams`` overrides already merged in) against
 that is not an integer and a number out of its range are refused, before anything is built, as
 ``field 'hyperparams.<key>' = <value>: <problem>; allowed: <what>``.
 
+A top-level ``randomization`` (the former layout, now ``env_kwargs.randomization``) and the rl-zoo3
+keys this trainer does not implement (:data:`ZOO_ONLY_KEYS`) are refused by name, saying where the
+key moved or what to use instead. ``env_wrapper`` takes rl-zoo3's forms (a class path, ``{path:
+{kwargs}}`` or a list of these) and is read as a list of ``{path: kwargs}``, each class imported and
+checked. :class:`RunOptions` holds the trainer's own options (env id, torch device, seeds,
+evaluation and checkpoint periods, ...), :class:`SweepOptions` a sweep's.
+
 rl-zoo3's string forms are read as data, never evaluated: ``lin_<x>`` schedules, ``"dict(...)"``
 policy kwargs and ``normalize`` arguments (:func:`parse_dict_call`). Activation functions are named
 (``nn.Tanh``, ``tanh``, ...) and turned into torch classes only when the model is built.
@@ -26,6 +33,8 @@ from sphere_env.schemas import Finite, Schema, _integral, allowed, count, number
 SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
 #: rl-zoo3 section keys (popped by its ExpManager) that this trainer does not implement.
 ZOO_ONLY_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type", "noise_std")
+#: Former top-level keys of a section and where they live now.
+MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
 #: Upper bounds: more envs than this is a typo, not a study (each env holds a Drake diagram, ~20 MB;
 #: a process per env, ~150 MB more), and budgets beyond these would run for years on this kind of
 #: machine.
@@ -165,6 +174,48 @@ class NormalizeArgs(Schema):
 
 
 VECNORMALIZE_KEYS = tuple(NormalizeArgs.model_fields)
+
+
+def wrapper_class(path: str) -> type:
+    """The gymnasium wrapper class at ``path`` (``module.Class``), else ValueError saying why."""
+    import importlib
+
+    import gymnasium as gym
+
+    module, _, name = path.rpartition(".")
+    try:
+        cls = getattr(importlib.import_module(module), name) if module else None
+    except ImportError as err:
+        raise ValueError(f"{path!r} cannot be imported: {err}") from None
+    except AttributeError:
+        cls = None
+    if not (isinstance(cls, type) and issubclass(cls, gym.Wrapper)):
+        raise ValueError(f"{path!r} is not a gymnasium.Wrapper class")
+    return cls
+
+
+def _wrapper_path(path: str) -> str:
+    wrapper_class(path)
+    return path
+
+
+def _wrapper_list(value: Any) -> Any:
+    """rl-zoo3's ``env_wrapper`` forms as a list of entries (null: none; one entry: a list of it)."""
+    if value is None:
+        return []
+    return [value] if isinstance(value, (str, Mapping)) else value
+
+
+def _wrapper_entry(value: Any) -> Any:
+    """A bare class path as ``{path: {}}``."""
+    return {value: {}} if isinstance(value, str) else value
+
+
+#: One wrapper: ``{module.Class: kwargs}`` (kwargs null: none), read as ``{path: {kwargs}}``.
+WrapperEntry = Annotated[
+    dict[Annotated[str, AfterValidator(_wrapper_path)], dict[str, Any] | None],
+    BeforeValidator(_wrapper_entry), Field(min_length=1, max_length=1),
+    AfterValidator(lambda entry: {path: dict(kwargs or {}) for path, kwargs in entry.items()})]
 Layout = count(1, MAX_N_ENVS) | Literal["auto"] | None
 
 
@@ -178,7 +229,10 @@ class Section(Schema):
     policy: str = "MlpPolicy"
     normalize: bool | Annotated[NormalizeArgs, BeforeValidator(_dict_text())] | None = False
     env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
-    env_wrapper: Any = None
+    env_wrapper: Annotated[list[WrapperEntry], BeforeValidator(_wrapper_list)] = Field(
+        default_factory=list, json_schema_extra=allowed(
+            "a gymnasium.Wrapper class path 'module.Class' (such as 'sphere_env.wrappers.PDResidualAction'), "
+            "{path: {kwargs}} with a mapping of kwargs, or a list of these (the first innermost)"))
     # arguments PPO and SAC share
     learning_rate: PositiveSchedule = 3e-4
     gamma: number(gt=0.0, le=1.0) = 0.99
@@ -187,6 +241,22 @@ class Section(Schema):
     sde_sample_freq: count(-1) = -1
     stats_window_size: count(1) = 100
     policy_kwargs: PolicyKwargsField | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _refuse_foreign_keys(cls, data: Any) -> Any:
+        """A key that moved (:data:`MOVED_KEYS`) or that only rl-zoo3 implements, named with what to do."""
+        for key in data if isinstance(data, Mapping) else ():
+            if key in MOVED_KEYS:
+                now = MOVED_KEYS[key]
+                raise ValueError(
+                    f"field {key!r}: a top-level key (in the file's section or --hyperparams); it moved to {now} "
+                    f"(rl-zoo3's layout, which passes env_kwargs to gymnasium.make): in a YAML section write "
+                    f"'env_kwargs: {{{key}: ...}}', on the command line '--env-kwargs {key}:...'")
+            if key in ZOO_ONLY_KEYS:
+                raise ValueError(f"field {key!r}: an rl-zoo3 key this trainer does not implement; train with "
+                                 "python -m rl_zoo3.train for it, or remove it")
+        return data
 
     @model_validator(mode="before")
     @classmethod
@@ -286,10 +356,6 @@ def numbers_from_yaml_strings(section: Mapping[str, Any]) -> dict[str, Any]:
 def check_section(algo: str, section: Mapping[str, Any]) -> Section:
     """The section (overrides merged) as ``algo``'s schema; ``ValueError`` naming
     ``hyperparams.<key>`` otherwise."""
-    for key in ZOO_ONLY_KEYS:
-        if key in section:
-            raise ValueError(f"field 'hyperparams.{key}': an rl-zoo3 key this trainer does not implement; "
-                             "train with python -m rl_zoo3.train for it, or remove it")
     return validate(SECTIONS[algo], numbers_from_yaml_strings(section), root="hyperparams")
 
 
@@ -307,9 +373,57 @@ Period = Annotated[int, BeforeValidator(_period_value), Field(ge=0, le=MAX_N_TIM
     "an integer number of env steps (<= 0: none)"))]
 
 
+def _registered_env(env_id: str) -> str:
+    """An env id gymnasium knows (sphere_env's register on import)."""
+    import gymnasium as gym
+
+    import sphere_env  # noqa: F401 - registers the ids
+
+    if env_id not in gym.registry:
+        ours = sorted(k for k in gym.registry if k.startswith("sphere_env/"))
+        raise ValueError(f"unknown env id; registered sphere_env ids: {ours}")
+    return env_id
+
+
+def _torch_device(value: str) -> str:
+    """A torch device this machine has (``cpu``, ``cuda``, ``cuda:<n>``) or ``auto``."""
+    import torch
+
+    if value == "auto":
+        return value
+    try:
+        dev = torch.device(value)
+    except (RuntimeError, TypeError):
+        raise ValueError("not a torch device") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError("names a CUDA device and this machine has none")
+    if dev.type not in ("cpu", "cuda"):
+        raise ValueError(f"a {dev.type!r} device, which this trainer does not use")
+    return value
+
+
+#: The algorithms a configuration may name (the keys of :data:`SECTIONS`).
+Algo = Annotated[Literal["ppo", "sac"], Field(json_schema_extra=allowed(str(list(SECTIONS))))]
+
+
+class AlgoChoice(Schema):
+    """The algorithm of a configuration, given or read from a run folder."""
+
+    algo: Algo
+
+
+def check_algo(algo: Any) -> str:
+    """``algo`` if it names an algorithm of :data:`SECTIONS`; ``ValueError`` naming ``algo`` otherwise."""
+    return validate(AlgoChoice, {"algo": algo}).algo
+
+
 class RunOptions(Schema):
     """The trainer's own options (command line or :func:`~sphere_env.training.config.resolve_config`)."""
 
+    env_id: Annotated[str, AfterValidator(_registered_env)] = Field(json_schema_extra=allowed(
+        "a registered env id such as 'sphere_env/RampDescent-v3'"))
+    device: Annotated[str, AfterValidator(_torch_device)] = Field("cpu", json_schema_extra=allowed(
+        "'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"))
     seed: count(0)
     eval_freq: Period | None = None
     eval_episodes: count(1, MAX_EVAL_EPISODES) = 6
@@ -324,3 +438,28 @@ class RunOptions(Schema):
 def check_run_options(**options: Any) -> RunOptions:
     """The trainer's options as :class:`RunOptions`; ``ValueError`` naming the option otherwise."""
     return validate(RunOptions, options)
+
+
+def _distinct(seeds: list[int]) -> list[int]:
+    if len(set(seeds)) != len(seeds):
+        raise ValueError("repeats a seed")
+    return seeds
+
+
+def _not_in_sweep(flag: str) -> Any:
+    return Field(None, json_schema_extra=allowed(f"none: a sweep does not take {flag} (each trial writes its "
+                                                 "own run folder)"))
+
+
+class SweepOptions(Schema):
+    """The command line of a sweep (``--seeds``, ``--trial``): one run folder per trial and seed."""
+
+    seeds: Annotated[list[int], AfterValidator(_distinct)] = Field(json_schema_extra=allowed(
+        "distinct integer seeds (-1: draw one)"))
+    trained_agent: None = _not_in_sweep("-i/--trained-agent")
+    tensorboard_log: None = _not_in_sweep("--tensorboard-log")
+
+
+def check_sweep_options(**options: Any) -> SweepOptions:
+    """A sweep's options as :class:`SweepOptions`; ``ValueError`` naming the option otherwise."""
+    return validate(SweepOptions, options)

@@ -3,20 +3,54 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from typing import Any, Literal, Mapping
 
 import numpy as np
+from pydantic import Field, field_validator, model_validator
 
-from sphere_env.checks import finite_number, ordered_pair, positive
+from sphere_env.schemas import Schema, allowed, number, ordered_pair, validate
 from sphere_env.tasks.observation import wrap_angle
-from sphere_env.tasks.rewards import RampRewardWeights, RampRewardWeightsPerRamp, make_weights, ramp_descent_terms
-from sphere_env.tasks.task import Scene, Task, finite_option
+from sphere_env.tasks.rewards import RampRewardWeights, RampRewardWeightsPerRamp, load_weights, ramp_descent_terms
+from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import ramp_status
 
 #: Bound of the observed speed-error integral ∫(ω_ref − ω_d) dt [rad] (anti-windup). It lies above the
 #: tuned PD's own integral bound (about 1.7 rad, where its lift reference saturates), so the policy sees
 #: every value the PD's integral term can act on.
 SPEED_ERROR_INTEGRAL_LIMIT_RAD = 3.0
+
+
+class RampDescentKwargs(Schema):
+    """The keyword arguments of :class:`RampDescentTask` (documented there), loaded before the task
+    is built. ``reward_weights`` is read as the weights of ``step_reward_per``
+    (:class:`RampRewardWeights` or :class:`RampRewardWeightsPerRamp`) with the overrides applied."""
+
+    lane_half_width_m: number(gt=0.0, le=9.0) = 1.0
+    omega_ref_range_rad_s: ordered_pair(0.0, 30.0, "rad/s") = (2.0, 4.5)
+    omega_ref_change_min_rad_s: number(gt=0.0, le=30.0) | None = 1.0
+    settle_time_s: number(ge=0.0, le=60.0) = 1.5
+    tracking_tolerance_rad_s: number(gt=0.0, le=30.0) | None = 0.5
+    extended_observation: bool = True
+    observe_tracking_state: bool = False
+    step_reward_per: Literal["time", "distance"] = "time"
+    # after step_reward_per, whose weights it overrides
+    reward_weights: Any = Field(None, validate_default=True, json_schema_extra=allowed(
+        "a mapping term -> weight, or None"))
+
+    @field_validator("reward_weights")
+    @classmethod
+    def _weights(cls, overrides: Any, info) -> RampRewardWeights:
+        per_ramp = info.data.get("step_reward_per") == "distance"
+        return load_weights(RampRewardWeightsPerRamp if per_ramp else RampRewardWeights, overrides)
+
+    @model_validator(mode="after")
+    def _change_fits_the_range(self) -> "RampDescentKwargs":
+        lo, hi = self.omega_ref_range_rad_s
+        change = self.omega_ref_change_min_rad_s
+        if change is not None and change > hi - lo:
+            raise ValueError(f"field 'omega_ref_change_min_rad_s' = {change!r} exceeds the width {hi - lo:g} rad/s of "
+                             f"omega_ref_range_rad_s {self.omega_ref_range_rad_s}; allowed: (0, {hi - lo:g}]")
+        return self
 
 
 class RampDescentTask(Task):
@@ -163,48 +197,18 @@ class RampDescentTask(Task):
     # ω_ref bounds [rad/s]: those of omega_ref_range_rad_s
     command_option_bounds = {"omega_ref": (0.0, 30.0), "omega_ref_after": (0.0, 30.0)}
 
-    def __init__(
-        self,
-        lane_half_width_m: float = 1.0,
-        omega_ref_range_rad_s: tuple[float, float] = (2.0, 4.5),
-        omega_ref_change_min_rad_s: float | None = 1.0,
-        settle_time_s: float = 1.5,
-        tracking_tolerance_rad_s: float | None = 0.5,
-        extended_observation: bool = True,
-        observe_tracking_state: bool = False,
-        reward_weights: Mapping[str, float] | None = None,
-        step_reward_per: str = "time",
-    ):
-        self.lane_half_width_m = positive("lane_half_width_m", lane_half_width_m, 9.0)
-        self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, 0.0, 30.0)
-        lo, hi = self.omega_ref_range_rad_s
-        if omega_ref_change_min_rad_s is None:
-            self.omega_ref_change_min_rad_s = None
-        else:
-            self.omega_ref_change_min_rad_s = positive("omega_ref_change_min_rad_s", omega_ref_change_min_rad_s, 30.0)
-            if self.omega_ref_change_min_rad_s > hi - lo:
-                raise ValueError(
-                    f"omega_ref_change_min_rad_s: value {omega_ref_change_min_rad_s!r} exceeds the width "
-                    f"{hi - lo:g} rad/s of omega_ref_range_rad_s {self.omega_ref_range_rad_s}; allowed: (0, {hi - lo:g}]"
-                )
-        self.settle_time_s = finite_number("settle_time_s", settle_time_s, "[0, 60] s")
-        if not 0.0 <= self.settle_time_s <= 60.0:
-            raise ValueError(f"settle_time_s: value {settle_time_s!r} outside allowed [0, 60] s")
-        self.tracking_tolerance_rad_s = (
-            None if tracking_tolerance_rad_s is None
-            else positive("tracking_tolerance_rad_s", tracking_tolerance_rad_s, 30.0)
-        )
-        if step_reward_per not in ("time", "distance"):
-            raise ValueError(f"step_reward_per: value {step_reward_per!r}; allowed: ['time', 'distance']")
-        self.reward_weights = make_weights(
-            RampRewardWeights if step_reward_per == "time" else RampRewardWeightsPerRamp, reward_weights)
-        self.step_reward_per = step_reward_per
+    def __init__(self, **kwargs: Any):
+        kw = validate(RampDescentKwargs, kwargs, "RampDescent kwargs")
+        self.lane_half_width_m = kw.lane_half_width_m
+        self.omega_ref_range_rad_s = kw.omega_ref_range_rad_s
+        self.omega_ref_change_min_rad_s = kw.omega_ref_change_min_rad_s
+        self.settle_time_s = kw.settle_time_s
+        self.tracking_tolerance_rad_s = kw.tracking_tolerance_rad_s
+        self.reward_weights = kw.reward_weights
+        self.step_reward_per = kw.step_reward_per
+        extended_observation, observe_tracking_state = kw.extended_observation, kw.observe_tracking_state
         self._x_prev_m = 0.0
         self.command_options = ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
-        if not isinstance(extended_observation, bool):
-            raise ValueError(f"extended_observation: value {extended_observation!r} must be a bool")
-        if not isinstance(observe_tracking_state, bool):
-            raise ValueError(f"observe_tracking_state: value {observe_tracking_state!r} must be a bool")
         self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if extended_observation else ()
         self._observe_lateral = extended_observation
         self._observe_tracking = observe_tracking_state
@@ -238,14 +242,14 @@ class RampDescentTask(Task):
         lo, hi = self.omega_ref_range_rad_s
         self.omega_ref_start = float(rng.uniform(lo, hi))
         if "omega_ref" in options:
-            self.omega_ref_start = finite_option(options, "omega_ref")
+            self.omega_ref_start = options["omega_ref"]
         if self.omega_ref_change_min_rad_s is None:
             self.omega_ref_after = self.omega_ref_start
             self._change_x_m = float("inf")
         else:
             self.omega_ref_after = self._draw_after(self.omega_ref_start, rng)
             if "omega_ref_after" in options:
-                self.omega_ref_after = finite_option(options, "omega_ref_after")
+                self.omega_ref_after = options["omega_ref_after"]
             # the change happens halfway down the ramp (x_W is horizontal; the ramp starts at x = 0)
             self._change_x_m = 0.5 * scene.ramp_end_x_m
         self.omega_ref = self.omega_ref_start
@@ -320,3 +324,4 @@ class RampDescentTask(Task):
             "tracking_rmse_rad_s": self.tracking_rmse_rad_s() if self._n_judged else 0.0,
             "tracking_samples": self._n_judged,
         }
+

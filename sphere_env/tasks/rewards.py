@@ -1,17 +1,21 @@
 """Reward terms: pure functions of plain numbers (dm_control ``rewards.tolerance`` style).
 
 Each task's reward is the sum of named terms; the env reports every term in ``info`` as
-``reward_<term>``. Weights are per-task dataclasses, overridable through the env kwarg
-``reward_weights`` (a mapping term -> weight).
+``reward_<term>``. Weights are per-task schemas (frozen, finite numbers; widths and margins > 0),
+overridable through the env kwarg ``reward_weights`` (a mapping term -> weight) loaded into them.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
-from typing import Mapping
+from typing import Any, TypeVar
 
-from sphere_env.checks import finite_number
+from sphere_env.schemas import Finite, Schema, number, validate
+
+W = TypeVar("W", bound=Schema)
+
+#: A tolerance's width or margin: a finite number > 0.
+Width = number(gt=0.0)
 
 
 def gaussian_tolerance(error: float, width: float) -> float:
@@ -30,8 +34,7 @@ def control_cost(action) -> float:
     return float(sum(a * a for a in action))
 
 
-@dataclass(frozen=True)
-class RampRewardWeights:
+class RampRewardWeights(Schema):
     """RampDescent weights. Per-step terms are multiplied by the control period in seconds
     (so returns do not depend on the control frequency), or, when the task pays them per distance
     (``step_reward_per="distance"``, RampDescent-v3), by the step's downhill progress as a fraction
@@ -53,32 +56,30 @@ class RampRewardWeights:
     :param speed_linear_margin: error at which ``speed_linear`` reaches 0 [rad/s] (not a term).
     """
 
-    speed: float = 1.0
-    speed_width: float = 1.0
-    lateral: float = 1.0
-    heading: float = 0.5
-    ctrl: float = 0.1
-    success: float = 2.0
-    off_ramp: float = 2.0
-    speed_linear: float = 0.0
-    speed_linear_margin: float = 4.0
+    speed: Finite = 1.0
+    speed_width: Width = 1.0
+    lateral: Finite = 1.0
+    heading: Finite = 0.5
+    ctrl: Finite = 0.1
+    success: Finite = 2.0
+    off_ramp: Finite = 2.0
+    speed_linear: Finite = 0.0
+    speed_linear_margin: Width = 4.0
 
 
-@dataclass(frozen=True)
 class RampRewardWeightsPerRamp(RampRewardWeights):
     """RampDescent weights when the per-step terms are paid per ramp length
     (``step_reward_per="distance"``, RampDescent-v3): the per-second weights × 6 s, about the
     duration of a descent of the 6 m ramp, so the terms keep their per-second proportions; the
     one-off events are unchanged."""
 
-    speed: float = 6.0
-    lateral: float = 6.0
-    heading: float = 3.0
-    ctrl: float = 0.6
+    speed: Finite = 6.0
+    lateral: Finite = 6.0
+    heading: Finite = 3.0
+    ctrl: Finite = 0.6
 
 
-@dataclass(frozen=True)
-class RollRewardWeights:
+class RollRewardWeights(Schema):
     """Roll weights; per-step terms × control period [s].
 
     :param speed: × gaussian_tolerance(ω_d − ω_ref, speed_width) per s.
@@ -90,31 +91,19 @@ class RollRewardWeights:
     :param ctrl: × Σ a² per s (penalty, subtracted).
     """
 
-    speed: float = 1.0
-    speed_width: float = 0.5
-    heading: float = 1.0
-    heading_width: float = 0.3
-    yaw_rate_width: float = 0.3
-    ctrl: float = 0.1
+    speed: Finite = 1.0
+    speed_width: Width = 0.5
+    heading: Finite = 1.0
+    heading_width: Width = 0.3
+    yaw_rate_width: Width = 0.3
+    ctrl: Finite = 0.1
 
 
-def make_weights(cls, overrides: Mapping[str, float] | None, kwarg: str = "reward_weights"):
-    """Build a weights dataclass from defaults plus ``overrides``; unknown keys or non-finite
-    values raise ValueError naming the kwarg."""
-    if overrides is None:
-        return cls()
-    if not isinstance(overrides, Mapping):
-        raise ValueError(f"{kwarg}: value {overrides!r} must be a mapping term -> weight")
-    names = {f.name for f in fields(cls)}
-    out = {}
-    for key, val in overrides.items():
-        if key not in names:
-            raise ValueError(f"{kwarg}: unknown term {key!r}; allowed: {sorted(names)}")
-        fval = finite_number(f"{kwarg}.{key}", val)
-        if key.endswith(("width", "margin")) and fval <= 0:
-            raise ValueError(f"{kwarg}: {key}={val!r} must be > 0")
-        out[key] = fval
-    return cls(**out)
+def load_weights(cls: type[W], overrides: Any) -> W:
+    """``cls``'s defaults with ``overrides`` (a mapping term -> weight, or None) applied; a
+    ``ValueError`` names an unknown term, a weight that is not a finite number, a width or margin
+    that is not > 0 (fields relative to the ``reward_weights`` kwarg)."""
+    return cls() if overrides is None else validate(cls, overrides)
 
 
 def ramp_descent_terms(

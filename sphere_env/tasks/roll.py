@@ -3,16 +3,35 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from typing import Any, Literal, Mapping
 
 import numpy as np
+from pydantic import Field, field_validator
 
-from sphere_env.checks import ordered_pair, positive
+from sphere_env.schemas import Schema, allowed, number, ordered_pair, validate
 from sphere_env.tasks.observation import wrap_angle
-from sphere_env.tasks.rewards import RollRewardWeights, make_weights, roll_terms
-from sphere_env.tasks.task import Scene, Task, finite_option
+from sphere_env.tasks.rewards import RollRewardWeights, load_weights, roll_terms
+from sphere_env.tasks.task import Scene, Task
 
 COMMAND_MODES = ("heading", "yaw_rate")
+
+
+class RollKwargs(Schema):
+    """The keyword arguments of :class:`RollTask` (documented there), loaded before the task is
+    built; ``reward_weights`` is read as :class:`RollRewardWeights` with the overrides applied."""
+
+    omega_ref_range_rad_s: ordered_pair(-30.0, 30.0, "rad/s") = (0.5, 2.5)
+    heading_range_rad: number(ge=0.0, le=math.pi, words="[0, π] rad") = math.pi / 2
+    yaw_rate_range_rad_s: ordered_pair(-5.0, 5.0, "rad/s") = (-0.5, 0.5)
+    command_mode: Literal[COMMAND_MODES] = "heading"  # type: ignore[valid-type]
+    command_resample_s: number(gt=0.0) | None = None
+    reward_weights: Any = Field(None, validate_default=True, json_schema_extra=allowed(
+        "a mapping term -> weight, or None"))
+
+    @field_validator("reward_weights")
+    @classmethod
+    def _weights(cls, overrides: Any) -> RollRewardWeights:
+        return load_weights(RollRewardWeights, overrides)
 
 
 class RollTask(Task):
@@ -81,31 +100,16 @@ class RollTask(Task):
     command_option_bounds = {"omega_ref": (-30.0, 30.0), "heading_ref": (-2 * math.pi, 2 * math.pi),
                              "yaw_rate_ref": (-5.0, 5.0)}
 
-    def __init__(
-        self,
-        omega_ref_range_rad_s: tuple[float, float] = (0.5, 2.5),
-        heading_range_rad: float = math.pi / 2,
-        yaw_rate_range_rad_s: tuple[float, float] = (-0.5, 0.5),
-        command_mode: str = "heading",
-        command_resample_s: float | None = None,
-        reward_weights: Mapping[str, float] | None = None,
-    ):
-        if command_mode not in COMMAND_MODES:
-            raise ValueError(f"command_mode: unknown value {command_mode!r}; allowed: {list(COMMAND_MODES)}")
+    def __init__(self, **kwargs: Any):
+        kw = validate(RollKwargs, kwargs, "Roll kwargs")
+        command_mode = self.command_mode = kw.command_mode
         self.command_names = ("omega_ref", "heading_error" if command_mode == "heading" else "yaw_rate_ref")
         self.command_options = ("omega_ref", "heading_ref" if command_mode == "heading" else "yaw_rate_ref")
-        self.omega_ref_range_rad_s = ordered_pair("omega_ref_range_rad_s", omega_ref_range_rad_s, -30.0, 30.0)
-        try:
-            hr = float(heading_range_rad)
-        except (TypeError, ValueError):
-            raise ValueError(f"heading_range_rad: value {heading_range_rad!r} is not a number") from None
-        if not (math.isfinite(hr) and 0.0 <= hr <= math.pi):
-            raise ValueError(f"heading_range_rad: value {heading_range_rad!r} outside allowed [0, π] rad")
-        self.heading_range_rad = hr
-        self.yaw_rate_range_rad_s = ordered_pair("yaw_rate_range_rad_s", yaw_rate_range_rad_s, -5.0, 5.0)
-        self.command_mode = command_mode
-        self.command_resample_s = None if command_resample_s is None else positive("command_resample_s", command_resample_s)
-        self.reward_weights = make_weights(RollRewardWeights, reward_weights)
+        self.omega_ref_range_rad_s = kw.omega_ref_range_rad_s
+        self.heading_range_rad = kw.heading_range_rad
+        self.yaw_rate_range_rad_s = kw.yaw_rate_range_rad_s
+        self.command_resample_s = kw.command_resample_s
+        self.reward_weights = kw.reward_weights
         self.omega_ref = self.heading_ref = self.yaw_rate_ref = 0.0
         self.control_period_s = 0.0
         self._heading0 = 0.0
@@ -125,7 +129,7 @@ class RollTask(Task):
         self._sample_command(rng)
         for key in ("omega_ref", "heading_ref", "yaw_rate_ref"):
             if key in options:
-                setattr(self, key, finite_option(options, key))
+                setattr(self, key, options[key])
         self._next_resample = self.command_resample_s
 
     def command(self, state: Any) -> list[float]:

@@ -9,13 +9,11 @@ environment.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
-from sphere_env.checks import finite_number
 from sphere_env.tasks.observation import ObservationLayout
 
 
@@ -41,7 +39,8 @@ class Task:
     :cvar reward_terms: names of the reward terms (reported as ``info["reward_<term>"]``).
     :cvar command_names: command components appended to the measured observation.
     :cvar command_options: command values settable through ``reset(options=...)``.
-    :cvar command_option_bounds: allowed [low, high] of each command option (unit in its docs).
+    :cvar command_option_bounds: allowed [low, high] of each command option (unit in its docs);
+        :func:`sphere_env.schemas.env.reset_options` turns them into the options' schema.
     :cvar extra_names: measured components observed after the command
         (:data:`~sphere_env.tasks.observation.EXTRA_COMPONENTS`).
     """
@@ -66,22 +65,9 @@ class Task:
         (``{}``: at rest at the origin)."""
         return {}
 
-    def check_options(self, options: Mapping[str, Any]) -> dict[str, float]:
-        """The command values among ``options`` as finite floats within
-        :attr:`command_option_bounds`; ``ValueError`` naming the option otherwise. Pure."""
-        out = {}
-        for key in self.command_options:
-            if key in options:
-                lo, hi = self.command_option_bounds.get(key, (-math.inf, math.inf))
-                allowed = f"[{lo:g}, {hi:g}]"
-                val = finite_number(f"options.{key}", options[key], allowed)
-                if not lo <= val <= hi:
-                    raise ValueError(f"options.{key}: value {options[key]!r} outside allowed {allowed}")
-                out[key] = val
-        return out
-
     def reset(self, state: Any, rng: np.random.Generator, options: Mapping[str, Any], scene: Scene) -> None:
-        """Start an episode from ``state``: draw the command (``options`` may fix it)."""
+        """Start an episode from ``state``: draw the command (``options``, already loaded through
+        the reset options' schema, may fix it)."""
         raise NotImplementedError
 
     def command(self, state: Any) -> list[float]:
@@ -97,7 +83,3 @@ class Task:
         """Task values for ``info`` (e.g. the current command)."""
         return {}
 
-
-def finite_option(options: Mapping[str, Any], key: str) -> float:
-    """``options[key]`` as a finite float, or ``ValueError`` naming it."""
-    return finite_number(f"options.{key}", options[key])

@@ -21,7 +21,7 @@ def manifest(roboball_dir):
 def test_manifest_loads_every_real_log(manifest):
     for spec in manifest.trials:
         log = spec.load()
-        assert log.has("theta") and log.t_s[-1] > 2.95
+        assert log.has("theta") and log.t_s[-1] > 2.4  # the shortest: push_1's 2.45 s of free rocking
         if spec.group == "steer_free":
             assert log.has("phi")
 

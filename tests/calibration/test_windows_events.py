@@ -191,3 +191,43 @@ def test_manifest_free_release_entry(roboball_dir):
     assert log["theta"][0] == pytest.approx(1.037, abs=0.005) and log["phi"][0] == pytest.approx(-0.403, abs=0.005)
     assert abs(log["theta_dot"][0]) < 0.01  # the window starts at the end of the hold
     yaml.safe_dump(log.meta)  # plain data
+
+
+# ---- the three pushes of free_robot/pushes_20s-37s.csv -------------------------------------------
+PUSHES = "free_robot/pushes_20s-37s.csv"
+
+
+@pytest.mark.realdata
+def test_pushes_log_has_three_pushes_two_one_way_one_the_other(roboball_dir):
+    log = load_log(roboball_dir / PUSHES)
+    ev = find_events(log)
+    assert [e.kind for e in ev] == ["push", "push", "push"], [e.as_dict() for e in ev]
+    # README: pushes around 2.3, 7.8 and 12.9 s, free rocking from about 2.7, 8.2 and 13.6 s.
+    for e, start, free in zip(ev, (2.3, 7.8, 12.9), (2.7, 8.2, 13.6)):
+        assert e.start_s == pytest.approx(start, abs=0.2)
+        assert free - 0.1 < e.free_start_s < free + 0.4  # at or after the hand surely let go
+        assert e.duration_s > 3.0 and "drive_angle" not in e.moved
+    # Direction: the sign of φ's largest excursion from its value at the push's start, before the
+    # robot is free; amplitude: φ there (README: to about −0.15, −0.21 and +0.37 rad).
+    swing, peak = [], []
+    for e in ev:
+        k = (log.t_s >= e.start_s) & (log.t_s <= e.free_start_s)
+        d = log["phi"][k] - log["phi"][k][0]
+        swing.append(float(d[np.argmax(np.abs(d))]))
+        peak.append(float(log["phi"][k][np.argmax(np.abs(d))]))
+    assert swing[0] < 0 and swing[1] < 0 and swing[2] > 0, swing
+    assert peak == pytest.approx([-0.15, -0.21, 0.37], abs=0.02)
+    assert abs(peak[2]) > 1.5 * max(abs(peak[0]), abs(peak[1]))  # the third at about twice the amplitude
+
+
+@pytest.mark.realdata
+def test_manifest_push_windows_start_where_events_say_the_robot_is_free(roboball_dir):
+    ev = find_events(load_log(roboball_dir / PUSHES))
+    m = load_manifest(Path(__file__).resolve().parents[2] / "assets" / "logs" / "roboball.yaml",
+                      data_root=roboball_dir)
+    specs = [m.by_name(f"push_{i}") for i in (1, 2, 3)]
+    assert {s.name for s in m.group("free_robot")} == {"free_release", "push_1", "push_2", "push_3"}
+    for spec, e in zip(specs, ev):
+        assert spec.group == "free_robot" and spec.fixture == "free" and spec.file.name == Path(PUSHES).name
+        assert spec.window_s == (round(e.free_start_s, 2), round(e.end_s, 2))
+        assert spec.load(required=("phi", "theta")).t_s[-1] > 2.0

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M
+from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M
 from sphere_env.resources import asset_path
 
 from .conftest import rollout
@@ -36,22 +36,64 @@ def _same(a, b):
 @pytest.mark.parametrize("rate", [[0.1, -0.1], {"distribution": "normal", "mean": 0.0, "std": -1.0},
                                   {"distribution": "uniform"}, {"distribution": "choice", "values": []}])
 def test_bad_pressure_schedule_is_refused_at_make(rate):
-    with pytest.raises(ValueError, match="randomization.pressure_schedule.rate_kpa_per_s"):
+    with pytest.raises(ValueError, match=r"^randomization: field 'pressure_schedule\.rate_kpa_per_s"):
         gym.make(ROLL, randomization={"pressure_schedule": {"rate_kpa_per_s": rate}})
+
+
+# ---- kwargs load through the id's schema before anything is built ---------------------------------
+@pytest.mark.parametrize("env_id, kwargs, message", [
+    (ROLL, {"time_step_s": "0.005"}, "field 'time_step_s' = '0.005': Input should be a valid number; allowed: (0, 0.05] s"),
+    (ROLL, {"steer_torque_limit_nm": True}, "field 'steer_torque_limit_nm' = True: Input should be a valid number"),
+    (ROLL, {"observation_noise_scale": np.bool_(True)}, "field 'observation_noise_scale' = np.True_: a bool is not a number"),
+    (ROLL, {"hydroelastic_pressure_step_kpa": "0.5"}, "field 'hydroelastic_pressure_step_kpa' = '0.5'"),
+    (ROLL, {"render_size": (640, "480")}, "field 'render_size[1]' = '480'"),
+    (ROLL, {"render_size": (640, 480, 3)}, "field 'render_size' = (640, 480, 3)"),
+    (ROLL, {"observe_shell_model": "yes"}, "field 'observe_shell_model' = 'yes'"),
+    (ROLL, {"calibration": 3}, "field 'calibration' = 3"),
+    (ROLL, {"heading_range_rad": "1"}, "field 'heading_range_rad' = '1'"),
+    (ROLL, {"lane_half_width_m": 1.0}, "Roll kwargs: unknown field 'lane_half_width_m'; allowed: ["),  # RampDescent's
+    (RAMP, {"command_mode": "heading"}, "RampDescent kwargs: unknown field 'command_mode'; allowed: ["),  # Roll's
+    (RAMP, {"incline_deg": "16"}, "field 'incline_deg' = '16'"),
+    (RAMP, {"settle_time_s": False}, "field 'settle_time_s' = False"),
+    (RAMP, {"omega_ref_range_rad_s": ("2", 4.5)}, "field 'omega_ref_range_rad_s[0]' = '2'"),
+    (RAMP, {"reward_weights": {"speed": "1"}}, "field 'reward_weights.speed' = '1'"),
+    (RAMP, {"reward_weights": {"speed": True}}, "field 'reward_weights.speed' = True"),
+])
+def test_strings_bools_and_unknown_kwargs_are_refused_before_anything_is_built(monkeypatch, env_id, kwargs, message):
+    def no_twin(*args, **kw):
+        raise AssertionError("a twin was built for refused kwargs")
+
+    monkeypatch.setattr("sphere_env.envs.env.Twin", no_twin)
+    with pytest.raises(ValueError) as err:
+        gym.make(env_id, **kwargs)
+    assert message in str(err.value)
+
+
+def test_sphere_env_loads_its_kwargs_through_the_schema():
+    from sphere_env.envs import SphereEnv
+    from sphere_env.tasks import RollTask
+
+    with pytest.raises(ValueError, match="Roll kwargs: field 'time_step_s' = '0.005'"):
+        SphereEnv(RollTask(), time_step_s="0.005")
+    with pytest.raises(ValueError, match="Roll kwargs: unknown field 'command_mode'"):
+        SphereEnv(RollTask(), command_mode="heading")  # a task kwarg goes to the task, not the env
 
 
 # ---- a reset that raises changes nothing ------------------------------------------------------------
 @pytest.mark.parametrize("options, field", [
     ({"pressure_kpa": 12.0, "initial_state": {"roll": math.nan}}, "initial_state.roll"),
     ({"pressure_kpa": 12.0, "omega_ref": math.nan}, "options.omega_ref"),
-    ({"ground_friction": 0.5, "omega_ref": 1e9}, "outside allowed [-30, 30]"),
+    ({"ground_friction": 0.5, "omega_ref": 1e9}, "field 'options.omega_ref' = 1000000000.0: Input should be less than or equal to 30; allowed: [-30, 30]"),
+    ({"pressure_kpa": 12.0, "omega_ref": True}, "field 'options.omega_ref' = True"),  # a bool is not a number
+    ({"pressure_kpa": 12.0, "omega_ref": "1.0"}, "field 'options.omega_ref' = '1.0'"),  # nor is a string
+    ({"pressure_kpa": 12.0, "initial_state": {"theta": True}}, "field 'options.initial_state.theta' = True"),
     ({"pressure_kpa": 12.0, "heading_ref": "north"}, "options.heading_ref"),
     ({"pressure_kpa": 12.0, "pressure_rate_kpa_per_s": [1.0]}, "options.pressure_rate_kpa_per_s"),
     ({"pressure_kpa": 12.0, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
     ({"pressure_kpa": 12.0, "initial_state": {"spin": 1.0}}, "options.initial_state"),
-    ({"pressure_kpa": 99.0}, "options.pressure_kpa"),
-    ([("pressure_kpa", 12.0)], "must be a mapping"),
-    ("pressure_kpa=12", "must be a mapping"),
+    ({"pressure_kpa": 99.0}, "options: field 'pressure_kpa' = 99.0"),
+    ([("pressure_kpa", 12.0)], "field 'options' is a list, not a mapping"),
+    ("pressure_kpa=12", "field 'options' is a str, not a mapping"),
 ])
 def test_a_failed_reset_leaves_the_running_episode_unchanged(make, options, field):
     env, ref = make(ROLL, randomization="full"), make(ROLL, randomization="full")
@@ -135,7 +177,7 @@ def test_initial_position_inside_the_ground_is_refused(make):
     ok = (R - 0.9 * MAX_INITIAL_PENETRATION_M) * n
     env.reset(options={"initial_state": {"position_m": tuple(ok)}})
     deep = (R - 1.5 * MAX_INITIAL_PENETRATION_M) * n
-    with pytest.raises(ValueError, match=r"initial_state.position_m: .* allowed: at least"):
+    with pytest.raises(ValueError, match=r"field 'options.initial_state.position_m' = .* allowed: at least"):
         env.reset(options={"initial_state": {"position_m": tuple(deep)}})
     with pytest.raises(ValueError, match="incline 16°"):
         env.reset(options={"initial_state": {"position_m": (0.0, 0.0, -0.5)}})
@@ -146,12 +188,12 @@ def test_initial_position_inside_the_ground_is_refused(make):
 def test_initial_rates_beyond_the_failure_limits_are_refused(make, init):
     env = make(ROLL)
     env.reset(seed=0)
-    with pytest.raises(ValueError, match=f"options.initial_state.{next(iter(init))}: .* outside allowed"):
+    with pytest.raises(ValueError, match=fr"field 'options.initial_state.{next(iter(init))}(\[\d\])?' = .*allowed: .*physics failure"):
         env.reset(options={"initial_state": init})
 
 
 def test_observation_noise_scale_is_bounded():
-    with pytest.raises(ValueError, match=r"observation_noise_scale: value 1e\+40 outside allowed \[0, 100\]"):
+    with pytest.raises(ValueError, match=r"field 'observation_noise_scale' = 1e\+40: .*allowed: \[0, 100\]"):
         gym.make(ROLL, observation_noise_scale=1e40)
 
 

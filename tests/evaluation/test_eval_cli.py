@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main, parse_env_kwargs
+from sphere_env.cli import parse_env_kwargs
+from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import train
 
@@ -65,7 +66,7 @@ def test_bad_env_kwargs_refused(tmp_path, capsys, text, needle):
 
 @pytest.mark.parametrize("argv, needle", [
     (["--seeds", "-1"], "seeds"),
-    (["--replay", "zero,point,99"], "replay: pressure_kpa"),
+    (["--replay", "zero,point,99"], "field 'replays[0].pressure_kpa'"),
     (["--replay", "zero,point,x"], "replay"),
     (["--pme-reference", "jelly"], "pme_reference"),
     (["--workers", "0"], "workers"),
@@ -89,8 +90,8 @@ def test_wrong_action_shape_refused(tmp_path, capsys):
 def test_out_that_is_a_file_refused(tmp_path, capsys):
     f = tmp_path / "file"
     f.write_text("keep")
-    _refused(capsys, ["--controller", "zero", "--out", str(f), *GRID], "out:", "is a file")
-    _refused(capsys, ["--controller", "zero", "--out", str(f / "sub"), *GRID], "out:")
+    _refused(capsys, ["--controller", "zero", "--out", str(f), *GRID], "field 'out'", "is a file")
+    _refused(capsys, ["--controller", "zero", "--out", str(f / "sub"), *GRID], "field 'out'", "is a file")
     assert f.read_text() == "keep"
 
 
@@ -120,7 +121,7 @@ def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys
              "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch")
     assert not (tmp_path / "o").exists()
     SweepSpec(controllers=[str(tiny_run)], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
-              shell_models=["point"], seeds=[0]).validate()
+              shell_models=["point"], seeds=[0]).check()
 
 
 def test_failure_after_validation_leaves_nothing(tmp_path):
@@ -162,7 +163,7 @@ def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baseli
     run = train(cfg, tmp_path_factory.mktemp("tracking") / "run", progress_bar=False)
     spec = SweepSpec(controllers=["pd", f"ppo={run}"], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
                      shell_models=["point"], seeds=[0])
-    spec.validate()
+    spec.check()
     res = evaluate(spec, tmp_path_factory.mktemp("o") / "o", workers=1, replays=[])
     rows = {a["controller"]: a for a in res["agg_controller"]}
     assert rows["pd"]["episodes"] == rows["ppo"]["episodes"] == 1

@@ -113,9 +113,9 @@ def test_action_layout_is_what_step_applies():
 
 
 @pytest.mark.parametrize("case, needles", [
-    ("format", ["format:", "tflite", "onnx", "torchscript"]),
-    ("out_file", ["out:", "is a file"]),
-    ("tol", ["tol:", "-1"]),
+    ("format", ["field 'format' = 'tflite'", "onnx", "torchscript"]),
+    ("out_file", ["field 'out'", "is a file"]),
+    ("tol", ["field 'tol' = -1"]),
     ("tiny_tol", ["check:", "nothing written"]),
     ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
     ("other_env", ["env:", "--allow-env-mismatch"]),

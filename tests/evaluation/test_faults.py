@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from sphere_env.evaluation.evaluate import rollout
+from sphere_env.evaluation.cells import rollout
 from sphere_env.evaluation.faults import FAULTS, PRESSURES_KPA, SHELLS, fault_jobs
 
 ENV = "sphere_env/RampDescent-v3"

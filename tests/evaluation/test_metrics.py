@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sphere_env.evaluation.evaluate import pme_rows
 from sphere_env.evaluation.metrics import episode_metrics, pme_between
+from sphere_env.evaluation.sweep_report import pme_rows
 
 
 def test_pme_hand_values_sign_and_on_ramp_only():

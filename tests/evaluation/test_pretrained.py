@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 import sphere_env  # noqa: F401
+from sphere_env.evaluation.cells import rollout
 from sphere_env.evaluation.controller_specs import check_spec, make_controller, run_folder
 from sphere_env.evaluation.enjoy import EnjoySpec, enjoy
-from sphere_env.evaluation.evaluate import SweepSpec, evaluate, rollout
+from sphere_env.evaluation.evaluate import SweepSpec, evaluate
 from sphere_env.resources import shipped_policy_path
 
 
@@ -42,7 +43,7 @@ def test_evaluate_and_enjoy_take_the_shipped_policy_by_name(tmp_path):
                    tmp_path / "eval", workers=1, plots=False)
     (row,) = res["rows"]
     assert row["controller"] == "pretrained" and np.isfinite(row["tracking_rmse_rad_s"])
-    rows = enjoy(EnjoySpec("pretrained", episodes=1, shell_model="injected", pressure_kpa=8.5), say=lambda _: None)
+    rows = enjoy(EnjoySpec(run="pretrained", episodes=1, shell_model="injected", pressure_kpa=8.5), say=lambda _: None)
     assert rows[0]["tracking_rmse_rad_s"] == pytest.approx(row["tracking_rmse_rad_s"])
 
 

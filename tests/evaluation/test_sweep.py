@@ -72,14 +72,14 @@ def test_sweep_writes_csv_report_plots_and_replay(tmp_path):
 
 
 def test_bad_grids_refused():
-    with pytest.raises(ValueError, match="pressures"):
-        SweepSpec(controllers=["zero"], pressures_kpa=[99.0]).validate()
-    with pytest.raises(ValueError, match="shell_models"):
-        SweepSpec(controllers=["zero"], shell_models=["jelly"]).validate()
-    with pytest.raises(ValueError, match="controller"):
-        SweepSpec(controllers=["nonexistent_module_xyz:f"]).validate()
-    with pytest.raises(ValueError, match="frictions"):
-        SweepSpec(controllers=["zero"], frictions=["sticky"]).validate()
+    with pytest.raises(ValueError, match=r"^field 'pressures_kpa\[0\]': value 99.0 is outside the calibrated range"):
+        SweepSpec(controllers=["zero"], pressures_kpa=[99.0]).check()
+    with pytest.raises(ValueError, match=r"^field 'shell_models\[0\]' = 'jelly'"):
+        SweepSpec(controllers=["zero"], shell_models=["jelly"]).check()
+    with pytest.raises(ValueError, match="controller: cannot import 'nonexistent_module_xyz:f'"):
+        SweepSpec(controllers=["nonexistent_module_xyz:f"]).check()
+    with pytest.raises(ValueError, match=r"^field 'frictions\[0\]' = 'sticky'"):
+        SweepSpec(controllers=["zero"], frictions=["sticky"]).check()
 
 
 @pytest.mark.slow

@@ -55,16 +55,16 @@ def test_evaluate_video_failure_leaves_no_video(tmp_path):
 def test_evaluate_bad_video_folder_refused(tmp_path):
     f = tmp_path / "file"
     f.write_text("keep")
-    with pytest.raises(ValueError, match="^video: .*is a file"):
+    with pytest.raises(ValueError, match="^field 'video' = .*is a file"):
         evaluate(_cell(["zero"]), tmp_path / "o", workers=1, replays=[], video=f / "sub")
-    with pytest.raises(ValueError, match="^video: not available with --ray-address"):
+    with pytest.raises(ValueError, match="^field 'video' = .*not available with --ray-address"):
         evaluate(_cell(["zero"]), tmp_path / "o", ray_address="local", replays=[], video=tmp_path / "v")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
 
 
 @pytest.mark.slow
 def test_enjoy_records_the_evaluations_episodes(tiny_ppo_run, tmp_path):
-    rows = enjoy(EnjoySpec(str(tiny_ppo_run), episodes=2, pressure_kpa=8.5, seed=3, env_kwargs=dict(SMALL)),
+    rows = enjoy(EnjoySpec(run=str(tiny_ppo_run), episodes=2, pressure_kpa=8.5, seed=3, env_kwargs=dict(SMALL)),
                  video=tmp_path / "videos", say=lambda _: None)
     names = sorted(p.name for p in (tmp_path / "videos").iterdir())
     assert names == ["run_point_8.5kPa_s3.mp4", "run_point_8.5kPa_s4.mp4"]
@@ -79,7 +79,7 @@ def test_enjoy_records_the_evaluations_episodes(tiny_ppo_run, tmp_path):
 
 def test_enjoy_stochastic_actions_are_seeded(tiny_ppo_run):
     def returns(seed, deterministic):
-        rows = enjoy(EnjoySpec(str(tiny_ppo_run), pressure_kpa=8.5, seed=seed, deterministic=deterministic),
+        rows = enjoy(EnjoySpec(run=str(tiny_ppo_run), pressure_kpa=8.5, seed=seed, deterministic=deterministic),
                      say=lambda _: None)
         return rows[0]["return"]
 
@@ -103,16 +103,16 @@ def _broken_copy(run, tmp_path, remove=None, truncate=None):
     ("no_model", ["run:", "model.zip", "is missing"]),
     ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
     ("truncated_model", ["run:", "model.zip", "truncated"]),
-    ("not_a_folder", ["run:", "is not a folder"]),
-    ("bad_which", ["run:", "@best"]),
+    ("not_a_folder", ["field 'run'", "is not a folder"]),
+    ("bad_which", ["field 'run' = ", "@last", "@best"]),
     ("no_best", ["run:", "best_model.zip"]),
     ("other_env", ["env:", "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch"]),
-    ("shell", ["shell_model:", "jelly"]),
+    ("shell", ["field 'shell_model' = 'jelly'"]),
     ("pressure", ["pressure_kpa", "99"]),
-    ("episodes", ["episodes:", "0"]),
-    ("seed", ["seed:", "-1"]),
+    ("episodes", ["field 'episodes' = 0"]),
+    ("seed", ["field 'seed' = -1"]),
     ("env_kwargs", ["env_kwargs.randomization"]),
-    ("video_file", ["video:", "is a file"]),
+    ("video_file", ["field 'video'", "is a file"]),
 ])
 def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, needles):
     run = str(tiny_ppo_run)
@@ -146,5 +146,5 @@ def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, n
 def test_enjoy_on_another_env_with_another_layout_is_refused_even_when_allowed(tiny_ppo_run):
     # v0 observes 13 numbers, the v2 policy reads 16
     with pytest.raises(ValueError, match=r"controller: .*shape \(16,\).*\(13,\)"):
-        enjoy(EnjoySpec(str(tiny_ppo_run), env_id="sphere_env/RampDescent-v0", allow_env_mismatch=True),
+        enjoy(EnjoySpec(run=str(tiny_ppo_run), env_id="sphere_env/RampDescent-v0", allow_env_mismatch=True),
               say=lambda _: None)

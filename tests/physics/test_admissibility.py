@@ -7,8 +7,8 @@ import pytest
 
 from sphere_env.models.friction import FrictionModel
 from sphere_env.physics import Twin, TwinConfig
+from sphere_env.physics.admissibility import EXPLICIT_DAMPING_LIMIT, friction_peak_slope, ground_clearance_m
 from sphere_env.physics.terrain import Terrain
-from sphere_env.physics.twin import EXPLICIT_DAMPING_LIMIT, friction_peak_slope, ground_clearance_m
 
 
 def test_friction_peak_slope_matches_the_laws():

@@ -26,6 +26,10 @@ from .conftest import record
         (dict(inclines_deg=(12, 40)), "inclines_deg"),
         (dict(inclines_deg="12"), "inclines_deg"),
         (dict(fixture="stand", inclines_deg=(0, 5)), "inclines_deg"),
+        (dict(time_step_s="0.005"), "field 'time_step_s' = '0.005'"),  # text is never a number
+        (dict(ground_friction=True), "field 'ground_friction' = True"),  # nor is a bool
+        (dict(resolution_hint_m=0.0), "resolution_hint_m"),
+        (dict(urdf=3), "urdf"),
     ],
 )
 def test_bad_config_names_the_field(kwargs, field):
@@ -45,6 +49,8 @@ def test_bad_calibration_path_refused_before_build(tmp_path):
         (InitialState(roll=float("inf")), "initial_state.roll"),
         (InitialState(velocity_m_s=(0.0, float("nan"), 0.0)), "initial_state.velocity_m_s"),
         (InitialState(position_m=(0.0, 0.0)), "initial_state.position_m"),
+        (InitialState(theta="0.1"), "field 'initial_state.theta' = '0.1'"),
+        (InitialState(drive_rate=True), "field 'initial_state.drive_rate' = True"),
     ],
 )
 def test_non_finite_initial_state_refused_and_twin_untouched(initial, field):

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from sphere_env.tasks import observation, rewards, termination
+from sphere_env.tasks import RollTask, observation, rewards, termination
 from sphere_env.tasks.randomization import RandomizationSpec, schedule_pressure
 
 
@@ -49,11 +49,15 @@ def test_reward_terms_signs_and_peak():
 
 
 def test_reward_weights_validation():
-    assert rewards.make_weights(rewards.RollRewardWeights, {"speed": 2}).speed == 2.0
-    with pytest.raises(ValueError, match="reward_weights: unknown term 'bogus'"):
-        rewards.make_weights(rewards.RollRewardWeights, {"bogus": 1.0})
-    with pytest.raises(ValueError, match="reward_weights"):
-        rewards.make_weights(rewards.RollRewardWeights, {"speed": float("nan")})
+    assert rewards.load_weights(rewards.RollRewardWeights, {"speed": 2}).speed == 2.0
+    assert rewards.load_weights(rewards.RollRewardWeights, None) == rewards.RollRewardWeights()
+    with pytest.raises(ValueError, match="unknown field 'bogus'"):
+        rewards.load_weights(rewards.RollRewardWeights, {"bogus": 1.0})
+    for bad in (float("nan"), "2", True):  # not finite, text, a bool: never a weight
+        with pytest.raises(ValueError, match="field 'speed' = "):
+            rewards.load_weights(rewards.RollRewardWeights, {"speed": bad})
+    with pytest.raises(ValueError, match="reward_weights.speed"):  # through the task's kwarg
+        RollTask(reward_weights={"speed": "2"})
 
 
 def test_termination():
@@ -92,14 +96,14 @@ def test_randomization_mapping_formats():
 
 
 @pytest.mark.parametrize("bad, match", [
-    ({"bogus": 1.0}, "unknown parameter 'bogus'"),
+    ({"bogus": 1.0}, "unknown field 'bogus'"),
     ({"pressure_kpa": [1.0, 8.0]}, "outside the calibrated range"),
     ({"ground_friction": {"distribution": "uniform", "low": 2.0, "high": 1.0}}, "low"),
     ({"incline_deg": {"distribution": "uniform", "low": 10, "high": 12, "mode": "interval", "interval_s": 1}}, "interval"),
     ({"ground_friction": {"distribution": "uniform", "low": 0.5, "high": 1.0, "mode": "interval"}}, "interval_s"),
-    ({"payload_mass_kg": -1.0}, "outside allowed"),
+    ({"payload_mass_kg": -1.0}, "field 'payload_mass_kg' = -1.0: Input should be greater than or equal to 0"),
     ({"pressure_schedule": {"rate": 1}}, "pressure_schedule"),
-    ("sometimes", "unknown preset"),
+    ("sometimes", "field 'base' = 'sometimes'"),
 ])
 def test_randomization_bad_specs_name_the_field(bad, match):
     with pytest.raises(ValueError, match=match) as err:
@@ -135,4 +139,4 @@ def test_speed_linear_term_pulls_where_the_gaussian_is_flat():
     assert linear(w, 3.0) == pytest.approx(0.5 * 0.02)
     assert linear(w, 9.0) == linear(w, -5.0) == 0.0  # beyond the margin: 0, never negative
     with pytest.raises(ValueError, match="speed_linear_margin"):
-        rewards.make_weights(rewards.RampRewardWeights, {"speed_linear_margin": 0.0})
+        rewards.load_weights(rewards.RampRewardWeights, {"speed_linear_margin": 0.0})

@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 
 from sphere_env import controllers
+from sphere_env.schemas import validate
+from sphere_env.schemas.env import reset_options
 from sphere_env.tasks import MEASURED_COMPONENTS, ObservationLayout, RampDescentTask, RollTask, Scene
 
 from .test_task_functions import fake_state
 
 
 def test_tasks_and_controllers_import_no_drake():
-    code = ("import sys, sphere_env.tasks, sphere_env.controllers, sphere_env.params; "
+    code = ("import sys, sphere_env.tasks, sphere_env.controllers, sphere_env.params, sphere_env.schemas.env; "
             "print(any(m.startswith('pydrake') for m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
@@ -56,8 +58,9 @@ def test_ramp_task_command_reward_and_termination():
     assert done and not success and terms["off_ramp"] < 0  # left the lane
     task.reset(fake_state(), np.random.default_rng(0), {"omega_ref": 7.5}, scene)
     assert task.omega_ref == 7.5
-    with pytest.raises(ValueError, match="omega_ref"):
-        task.reset(fake_state(), np.random.default_rng(0), {"omega_ref": math.nan}, scene)
+    # options reach the task loaded through its reset options' schema, which refuses a NaN command
+    with pytest.raises(ValueError, match="field 'options.omega_ref' = nan"):
+        validate(reset_options(task), {"omega_ref": math.nan}, root="options")
 
 
 def test_roll_task_resamples_its_command():

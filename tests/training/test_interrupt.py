@@ -13,13 +13,24 @@ import pytest
 from sphere_env.training.train import latest_checkpoint, main
 
 
+def _as_from_a_terminal() -> None:
+    """In the child before exec: SIGINT and SIGTERM with their default action and unblocked, as a
+    command started from a terminal has them. A process inherits an ignored or blocked signal from
+    its parent, and a test worker's state is not a terminal's (a Python started with SIGINT
+    ignored never raises KeyboardInterrupt)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupted_training_is_saved_and_resumes(tmp_path, sig):
     run = tmp_path / "run"
     cmd = [sys.executable, "-m", "sphere_env.training.train", "--env", "sphere_env/RampDescent-v2",
            "--run-dir", str(run), "-n", "1000000", "--eval-freq", "-1", "--no-progress",
            "--hyperparams", "n_envs:2", "n_steps:64", "batch_size:64", "n_epochs:1"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_as_from_a_terminal)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline:  # wait for the first finished episode: training is under way
         csv = run / "learning_curve_train.csv"

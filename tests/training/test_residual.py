@@ -93,10 +93,11 @@ def test_bad_env_wrapper_is_refused_by_name(value, needle):
     [{"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}],
 ])
 def test_env_wrapper_accepts_rl_zoo3_forms(value):
-    from sphere_env.training.config import parse_env_wrappers
+    from sphere_env.schemas.training import check_section
 
-    (entry,) = parse_env_wrappers(value)
+    (entry,) = check_section("ppo", {"env_wrapper": value}).env_wrapper
     assert list(entry) == ["sphere_env.wrappers.PDResidualAction"]
+    assert entry["sphere_env.wrappers.PDResidualAction"] == ({} if isinstance(value, str) else {"scale": 0.5})
 
 
 @pytest.fixture(scope="module")

@@ -32,7 +32,7 @@ def no_workers(monkeypatch):
         raise AssertionError("a worker was started")
 
     monkeypatch.setattr("stable_baselines3.common.vec_env.SubprocVecEnv.__init__", boom)
-    monkeypatch.setattr(train_mod, "make_vec_env", boom)
+    monkeypatch.setattr("sphere_env.training.session.make_vec_env", boom)
 
 
 @pytest.mark.parametrize(
@@ -47,8 +47,9 @@ def no_workers(monkeypatch):
         (["--params", "n_threads:2", "n_workers:2"], "n_threads"),
         (["--params", "n_workers:9"], "n_workers"),
         (["--params", "n_workers:many"], "n_workers"),
-        (["--env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "env_kwargs.randomization.pressure_kpa"),
-        (["--env-kwargs", "randomization:{'ground_friction': [0.9, 0.5]}"], "env_kwargs.randomization.ground_friction"),
+        (["--env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "field 'env_kwargs.randomization.pressure_kpa'"),
+        (["--env-kwargs", "randomization:{'ground_friction': [0.9, 0.5]}"],
+         "field 'env_kwargs.randomization.ground_friction'"),
         (["--env-kwargs", "shell_model:'jelly'"], "env_kwargs.shell_model"),
         (["--hyperparams", "env_kwargs:{'shell_model': 'jelly'}"], "env_kwargs.shell_model"),
         (["--hyperparams", "normalize:{'norm_ob': True}"], "normalize.norm_ob"),
@@ -56,7 +57,7 @@ def no_workers(monkeypatch):
         (["--hyperparams", "frame_stack:4"], "hyperparams.frame_stack"),  # rl-zoo3 key not implemented here
         (["--hyperparams", "ppo.yml"], "-conf/--conf-file"),
         (["--eval-env-kwargs", "shell_model:'jelly'"], "eval_env_kwargs.shell_model"),
-        (["--eval-env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "eval_env_kwargs.randomization.pressure_kpa"),
+        (["--eval-env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "field 'eval_env_kwargs.randomization.pressure_kpa'"),
         (["--eval-pressures-kpa", "3", "20"], "eval_pressures_kpa"),
         (["-i", "no/such/model.zip"], "trained_agent"),
         (["--seeds", "1", "1"], "seeds"),
@@ -87,7 +88,7 @@ def test_layout_overrides_replace_the_files_layout():
 
 
 def test_bad_randomization_message_names_field():
-    with pytest.raises(ValueError, match=r"^env_kwargs\.randomization\.pressure_kpa"):
+    with pytest.raises(ValueError, match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: outside the calibrated range"):
         resolve_config(RAMP, "ppo", env_kwargs={"randomization": {"pressure_kpa": [1.0, 50.0]}})
 
 
@@ -99,7 +100,7 @@ def test_top_level_randomization_refused_with_where_it_moved(no_workers, tmp_pat
         with pytest.raises(SystemExit):
             main(["--env", RAMP, *argv, "--run-dir", str(tmp_path / "run"), "--no-progress"])
         err = capsys.readouterr().err
-        assert "randomization: a top-level key" in err and "env_kwargs.randomization" in err, err
+        assert "field 'hyperparams.randomization': a top-level key" in err and "moved to env_kwargs.randomization" in err, err
     assert not (tmp_path / "run").exists()
 
 

@@ -1,0 +1,192 @@
+"""Typed schemas of an environment's inputs: its keyword arguments and its ``reset`` options.
+
+:class:`EnvKwargs` holds :class:`~sphere_env.envs.SphereEnv`'s keyword arguments;
+:class:`RampDescentEnvKwargs` and :class:`RollEnvKwargs` join them with a task's
+(:class:`~sphere_env.tasks.ramp_descent.RampDescentKwargs`,
+:class:`~sphere_env.tasks.roll.RollKwargs`), as ``gym.make(id, **kwargs)`` passes them.
+:func:`reset_options` gives the schema of a task's ``reset(options=...)``. Loading is the only
+place these inputs are checked: an unknown key, a string or a bool where a number belongs, a
+non-finite or out-of-range value is refused, before anything is built or changed, as a
+``ValueError`` naming the kwarg or option, its value and what is allowed.
+
+What needs the built environment stays with it: reading the ``randomization`` spec and the
+randomized option values (:meth:`~sphere_env.tasks.randomization.RandomizationSpec.parse`, against
+the calibration's pressure range), loading the calibration file, the explicit-torque stability of
+the friction and the shell, and an initial sphere centre above the ground.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+from pydantic import Field, create_model, field_validator, model_validator
+
+from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, RANDOMIZABLE, SHELL_MODELS
+from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number
+from sphere_env.schemas.twin import InitialStateFields, joint_friction, parameter
+from sphere_env.tasks.ramp_descent import RampDescentKwargs
+from sphere_env.tasks.roll import RollKwargs
+from sphere_env.tasks.task import Task
+from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S
+
+RENDER_MODES = ("human", "rgb_array")
+#: Largest hydroelastic pressure grid step [kPa].
+MAX_PRESSURE_STEP_KPA = 5.0
+#: Allowed frame sizes [px], each of width and height.
+RENDER_SIZE_PX = (16, 4096)
+
+
+class EnvKwargs(Schema):
+    """Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``).
+    Bounds and nominal values of the physical ones are the records of :mod:`sphere_env.params`.
+
+    :param shell_model: ``"point"`` | ``"injected"`` (default) | ``"hydroelastic"`` (``docs/design.md``).
+    :param friction_model: joint friction: a law/preset name for both joints (``"majd"`` default,
+        ``"viscous"``, ``"coulomb"``, ``"none"``: the Table I presets) or ``{"steer": ..., "drive": ...}``;
+        read as the resolved (steer, drive) pair of friction models.
+    :param calibration: path of a shell calibration YAML, or the name of a shipped one
+        (``"hydroelastic_fast"``: hydroelastic RL at a 10 ms step); ``None`` = the shipped default.
+    :param control_frequency_hz: policy rate [Hz], default 50; its period must be a multiple of
+        ``time_step_s``.
+    :param time_step_s: plant time step [s], default 0.005.
+    :param steer_torque_limit_nm: steer motor torque at action ±1 [N m], default 20.
+    :param drive_torque_limit_nm: drive motor torque at action ±1 [N m], default 22 (gravity caps
+        the useful pendulum torque near 21.9 N m).
+    :param randomization: domain randomization spec (:mod:`sphere_env.tasks.randomization`):
+        ``"default"`` (pressure uniform over the calibration range per reset), ``"off"``,
+        ``"full"``, a mapping, or a :class:`RandomizationSpec`; read by ``RandomizationSpec.parse``
+        against the calibration. Sampled values are in ``info["params"]``.
+    :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
+    :param observe_shell_model: append the (privileged) shell model as a one-hot [point, injected,
+        hydroelastic] after the pressure; default False. With both, a critic can tell the episodes
+        of a shell and pressure mixture apart while the actor drops them
+        (:class:`sphere_env.training.policies.AsymmetricActorCriticPolicy`).
+    :param observation_noise_scale: × default per-component noise σ, within [0, 100] (0 = off,
+        default; 100× already buries every measured signal, larger values overflow float32); the
+        nominal value of the randomizable parameter of that name.
+    :param pressure_extrapolation_kpa: accept pressures up to this far outside the shell
+        calibration's range [kPa], within [0, 5] (default 0): the pressure laws are evaluated beyond
+        the range they were fitted on (the fault grid's pressures), and the ``default``
+        randomization draws from the widened range.
+    :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
+    :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
+    :param render_mode: ``None`` | ``"human"`` (Meshcat) | ``"rgb_array"`` (VTK/EGL frames).
+    :param meshcat: ``True`` or a Meshcat (:func:`sphere_env.physics.start_meshcat`) to visualize without
+        ``render_mode="human"``; default False (never created in vector workers unless asked).
+    :param record_replay: record every episode for :meth:`SphereEnv.save_replay` (creates a Meshcat).
+    :param render_size: (width, height) of ``rgb_array`` frames [px], default (480, 360).
+    :param hydroelastic_pressure_step_kpa: hydroelastic pressures snap to this grid [kPa], default
+        0.5, so re-meshed shells (≈90 ms each) are cached (≈2 ms); 0 = exact pressures.
+    """
+
+    shell_model: Literal[SHELL_MODELS] = "injected"  # type: ignore[valid-type]
+    friction_model: Any = Field("majd", validate_default=True, json_schema_extra=allowed(
+        "a friction law or preset name, a {law, params} mapping, or {steer: ..., drive: ...}"))
+    calibration: str | Path | None = Field(None, json_schema_extra=allowed(
+        "the path of a shell calibration YAML, the name of a shipped one, or None"))
+    control_frequency_hz: parameter("control_frequency_hz") = PARAMETERS["control_frequency_hz"].nominal
+    time_step_s: parameter("time_step_s") = DEFAULT_TIME_STEP_S
+    steer_torque_limit_nm: parameter("steer_torque_limit_nm") = PARAMETERS["steer_torque_limit_nm"].nominal
+    drive_torque_limit_nm: parameter("drive_torque_limit_nm") = PARAMETERS["drive_torque_limit_nm"].nominal
+    randomization: Any = "default"
+    observe_pressure: bool = False
+    observe_shell_model: bool = False
+    observation_noise_scale: parameter("observation_noise_scale") = 0.0
+    incline_deg: parameter("incline_deg") = 0.0
+    ramp_length_m: parameter("ramp_length_m") | None = None
+    render_mode: Literal[RENDER_MODES] | None = None  # type: ignore[valid-type]
+    meshcat: Any = False
+    record_replay: bool = False
+    render_size: fixed_tuple(count(*RENDER_SIZE_PX), 2, f"(width, height) within {list(RENDER_SIZE_PX)} px") = (480, 360)
+    hydroelastic_pressure_step_kpa: number(ge=0.0, le=MAX_PRESSURE_STEP_KPA,
+                                           words=f"[0, {MAX_PRESSURE_STEP_KPA:g}] kPa") = 0.5
+    pressure_extrapolation_kpa: parameter("pressure_extrapolation_kpa") = 0.0
+
+    @field_validator("friction_model")
+    @classmethod
+    def _joint_frictions(cls, spec: Any) -> tuple[Any, Any]:
+        """(steer, drive) friction models: a mapping whose keys are among steer/drive gives each
+        joint its own (``majd`` where missing); anything else is both joints' law."""
+        if isinstance(spec, Mapping) and spec and set(spec) <= {"steer", "drive"}:
+            steer, drive = spec.get("steer", "majd"), spec.get("drive", "majd")
+        else:
+            steer = drive = spec
+        return joint_friction(steer, "steer"), joint_friction(drive, "drive")
+
+    @model_validator(mode="after")
+    def _control_period(self) -> "EnvKwargs":
+        ratio = (1.0 / self.control_frequency_hz) / self.time_step_s
+        if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+            raise ValueError(f"field 'control_frequency_hz' = {self.control_frequency_hz!r} must make the control "
+                             f"period an integer multiple of time_step_s = {self.time_step_s} s")
+        return self
+
+
+class RampDescentEnvKwargs(EnvKwargs, RampDescentKwargs):
+    """``gym.make("sphere_env/RampDescent-v2", **kwargs)``: the environment's and the task's
+    kwargs, on an 8° ramp of 6 m by default."""
+
+    incline_deg: parameter("incline_deg") = 8.0
+    ramp_length_m: parameter("ramp_length_m") = 6.0
+
+
+class RollEnvKwargs(EnvKwargs, RollKwargs):
+    """``gym.make("sphere_env/Roll-v1", **kwargs)``: the environment's and the task's kwargs, on
+    flat ground (no ramp)."""
+
+    ramp_length_m: None = Field(None, json_schema_extra=allowed("None (Roll runs on flat ground)"))
+
+
+# ---- reset options ------------------------------------------------------------------------------
+RATE_WORDS = f"[-{MAX_RATE_RAD_S:g}, {MAX_RATE_RAD_S:g}] rad/s (beyond, the state counts as a physics failure)"
+SPEED_WORDS = f"[-{MAX_SPEED_M_S:g}, {MAX_SPEED_M_S:g}] m/s (beyond, the state counts as a physics failure)"
+Rate = number(ge=-MAX_RATE_RAD_S, le=MAX_RATE_RAD_S, words=RATE_WORDS)
+Speed = number(ge=-MAX_SPEED_M_S, le=MAX_SPEED_M_S, words=SPEED_WORDS)
+
+
+class InitialStateOption(InitialStateFields):
+    """The ``initial_state`` option: an :class:`~sphere_env.physics.InitialState` or a mapping of
+    its fields, with speeds and rates within the physics-failure limits (such an episode would end
+    at its first step, and rates far beyond overflow the float32 observation)."""
+
+    theta_dot: Rate = 0.0
+    drive_rate: Rate = 0.0
+    angular_velocity_rad_s: fixed_tuple(Rate, 3, "3 rates within " + RATE_WORDS) = (0.0, 0.0, 0.0)
+    velocity_m_s: fixed_tuple(Speed, 3, "3 speeds within " + SPEED_WORDS) = (0.0, 0.0, 0.0)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fields_of_a_state(cls, data: Any) -> Any:
+        """An InitialState (a dataclass) as the mapping of its fields."""
+        if dataclasses.is_dataclass(data) and not isinstance(data, type):
+            return vars(data)
+        return data
+
+
+class ResetOptions(Schema):
+    """Options of ``reset(options=...)`` every task takes; :func:`reset_options` adds each
+    randomization parameter (a fixed value for this episode, read by the env's
+    ``RandomizationSpec.parse``) and the task's command values."""
+
+    initial_state: InitialStateOption | None = Field(None, json_schema_extra=allowed(
+        "an InitialState or a mapping of its fields"))
+    pressure_rate_kpa_per_s: Finite = Field(0.0, json_schema_extra=allowed("a finite number [kPa/s]"))
+
+
+def reset_options(task: Task) -> type[ResetOptions]:
+    """The schema of ``task``'s reset options: :class:`ResetOptions`, the randomization parameters
+    and the task's ``command_options`` within its ``command_option_bounds``."""
+    return _reset_options(tuple((k, *task.command_option_bounds[k]) for k in task.command_options))
+
+
+@lru_cache(maxsize=None)
+def _reset_options(commands: tuple[tuple[str, float, float], ...]) -> type[ResetOptions]:
+    fields: dict[str, Any] = {name: (Any, Field(None, json_schema_extra=allowed(
+        "a fixed value, as a randomization spec gives it"))) for name in RANDOMIZABLE}
+    for name, lo, hi in commands:
+        fields[name] = (number(ge=lo, le=hi, words=f"[{lo:g}, {hi:g}]"), None)
+    return create_model("ResetOptions", __base__=ResetOptions, **fields)
+

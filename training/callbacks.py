@@ -1,0 +1,107 @@
+"""The callbacks of a training run and its checkpoints: what is logged and saved while SB3 learns.
+
+:func:`build_callbacks` gives periodic checkpoints (``checkpoints/``), the evaluations on fixed
+episodes that choose ``best/`` (with its VecNormalize statistics), and the log of every finished
+training episode (``learning_curve_train.csv``); on resume, earlier evaluations stay in the log.
+:func:`save_checkpoint` writes a checkpoint at the model's current step count, named as the
+checkpoint callback names them, for the end of a session or an interrupted one.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from sphere_env.training.config import TrainConfig
+from sphere_env.training.run_folder import CHECKPOINT_PREFIX, _ckpt_file
+
+
+def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
+    """The run's callbacks: periodic checkpoints (``checkpoint_freq`` > 0), evaluations that choose
+    ``best/`` (with an ``eval_env``) and the training-episode log, in that order."""
+    from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
+
+    class FixedEpisodesEvalCallback(EvalCallback):
+        """EvalCallback whose every evaluation plays the same episodes (:class:`EvaluationEpisodes`)."""
+
+        def _on_step(self) -> bool:
+            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
+                self.eval_env.env_method("restart_evaluation")
+            return super()._on_step()
+
+    class SaveVecNormalize(BaseCallback):
+        """On a new best evaluation: save the VecNormalize statistics beside best_model.zip."""
+
+        def _on_step(self) -> bool:
+            vn = self.model.get_vec_normalize_env()
+            if vn is not None:
+                vn.save(str(run_dir / "best" / "vecnormalize.pkl"))
+            return True
+
+    class EpisodeLog(BaseCallback):
+        """Append every finished training episode (exact global step) to learning_curve_train.csv."""
+
+        def _on_training_start(self) -> None:
+            path = run_dir / "learning_curve_train.csv"
+            new = not path.exists()
+            self._f = open(path, "a", newline="")
+            self._w = csv.writer(self._f)
+            if new:
+                self._w.writerow(["timesteps", "return", "length", "is_success", "pressure_kpa", "shell_model", "params",
+                                  "env"])
+
+        def _on_step(self) -> bool:
+            for rank, info in enumerate(self.locals.get("infos", ())):
+                ep = info.get("episode")
+                if ep is not None:
+                    # the episode's sampled parameters (pressure, faults, ...), so training success
+                    # can be split by them
+                    params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in (info.get("params") or {}).items()}
+                    self._w.writerow([self.num_timesteps, f"{ep['r']:.6g}", ep["l"], int(bool(info.get("is_success"))),
+                                      f"{info.get('pressure_kpa', float('nan')):.4g}", info.get("shell_model", ""),
+                                      json.dumps(params, default=float), rank])
+                    self._f.flush()
+            return True
+
+        def _on_training_end(self) -> None:
+            self._f.close()
+
+    n = cfg.n_envs
+    callbacks: list[BaseCallback] = [EpisodeLog()]
+    if cfg.checkpoint_freq > 0:
+        callbacks.insert(0, CheckpointCallback(
+            save_freq=max(cfg.checkpoint_freq // n, 1), save_path=str(run_dir / "checkpoints"),
+            name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=cfg.normalize is not None,
+            save_replay_buffer=cfg.algo == "sac" and cfg.save_replay_buffer))
+    if eval_env is None:
+        return CallbackList(callbacks)
+    ev = FixedEpisodesEvalCallback(
+        eval_env, callback_on_new_best=SaveVecNormalize(), n_eval_episodes=cfg.eval_episodes,
+        eval_freq=max(cfg.eval_freq // n, 1), log_path=str(run_dir / "eval"),
+        best_model_save_path=str(run_dir / "best"), deterministic=True, verbose=0)
+    callbacks.insert(len(callbacks) - 1, ev)
+    old = run_dir / "eval" / "evaluations.npz"
+    if old.exists():  # resume: keep earlier evaluations in the log
+        d = np.load(old)
+        ev.evaluations_timesteps = list(d["timesteps"])
+        ev.evaluations_results = [list(r) for r in d["results"]]
+        ev.evaluations_length = [list(r) for r in d["ep_lengths"]]
+        if "successes" in d:
+            ev.evaluations_successes = [list(r) for r in d["successes"]]
+        ev.best_mean_reward = float(np.max(np.mean(d["results"], axis=1))) if len(d["results"]) else -np.inf
+    return CallbackList(callbacks)
+
+
+def save_checkpoint(model, run_dir: Path, cfg: TrainConfig) -> None:
+    """Checkpoint at the model's current step count (same names as CheckpointCallback)."""
+    n = model.num_timesteps
+    (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
+    model.save(run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{n}_steps.zip")
+    vn = model.get_vec_normalize_env()
+    if vn is not None:
+        vn.save(str(_ckpt_file(run_dir, "vecnormalize", n)))
+    if cfg.algo == "sac" and cfg.save_replay_buffer:
+        model.save_replay_buffer(_ckpt_file(run_dir, "replay_buffer", n))
