@@ -3,7 +3,7 @@ up to the configuration's step count and saved; and what stops it early.
 
 :func:`train_session` runs ``model.learn`` with the run's callbacks and saves ``model.zip``, its
 VecNormalize statistics, a final checkpoint and ``timing.json``. Ctrl-C, and SIGTERM inside
-:func:`sigterm_interrupts`, end the session the same way: the rollout in progress is dropped,
+:func:`sphere_env.parallel.sigterm_as_interrupt`, end the session the same way: the rollout in progress is dropped,
 everything trained so far is saved as a resumable checkpoint, and :class:`TrainingInterrupted` says
 where and how to continue. :func:`unchecked_distributions` turns off torch's per-call distribution
 argument checks while learning (measured 8-18 % of PPO's rollout collection).
@@ -14,7 +14,6 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import signal
 import sys
 import time
 from pathlib import Path
@@ -33,21 +32,6 @@ class TrainingInterrupted(Exception):
 def say(msg: str) -> None:
     """A note of the trainer on stderr (a fallback taken, a file missing)."""
     print(f"training.train: {msg}", file=sys.stderr, flush=True)
-
-
-@contextlib.contextmanager
-def sigterm_interrupts():
-    """Inside the block SIGTERM ends a training as Ctrl-C does (saved, then
-    :class:`TrainingInterrupted`); the previous handler is restored after."""
-
-    def _terminate(signum, frame):
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 @contextlib.contextmanager

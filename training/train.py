@@ -46,6 +46,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from sphere_env.cli import parse_env_kwargs, parse_key_values
+from sphere_env.parallel import sigterm_as_interrupt
 from sphere_env.schemas.training import check_sweep_options
 from sphere_env.training.config import TrainConfig, resolve_config
 
@@ -61,7 +62,7 @@ from sphere_env.training.run_folder import (
     load_config,
     run_lock,
 )
-from sphere_env.training.session import TrainingInterrupted, sigterm_interrupts, unchecked_distributions
+from sphere_env.training.session import TrainingInterrupted, unchecked_distributions
 from sphere_env.training.trainer import train
 
 __all__ = ["CHECKPOINT_PREFIX", "EvaluationEpisodes", "TrainingInterrupted", "build_parser", "default_run_dir",
@@ -138,7 +139,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
     command = [sys.executable, "-m", "sphere_env.training.train",
                *(argv if argv is not None else sys.argv[1:])]
     try:
-        with sigterm_interrupts():
+        with sigterm_as_interrupt():
             if args.resume is not None:
                 run = _resume(args, command)
             elif args.seeds is not None or args.trial is not None or args.ray_address is not None:
