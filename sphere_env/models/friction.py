@@ -7,7 +7,6 @@ physics layer can evaluate the identical law as a Drake symbolic expression in C
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -16,6 +15,8 @@ import yaml
 
 from sphere_env.models.mathbackend import NUMPY
 from sphere_env.resources import asset_path
+from sphere_env.schemas import validate
+from sphere_env.schemas.friction import LAW_PARAMS, FrictionPresetFile, FrictionSpec
 
 DEFAULT_PRESETS = asset_path("friction", "presets.yaml")
 
@@ -69,9 +70,6 @@ FRICTION_LAWS: dict[str, tuple[Callable[..., Any], tuple[str, ...]]] = {
     "coulomb": (coulomb, ("mu_s", "mu_d", "c", "v_tol")),
     "majd": (majd, ("f_w", "f_c", "sigma", "omega_c", "n")),
 }
-_OPTIONAL = {"coulomb": {"v_tol": 0.05}}
-_NONNEGATIVE = {"c", "mu_s", "mu_d", "f_w", "f_c", "sigma"}
-_POSITIVE = {"v_tol", "omega_c", "n"}
 
 
 @dataclass(frozen=True)
@@ -79,35 +77,18 @@ class FrictionModel:
     """A named friction law with its parameters, for one joint.
 
     :param law: one of ``none``, ``viscous``, ``coulomb``, ``majd``.
-    :param params: the law's parameters by name (see each law for units).
+    :param params: the law's parameters by name (see each law for units), loaded through the law's
+        schema in :mod:`sphere_env.schemas.friction` (``coulomb``'s ``v_tol`` defaults to 0.05).
     """
 
     law: str = "none"
     params: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.law not in FRICTION_LAWS:
-            raise ValueError(
-                f"friction law: unknown value {self.law!r}; allowed: {sorted(FRICTION_LAWS)}"
-            )
-        names = FRICTION_LAWS[self.law][1]
-        full = dict(_OPTIONAL.get(self.law, {}))
-        full.update(self.params)
-        missing = [k for k in names if k not in full]
-        extra = [k for k in full if k not in names]
-        if missing or extra:
-            raise ValueError(
-                f"friction params for law {self.law!r}: got {sorted(self.params)}, "
-                f"missing {missing}, unexpected {extra}; allowed: {list(names)}"
-            )
-        for k, val in full.items():
-            if not isinstance(val, (int, float)) or not math.isfinite(val):
-                raise ValueError(f"friction param {k!r}: value {val!r} must be a finite number")
-            if k in _NONNEGATIVE and val < 0:
-                raise ValueError(f"friction param {k!r}: value {val} must be >= 0")
-            if k in _POSITIVE and val <= 0:
-                raise ValueError(f"friction param {k!r}: value {val} must be > 0")
-        object.__setattr__(self, "params", {k: float(full[k]) for k in names})
+        params = self.params if not isinstance(self.params, Mapping) else dict(self.params)
+        spec = validate(FrictionSpec, {"law": self.law, "params": params}, "friction model")
+        loaded = validate(LAW_PARAMS[spec.law], spec.params, f"friction law {spec.law!r}", root="params")
+        object.__setattr__(self, "params", {k: float(getattr(loaded, k)) for k in FRICTION_LAWS[spec.law][1]})
 
     def torque(self, v, m=NUMPY):
         """Resisting torque [N m] at joint velocity ``v`` [rad/s] (numpy or symbolic)."""
@@ -118,19 +99,14 @@ class FrictionModel:
 def load_friction_presets(path: str | Path | None = None) -> dict[str, FrictionModel]:
     """Load named presets (``"<name>": {law: ..., params: {...}}``) from a YAML file."""
     path = Path(path) if path is not None else DEFAULT_PRESETS
+    where = f"friction preset file {str(path)!r}"
     try:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as err:
-        raise ValueError(f"friction preset file {str(path)!r}: cannot read: {err}") from err
-    presets = (data or {}).get("presets")
-    if not isinstance(presets, dict) or not presets:
-        raise ValueError(f"friction preset file {str(path)!r}: needs a non-empty 'presets' mapping")
-    out = {}
-    for name, entry in presets.items():
-        if not isinstance(entry, dict) or "law" not in entry:
-            raise ValueError(f"friction preset {name!r} in {str(path)!r}: needs 'law' and 'params'")
-        out[name] = FrictionModel(entry["law"], entry.get("params", {}))
-    return out
+        # the reason only: a YAML error quotes the file's text
+        raise ValueError(f"{where}: cannot read: {getattr(err, 'strerror', None) or type(err).__name__}") from None
+    presets = validate(FrictionPresetFile, data, where).presets
+    return {name: FrictionModel(entry.law, entry.params) for name, entry in presets.items()}
 
 
 def resolve_friction(spec: str | FrictionModel | Mapping[str, Any], joint: str) -> FrictionModel:
@@ -143,7 +119,8 @@ def resolve_friction(spec: str | FrictionModel | Mapping[str, Any], joint: str) 
     if isinstance(spec, FrictionModel):
         return spec
     if isinstance(spec, Mapping):
-        return FrictionModel(spec.get("law", "none"), spec.get("params", {}))
+        entry = validate(FrictionSpec, spec, f"friction model for joint {joint!r}")
+        return FrictionModel(entry.law, entry.params)
     presets = load_friction_presets()
     if spec in presets:
         return presets[spec]

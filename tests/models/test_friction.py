@@ -56,7 +56,9 @@ def test_presets_load_table_one():
     [
         ("stribeck", "unknown value 'stribeck'"),
         ({"law": "majd", "params": {"f_w": 1}}, "missing"),
-        ({"law": "viscous", "params": {"c": -1.0}}, "must be >= 0"),
+        ({"law": "viscous", "params": {"c": -1.0}}, r"params.c. = -1.0.*>= 0"),
+        ({"law": "viscous", "parms": {"c": 1.0}}, "unknown field .parms."),
+        ({"law": "viscous", "params": {"c": "1"}}, r"params.c. = .1.: Input should be a valid number"),
         ({"law": "viscous", "params": {"c": float("nan")}}, "finite"),
     ],
 )
