@@ -130,9 +130,13 @@ class SphereEnv(gym.Env, EzPickle):
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        self.observation_layout = task.observation_layout(observe_pressure, observe_shell_model)
-        self._extra_names = self.observation_layout.extra_names
-        n_obs = len(self.observation_layout)
+        self.observation_history_steps = k = kw.observation_history_steps
+        self.observation_layout = layout = task.observation_layout(observe_pressure, observe_shell_model, k)
+        self._extra_names = layout.extra_names
+        # the last k observations (own components) and actions, most recent first
+        self._obs_history = np.zeros((k, layout.own.stop), dtype=np.float32)
+        self._action_history = np.zeros((k, 2), dtype=np.float32)
+        n_obs = len(layout)
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
         # ---- physics ----
@@ -151,6 +155,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._fired: list[str] = []
         self._pending: deque[tuple[float, float]] = deque()
         self._obs = np.zeros(n_obs, dtype=np.float32)
+        self._obs_history_empty = True
         self._needs_reset = True
         self._ended: str | None = None
         self._copied_mid_episode = False
@@ -349,6 +354,8 @@ class SphereEnv(gym.Env, EzPickle):
         self._copied_mid_episode = False
         state = twin.state()
         self._tau[:] = 0.0
+        self._action_history[:] = 0.0
+        self._obs_history_empty = True  # filled with the first observation
         self.task.reset(state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m))
         obs = self._observe(state)
         info = step_info(self.task, state, {}, False, self._params, self._tau, self._fired, self._reward_keys)
@@ -398,6 +405,9 @@ class SphereEnv(gym.Env, EzPickle):
             self._ended = "truncated: " + self._failed
             info = failed_info(self.task, self._params, self._failed, self._tau, self._fired)
             return self._obs.copy(), 0.0, False, True, info
+        if self.observation_history_steps:
+            self._action_history[1:] = self._action_history[:-1]
+            self._action_history[0] = (a0, a1)
         terms, terminated, success = self.task.step(state, (a0, a1), self.np_random)
         reward = 0.0
         for v in terms.values():
@@ -430,6 +440,16 @@ class SphereEnv(gym.Env, EzPickle):
             state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise,
             self._extra_names, self._shell_one_hot,
         )
+        if self.observation_history_steps:
+            own = obs[self.observation_layout.own]
+            hist = self._obs_history
+            if self._obs_history_empty:  # at reset: the robot has been where it starts
+                hist[:] = own
+                self._obs_history_empty = False
+            obs = np.concatenate([own, hist.ravel(), self._action_history.ravel(),
+                                  obs[self.observation_layout.own.stop:]])
+            hist[1:] = hist[:-1]
+            hist[0] = own
         self._obs = obs
         return obs
 

@@ -64,6 +64,10 @@ class EnvKwargs(Schema):
         hydroelastic] after the pressure; default False. With both, a critic can tell the episodes
         of a shell and pressure mixture apart while the actor drops them
         (:class:`sphere_env.training.policies.AsymmetricActorCriticPolicy`).
+    :param observation_history_steps: also observe the last this many control steps' observations
+        (every non-privileged component) and actions, most recent first, within [0, 20]; default 0.
+        A memoryless policy then sees how the robot answered its recent torques, which tells the
+        shell models apart; a real robot keeps the same history of its own measurements.
     :param observation_noise_scale: × default per-component noise σ, within [0, 100] (0 = off,
         default; 100× already buries every measured signal, larger values overflow float32); the
         nominal value of the randomizable parameter of that name.
@@ -94,6 +98,7 @@ class EnvKwargs(Schema):
     randomization: Any = "default"
     observe_pressure: bool = False
     observe_shell_model: bool = False
+    observation_history_steps: count(0, 20) = 0
     observation_noise_scale: parameter("observation_noise_scale") = 0.0
     incline_deg: parameter("incline_deg") = 0.0
     ramp_length_m: parameter("ramp_length_m") | None = None

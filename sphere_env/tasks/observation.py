@@ -62,20 +62,24 @@ class ObservationLayout:
 
     Layout: the measured components (:data:`MEASURED_COMPONENTS`), then the task's command
     components, then the task's extra measured components (:data:`EXTRA_COMPONENTS`), then
-    ``pressure_kpa`` if the privileged pressure is observed, then the shell model's one-hot
-    (:data:`SHELL_ONE_HOT`) if it is observed. The privileged components come last, so
-    :attr:`privileged` is a trailing slice a policy's actor can drop (asymmetric actor-critic).
+    ``history_steps`` earlier observations of all these (:attr:`own`) and the ``history_steps``
+    earlier actions (:func:`history_names`, slice :attr:`history`), then ``pressure_kpa`` if the
+    privileged pressure is observed, then the shell model's one-hot (:data:`SHELL_ONE_HOT`) if it is
+    observed. The privileged components come last, so :attr:`privileged` is a trailing slice a
+    policy's actor can drop (asymmetric actor-critic).
     """
 
     def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False,
-                 extra_names: tuple[str, ...] = (), observe_shell_model: bool = False):
+                 extra_names: tuple[str, ...] = (), observe_shell_model: bool = False, history_steps: int = 0):
         self.command_names = tuple(command_names)
         self.extra_names = tuple(extra_names)
         for n in self.extra_names:
             if n not in EXTRA_COMPONENTS:
                 raise ValueError(f"extra_names: unknown component {n!r}; allowed: {list(EXTRA_COMPONENTS)}")
+        own = tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + self.extra_names
+        self.history_steps = history_steps
         self.names: tuple[str, ...] = (
-            tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + self.extra_names
+            own + history_names(own, history_steps)
             + (("pressure_kpa",) if observe_pressure else ())
             + (SHELL_ONE_HOT if observe_shell_model else ())
         )
@@ -83,7 +87,9 @@ class ObservationLayout:
         self.measured = slice(0, N_MEASURED)
         self.command = slice(N_MEASURED, N_MEASURED + len(self.command_names))
         self.extra = slice(self.command.stop, self.command.stop + len(self.extra_names))
-        self.privileged = slice(self.extra.stop, len(self.names))
+        self.own = slice(0, len(own))  # what one control step observes (no history, nothing privileged)
+        self.history = slice(self.extra.stop, self.extra.stop + (len(own) + len(ACTION_NAMES)) * history_steps)
+        self.privileged = slice(self.history.stop, len(self.names))
 
     def noise_std(self) -> np.ndarray:
         """Default 1-σ noise of the measured and extra components, in observation order."""
@@ -111,10 +117,30 @@ class ObservationLayout:
         """One record per component in observation order: ``index``, ``name``, ``unit`` (None when
         the task's command is not in :data:`OTHER_COMPONENTS`; see the task's docstring) and ``meaning``."""
         known = ({c[0]: (c[1], c[2]) for c in MEASURED_COMPONENTS} | {n: (c[0], c[1]) for n, c in EXTRA_COMPONENTS.items()}
-                 | OTHER_COMPONENTS)
-        return [{"index": i, "name": n, "unit": known.get(n, (None,))[0],
-                 "meaning": known.get(n, (None, "task command (see the task's docstring)"))[1]}
-                for i, n in enumerate(self.names)]
+                 | OTHER_COMPONENTS | ACTION_NAMES)
+        out = []
+        for i, n in enumerate(self.names):
+            base, _, ago = n.partition("@-")
+            unit, meaning = known.get(base, (None, "task command (see the task's docstring)"))
+            if ago:
+                when = "sent" if base in ACTION_NAMES else "as observed"
+                meaning = f"{meaning}; {when} {ago} control step{'s' if ago != '1' else ''} earlier"
+            out.append({"index": i, "name": n, "unit": unit, "meaning": meaning})
+        return out
+
+#: The actions a history holds (``observation_history_steps``): name -> (unit, meaning).
+ACTION_NAMES: dict[str, tuple[str, str]] = {
+    "action_steer": ("-", "the agent's steer action in [-1, 1] (before latency and saturation)"),
+    "action_drive": ("-", "the agent's drive action in [-1, 1] (before latency and saturation)"),
+}
+
+
+def history_names(own: tuple[str, ...], steps: int) -> tuple[str, ...]:
+    """Names of a ``steps``-long history: each earlier observation of the ``own`` components, most
+    recent first (``omega_d@-1``: one control step ago), then each earlier action the same way."""
+    return (tuple(f"{n}@-{j}" for j in range(1, steps + 1) for n in own)
+            + tuple(f"{a}@-{j}" for j in range(1, steps + 1) for a in ACTION_NAMES))
+
 
 #: Default 1-σ measurement noise per measured component, in the component's unit. Scaled by the
 #: env's ``observation_noise_scale`` (0 = noise off). Assumed encoder/IMU-grade values.

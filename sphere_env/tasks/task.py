@@ -54,10 +54,13 @@ class Task:
     extra_names: tuple[str, ...] = ()
 
     # ---- layout ---------------------------------------------------------------------------------
-    def observation_layout(self, observe_pressure: bool = False, observe_shell_model: bool = False) -> ObservationLayout:
+    def observation_layout(self, observe_pressure: bool = False, observe_shell_model: bool = False,
+                           history_steps: int = 0) -> ObservationLayout:
         """The observation's components in order: measured, then this task's command and extra
-        measured components, then the privileged pressure and shell one-hot if observed."""
-        return ObservationLayout(self.command_names, observe_pressure, self.extra_names, observe_shell_model)
+        measured components, then ``history_steps`` earlier observations and actions, then the
+        privileged pressure and shell one-hot if observed."""
+        return ObservationLayout(self.command_names, observe_pressure, self.extra_names, observe_shell_model,
+                                 history_steps)
 
     # ---- episode --------------------------------------------------------------------------------
     def initial_state(self) -> dict[str, Any]:
