@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from functools import cached_property
+from typing import Any, Literal
 
-import numpy as np
+from pydantic import TypeAdapter, ValidationError
 
-from sphere_env.checks import finite_number
+from sphere_env.schemas import count, fixed_tuple, number
 
 #: |g| [m/s²], Drake's default gravity; every model and controller uses this one value.
 GRAVITY_M_S2 = 9.81
@@ -79,29 +80,34 @@ class Parameter:
             return False
         return True
 
-    def check(self, value: Any, field: str | None = None):
-        """``value`` as a float (or a tuple of ``size`` floats) within the bounds; ``ValueError``
-        naming ``field`` (default: the parameter's name), the value and the allowed range."""
-        field = field or self.name
+    @cached_property
+    def _type(self) -> TypeAdapter:
+        """The parameter's values as a strict type: a name of ``choices``, an integer, a finite number
+        or ``size`` of them, within the bounds (a bool or a string is never a number)."""
         if self.choices:
-            if not self.contains(value):
-                raise ValueError(f"{field}: value {value!r}; allowed: {self.allowed}")
-            return value
-        if self.size == 1:
-            val = finite_number(field, value, self.allowed)
-            if not self.contains(val):
-                raise ValueError(f"{field}: value {value!r} outside allowed {self.allowed}")
-            if self.integer:
-                if val != round(val):
-                    raise ValueError(f"{field}: value {value!r} must be a whole number within {self.allowed}")
-                return int(round(val))
-            return val
-        arr = np.asarray(value, dtype=float) if isinstance(value, (list, tuple, np.ndarray)) else None
-        if arr is None or arr.shape != (self.size,) or not np.all(np.isfinite(arr)):
-            raise ValueError(f"{field}: value {value!r} must be {self.size} finite numbers within {self.allowed}")
-        if not all(self.contains(float(v)) for v in arr):
-            raise ValueError(f"{field}: value {value!r} must be {self.size} finite numbers within {self.allowed}")
-        return tuple(float(v) for v in arr)
+            return TypeAdapter(Literal[self.choices], config={"strict": True})
+        bounds = {("gt" if self.low_open else "ge"): self.low, ("lt" if self.high_open else "le"): self.high}
+        bounds = {k: v for k, v in bounds.items() if v is not None}
+        if self.integer:
+            item = count(int(bounds.get("ge", 0)), None if "le" not in bounds else int(bounds["le"]))
+        else:
+            item = number(**bounds, words=self.allowed)
+        return TypeAdapter(item if self.size == 1 else fixed_tuple(item, self.size, self.allowed),
+                           config={"strict": True})
+
+    def check(self, value: Any, field: str | None = None):
+        """``value`` as a float (an int for an integer parameter, a tuple of ``size`` floats for a
+        vector one, a name for a categorical one) within the bounds; ``ValueError`` naming ``field``
+        (default: the parameter's name), the value and the allowed range."""
+        try:
+            return self._type.validate_python(value)
+        except ValidationError as err:
+            problem = err.errors()[0]["msg"].removeprefix("Value error, ")
+            if self.size > 1:
+                problem, allowed = "not a valid vector", f"{self.size} finite numbers within {self.allowed}"
+            else:
+                allowed = self.allowed
+            raise ValueError(f"{field or self.name}: value {value!r}: {problem}; allowed: {allowed}") from None
 
     def clip(self, value: float) -> float:
         """Clip into the bounds (an open bound clips to the nearest allowed float)."""

@@ -25,7 +25,8 @@ from typing import Any, Mapping, Sequence
 import gymnasium as gym
 import numpy as np
 
-from sphere_env.checks import finite_number
+from sphere_env.schemas import validate
+from sphere_env.schemas.env import ResidualKwargs, ShellModelMixtureKwargs
 
 
 class ResidualCombiner:
@@ -38,7 +39,7 @@ class ResidualCombiner:
 
     def __init__(self, base: Any, scale: float):
         self.base = base
-        self.scale = check_scale(scale)
+        self.scale = validate(ResidualKwargs, {"scale": scale}, "ResidualCombiner").scale
         self.base_action = np.zeros(2, dtype=np.float32)  # the base controller's last action
 
     def reset(self) -> None:
@@ -50,14 +51,6 @@ class ResidualCombiner:
         self.base_action = np.asarray(self.base(obs, info), dtype=np.float32)
         a = self.base_action.astype(np.float64) + self.scale * r
         return np.clip(a, -1.0, 1.0).astype(np.float32)
-
-
-def check_scale(scale: Any) -> float:
-    """``scale`` as a float in (0, 2], or a ValueError naming the field."""
-    val = finite_number("scale", scale, "(0, 2]")
-    if not 0.0 < val <= 2.0:
-        raise ValueError(f"scale: value {scale!r} outside allowed (0, 2]")
-    return val
 
 
 def pd_residual_combiner(env: gym.Env, scale: float = 0.5) -> ResidualCombiner:
@@ -131,16 +124,7 @@ class ShellModelMixture(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env, shell_models: Sequence[str] = ("point", "injected")):
-        from sphere_env.models.shell import SHELL_MODELS
-
-        if isinstance(shell_models, str) or not isinstance(shell_models, Sequence) or not shell_models:
-            raise ValueError(f"shell_models: value {shell_models!r} must be a non-empty list; allowed items: "
-                             f"{list(SHELL_MODELS)}")
-        models = list(shell_models)
-        bad = [m for m in models if m not in SHELL_MODELS]
-        if bad or len(set(models)) != len(models):
-            raise ValueError(f"shell_models: value {shell_models!r} must list distinct shell models; allowed: "
-                             f"{list(SHELL_MODELS)}")
+        models = validate(ShellModelMixtureKwargs, {"shell_models": shell_models}, "ShellModelMixture").shell_models
         own = env.unwrapped.shell_model
         if own not in models:
             raise ValueError(f"shell_models: value {shell_models!r} does not include the env's own shell model {own!r}")

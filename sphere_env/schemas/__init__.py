@@ -12,6 +12,7 @@ error message quotes it, else it says what pydantic expected.
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Mapping, TypeVar, get_args
 
 import numpy as np
@@ -53,7 +54,9 @@ def _real(value: Any) -> Any:
     if isinstance(value, np.bool_):
         raise ValueError("a bool is not a number")
     if isinstance(value, (np.generic, np.ndarray)) and np.ndim(value) == 0 and value.dtype.kind in "iuf":
-        return value.item()
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):  # before any bound: NaN compares false
+        raise ValueError("not a finite number")
     return value
 
 

@@ -20,9 +20,9 @@ from __future__ import annotations
 import dataclasses
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Literal, Mapping
+from typing import Annotated, Any, Literal, Mapping
 
-from pydantic import Field, create_model, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, create_model, field_validator, model_validator
 
 from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, RANDOMIZABLE, SHELL_MODELS
 from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number
@@ -195,3 +195,23 @@ def _reset_options(commands: tuple[tuple[str, float, float], ...]) -> type[Reset
         fields[name] = (number(ge=lo, le=hi, words=f"[{lo:g}, {hi:g}]"), None)
     return create_model("ResetOptions", __base__=ResetOptions, **fields)
 
+
+
+def _distinct(models: list[str]) -> list[str]:
+    if len(set(models)) != len(models):
+        raise ValueError("names a shell model twice")
+    return models
+
+
+class ShellModelMixtureKwargs(Schema):
+    """The kwargs of :class:`sphere_env.wrappers.ShellModelMixture`."""
+
+    shell_models: Annotated[list[Literal[SHELL_MODELS]], AfterValidator(_distinct), BeforeValidator(  # type: ignore[valid-type]
+        lambda v: list(v) if isinstance(v, tuple) else v), Field(min_length=1, json_schema_extra=allowed(
+            f"a non-empty list of distinct names from {list(SHELL_MODELS)}"))] = ["point", "injected"]
+
+
+class ResidualKwargs(Schema):
+    """The kwargs of :class:`sphere_env.wrappers.PDResidualAction` (and its evaluation combiner)."""
+
+    scale: number(gt=0.0, le=2.0, words="a number in (0, 2]") = 0.5
