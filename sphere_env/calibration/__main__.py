@@ -27,8 +27,18 @@ from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.cli import renamed
 from sphere_env.resources import asset_path
+from sphere_env.schemas import Finite, cli_type, count, number
+from sphere_env.schemas.twin import parameter
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
+# argparse types of the numeric flags: bounded, refused with argparse's one-line error (exit 2)
+WORKERS = cli_type(count(1, 1024), int, "workers")
+STARTS = cli_type(count(1, 100), int, "starts")
+SEED = cli_type(count(0, 2**32 - 1), int, "seed")
+MAX_NFEV = cli_type(count(1, 100_000), int, "max_nfev")
+TIME_STEP_S = cli_type(parameter("time_step_s"), float, "time_step_s")
+PRESSURE_KPA = cli_type(Finite, float, "pressure_kpa")  # against the calibration's range once it is loaded
+DURATION_S = cli_type(number(gt=0.0, le=600.0, words="a simulated time in (0, 600] s"), float, "duration_s")
 
 
 def _trials(args, required=()):
@@ -90,8 +100,6 @@ def cmd_steer_fit(args) -> int:
         if missing:
             raise LogError(f"--fit-on {missing}: no such trial in {names} (manifest {args.manifest})")
     fit_logs = [log for log in logs if not args.fit_on or log.name in args.fit_on]
-    if args.workers is not None and args.workers < 1:
-        raise LogError(f"--workers: value {args.workers!r} must be >= 1")
     raw, record = steer_fit(fit_logs, args.models, p0, base, forms=args.forms, steer_friction=args.steer_friction,
                             drive_friction=args.drive_friction, max_nfev=args.max_nfev, log_to=print,
                             workers=args.workers)
@@ -164,10 +172,6 @@ def cmd_sensitivity(args) -> int:
     ps = args.pressure_kpa or [cal.pressure_range_kpa[0], cal.nominal_pressure_kpa, cal.pressure_range_kpa[1]]
     for p in ps:
         cal.check_pressure(p, "--pressure-kpa")
-    if not (math.isfinite(args.duration_s) and 0 < args.duration_s <= 600):
-        raise ValueError(f"--duration-s: value {args.duration_s!r} must be a simulated time in (0, 600] s")
-    if args.workers is not None and args.workers < 1:
-        raise ValueError(f"--workers: value {args.workers!r} must be >= 1")
     rows = sweep(ps, args.calibration, workers=args.workers, duration_s=args.duration_s)
     print(markdown_table(rows))
     if args.plot:
@@ -248,8 +252,6 @@ def cmd_validate(args) -> int:
     )
 
     tol = parse_tolerances(args.tol)
-    if args.workers is not None and args.workers < 1:
-        raise LogError(f"--workers: value {args.workers!r} must be >= 1")
     _, logs = _trials(args)
     rows = validate(logs, args.models, steer_friction=args.steer_friction, drive_friction=args.drive_friction,
                     calibration=args.calibration, default_pressure_kpa=args.pressure_kpa, workers=args.workers)
@@ -280,8 +282,6 @@ def cmd_events(args) -> int:
         from dataclasses import replace
 
         mapping = replace(mapping, time=(mapping.time[0], args.time_unit))
-    if args.duration_s is not None and not args.duration_s > 0:
-        raise LogError(f"--duration-s: value {args.duration_s!r} must be > 0 s")
     log = load_log(args.log, mapping)
     events = find_events(log)
     print(f"{args.log}: {len(log.t_s)} samples over {log.t_s[-1]:.2f} s (time unit {mapping.time[1]}); "
@@ -353,19 +353,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--forms", nargs="+", default=["linear", "saturating", "quadratic"],
                    choices=["linear", "saturating", "quadratic"],
                    help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted")
-    p.add_argument("--pressure-kpa", type=float, default=None,
+    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, default=None,
                    help="pressure the fit is stated at (default: the base calibration's nominal; the segments' "
                         "own pressure may be unknown)")
     p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation); with two or more, "
                    "each is also left out in turn (leave-one-window-out) and its held-out RMSE recorded")
-    p.add_argument("--workers", type=int, default=1, help="processes for the cross-validation folds (default 1)")
-    p.add_argument("--max-nfev", type=int, default=60, help="simulations allowed per fit (refused if not converged)")
+    p.add_argument("--workers", type=WORKERS, default=1, help="processes for the cross-validation folds (default 1)")
+    p.add_argument("--max-nfev", type=MAX_NFEV, default=60, help="simulations allowed per fit (refused if not converged)")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
     p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
     p.add_argument("--match-kd", action="store_true",
                    help="then set hydroelastic k_d so the locked-steer hydroelastic decay has ζ(p0)")
-    p.add_argument("--time-step-s", type=float, default=None,
+    p.add_argument("--time-step-s", type=TIME_STEP_S, default=None,
                    help="plant step [s] the k_d match runs at and is recorded for (default: the twin's)")
     p.add_argument("--out", help="calibration YAML to write")
     p.set_defaults(func=cmd_steer_fit)
@@ -376,8 +376,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--joint", default="steer", choices=["steer"])
     p.add_argument("--fixed", nargs="*", default=None, help="parameters held at their start value")
     p.add_argument("--fit-offset", action="store_true", help="also fit an encoder offset θ_0 [rad]")
-    p.add_argument("--starts", type=int, default=4)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--starts", type=STARTS, default=4)
+    p.add_argument("--seed", type=SEED, default=0)
     p.add_argument("--loo", action="store_true", help="also run leave-one-out")
     p.add_argument("--plot", help="overlay PNG (paper Fig. 7)")
     p.add_argument("--preset-file", help="presets YAML to write the fit into")
@@ -386,26 +386,26 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sensitivity", help="hydroelastic ±50%% sweep (paper Fig. 11)")
     p.add_argument("--calibration", default=None)
-    p.add_argument("--pressure-kpa", type=float, nargs="*", help="pressures [kPa] (default: the calibration's)")
+    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, nargs="*", help="pressures [kPa] (default: the calibration's)")
     renamed(p, "--pressures-kpa", "--pressure-kpa")
-    p.add_argument("--workers", type=int, default=None)
-    p.add_argument("--duration-s", type=float, default=6.0)
+    p.add_argument("--workers", type=WORKERS, default=None)
+    p.add_argument("--duration-s", type=DURATION_S, default=6.0)
     p.add_argument("--plot")
     p.set_defaults(func=cmd_sensitivity)
 
     p = sub.add_parser("kd-step", help="hydroelastic k_d refitted at another plant step (k_d_by_time_step)")
     p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
-    p.add_argument("--time-step-s", type=float, required=True, help="plant step [s] to refit k_d at")
-    p.add_argument("--pressure-kpa", type=float, default=None, help="pressure of the decays (default: nominal)")
+    p.add_argument("--time-step-s", type=TIME_STEP_S, required=True, help="plant step [s] to refit k_d at")
+    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, default=None, help="pressure of the decays (default: nominal)")
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the refit)")
     p.set_defaults(func=cmd_kd_step)
 
     p = sub.add_parser("kd-pressure", help="hydroelastic k_d against pressure at a plant step, each fitted so "
                        "the locked-steer decay has ζ(p) (k_d_by_pressure)")
     p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
-    p.add_argument("--time-step-s", type=float, required=True, help="plant step [s] the decays run at")
+    p.add_argument("--time-step-s", type=TIME_STEP_S, required=True, help="plant step [s] the decays run at")
     renamed(p, "--pressures-kpa", "--pressure-kpa")
-    p.add_argument("--pressure-kpa", type=float, nargs="+", default=None,
+    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, nargs="+", default=None,
                    help="pressures [kPa] to fit k_d at, spanning the calibrated range (default: its ends, the "
                         "nominal, 5 even points and both sides of a low_pressure_mesh switch)")
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the table)")
@@ -418,7 +418,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--write-manifest", default=None, metavar="PATH",
                    help="add one fixture:free entry per event to this manifest (created if missing)")
     p.add_argument("--group", default=None, help="group of the written entries (default: the log's folder)")
-    p.add_argument("--duration-s", type=float, default=None,
+    p.add_argument("--duration-s", type=DURATION_S, default=None,
                    help="cap each written window at this many seconds from its start")
     p.add_argument("--json", action="store_true", help="also print the events as JSON")
     p.set_defaults(func=cmd_events)
@@ -427,7 +427,7 @@ def build_parser() -> argparse.ArgumentParser:
     common(p, None)
     p.add_argument("--models", nargs="+", default=["point", "injected", "hydroelastic"])
     p.add_argument("--calibration", default=None)
-    p.add_argument("--pressure-kpa", type=float, default=None, help="pressure for trials without one")
+    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, default=None, help="pressure for trials without one")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive")
     p.add_argument("--tol", nargs="*", help="limits like phi=0.1 theta=0.12 omega_d=0.5 pendulum_pitch=0.05 "
@@ -435,7 +435,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tol-models", nargs="*", default=None, help="models the tolerance applies to (default all)")
     p.add_argument("--json", default=None, metavar="PATH",
                    help="write one record per trial and model (trial, model, rmse_phi_rad, rmse_theta_rad, ...)")
-    p.add_argument("--workers", type=int, default=1, help="processes for the (trial, model) runs (default 1)")
+    p.add_argument("--workers", type=WORKERS, default=1, help="processes for the (trial, model) runs (default 1)")
     p.add_argument("--plot")
     p.set_defaults(func=cmd_validate)
 
@@ -443,8 +443,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--manifest", default=str(DEFAULT_MANIFEST))
     p.add_argument("--data-root", default=None)
     p.add_argument("--out", default=str(Path("evaluation") / "results" / "validation"))
-    p.add_argument("--workers", type=int, default=None)
-    p.add_argument("--starts", type=int, default=2)
+    p.add_argument("--workers", type=WORKERS, default=None)
+    p.add_argument("--starts", type=STARTS, default=2)
     p.add_argument("--no-sensitivity", action="store_true")
     p.set_defaults(func=cmd_report)
     return ap

@@ -13,10 +13,11 @@ error message quotes it, else it says what pydantic expected.
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Mapping, TypeVar, get_args
+from argparse import ArgumentTypeError
+from typing import Annotated, Any, Callable, Mapping, TypeVar, get_args
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, ValidationError
 from pydantic.fields import FieldInfo
 
 S = TypeVar("S", bound="Schema")
@@ -218,3 +219,28 @@ def _model_in(ann: Any) -> type[BaseModel] | None:
         if m is not None:
             return m
     return None
+
+
+def cli_type(annotation: Any, parse: Callable[[str], Any] = float, name: str = "value") -> Callable[[str], Any]:
+    """An argparse ``type=`` that reads a command-line word with ``parse`` (``float``, ``int``) and
+    checks it against ``annotation`` (a bounded type such as :func:`number` or :func:`count`): a bad
+    word ends the command with argparse's one-line error naming the flag, the value and what is
+    allowed."""
+    adapter = TypeAdapter(annotation)
+    words = next((m.json_schema_extra["allowed"] for m in get_args(annotation)[1:]
+                  if isinstance(m, FieldInfo) and isinstance(m.json_schema_extra, dict)), "")
+
+    def read(text: str) -> Any:
+        try:
+            value = parse(text)
+        except ValueError:
+            raise ArgumentTypeError(f"{text!r} is not {'an integer' if parse is int else 'a number'}; "
+                                    f"allowed: {words}") from None
+        try:
+            return adapter.validate_python(value)
+        except ValidationError as err:
+            problem = err.errors()[0]["msg"].removeprefix("Value error, ")
+            raise ArgumentTypeError(f"{text!r}: {problem}; allowed: {words}") from None
+
+    read.__name__ = name  # argparse names the type in some messages
+    return read
