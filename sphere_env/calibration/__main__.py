@@ -87,7 +87,8 @@ def cmd_shell(args) -> int:
 
 def cmd_steer_fit(args) -> int:
     from sphere_env.calibration.decay import write_yaml
-    from sphere_env.calibration.shell_fit import steer_fit, trial_rmse
+    from sphere_env.calibration.shell_fit import trial_rmse
+    from sphere_env.calibration.steer_fit import steer_fit
     from sphere_env.models.shell import ShellCalibration
 
     man, logs = _trials(args, required=("phi", "theta"))

@@ -36,7 +36,7 @@ def fit_calibration(train: Sequence[RobotLog], model: str, pressure_kpa: float, 
     ``injected`` fit of the same segments, so nothing of a held-out segment leaks in through the
     base calibration; no leave-one-window-out within ``train``: the caller holds segments out);
     returns (params, calibration)."""
-    from sphere_env.calibration.shell_fit import steer_fit
+    from sphere_env.calibration.steer_fit import steer_fit
     from sphere_env.models.shell import STEER_LAW_FORMS
 
     models = ("injected",) if model == "injected" else ("injected", model)

@@ -6,7 +6,8 @@ import pytest
 import yaml
 
 from sphere_env.calibration.logs import RobotLog
-from sphere_env.calibration.shell_fit import calibration_at, fit_shell, steer_fit, unidentified
+from sphere_env.calibration.shell_fit import calibration_at, fit_shell, unidentified
+from sphere_env.calibration.steer_fit import steer_fit
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 

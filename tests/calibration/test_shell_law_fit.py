@@ -143,7 +143,7 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
 
 
 def test_form_choice_uses_held_out_error_and_skips_refused_forms():
-    from sphere_env.calibration.shell_fit import choose_form
+    from sphere_env.calibration.steer_fit import choose_form
 
     rows = [
         {"form": "linear", "rmse_phi_rad": 0.05}, {"form": "linear", "rmse_phi_rad": 0.07},

@@ -1,0 +1,173 @@
+"""What ``calibrate steer-fit`` does: the shell models fitted in order on free-motion segments, the
+steer-law form chosen by held-out error, and every segment's error when it is left out of the fit.
+
+:func:`steer_fit` fits each model with :func:`~sphere_env.calibration.shell_fit.fit_shell`, on top of
+the previous model's calibration; :func:`cross_validate` scores forms and models on held-out
+segments (or held-out blocks of one segment), its folds in worker processes; :func:`choose_form`
+picks the form with the least mean held-out φ RMSE.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from sphere_env.calibration.logs import RobotLog
+from sphere_env.calibration.shell_fit import FitError, TwinPool, fit_shell, trial_rmse, window
+from sphere_env.models.friction import FrictionModel
+from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration
+
+
+def cross_validate(
+    logs: Sequence[RobotLog],
+    forms: Sequence[str],
+    pressure_kpa: float,
+    base: ShellCalibration | None = None,
+    steer_friction: FrictionModel | str = "majd_steer",
+    max_nfev: int = 40,
+    blocks: int = 3,
+    models: Sequence[str] = ("injected",),
+    drive_friction: FrictionModel | str = "majd_drive",
+    workers: int | None = 1,
+) -> list[dict[str, Any]]:
+    """Held-out φ/θ RMSE [rad] of each steer-law form for each shell model in ``models``.
+
+    Two or more segments: leave one segment out, fit on the others, test on it. One segment: cut it
+    into ``blocks`` consecutive blocks, each replayed from the logged state at its start; leave one
+    block out, fit on the others, test on it (blocked cross-validation: every amplitude of the decay
+    is once held out, and no form is judged only on extrapolation from large swings to small ones).
+    Within a fold the models are fitted in order, each on top of the previous one's fit as
+    :func:`steer_fit` does (``hydroelastic`` after ``injected`` keeps the fold's injected law), so
+    nothing of the held-out segment reaches any fit. The (form, fold) fits run on ``workers``
+    processes (:func:`~sphere_env.parallel.run_parallel`; 1: in this process).
+    Returns one row per (model, form, fold) with the held-out RMSE and the fit; a fold whose fit is
+    refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the reason under
+    ``refused``, so that form is never chosen.
+    """
+    from sphere_env.parallel import run_parallel
+
+    base = base or ShellCalibration.load()
+    if len(logs) >= 2:
+        folds = [([lg for j, lg in enumerate(logs) if j != i], [logs[i]]) for i in range(len(logs))]
+    else:
+        (lg,) = logs
+        edges = np.linspace(0.0, float(lg.t_s[-1]), blocks + 1)
+        parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
+        folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
+    jobs = [{"train": train, "test": test, "form": form, "models": tuple(models), "base": dict(base.raw),
+             "source": base.source, "pressure_kpa": pressure_kpa, "steer_friction": steer_friction,
+             "drive_friction": drive_friction, "max_nfev": max_nfev} for form in forms for train, test in folds]
+    return [row for rows in run_parallel(_fold_job, jobs, workers=workers) for row in rows]
+
+
+def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One (form, fold) of :func:`cross_validate`: fit its models in order on the training segments
+    (twins built here: Drake diagrams never cross processes) and score the held-out ones."""
+    train, test, form, models, p0 = job["train"], job["test"], job["form"], job["models"], job["pressure_kpa"]
+    cur = ShellCalibration.from_dict(job["base"], source=job["source"])
+    rows: list[dict[str, Any]] = []
+    for i, model in enumerate(models):
+        where = {"model": model, "form": form, "fit_on": [t.name for t in train]}
+        pool = TwinPool(model, job["steer_friction"], drive_friction=job["drive_friction"])
+        try:
+            fit = fit_shell(train, model, p0, steer_friction=job["steer_friction"], base=cur,
+                            form=form if model == "injected" else None, max_nfev=job["max_nfev"], pool=pool,
+                            require_convergence=False, drive_friction=job["drive_friction"])
+        except FitError as err:  # this model and every one fitted on top of it are refused
+            return rows + [dict(where, model=m, test=lg.name, rmse_phi_rad=math.inf, rmse_theta_rad=math.inf,
+                                refused=str(err)) for m in models[i:] for lg in test]
+        cur = ShellCalibration.from_dict(fit.calibration, source="<cv>")
+        pool.install(cur, p0)
+        for name, r in trial_rmse(pool, test).items():
+            rows.append(dict(where, test=name, rmse_phi_rad=r["phi"], rmse_theta_rad=r["theta"],
+                             train_rmse_rad=fit.rmse, params=fit.params))
+    return rows
+
+
+def choose_form(rows: Sequence[Mapping[str, Any]]) -> tuple[str, dict[str, float]]:
+    """The form with the least mean held-out φ RMSE (ties: fewer parameters, i.e. earlier in the list)."""
+    mean: dict[str, float] = {}
+    for form in dict.fromkeys(r["form"] for r in rows):
+        mean[form] = float(np.mean([r["rmse_phi_rad"] for r in rows if r["form"] == form]))
+    best = min(mean, key=lambda f: (round(mean[f], 4), list(STEER_LAW_FORMS).index(f)))
+    if not math.isfinite(mean[best]):
+        raise FitError(f"no steer-law form could be fitted: {[r.get('refused') for r in rows]}")
+    return best, mean
+
+
+def steer_fit(
+    logs: Sequence[RobotLog],
+    models: Sequence[str],
+    pressure_kpa: float,
+    base: ShellCalibration,
+    forms: Sequence[str] = tuple(STEER_LAW_FORMS),
+    steer_friction: FrictionModel | str = "majd_steer",
+    drive_friction: FrictionModel | str = "majd_drive",
+    max_nfev: int = 60,
+    log_to=None,
+    hold_out_windows: bool = True,
+    workers: int | None = 1,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """What ``steer-fit`` does: fit each shell model in ``models`` on ``logs``, in order, each on top of
+    the previous one's calibration (``hydroelastic`` after ``injected`` keeps the injected ω_n, ζ and
+    steer law just fitted). With several ``forms`` and ``injected`` among the models, the steer-law
+    form is the one with the least held-out φ RMSE (:func:`cross_validate`, :func:`choose_form`) —
+    never the training error. With two or more ``logs`` and ``hold_out_windows``, every model is
+    then cross-validated leave-one-window-out with the chosen form (:func:`cross_validate`; the
+    injected rows of the form choice are reused when injected is the only model, and are then
+    slightly optimistic: the form was picked on them). Returns (calibration mapping, record of the
+    fit: per model its parameters, 95 % intervals and ``unidentified`` ones; under
+    ``leave_one_window_out`` each window's held-out RMSE); ``log_to`` (e.g. ``print``) receives a
+    readable account. ``workers``: processes for the cross-validation folds.
+    """
+    say = log_to or (lambda *_: None)
+    record: dict[str, Any] = {"fit_on": [log.name for log in logs], "pressure_kpa": pressure_kpa, "models": {}}
+    form = forms[0]
+    form_rows: list[dict[str, Any]] = []
+    if "injected" in models and len(forms) > 1:
+        form_rows = cross_validate(logs, forms, pressure_kpa, base=base, steer_friction=steer_friction,
+                                   max_nfev=max_nfev, drive_friction=drive_friction, workers=workers)
+        form, mean = choose_form(form_rows)
+        say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
+        for r in form_rows:
+            say(f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}")
+        say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> form {form!r}")
+        record["form_cross_validation"] = [_cv_row(r) for r in form_rows]
+    raw = dict(base.raw)
+    for model in models:
+        cur = ShellCalibration.from_dict(raw, source=base.source)
+        pool = TwinPool(model, steer_friction, drive_friction=drive_friction)
+        fit = fit_shell(logs, model, pressure_kpa, steer_friction=steer_friction, base=cur, pool=pool,
+                        form=form if model == "injected" else None, max_nfev=max_nfev,
+                        drive_friction=drive_friction)
+        raw = fit.calibration
+        say(f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:")
+        for k, v in fit.params.items():
+            ci = fit.ci95.get(k)
+            say(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
+                + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else ""))
+        record["models"][model] = dict(fit.as_dict(), pool=pool)
+    if hold_out_windows and len(logs) >= 2:
+        if tuple(models) == ("injected",) and form_rows:
+            rows = [r for r in form_rows if r["form"] == form]
+        else:
+            rows = cross_validate(logs, [form], pressure_kpa, base=base, steer_friction=steer_friction,
+                                  max_nfev=max_nfev, models=models, drive_friction=drive_friction, workers=workers)
+        say(f"leave-one-window-out (form {form!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
+        for r in rows:
+            say(f"  {r['model']:12s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}" + (" (refused)" if r.get("refused") else ""))
+        record["leave_one_window_out"] = [_cv_row(r) for r in rows]
+        for model in models:
+            record["models"][model]["held_out_rmse_rad"] = {
+                r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in rows if r["model"] == model}
+    return raw, record
+
+
+def _cv_row(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A cross-validation row as recorded in a calibration file (no fitted mappings, the refusal kept)."""
+    return {k: row[k] for k in ("model", "form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad", "refused")
+            if k in row}
