@@ -26,8 +26,10 @@ def test_match_dissipation_reports_the_step_it_ran_at(caplog):
 
 def test_kd_step_refuses_a_bad_step_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "cal.yaml"
-    assert main(["kd-step", "--time-step-s", "0", "--out", str(out)]) == 2
-    assert "time_step_s: value 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:  # argparse's one-line error, exit status 2
+        main(["kd-step", "--time-step-s", "0", "--out", str(out)])
+    assert refused.value.code == 2
+    assert "argument --time-step-s: '0': Input should be greater than 0; allowed: (0, 0.05] s" in capsys.readouterr().err
     assert not out.exists()
 
 

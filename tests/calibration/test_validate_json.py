@@ -71,7 +71,10 @@ def test_tolerance_on_a_missing_channel_or_a_one_sample_log_fails(logs_dir, tmp_
     # A --tol-models that matches no model compares nothing.
     assert main(["validate", "--manifest", str(man), *base, "--tol", "phi=1.0", "--tol-models", "point"]) == 1
     assert "nothing compared" in capsys.readouterr().err
-    assert main(["validate", "--manifest", str(man), *base, "--workers", "0"]) == 2
+    with pytest.raises(SystemExit) as refused:  # argparse's one-line error, exit status 2
+        main(["validate", "--manifest", str(man), *base, "--workers", "0"])
+    assert refused.value.code == 2
+    assert "argument --workers: '0'" in capsys.readouterr().err
 
 
 def test_record_keeps_optional_metrics_only_where_computed():
