@@ -196,7 +196,6 @@ def _reset_options(commands: tuple[tuple[str, float, float], ...]) -> type[Reset
     return create_model("ResetOptions", __base__=ResetOptions, **fields)
 
 
-
 def _distinct(models: list[str]) -> list[str]:
     if len(set(models)) != len(models):
         raise ValueError("names a shell model twice")
