@@ -22,11 +22,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import secrets
 import shutil
 import time
 from pathlib import Path
 
 from sphere_env.files import write_text_atomic
+from sphere_env.schemas import validate
+from sphere_env.schemas.evaluation import DemoOptions
 
 ENV_ID = "sphere_env/RampDescent-v3"
 DEFAULT_TRAIN_STEPS = 200_000
@@ -45,6 +48,11 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--workers", type=int, default=None, help="evaluation processes (default: all cores)")
     parser.add_argument("--publish", action="store_true", help="copy report and plots to evaluation/results/demo/")
     args = parser.parse_args(argv)
+    try:
+        validate(DemoOptions, {k: getattr(args, k) for k in ("train_steps", "seed", "seeds", "out", "run_dir",
+                                                              "workers")})
+    except ValueError as err:
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
 
     t_start = time.perf_counter()
     from sphere_env.evaluation.evaluate import SweepSpec, evaluate
@@ -56,7 +64,7 @@ def main(argv: list[str] | None = None) -> dict:
     lo, hi = cal.pressure_range_kpa
     pressures = [lo, round((lo + hi) / 2, 3), hi]  # 3, 8.5, 14 kPa: both ends and the middle
     n = args.train_steps
-    stamp = time.strftime('%Y%m%d-%H%M%S')
+    stamp = f"{time.strftime('%Y%m%d-%H%M%S')}_{secrets.token_hex(3)}"  # demos started in one second differ
     base_dir = args.run_dir or Path("runs") / f"demo_{stamp}"
     policies = {"ppo_from_scratch": (None, base_dir)}
     t_train, timings = {}, {}

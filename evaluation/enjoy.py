@@ -232,7 +232,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
                          label=args.label)
         return enjoy(spec, meshcat=args.meshcat, video=args.video, realtime_rate=args.realtime_rate,
                      wait_for_enter=args.meshcat and sys.stdin.isatty())
-    except ValueError as err:
+    except (ValueError, OSError) as err:  # OSError: a failed write
         parser.exit(2, f"{parser.prog}: error: {err}\n")
 
 

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import secrets
 import shutil
 import time
 from pathlib import Path
@@ -272,7 +273,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
                         help="folder for one MP4 per episode (<controller>_<shell model>_<p>kPa_s<seed>.mp4)")
     args = parser.parse_args(argv)
 
-    out = args.out or str(Path("out/eval") / time.strftime("%Y%m%d-%H%M%S"))
+    # default: a new folder per run (a random suffix: evaluations started in one second differ)
+    out = args.out or str(Path("out/eval") / f"{time.strftime('%Y%m%d-%H%M%S')}_{secrets.token_hex(3)}")
     from sphere_env.parallel import sigterm_as_interrupt
 
     try:
@@ -283,7 +285,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         with sigterm_as_interrupt():
             res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log,
                            args.pme_log_pressure_kpa, args.pme_reference, progress=True, video=args.video)
-    except ValueError as err:
+    except (ValueError, OSError) as err:  # OSError: a write that failed after the checks (disk full)
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     except KeyboardInterrupt:
         parser.exit(130, f"{parser.prog}: interrupted; nothing written to {out} (workers stopped)\n")

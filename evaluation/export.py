@@ -369,7 +369,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     args = parser.parse_args(argv)
     try:
         res = export(args.run, args.format, args.out, args.tol, args.env, args.allow_env_mismatch)
-    except ValueError as err:
+    except (ValueError, OSError) as err:  # OSError: a failed write
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     print(f"policy: {res['policy'].resolve()}\nlayout: {res['layout'].resolve()}\n"
           f"check: max |exported - SB3| action difference {res['max_abs_action_diff']:.2e}")

@@ -27,6 +27,21 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
     return path
 
 
+def write_text_exclusive(path: str | Path, text: str) -> Path:
+    """As :func:`write_text_atomic`, but only when ``path`` does not exist yet: the complete file is
+    linked into place, which fails (``FileExistsError``) when another process got there first."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.link(tmp, path)
+    finally:
+        os.unlink(tmp)
+    return path
+
+
 @contextlib.contextmanager
 def staged_folder(folder: str | Path, publish: Callable[[Path, Path], None]) -> Iterator[Path]:
     """A fresh temporary folder beside ``folder`` to write into. On success it becomes ``folder``

@@ -261,7 +261,7 @@ def resolve_config(
                              eval_episodes=eval_episodes, checkpoint_freq=checkpoint_freq, torch_threads=torch_threads,
                              env_kwargs=_plain_mapping(env_kwargs), eval_env_kwargs=_plain_mapping(eval_env_kwargs),
                              eval_pressures_kpa=(list(eval_pressures_kpa) if isinstance(eval_pressures_kpa, tuple)
-                                                 else eval_pressures_kpa))
+                                                 else eval_pressures_kpa), tensorboard_log=tensorboard_log)
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
     overrides = dict(overrides or {})

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from sphere_env.files import write_text_atomic
+from sphere_env.files import write_text_atomic, write_text_exclusive
 from sphere_env.training.config import TrainConfig
 
 #: Bootstrap of the across-seed mean: confidence level, resamples, fixed generator seed.
@@ -72,8 +72,9 @@ def run_sweep(cfgs: Sequence[TrainConfig], sweep_dir: str | Path, ray_address: s
     from sphere_env.parallel import run_parallel
 
     sweep_dir = Path(sweep_dir)
+    taken = ValueError(f"run_dir: {str(sweep_dir)!r} already holds a sweep; use another folder")
     if (sweep_dir / "sweep.yaml").exists():
-        raise ValueError(f"run_dir: {str(sweep_dir)!r} already holds a sweep; use another folder")
+        raise taken
     if not cfgs:
         raise ValueError("seeds: no trials to run")
     if ray_address is not None:
@@ -85,9 +86,12 @@ def run_sweep(cfgs: Sequence[TrainConfig], sweep_dir: str | Path, ray_address: s
     trials = [{"folder": name, "config": c, "seed": cfg.seed, "hyperparams": cfg.hyperparams,
                "env_kwargs": cfg.env_kwargs, "n_timesteps": cfg.n_timesteps}
               for (c, name), cfg in zip(names, cfgs)]
-    write_text_atomic(sweep_dir / "sweep.yaml", yaml.safe_dump(
-        {"env_id": cfgs[0].env_id, "algo": cfgs[0].algo, "executor": f"ray at {ray_address}" if ray_address else "local",
-         "command": list(command or []), "trials": trials}, sort_keys=False))
+    try:  # created exclusively: of two sweeps started into one folder, the second is refused
+        write_text_exclusive(sweep_dir / "sweep.yaml", yaml.safe_dump(
+            {"env_id": cfgs[0].env_id, "algo": cfgs[0].algo, "executor": f"ray at {ray_address}" if ray_address
+             else "local", "command": list(command or []), "trials": trials}, sort_keys=False))
+    except FileExistsError:
+        raise taken from None
     jobs = [{"cfg": cfg.as_dict(), "run_dir": str(sweep_dir / name), "command": list(command or [])}
             for (_, name), cfg in zip(names, cfgs)]
     run_parallel(_run_trial, jobs, workers=1 if ray_address is None else ray_cpus, ray_address=ray_address)

@@ -47,7 +47,8 @@ import numpy as np
 
 from sphere_env.cli import parse_env_kwargs, parse_key_values
 from sphere_env.parallel import sigterm_as_interrupt
-from sphere_env.schemas.training import check_sweep_options
+from sphere_env.schemas import validate
+from sphere_env.schemas.training import RunFolders, check_sweep_options
 from sphere_env.training.config import TrainConfig, resolve_config
 
 # The trainer's API, importable from here (the training jobs live in their own modules: the envs in
@@ -139,6 +140,8 @@ def main(argv: Sequence[str] | None = None) -> Path:
     command = [sys.executable, "-m", "sphere_env.training.train",
                *(argv if argv is not None else sys.argv[1:])]
     try:
+        if args.resume is None:
+            validate(RunFolders, {"log_folder": args.log_folder, "run_dir": args.run_dir})
         with sigterm_as_interrupt():
             if args.resume is not None:
                 run = _resume(args, command)
@@ -152,6 +155,8 @@ def main(argv: Sequence[str] | None = None) -> Path:
                 run = train(cfg, args.run_dir or default_run_dir(cfg, args.log_folder),
                             progress_bar=not args.no_progress, verbose=args.verbose, command=command)
     except ValueError as err:
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
+    except OSError as err:  # a write that failed after the checks (disk full, a folder removed meanwhile)
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     except TrainingInterrupted as err:
         parser.exit(130, f"{parser.prog}: {err}\n")
@@ -188,8 +193,10 @@ def sweep_configs(args: argparse.Namespace) -> list[TrainConfig]:
 
 
 def default_sweep_dir(args: argparse.Namespace) -> Path:
-    stamp = datetime.now(UTC).strftime("%Y%m%d-%H%M%S")
-    return args.log_folder / f"sweep_{args.algo}_{args.env.split('/')[-1]}_{stamp}"
+    import secrets
+
+    stamp = datetime.now(UTC).strftime("%Y%m%d-%H%M%S")  # + a random suffix: sweeps started in one second differ
+    return args.log_folder / f"sweep_{args.algo}_{args.env.split('/')[-1]}_{stamp}_{secrets.token_hex(3)}"
 
 
 def _resume(args: argparse.Namespace, command: Sequence[str]) -> Path:

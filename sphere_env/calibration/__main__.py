@@ -27,7 +27,7 @@ from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.cli import renamed
 from sphere_env.resources import asset_path
-from sphere_env.schemas import Finite, cli_type, count, number
+from sphere_env.schemas import Finite, OutputFile, Schema, cli_type, count, number, validate
 from sphere_env.schemas.twin import parameter
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
@@ -451,6 +451,12 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+class OutputPath(Schema):
+    """One output file of a subcommand."""
+
+    path: OutputFile
+
+
 #: Output-file options of the subcommands, checked before any fit runs.
 OUTPUT_OPTIONS = ("out", "plot", "json", "preset_file", "write_manifest")
 
@@ -463,12 +469,10 @@ def check_output_paths(args) -> None:
         # report --out is a folder; events --json is a flag (print JSON), not a path
         if not isinstance(value, str) or not value or (args.command == "report" and name == "out"):
             continue
-        path = Path(value)
-        if path.is_dir():
-            raise ValueError(f"--{name.replace('_', '-')}: {value!r} is a folder; give a file name")
-        for parent in path.parents:
-            if parent.exists() and not parent.is_dir():
-                raise ValueError(f"--{name.replace('_', '-')}: {value!r} lies under {str(parent)!r}, which is a file")
+        try:
+            validate(OutputPath, {"path": value})
+        except ValueError as err:
+            raise ValueError(f"--{name.replace('_', '-')}: {value!r}: {str(err).split(': ', 1)[-1]}") from None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -480,7 +484,7 @@ def main(argv: list[str] | None = None) -> int:
         check_output_paths(args)
         with sigterm_as_interrupt():  # SIGTERM unwinds as Ctrl-C: workers stopped, staging removed
             return args.func(args)
-    except ValueError as err:  # LogError and config errors: named, nothing written
+    except (ValueError, OSError) as err:  # LogError, config errors and failed writes: named, nothing written
         print(f"{parser.prog} {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

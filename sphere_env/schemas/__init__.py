@@ -13,7 +13,9 @@ error message quotes it, else it says what pydantic expected.
 from __future__ import annotations
 
 import math
+import tempfile
 from argparse import ArgumentTypeError
+from pathlib import Path
 from typing import Annotated, Any, Callable, Mapping, TypeVar, get_args
 
 import numpy as np
@@ -101,6 +103,51 @@ def ordered_pair(low: float, high: float, unit: str) -> Any:
                      BeforeValidator(_as_tuple), Field(json_schema_extra=allowed(words))]
 
 
+def _as_path(value: Any) -> Any:
+    return Path(value) if isinstance(value, str) and value else value
+
+
+def writable_location(path: Path) -> None:
+    """Refuse ``path`` as an output when it could not be written: a parent is a file, or the
+    nearest existing folder above it does not take a new entry (read-only, ``/proc``, no
+    permission). The check creates a temporary folder there and removes it at once, so an output
+    that cannot be written is refused before anything runs, and nothing is left behind."""
+    existing = path
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise ValueError(f"{str(existing)!r} is a file")
+    try:
+        Path(tempfile.mkdtemp(prefix=".write-probe-", dir=existing)).rmdir()
+    except OSError as err:
+        raise ValueError(f"cannot write in {str(existing)!r} ({err.strerror or err})") from None
+
+
+def _output_folder(folder: Path) -> Path:
+    writable_location(folder)
+    return folder
+
+
+def _output_file(file: Path) -> Path:
+    if file.is_dir():
+        raise ValueError("is a folder; give a file name")
+    writable_location(file.parent if str(file.parent) else Path("."))
+    return file
+
+
+#: A folder to write into: created when missing; no parent a file, and writable where it will be made.
+OutputFolder = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_folder), Field(
+    json_schema_extra=allowed("a folder path (created when missing) in a writable place, none of its parents a "
+                              "file"))]
+#: A file to write: not a folder, in a writable folder (created when missing), no parent a file.
+OutputFile = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_file), Field(
+    json_schema_extra=allowed("a file path in a writable folder, none of its parents a file"))]
+#: A file to read (its contents are checked by the reader).
+InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]
+
+
 def validate(schema: type[S], data: Any, where: str = "", error: type[Exception] = ValueError,
              root: str = "", context: Mapping[str, Any] | None = None) -> S:
     """``data`` as ``schema``, or ``error`` with one line naming the first problem (an unknown key
@@ -166,7 +213,9 @@ def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> s
         # a validator of a section, naming its fields relative to the section
         return f"field '{where}.{msg.removeprefix(FIELD)}" if where else msg
     # a nested schema's message may already say what is allowed
-    return f"field {where!r} = {e.get('input')!r}: {msg}" + ("" if "allowed" in msg else _allowed(field))
+    value = e.get("input")
+    value = str(value) if isinstance(value, Path) else value  # a path as its text, as the user typed it
+    return f"field {where!r} = {value!r}: {msg}" + ("" if "allowed" in msg else _allowed(field))
 
 
 def _allowed(field: FieldInfo | None) -> str:

@@ -17,13 +17,12 @@ from __future__ import annotations
 
 import math
 from contextvars import ContextVar
-from pathlib import Path
 from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, ValidationError, field_validator, model_validator
 
 from sphere_env.params import SHELL_MODELS
-from sphere_env.schemas import Finite, Schema, allowed, count, number, validate
+from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, validate
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
 GRID_KWARGS = {"shell_model": "--shell-models", "friction_model": "--friction", "randomization": "off",
@@ -72,25 +71,6 @@ class Loaded(Schema):
             return super().model_validate(obj, **kwargs)
         finally:
             _VALIDATING.reset(token)
-
-
-def _as_path(value: Any) -> Any:
-    return Path(value) if isinstance(value, str) and value else value
-
-
-def _output_folder(folder: Path) -> Path:
-    """A folder to write into: neither it nor any of its parents may be a file."""
-    for p in (folder, *folder.parents):
-        if p.exists() and not p.is_dir():
-            raise ValueError(f"cannot be an output folder: {str(p)!r} is a file")
-    return folder
-
-
-#: A folder to write into (created when missing; neither it nor a parent may be a file).
-OutputFolder = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_folder), Field(
-    json_schema_extra=allowed("a folder path (created when missing); none of its parents a file"))]
-#: A file to read (its contents are checked by the reader).
-InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]
 
 
 def _registered(env_id: str) -> str:
@@ -186,7 +166,7 @@ class SweepFields(Loaded):
         f"a non-empty list of {list(SHELL_MODELS)}"))
     frictions: list[Friction] = Field(["majd"], min_length=1, json_schema_extra=allowed(
         "at least one friction preset or law (majd, viscous, coulomb, none, ...)"))
-    seeds: list[Seed] = Field([0, 1], min_length=1, json_schema_extra=allowed(
+    seeds: list[Seed] = Field([0, 1, 2], min_length=1, json_schema_extra=allowed(
         f"at least one integer within [0, {MAX_SEED}]"))
     env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(GRID_KWARGS, "the sweep"))] = Field(
         default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
@@ -342,3 +322,16 @@ class ExportOptions(Schema):
             path, _, which = data["run"].partition("@")
             data = {**data, "out": run_path(path) / ("export_best" if which == "best" else "export")}
         return data
+
+
+class DemoOptions(Schema):
+    """The demo's options (``sphere-env demo``), checked before its training starts, so that a bad
+    output folder cannot fail the demo after the training ran."""
+
+    train_steps: count(1, 10**9)
+    seed: Seed
+    seeds: list[Seed] = Field(min_length=1, max_length=100, json_schema_extra=allowed(
+        "1 to 100 integer seeds in [0, 2**32 - 1]"))
+    out: OutputFolder
+    run_dir: OutputFolder | None = None
+    workers: count(1, MAX_WORKERS) | None = None

@@ -27,7 +27,7 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
-from sphere_env.schemas import Finite, Schema, _integral, allowed, count, number, validate
+from sphere_env.schemas import Finite, OutputFolder, Schema, _integral, allowed, count, number, validate
 
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
 SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
@@ -433,6 +433,14 @@ class RunOptions(Schema):
     eval_env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed(
         "a mapping of env kwargs"))
     eval_pressures_kpa: list[Finite] | None = Field(None, json_schema_extra=allowed("a list of pressures [kPa]"))
+    tensorboard_log: OutputFolder | None = None
+
+
+class RunFolders(Schema):
+    """Where a training writes (``-f/--log-folder``, ``--run-dir``): checked before anything runs."""
+
+    log_folder: OutputFolder
+    run_dir: OutputFolder | None = None
 
 
 def check_run_options(**options: Any) -> RunOptions:

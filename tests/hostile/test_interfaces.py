@@ -9,7 +9,9 @@ the training and evaluation stacks, and a few cases need a tiny trained run.
 
 from __future__ import annotations
 
+import os
 import shutil
+import sys
 
 import gymnasium as gym
 import numpy as np
@@ -24,6 +26,7 @@ pytestmark = pytest.mark.slow
 
 # Placeholders in the argv below, replaced by the prepared files of the ``inputs`` fixture.
 INPUTS, RUN, TRUNCATED_RUN = "{inputs}", "{run}", "{truncated_run}"
+UNWRITABLE, OUT = "{unwritable}", "{out}"
 
 
 def bad_shape_controller(obs, info=None):
@@ -128,6 +131,31 @@ CALIBRATE = [
      "--json"),
     ("shell-out-is-a-folder", ["shell", "--manifest", GOOD, "--group", "", "--out", INPUTS], "--out"),
     ("events-log-missing", ["events", f"{INPUTS}/missing.csv"], "not found"),
+]
+
+
+# ---- outputs that cannot be written, every command that writes: (id, argv, field) --------------------
+# Refused before anything runs (the demo before its training, validate before its fits), with the
+# option named, never a traceback after the work was done.
+OUTPUTS = [
+    ("train-tensorboard_log", ["train", *TINY, "--params", *TINY_PPO, "-tb", f"{UNWRITABLE}/tb", "--run-dir",
+                               f"{OUT}/run"], "tensorboard_log"),
+    ("train-log_folder", ["train", *TINY, "--params", *TINY_PPO, "-f", f"{UNWRITABLE}/runs"], "log_folder"),
+    ("train-run_dir", ["train", *TINY, "--params", *TINY_PPO, "--run-dir", f"{UNWRITABLE}/run"], "run_dir"),
+    ("train-sweep-run_dir", ["train", *TINY, "--params", *TINY_PPO, "--seeds", "0", "1", "--run-dir",
+                             f"{UNWRITABLE}/sweep"], "run_dir"),
+    ("evaluate-out", ["evaluate", *GRID, "--controller", "zero", "--out", f"{UNWRITABLE}/eval"], "out"),
+    ("evaluate-video", ["evaluate", *GRID, "--controller", "zero", "--out", f"{OUT}/eval", "--video",
+                        f"{UNWRITABLE}/video"], "video"),
+    ("validate-json", ["calibrate", "validate", "--manifest", GOOD, *VALIDATE, "--json", f"{UNWRITABLE}/v.json"],
+     "--json"),
+    ("validate-plot", ["calibrate", "validate", "--manifest", GOOD, *VALIDATE, "--plot", f"{UNWRITABLE}/v.png"],
+     "--plot"),
+    ("shell-out", ["calibrate", "shell", "--manifest", GOOD, "--group", "", "--out", f"{UNWRITABLE}/c.yaml"],
+     "--out"),
+    ("demo-out", ["demo", "--out", f"{UNWRITABLE}/demo"], "out"),
+    ("demo-run_dir", ["demo", "--out", f"{OUT}/demo", "--run-dir", f"{UNWRITABLE}/run"], "run_dir"),
+    ("export-out", ["export", RUN, "--out", f"{UNWRITABLE}/export"], "out"),
 ]
 
 
@@ -257,8 +285,8 @@ def out(tmp_path):
     return d
 
 
-def _resolve(argv, inputs, runs=None) -> list[str]:
-    subs = {INPUTS: str(inputs)}
+def _resolve(argv, inputs, runs=None, **places) -> list[str]:
+    subs = {INPUTS: str(inputs), **{"{" + k + "}": str(v) for k, v in places.items()}}
     if runs is not None:
         subs |= {RUN: str(runs / "run"), TRUNCATED_RUN: str(runs / "truncated_run")}
     resolved = []
@@ -328,6 +356,31 @@ def test_calibrate_refuses(argv, field, inputs, out, capsys):
     if argv[0] == "validate" and "--json" not in argv:
         argv = [*argv, "--json", str(out / "v.json"), "--plot", str(out / "v.png")]
     _refused(["calibrate", *_resolve(argv, inputs)], field, capsys, out)
+
+
+@pytest.fixture(params=["proc", "read-only-folder"])
+def unwritable(request, tmp_path):
+    """A place no output can be written to: under ``/proc`` (refuses every new entry, even root's), or
+    a folder without write permission (root ignores it, so that case runs for other users only)."""
+    if request.param == "proc":
+        if not sys.platform.startswith("linux"):
+            pytest.skip("/proc is Linux's")
+        yield "/proc/sphere_env_nope"
+        return
+    if os.geteuid() == 0:
+        pytest.skip("root writes into a folder without write permission")
+    ro = tmp_path / "read_only"
+    ro.mkdir()
+    ro.chmod(0o555)
+    yield str(ro)
+    ro.chmod(0o755)
+
+
+@pytest.mark.parametrize("argv, field", _ids(OUTPUTS))
+def test_an_output_that_cannot_be_written_is_refused_before_anything_runs(argv, field, inputs, out, unwritable,
+                                                                          capsys, request):
+    runs = request.getfixturevalue("tiny_run") if RUN in argv else None
+    _refused(_resolve(argv, inputs, runs, unwritable=unwritable, out=out), field, capsys, out)
 
 
 @pytest.mark.parametrize("text, field", _ids(LOGS))
