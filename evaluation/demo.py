@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> dict:
     t_eval = time.perf_counter() - t0
     wall = time.perf_counter() - t_start
 
-    from sphere_env.evaluation.reporting import markdown_table
+    from sphere_env.reporting import markdown_table
 
     agg = {a["controller"]: a for a in res["agg_controller"]}
     cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"),

@@ -1,4 +1,5 @@
-"""Small helpers shared by the benchmark and study scripts: machine info and Markdown tables."""
+"""Small helpers shared by the benchmark and study scripts: machine info and the results folder
+(their Markdown tables: :func:`sphere_env.reporting.markdown_table`)."""
 
 from __future__ import annotations
 
@@ -23,17 +24,3 @@ def machine_info() -> dict:
     sw = software_versions()
     return {"cpu": cpu, "cores": os.cpu_count(), "python": sw.pop("python"), "commit": sw.pop("git_commit"), **sw}
 
-
-
-def markdown_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:
-    """``columns`` = [(key, header, format)]; format like '{:.1f}'."""
-    head = "| " + " | ".join(h for _, h, _ in columns) + " |"
-    sep = "| " + " | ".join("---" for _ in columns) + " |"
-    lines = [head, sep]
-    for row in rows:
-        cells = []
-        for key, _, fmt in columns:
-            val = row.get(key, "")
-            cells.append(fmt.format(val) if val not in ("", None) and fmt else str(val))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)

@@ -125,7 +125,8 @@ def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict
 
 def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, files: Mapping[str, Path],
                  wall_s: float, executor: str, extra: str = "") -> Path:
-    from sphere_env.evaluation.reporting import machine_info, markdown_table
+    from sphere_env.evaluation.reporting import machine_info
+    from sphere_env.reporting import markdown_table
 
     info = machine_info()
     lines = [

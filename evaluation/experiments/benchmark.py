@@ -19,10 +19,11 @@ import json
 import time
 from datetime import datetime, timezone
 
-from sphere_env.evaluation.reporting import RESULTS, machine_info, markdown_table
+from sphere_env.evaluation.reporting import RESULTS, machine_info
 from sphere_env.files import write_text_atomic
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import Twin, TwinConfig
+from sphere_env.reporting import markdown_table
 
 CHUNK_S = 0.02
 RAMP = dict(incline_deg=16.0, ramp_length_m=4.0)

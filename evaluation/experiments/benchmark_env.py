@@ -139,7 +139,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     from datetime import datetime, timezone
 
-    from sphere_env.evaluation.reporting import RESULTS, machine_info, markdown_table
+    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.reporting import markdown_table
 
     info = machine_info()
     load = os.getloadavg()[0]

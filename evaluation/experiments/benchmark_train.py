@@ -335,7 +335,7 @@ def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
 
 
 def report_markdown(result: dict) -> str:
-    from sphere_env.evaluation.reporting import markdown_table
+    from sphere_env.reporting import markdown_table
 
     l0, l1 = result["load_avg_start"], result["load_avg_end"]
     lines = [

@@ -16,6 +16,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from sphere_env.files import write_text_atomic
+from sphere_env.reporting import markdown_table
 
 SHELLS = ("point", "injected", "hydroelastic")
 BOOTSTRAP_REPS = 2000
@@ -213,14 +214,13 @@ def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
     """The randomization study's table (:func:`study_rows`)."""
     if not study:
         return ""
-    lines = ["| grid | condition | runs | IQM [95% CI] / P(improvement) [95% CI] |", "| --- | --- | --- | --- |"]
-    for r in study:
+    def value(r: Mapping[str, Any]) -> str:
         if "poi" in r:
-            v = f"{r['poi']:.2f} [{r['poi_ci'][0]:.2f}, {r['poi_ci'][1]:.2f}]"
-        else:
-            v = f"{_pct(r['iqm'])} [{_pct(r['iqm_ci'][0])}, {_pct(r['iqm_ci'][1])}]"
-        lines.append(f"| {r['grid']} | {r['condition']} | {r['runs']} | {v} |")
-    return "\n".join(lines)
+            return f"{r['poi']:.2f} [{r['poi_ci'][0]:.2f}, {r['poi_ci'][1]:.2f}]"
+        return f"{_pct(r['iqm'])} [{_pct(r['iqm_ci'][0])}, {_pct(r['iqm_ci'][1])}]"
+
+    return markdown_table([[r["grid"], r["condition"], r["runs"], value(r)] for r in study],
+                          ["grid", "condition", "runs", "IQM [95% CI] / P(improvement) [95% CI]"])
 
 
 def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults: str = "",

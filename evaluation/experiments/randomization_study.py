@@ -123,7 +123,8 @@ def plot(summary: Sequence[dict[str, Any]], path: Path) -> Path:
 
 
 def report(summary, seed_rows, args, timings: dict[str, float]) -> str:
-    from sphere_env.evaluation.reporting import machine_info, markdown_table
+    from sphere_env.evaluation.reporting import machine_info
+    from sphere_env.reporting import markdown_table
 
     info = machine_info()
     cols = [("condition", "training", ""), ("pressure_kpa", "pressure kPa", "{:g}"),

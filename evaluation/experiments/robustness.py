@@ -182,7 +182,7 @@ def run_soaks(soak_steps: int, hydroelastic_soak_steps: int) -> list[dict]:
 
 def soak_markdown(soaks: list[dict], command: str, commit: str, loads: tuple) -> list[str]:
     """The soak section of robustness.md (from its heading to the end of its RSS sample lines)."""
-    from sphere_env.evaluation.reporting import markdown_table
+    from sphere_env.reporting import markdown_table
 
     return [
         SOAK_HEADING,
@@ -233,7 +233,8 @@ def main(argv: list[str] | None = None) -> None:
     hydro_steps = args.soak_steps // 4 if args.hydroelastic_soak_steps is None else args.hydroelastic_soak_steps
     if min(args.soak_steps, hydro_steps, args.fuzz_steps) < 8:
         parser.error("--soak-steps, --hydroelastic-soak-steps and --fuzz-steps must be at least 8")
-    from sphere_env.evaluation.reporting import RESULTS, machine_info, markdown_table
+    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.reporting import markdown_table
 
     info = machine_info()  # at the start: the commit that is actually run
     load0 = os.getloadavg()

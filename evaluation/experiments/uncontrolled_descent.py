@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sphere_env.evaluation.reporting import markdown_table
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import InitialState, Twin, TwinConfig, start_meshcat
+from sphere_env.reporting import markdown_table
 
 CHUNK_S = 0.02
 

@@ -166,7 +166,7 @@ def cmd_friction(args) -> int:
 
 
 def cmd_sensitivity(args) -> int:
-    from sphere_env.calibration.sensitivity import markdown_table, plot_sweep, sweep
+    from sphere_env.calibration.sensitivity import plot_sweep, sensitivity_table, sweep
     from sphere_env.models.shell import ShellCalibration
 
     cal = ShellCalibration.load(args.calibration)
@@ -174,7 +174,7 @@ def cmd_sensitivity(args) -> int:
     for p in ps:
         cal.check_pressure(p, "--pressure-kpa")
     rows = sweep(ps, args.calibration, workers=args.workers, duration_s=args.duration_s)
-    print(markdown_table(rows))
+    print(sensitivity_table(rows))
     if args.plot:
         plot_sweep(args.plot, rows)
     return 0
@@ -244,11 +244,11 @@ def cmd_kd_pressure(args) -> int:
 
 def cmd_validate(args) -> int:
     from sphere_env.calibration.validate import (
-        markdown_table,
         parse_tolerances,
         plot_overlays,
         tolerance_failures,
         validate,
+        validation_table,
         write_records,
     )
 
@@ -256,7 +256,7 @@ def cmd_validate(args) -> int:
     _, logs = _trials(args)
     rows = validate(logs, args.models, steer_friction=args.steer_friction, drive_friction=args.drive_friction,
                     calibration=args.calibration, default_pressure_kpa=args.pressure_kpa, workers=args.workers)
-    print(markdown_table(rows))
+    print(validation_table(rows))
     if args.json:
         write_records(args.json, rows)
         print(f"wrote {args.json}")

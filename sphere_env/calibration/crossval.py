@@ -21,6 +21,7 @@ from sphere_env.calibration.decay import write_yaml
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.validate import validate
 from sphere_env.models.shell import ShellCalibration
+from sphere_env.reporting import markdown_table, number
 
 FITTED_MODELS = ("injected", "hydroelastic")
 
@@ -93,23 +94,23 @@ def cross_validate(
     return out
 
 
-def _f(x: Any, d: int = 3) -> str:
-    return "—" if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else f"{x:.{d}f}"
-
-
 def crossval_table(results: Sequence[Mapping[str, Any]]) -> str:
     """Markdown: one row per (group, model, fit segment, tested segment)."""
-    lines = ["| group | model | fitted on | tested on | role | RMSE φ [rad] | RMSE θ [rad] | RMSE α [rad] | parameters |",
-             "| --- | --- | --- | --- | --- | ---: | ---: | ---: | --- |"]
+    rows = []
     for x in results:
         pr = ", ".join(f"{k}={v:.4g}" for k, v in x["params"].items() if isinstance(v, (int, float))) or "—"
         if x.get("error"):
-            lines.append(f"| {x['group']} | {x['model']} | {x['fit_on']} | — | fit failed: {x['error']} | | | | |")
+            rows.append({"group": x["group"], "model": x["model"], "fit_on": x["fit_on"], "trial": "—",
+                         "role": f"fit failed: {x['error']}"})
         for rec in x["records"]:
-            lines.append(f"| {x['group']} | {x['model']} | {x['fit_on'] or '— (nothing to fit)'} | {rec['trial']} | "
-                         f"{rec['role'] if x['fit_on'] else 'baseline'} | {_f(rec.get('rmse_phi_rad'))} | "
-                         f"{_f(rec.get('rmse_theta_rad'))} | {_f(rec.get('rmse_pendulum_pitch_rad'))} | {pr} |")
-    return "\n".join(lines)
+            rows.append({"group": x["group"], "model": x["model"], "fit_on": x["fit_on"] or "— (nothing to fit)",
+                         "trial": rec["trial"], "role": rec["role"] if x["fit_on"] else "baseline",
+                         "phi": number(rec.get("rmse_phi_rad")), "theta": number(rec.get("rmse_theta_rad")),
+                         "alpha": number(rec.get("rmse_pendulum_pitch_rad")), "params": pr})
+    return markdown_table(rows, [("group", "group", ""), ("model", "model", ""), ("fit_on", "fitted on", ""),
+                                 ("trial", "tested on", ""), ("role", "role", ""), ("phi", "RMSE φ [rad]", ""),
+                                 ("theta", "RMSE θ [rad]", ""), ("alpha", "RMSE α [rad]", ""),
+                                 ("params", "parameters", "")], align="lllllrrrl")
 
 
 def held_out_summary(results: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], dict[str, float]]:

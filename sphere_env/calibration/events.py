@@ -44,6 +44,7 @@ import yaml
 
 from sphere_env.calibration.logs import MIN_MOTION_RAD, LogError, RobotLog
 from sphere_env.files import write_text_atomic
+from sphere_env.reporting import markdown_table
 
 SMOOTH_S = 0.1  # moving-average length of the activity signal [s]
 REST_SWING_RAD = 0.03  # peak-to-peak rocking still counted as rest [rad] (module docstring)
@@ -223,13 +224,13 @@ def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], 
 
 def events_table(events: Sequence[Event]) -> str:
     """A Markdown table of events (times in s from the log's first sample)."""
-    lines = ["| # | kind | start [s] | free from [s] | end [s] | duration [s] | moved (peak to peak, rad) |",
-             "| ---: | --- | ---: | ---: | ---: | ---: | --- |"]
-    for i, ev in enumerate(events):
-        mv = ", ".join(f"{c} {v:.3f}" for c, v in ev.moved.items())
-        lines.append(f"| {i} | {ev.kind} | {ev.start_s:.2f} | {ev.free_start_s:.2f} | {ev.end_s:.2f} | "
-                     f"{ev.duration_s:.2f} | {mv} |")
-    return "\n".join(lines)
+    rows = [{"i": i, "kind": ev.kind, "start": ev.start_s, "free": ev.free_start_s, "end": ev.end_s,
+             "duration": ev.duration_s, "moved": ", ".join(f"{c} {v:.3f}" for c, v in ev.moved.items())}
+            for i, ev in enumerate(events)]
+    return markdown_table(rows, [("i", "#", "{}"), ("kind", "kind", ""), ("start", "start [s]", "{:.2f}"),
+                                 ("free", "free from [s]", "{:.2f}"), ("end", "end [s]", "{:.2f}"),
+                                 ("duration", "duration [s]", "{:.2f}"), ("moved", "moved (peak to peak, rad)", "")],
+                          align="rlrrrrl")
 
 
 __all__ = ["Event", "events_table", "find_events", "manifest_entries", "write_manifest_entries",

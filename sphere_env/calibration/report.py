@@ -23,18 +23,14 @@ from sphere_env.calibration.events import find_events
 from sphere_env.calibration.friction_fit import evaluate_friction, fit_friction, leave_one_out, plot_stand_overlay
 from sphere_env.calibration.logs import load_log
 from sphere_env.calibration.manifest import Manifest
-from sphere_env.calibration.sensitivity import markdown_table as sweep_table
-from sphere_env.calibration.sensitivity import plot_sweep, sweep
-from sphere_env.calibration.validate import markdown_table, plot_overlays, validate
+from sphere_env.calibration.sensitivity import plot_sweep, sensitivity_table, sweep
+from sphere_env.calibration.validate import plot_overlays, validate, validation_table
 from sphere_env.models.friction import FrictionModel, load_friction_presets
 from sphere_env.models.shell import ShellCalibration
+from sphere_env.reporting import markdown_table, number
 
 TABLE_I_STEER = FrictionModel("majd", {"f_w": 0.20, "f_c": 0.45, "sigma": 10.0, "omega_c": 0.1, "n": 1.0})
 AUTHORS = {"steer_165825": {"phi": 0.098, "theta": 0.108}, "steer_165853": {"phi": 0.035, "theta": 0.057}}
-
-
-def _f(x: float, d: int = 3) -> str:
-    return "—" if x is None or not math.isfinite(x) else f"{x:.{d}f}"
 
 
 def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers: int | None = None,
@@ -122,16 +118,16 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "",
         "## Summary",
         "",
-        "| check | trial | RMSE φ [rad] | RMSE θ [rad] | target |",
-        "| --- | --- | ---: | ---: | --- |",
     ]
-    for name, v in s["shipped_rmse_rad"].items():
-        L.append(f"| stand_swing, shipped `majd_steer` | {name} | — | {_f(v, 4)} | θ ≤ 0.03 |")
+    summary = [["stand_swing, shipped `majd_steer`", name, "—", number(v, 4), "θ ≤ 0.03"]
+               for name, v in s["shipped_rmse_rad"].items()]
     for r in res["steer_free_shipped"]:
         if r["model"] == "injected":
             a = AUTHORS.get(r["trial"], {})
-            L.append(f"| steer_free, shipped calibration, injected | {r['trial']} | {_f(r['rmse']['phi'])} | "
-                     f"{_f(r['rmse']['theta'])} | authors' Drake: φ {a.get('phi', '—')}, θ {a.get('theta', '—')} |")
+            summary.append(["steer_free, shipped calibration, injected", r["trial"], number(r["rmse"]["phi"]),
+                            number(r["rmse"]["theta"]),
+                            f"authors' Drake: φ {a.get('phi', '—')}, θ {a.get('theta', '—')}"])
+    L.append(markdown_table(summary, ["check", "trial", "RMSE φ [rad]", "RMSE θ [rad]", "target"], align="llrrl"))
     inj = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "injected"}
     hyd = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "hydroelastic"}
     loo_test = [r["test_rmse_rad"] for r in s["leave_one_out"]]
@@ -157,8 +153,8 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "want a near-Coulomb law (ω_c at its 0.02 rad/s bound).",
         f"- **steer_free, injected** (shipped, fitted on both trials at the assumed 4.31 kPa, steer law "
         f"`{cal.steer_law.form}` with a rest angle): φ RMSE "
-        f"{_f(inj.get('steer_165825', {}).get('phi'))} / {_f(inj.get('steer_165853', {}).get('phi'))} rad, θ "
-        f"{_f(inj.get('steer_165825', {}).get('theta'))} / {_f(inj.get('steer_165853', {}).get('theta'))} rad "
+        f"{number(inj.get('steer_165825', {}).get('phi'))} / {number(inj.get('steer_165853', {}).get('phi'))} rad, θ "
+        f"{number(inj.get('steer_165825', {}).get('theta'))} / {number(inj.get('steer_165853', {}).get('theta'))} rad "
         "(165825 / 165853); the authors' Drake setup gets φ 0.098 / 0.035 and θ 0.108 / 0.057. "
         "Fitted on one trial and validated on the other (the form chosen by held-out error within the training "
         "trial, `steer-fit --fit-on`) it reaches "
@@ -169,8 +165,8 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         f"{' vs '.join(f'{w:.2f}' for w in inj_w)} rad/s at the same assumed pressure). The rest angle (the robot "
         "settles a few hundredths of a radian off φ = 0) and the amplitude term are what the linear law about "
         "φ = 0 lacked (section 4 has the parameters).",
-        f"- **steer_free, hydroelastic**: φ RMSE {_f(hyd.get('steer_165825', {}).get('phi'))} / "
-        f"{_f(hyd.get('steer_165853', {}).get('phi'))} rad. A hydroelastic *sphere* exerts no restoring moment "
+        f"- **steer_free, hydroelastic**: φ RMSE {number(hyd.get('steer_165825', {}).get('phi'))} / "
+        f"{number(hyd.get('steer_165853', {}).get('phi'))} rad. A hydroelastic *sphere* exerts no restoring moment "
         "about its centre, so Drake's contact alone behaves like point contact in the steer direction; the "
         "hydroelastic model therefore carries the calibrated steer-direction restoring couple on top of the "
         "contact (scaled by `couple_stiffness_factor`, `couple_damping_factor`, fitted with the contact's own "
@@ -190,36 +186,33 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "",
         f"Shipped `majd_steer` = {json.dumps({k: round(v, 4) for k, v in steer.items()})}.",
         "",
-        "| trial | shipped majd_steer θ RMSE [rad] | Table I params, continuous law [rad] |",
-        "| --- | ---: | ---: |",
+        markdown_table([[name, number(s["shipped_rmse_rad"][name], 4), number(s["table_i_rmse_rad"][name], 4)]
+                        for name in s["shipped_rmse_rad"]],
+                       ["trial", "shipped majd_steer θ RMSE [rad]", "Table I params, continuous law [rad]"],
+                       align="lrr"),
     ]
-    for name in s["shipped_rmse_rad"]:
-        L.append(f"| {name} | {_f(s['shipped_rmse_rad'][name], 4)} | {_f(s['table_i_rmse_rad'][name], 4)} |")
     L += ["", "![stand overlay](stand_swing_overlay.png)", "",
           "### Leave one out (fit f_ω, f_c, ω_c on three trials, σ = 10 and n = 1 held; test on the fourth)", "",
-          "| held out | f_ω | f_c | ω_c | train RMSE (max) [rad] | test RMSE [rad] |",
-          "| --- | ---: | ---: | ---: | ---: | ---: |"]
-    for r in s["leave_one_out"]:
-        p = r["params"]
-        L.append(f"| {r['held_out']} | {p['f_w']:.3f} | {p['f_c']:.3f} | {p['omega_c']:.3f} | "
-                 f"{max(r['train_rmse_rad'].values()):.4f} | {r['test_rmse_rad']:.4f} |")
+          markdown_table([{**r["params"], "held_out": r["held_out"], "train": max(r["train_rmse_rad"].values()),
+                           "test": r["test_rmse_rad"]} for r in s["leave_one_out"]],
+                         [("held_out", "held out", ""), ("f_w", "f_ω", "{:.3f}"), ("f_c", "f_c", "{:.3f}"),
+                          ("omega_c", "ω_c", "{:.3f}"), ("train", "train RMSE (max) [rad]", "{:.4f}"),
+                          ("test", "test RMSE [rad]", "{:.4f}")], align="lrrrrr")]
     L += ["", "## 2. `steer_free` with the shipped calibration", "",
           f"Fixture `steer_plane` (planar joint, drive locked, pendulum free with `majd_steer`), from the logged "
           f"φ, θ and a quadratic-fit φ̇ at t = 0; pressure {cal.nominal_pressure_kpa} kPa (the calibration's "
           "nominal, the ASSUMED steer_free pressure — see `assets/calibration/default.yaml`).", "",
-          markdown_table(rows), "",
+          validation_table(rows), "",
           "Authors' Drake setup (hydroelastic 1.55e5 Pa, 0.405 s/m): φ 0.098 / 0.035 rad, θ 0.108 / 0.057 rad "
           "(165825 / 165853); point contact φ 0.44 / 0.49 rad.", "",
           "![steer_free overlay](steer_free_overlay.png)", "",
           "Model-free cross-check: a damped sinusoid fitted to the logged φ(t) (the pendulum is free, so these are "
           "not the locked-steer ω_n, ζ of the calibration):", "",
-          "| trial | ω_n [rad/s] (95 % CI) | ζ (95 % CI) | log-decrement ζ |", "| --- | --- | --- | ---: |"]
-    for name, d in res.get("steer_free_decay", {}).items():
-        if "error" in d:
-            L.append(f"| {name} | {d['error']} | | |")
-        else:
-            L.append(f"| {name} | {d['omega_n']:.3f} ({d['omega_n_ci'][0]:.3f}–{d['omega_n_ci'][1]:.3f}) | "
-                     f"{d['zeta']:.3f} ({d['zeta_ci'][0]:.3f}–{d['zeta_ci'][1]:.3f}) | {_f(d['logdec_zeta'])} |")
+          markdown_table([[name, d["error"], "", ""] if "error" in d else
+                          [name, f"{d['omega_n']:.3f} ({d['omega_n_ci'][0]:.3f}–{d['omega_n_ci'][1]:.3f})",
+                           f"{d['zeta']:.3f} ({d['zeta_ci'][0]:.3f}–{d['zeta_ci'][1]:.3f})", number(d["logdec_zeta"])]
+                          for name, d in res.get("steer_free_decay", {}).items()],
+                         ["trial", "ω_n [rad/s] (95 % CI)", "ζ (95 % CI)", "log-decrement ζ"], align="lllr")]
     L += ["", "## 3. The free robot", "",
           "Free-motion events found by `python -m sphere_env.calibration events LOG` in each free-robot log "
           "(times in s from the log's first sample; a release or push followed by free decay, the drive not "
@@ -227,23 +220,21 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
     for fname, evs in res.get("free_robot_events", {}).items():
         L.append(f"`{fname}`:")
         L.append("")
-        L.append("| start [s] | free from [s] | end [s] | kind | moved (peak to peak, rad) |")
-        L.append("| ---: | ---: | ---: | --- | --- |")
-        for e in evs:
-            mv = ", ".join(f"{k} {v:.3f}" for k, v in e["moved_rad"].items())
-            L.append(f"| {e['start_s']:.2f} | {e['free_start_s']:.2f} | {e['end_s']:.2f} | {e['kind']} | {mv} |")
+        L.append(markdown_table(
+            [{**e, "moved": ", ".join(f"{k} {v:.3f}" for k, v in e["moved_rad"].items())} for e in evs],
+            [("start_s", "start [s]", "{:.2f}"), ("free_start_s", "free from [s]", "{:.2f}"),
+             ("end_s", "end [s]", "{:.2f}"), ("kind", "kind", ""), ("moved", "moved (peak to peak, rad)", "")],
+            align="rrrll"))
         L.append("")
     if res.get("free_robot_shipped"):
         L += ["The manifest's free windows (`fixture: free`, zero torque, drive free with `majd_drive`, from the "
               "logged state at the window start) with the shipped calibration at its nominal pressure (the "
               "free robot's pressure was not recorded):", "",
-              "| trial | window [s] | model | RMSE φ [rad] | RMSE θ [rad] | RMSE α [rad] | RMSE ω_d [rad/s] |",
-              "| --- | --- | --- | ---: | ---: | ---: | ---: |"]
-        for r in res["free_robot_shipped"]:
-            w = r.get("window_s") or ["", ""]
-            L.append(f"| {r['trial']} | {w[0]}–{w[1]} | {r['model']} | {_f(r.get('rmse_phi_rad'))} | "
-                     f"{_f(r.get('rmse_theta_rad'))} | {_f(r.get('rmse_pendulum_pitch_rad'))} | "
-                     f"{_f(r.get('rmse_omega_d_rad_s'))} |")
+              markdown_table(res["free_robot_shipped"], [
+                  ("trial", "trial", ""), ("window_s", "window [s]", lambda w: "{}–{}".format(*(w or ["", ""]))),
+                  ("model", "model", ""), ("rmse_phi_rad", "RMSE φ [rad]", number),
+                  ("rmse_theta_rad", "RMSE θ [rad]", number), ("rmse_pendulum_pitch_rad", "RMSE α [rad]", number),
+                  ("rmse_omega_d_rad_s", "RMSE ω_d [rad/s]", number)], align="lllrrrr")]
         L += ["", "ω_d of the free robot is derived from the logs (pendulum_pitch_rate - drive_rate), not measured.",
               "", "![free robot overlay](free_robot_overlay.png)"]
     L += ["", "## 4. Cross-validation: fit on one segment, validate on the others", "",
@@ -253,13 +244,13 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
           crossval_table(res["cross_validation"]), ""]
     summ = res.get("cross_validation_summary", {})
     if summ:
-        L += ["| group / model | worst φ on the fit segment [rad] | worst φ held out [rad] |",
-              "| --- | ---: | ---: |"]
-        for k, v in summ.items():
-            L.append(f"| {k} | {_f(v['worst_fit_phi_rad'])} | {_f(v['worst_held_out_phi_rad'])} |")
+        L.append(markdown_table([[k, number(v["worst_fit_phi_rad"]), number(v["worst_held_out_phi_rad"])]
+                                 for k, v in summ.items()],
+                                ["group / model", "worst φ on the fit segment [rad]", "worst φ held out [rad]"],
+                                align="lrr"))
     if "sensitivity" in res:
         L += ["", "## 5. Hydroelastic sensitivity (paper Fig. 11)", "",
               "`locked_steer`, hydroelastic, released at φ = 0.15 rad, no joint friction; ζ from a damped-sinusoid "
               "fit of φ(t). Modulus and dissipation scaled ±50 % one at a time around the calibration.", "",
-              sweep_table(res["sensitivity"]), "", "![sensitivity](hydroelastic_sensitivity.png)"]
+              sensitivity_table(res["sensitivity"]), "", "![sensitivity](hydroelastic_sensitivity.png)"]
     return "\n".join(L) + "\n"

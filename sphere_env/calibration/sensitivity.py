@@ -21,6 +21,7 @@ from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.parallel import run_parallel
 from sphere_env.plotting import save_figure
+from sphere_env.reporting import markdown_table
 
 CASES = (("control", 1.0, 1.0), ("modulus -50%", 0.5, 1.0), ("modulus +50%", 1.5, 1.0),
          ("dissipation -50%", 1.0, 0.5), ("dissipation +50%", 1.0, 1.5))
@@ -82,14 +83,15 @@ def sweep(
     return rows
 
 
-def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    lines = ["| p [kPa] | case | modulus [Pa] | dissipation [s/m] | ω_n [rad/s] | ζ sim | ζ curve | Δζ vs control [%] | ζ error vs curve [%] |",
-             "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for r in rows:
-        lines.append(f"| {r['pressure_kpa']:.2f} | {r['case']} | {r['modulus_pa']:.3g} | {r['dissipation_s_per_m']:.3f} | "
-                     f"{r['omega_n']:.3f} | {r['zeta']:.3f} | {r['zeta_curve']:.3f} | {r['zeta_change_pct']:+.1f} | "
-                     f"{r['zeta_error_vs_curve_pct']:+.1f} |")
-    return "\n".join(lines)
+def sensitivity_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    """A Markdown table of :func:`sweep`'s rows."""
+    return markdown_table(rows, [
+        ("pressure_kpa", "p [kPa]", "{:.2f}"), ("case", "case", ""), ("modulus_pa", "modulus [Pa]", "{:.3g}"),
+        ("dissipation_s_per_m", "dissipation [s/m]", "{:.3f}"), ("omega_n", "ω_n [rad/s]", "{:.3f}"),
+        ("zeta", "ζ sim", "{:.3f}"), ("zeta_curve", "ζ curve", "{:.3f}"),
+        ("zeta_change_pct", "Δζ vs control [%]", "{:+.1f}"),
+        ("zeta_error_vs_curve_pct", "ζ error vs curve [%]", "{:+.1f}"),
+    ], align="rlrrrrrrr")
 
 
 def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:

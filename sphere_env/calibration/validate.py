@@ -27,6 +27,7 @@ from sphere_env.files import write_text_atomic
 from sphere_env.parallel import run_parallel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
+from sphere_env.reporting import markdown_table, number
 
 METRICS = ("phi", "theta", "omega_d")
 TOLERANCE_KEYS = METRICS + ("pendulum_pitch", "pme")
@@ -198,16 +199,15 @@ def tolerance_failures(rows: Sequence[ValidationRow], tol: Mapping[str, float],
     return bad
 
 
-def markdown_table(rows: Sequence[ValidationRow]) -> str:
+def validation_table(rows: Sequence[ValidationRow]) -> str:
     """A Markdown table of the rows (RMSE in rad or rad/s, PME in %)."""
-    lines = ["| trial | fixture | model | RMSE φ [rad] | RMSE θ [rad] | RMSE ω_d [rad/s] | RMSE α [rad] | PME [%] |",
-             "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |"]
-    f = lambda x, d=3: "—" if not math.isfinite(x) else f"{x:.{d}f}"  # noqa: E731
-    for r in rows:
-        lines.append(f"| {r.trial} | {r.fixture} | {r.model} | {f(r.rmse['phi'])} | {f(r.rmse['theta'])} | "
-                     f"{f(r.rmse['omega_d'])} | {f(r.rmse.get('pendulum_pitch', math.nan))} | "
-                     f"{f(r.pme_percent, 1)} |")
-    return "\n".join(lines)
+    table = [{"trial": r.trial, "fixture": r.fixture, "model": r.model, "phi": r.rmse["phi"], "theta": r.rmse["theta"],
+              "omega_d": r.rmse["omega_d"], "alpha": r.rmse.get("pendulum_pitch", math.nan), "pme": r.pme_percent}
+             for r in rows]
+    return markdown_table(table, [("trial", "trial", ""), ("fixture", "fixture", ""), ("model", "model", ""),
+                                  ("phi", "RMSE φ [rad]", number), ("theta", "RMSE θ [rad]", number),
+                                  ("omega_d", "RMSE ω_d [rad/s]", number), ("alpha", "RMSE α [rad]", number),
+                                  ("pme", "PME [%]", lambda x: number(x, 1))], align="lllrrrrr")
 
 
 def plot_overlays(path: str | Path, logs: Sequence[RobotLog], rows: Sequence[ValidationRow]) -> Path:

@@ -1,0 +1,170 @@
+"""Recorded rollouts: an env id's behaviour does not change while its version does not.
+
+For every registered id (:data:`sphere_env.ENV_IDS`) with the point and the injected shell, plus a
+short hydroelastic episode (20 steps) and one with every randomized parameter, sensing and
+actuation fault, the observation history and the privileged observations, :data:`CASES` holds a
+seeded episode prefix: ``gym.make(id, **kwargs)``, ``reset(seed=SEED)``, then up to ``steps`` actions drawn
+uniformly in [-1, 1] from ``np.random.default_rng(ACTION_SEED)`` (the prefix stops early if the
+episode ends). ``tests/data/recorded_rollouts/<case>.npz`` holds what that episode returned, as
+float64 (exact for the env's float32 observations): the actions, observations, rewards,
+terminated/truncated, every numeric ``info`` entry (``params`` flattened as ``params/<name>``,
+vectors as ``name[i]``) and the other entries (shell model, fired events, ...) as JSON text, step
+0 being the reset. The test
+re-runs each case and requires every value to be bit-identical (``np.array_equal``, NaN equal to
+NaN); a failure names the case, the step and the first component that differs.
+
+**Re-recording.** A change that alters what an existing id returns is a new env version: register
+the new id in :data:`sphere_env.ENV_IDS` (for example ``sphere_env/RampDescent-v4``) with the new
+behaviour and leave the old ids as they were, so their recordings keep passing untouched. Record
+the new id's cases (the cases are generated from ``ENV_IDS``; ``test_every_registered_id_is_recorded``
+fails until they exist) from the repository root with::
+
+    .venv/bin/python -m tests.envs.test_recorded_rollouts sphere_env/RampDescent-v4
+
+(arguments: env ids or case names; none = every case). Re-record an existing id only when its
+behaviour changed for a reason that is not a change of the env (a new Drake or NumPy release
+changing the floating-point results): then re-record every case and say why in the commit message.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sphere_env
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "recorded_rollouts"
+SEED = 7
+ACTION_SEED = 11
+STEPS = 60
+#: Every randomized parameter (the ``full`` preset) and every sensing and actuation fault at once; the
+#: motor torque scale is drawn again every 0.3 s (interval events).
+FAULTS = {"base": "full", "observation_noise_scale": 1.0, "action_latency_steps": 1,
+          "motor_torque_scale": {"distribution": "uniform", "low": 0.8, "high": 1.0, "mode": "interval",
+                                 "interval_s": 0.3}}
+
+
+def _cases() -> dict[str, dict[str, Any]]:
+    cases = {}
+    for env_id in sphere_env.ENV_IDS:
+        for shell in ("point", "injected"):
+            cases[f"{env_id.split('/')[-1]}_{shell}"] = {"env_id": env_id, "kwargs": {"shell_model": shell},
+                                                         "steps": STEPS}
+    cases["RampDescent-v3_injected_faults"] = {
+        "env_id": "sphere_env/RampDescent-v3", "steps": STEPS,
+        "kwargs": {"shell_model": "injected", "randomization": FAULTS, "observation_history_steps": 2,
+                   "observe_pressure": True, "observe_shell_model": True}}
+    cases["Roll-v1_hydroelastic"] = {"env_id": "sphere_env/Roll-v1", "kwargs": {"shell_model": "hydroelastic"},
+                                     "steps": 20}
+    return cases
+
+
+#: case name -> {"env_id", "kwargs", "steps"}
+CASES = _cases()
+
+
+def _flatten(info: dict[str, Any]) -> tuple[dict[str, float], dict[str, Any]]:
+    """(numeric entries, one per component: ``name`` or ``name[i]``; the other entries) of a
+    step's ``info``."""
+    numeric: dict[str, float] = {}
+    other: dict[str, Any] = {}
+    items = [(k, v) for k, v in info.items() if k != "params"]
+    items += [(f"params/{k}", v) for k, v in info.get("params", {}).items()]
+    for key, value in items:
+        arr = np.asarray(value)
+        if arr.dtype.kind not in "biuf":
+            other[key] = value
+        elif arr.ndim == 0:
+            numeric[key] = float(arr)
+        else:
+            numeric.update({f"{key}[{i}]": float(x) for i, x in enumerate(arr.ravel())})
+    return numeric, other
+
+
+def run_case(case: dict[str, Any]) -> dict[str, np.ndarray]:
+    """The arrays of one case's episode prefix (the layout of the recorded files)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # gymnasium flags the superseded versions as out of date
+        env = gym.make(case["env_id"], **case["kwargs"])
+    try:
+        rng = np.random.default_rng(ACTION_SEED)
+        obs, info = env.reset(seed=SEED)
+        steps = [(np.full(2, np.nan), obs, np.nan, False, False, info)]
+        for _ in range(case["steps"]):
+            action = rng.uniform(-1, 1, 2).astype(np.float32)
+            obs, reward, terminated, truncated, info = env.step(action)
+            steps.append((action, obs, reward, terminated, truncated, info))
+            if terminated or truncated:
+                break
+    finally:
+        env.close()
+    infos = [_flatten(s[5]) for s in steps]
+    names = sorted(set().union(*(numeric for numeric, _ in infos)))
+    return {"action": np.array([s[0] for s in steps], dtype=np.float64),
+           "observation": np.array([s[1] for s in steps], dtype=np.float64),
+           "reward": np.array([s[2] for s in steps], dtype=np.float64),
+           "terminated": np.array([s[3] for s in steps]), "truncated": np.array([s[4] for s in steps]),
+           # an entry absent from a step's info is NaN there; which are present is in info_present
+           "info_names": np.array(names),
+           "info": np.array([[numeric.get(k, np.nan) for k in names] for numeric, _ in infos], dtype=np.float64),
+           "info_present": np.array([[k in numeric for k in names] for numeric, _ in infos]),
+           "info_other": np.array([json.dumps(other, sort_keys=True, default=str) for _, other in infos])}
+
+
+def record(names: list[str]) -> None:
+    """Write the recordings of the named cases (or of every case of these env ids)."""
+    DATA.mkdir(parents=True, exist_ok=True)
+    for name, case in CASES.items():
+        if names and name not in names and case["env_id"] not in names:
+            continue
+        path = DATA / f"{name}.npz"
+        np.savez_compressed(path, **run_case(case))
+        print(f"{path.relative_to(Path.cwd()) if path.is_relative_to(Path.cwd()) else path}: "
+              f"{path.stat().st_size / 1e3:.1f} kB")
+
+
+#: What each step is compared on, in this order.
+COMPONENTS = ("action", "observation", "reward", "terminated", "truncated", "info_present", "info", "info_other")
+
+
+def test_every_registered_id_is_recorded():
+    missing = [name for name in CASES if not (DATA / f"{name}.npz").is_file()]
+    assert not missing, f"no recording of {missing}: record them (module docstring)"
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_rollout_is_bit_identical_to_the_recording(name):
+    case = CASES[name]
+    path = DATA / f"{name}.npz"
+    if not path.is_file():
+        pytest.fail(f"{case['env_id']} ({name}): no recording at {path} (module docstring)")
+    with np.load(path) as f:
+        recorded = dict(f)
+    now = run_case(case)
+    where = f"{case['env_id']} with {case['kwargs']} (case {name})"
+    assert len(now["reward"]) == len(recorded["reward"]), \
+        f"{where}: the episode prefix has {len(now['reward']) - 1} steps, recorded {len(recorded['reward']) - 1}"
+    names = list(recorded["info_names"])
+    assert list(now["info_names"]) == names, \
+        f"{where}: numeric info entries differ: {sorted(set(now['info_names']) ^ set(names))}"
+    for t in range(len(recorded["reward"])):
+        for comp in COMPONENTS:
+            a, b = recorded[comp][t], now[comp][t]
+            if np.array_equal(a, b, equal_nan=a.dtype.kind == "f"):
+                continue
+            if np.ndim(a) == 0:
+                pytest.fail(f"{where}: step {t} (0 = reset) differs first in {comp!r}: recorded {a!r}, now {b!r}")
+            i = next(i for i, (x, y) in enumerate(zip(a, b)) if not (x == y or (x != x and y != y)))
+            part = f"info {names[i]!r}" if comp.startswith("info") else f"{comp}[{i}]"
+            pytest.fail(f"{where}: step {t} (0 = reset) differs first in {part}: recorded {a[i]!r}, now {b[i]!r}")
+
+
+if __name__ == "__main__":
+    record(sys.argv[1:])
