@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install constraints demo lint test test-fast bench chromium clean
+.PHONY: install constraints demo lint test test-fast bench docs chromium clean
 
 # torch is installed first and on its own: the CPU wheel of 2.13.0 is small, any other resolution
 # pulls several GB of CUDA packages. Everything else comes at the tested versions of constraints.txt.
@@ -43,6 +43,11 @@ test-fast: $(STAMP) chromium
 
 bench: $(STAMP)
 	$(PY) -m evaluation.experiments.benchmark
+
+# The measured numbers of README.md and docs/ (their <!-- generated: NAME --> blocks), rendered from the
+# committed results files in evaluation/results; nothing is simulated.
+docs: $(STAMP)
+	$(PY) -m evaluation.experiments.docs
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -1,6 +1,6 @@
 """Plant time-step accuracy study against a 0.5 ms reference.
 
-Writes ``evaluation/results/timestep_study.md``. For each shell model and time step it runs
+Writes ``evaluation/results/timestep_study.{md,json}``. For each shell model and time step it runs
   * ramp: 6 s from rest down the 16° ramp (4 m, flat run-out), Majd friction on both joints:
     RMSE of ω_d against the reference, relative to the reference's peak |ω_d|;
   * rock: locked-steer free decay from φ = 0.05 rad: ω_n and ζ relative errors;
@@ -12,12 +12,14 @@ and for the stand fixture (Majd steer friction, θ0 = 0.4 rad) the θ RMSE again
 from __future__ import annotations
 
 import argparse
+import json
 from datetime import datetime, timezone
 
 import numpy as np
 
 from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.evaluation.reporting import RESULTS, machine_info
+from sphere_env.files import write_text_atomic
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.reporting import markdown_table
@@ -84,6 +86,8 @@ def main(argv: list[str] | None = None) -> None:
     ])
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "timestep_study.md").write_text(text)
+    write_text_atomic(RESULTS / "timestep_study.json", json.dumps(
+        {"machine": info, "reference_ms": min(args.steps_ms), "rows": rows}, indent=2, default=float) + "\n")
     print(text)
 
 

@@ -1,0 +1,3 @@
+from sphere_env.evaluation.experiments.docs import main
+
+raise SystemExit(main())

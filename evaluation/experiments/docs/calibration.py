@@ -1,0 +1,101 @@
+"""Blocks of ``docs/calibration.md``: ``validation/results.json``."""
+
+from __future__ import annotations
+
+from sphere_env.evaluation.experiments.docs.base import Results, kpa, renders, signed, slash, span, table
+
+#: Published references of the paper's authors (not measured here) and the held-out aim of the fits.
+AUTHORS_STAND_RMSE = "authors 0.020–0.028"
+AUTHORS_DRAKE = {"steer_165825": (0.098, 0.108), "steer_165853": (0.035, 0.057)}
+AUTHORS_POINT_PHI = "authors' point: 0.44 / 0.49"
+AIM_HELD_OUT_PHI = 0.06
+
+
+def _validation(res: Results) -> dict:
+    return res.json("validation/results.json")
+
+
+def _xval(v: dict, group: str, model: str) -> list[dict]:
+    return [x for x in v["cross_validation"] if x["group"] == group and x["model"] == model and x["fit_on"]]
+
+
+def _held_out(x: dict, key: str) -> float:
+    return next(r[key] for r in x["records"] if r["role"] == "held out")
+
+
+def _fitted(x: dict, key: str) -> float:
+    return next(r[key] for r in x["records"] if r["role"] == "fit")
+
+
+@renders("validation_runtime")
+def validation_runtime(res: Results) -> str:
+    return f"about {_validation(res)['runtime_s'] / 60:.0f} min"
+
+
+@renders("validation_table")
+def validation_table(res: Results) -> str:
+    v = _validation(res)
+    s = v["stand_swing"]
+    trials = list(AUTHORS_DRAKE)
+    short = slash(t.split("_")[-1] for t in trials)
+    shipped = {(r["model"], r["trial"]): r["rmse"] for r in v["steer_free_shipped"]}
+
+    def three(x: float) -> str:
+        return f"{x:.3f}"
+
+    rows = [["stand_swing, shipped `majd_steer`", f"{len(s['shipped_rmse_rad'])} trials", "—", "—",
+             span(s["shipped_rmse_rad"].values(), lambda x: f"{x:.4f}"), AUTHORS_STAND_RMSE],
+            ["stand_swing, leave-one-out (test trial)", f"{len(s['leave_one_out'])} trials", "—", "—",
+             span((r["test_rmse_rad"] for r in s["leave_one_out"]), lambda x: f"{x:.4f}"), ""]]
+    for model in ("injected", "hydroelastic", "point"):
+        ref = {"injected": "authors' Drake: φ " + slash(a[0] for a in AUTHORS_DRAKE.values()) + ", θ "
+               + slash(a[1] for a in AUTHORS_DRAKE.values()), "point": AUTHORS_POINT_PHI}.get(model, "")
+        rows.append(["steer_free, shipped calibration", short, model,
+                     slash((shipped[(model, t)]["phi"] for t in trials), three),
+                     slash((shipped[(model, t)]["theta"] for t in trials), three), ref])
+    for model in ("injected", "hydroelastic"):
+        xs = sorted(_xval(v, "steer_free", model), key=lambda x: trials.index(x["fit_on"]))
+        arrows = slash(f"{x['fit_on'][-3:]}→{next(r['trial'] for r in x['records'] if r['role'] == 'held out')[-3:]}"
+                        for x in xs)
+        rows.append(["steer_free, fit on one trial, **test on the other**", arrows, model,
+                     slash((_held_out(x, "rmse_phi_rad") for x in xs), three),
+                     slash((_held_out(x, "rmse_theta_rad") for x in xs), three), f"aim φ ≤ {AIM_HELD_OUT_PHI:g}"])
+    free = {r["model"]: r for r in v["free_robot_shipped"]}
+    fits = {m: _xval(v, "free_robot", m)[0] for m in ("injected", "hydroelastic")}
+    w0, w1 = free["injected"]["window_s"]
+    pair = ("injected", "hydroelastic")
+    rows += [[f"free robot, release at {w0:.1f} s, shipped calibration", f"{w1 - w0:.0f} s window", " / ".join(pair),
+              slash((free[m]["rmse_phi_rad"] for m in pair), three),
+              slash((free[m]["rmse_theta_rad"] for m in pair), three), ""],
+             [f"free robot, release at {w0:.1f} s, **fitted on it** (a fit, not a test)", f"{w1 - w0:.0f} s window",
+              " / ".join(pair), slash((_fitted(fits[m], "rmse_phi_rad") for m in pair), three),
+              slash((_fitted(fits[m], "rmse_theta_rad") for m in pair), three), f"aim φ ≤ {AIM_HELD_OUT_PHI:g}"]]
+    return table(["check", "segment", "model", "RMSE φ [rad]", "RMSE θ [rad]", "reference"], rows,
+                  ["left", "left", "left", "right", "right", "left"])
+
+
+@renders("validation_gaps")
+def validation_gaps(res: Results) -> str:
+    v = _validation(res)
+    worst = {m: max(_held_out(x, "rmse_phi_rad") for x in _xval(v, "steer_free", m))
+             for m in ("injected", "hydroelastic")}
+    over = "over" if min(worst.values()) > AIM_HELD_OUT_PHI else "against"
+    omega = [x["params"]["omega_n"] for x in _xval(v, "steer_free", "injected")]
+    return (f"φ is {worst['injected']:.3f} (injected) and {worst['hydroelastic']:.3f} rad (hydroelastic) in the worse "
+            f"direction, {over} the {AIM_HELD_OUT_PHI:g} aim; the two trials want different stiffness at the same "
+            f"assumed pressure (ω_n {' vs '.join(f'{w:.2f}' for w in omega)} rad/s)")
+
+
+@renders("validation_free_theta")
+def validation_free_theta(res: Results) -> str:
+    v = _validation(res)
+    pair = ("injected", "hydroelastic")
+    return (f"{slash((_fitted(_xval(v, 'free_robot', m)[0], 'rmse_theta_rad') for m in pair), lambda x: f'{x:.3f}')} "
+            "rad (injected / hydroelastic) even when fitted on it")
+
+
+@renders("validation_hydro_zeta")
+def validation_hydro_zeta(res: Results) -> str:
+    rows = [r for r in _validation(res)["sensitivity"] if r["case"] == "control"]
+    return (f"{slash((r['zeta_error_vs_curve_pct'] for r in rows), lambda x: signed(x, 0))} % at "
+            f"{slash((r['pressure_kpa'] for r in rows), kpa)} kPa")
