@@ -318,7 +318,7 @@ def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None
     if pressures is None:
         lo, hi = cal.pressure_range_kpa
         return [float(lo), float(cal.nominal_pressure_kpa), float(hi)]
-    return [cal.check_pressure(p, "eval_pressures_kpa") for p in pressures]
+    return [cal.check_pressure(p, "field 'eval_pressures_kpa'") for p in pressures]
 
 
 def _env_error(err: Exception, prefix: str) -> ValueError:

@@ -78,17 +78,24 @@ def _as_path(value: Any) -> Any:
     return Path(value) if isinstance(value, str) and value else value
 
 
-def _output_folder(folder: Path) -> Path:
-    """A folder to write into: neither it nor any of its parents may be a file."""
-    for p in (folder, *folder.parents):
-        if p.exists() and not p.is_dir():
-            raise ValueError(f"cannot be an output folder: {str(p)!r} is a file")
-    return folder
+def _output_path(kind: str):
+    """An after-validator of a path to write a ``kind`` (``folder`` or ``file``) to: none of its
+    parents may be a file, a folder's path no file and a file's path no folder."""
+    def check(path: Path) -> Path:
+        for p in (path, *path.parents):
+            if p.exists() and (p.is_dir() if kind == "file" and p == path else not p.is_dir()):
+                raise ValueError(f"cannot be an output {kind}: {str(p)!r} is a {'folder' if p.is_dir() else 'file'}")
+        return path
+    return check
 
 
 #: A folder to write into (created when missing; neither it nor a parent may be a file).
-OutputFolder = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_folder), Field(
+OutputFolder = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_path("folder")), Field(
     json_schema_extra=allowed("a folder path (created when missing); none of its parents a file"))]
+#: A file to write (its folder created when missing; it may not be a folder, nor a parent a file).
+OutputFile = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_path("file")), Field(
+    json_schema_extra=allowed("a file path (its folder created when missing); not a folder, none of its parents "
+                              "a file"))]
 #: A file to read (its contents are checked by the reader).
 InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]
 
