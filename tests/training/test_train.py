@@ -88,7 +88,8 @@ def test_layout_overrides_replace_the_files_layout():
 
 
 def test_bad_randomization_message_names_field():
-    with pytest.raises(ValueError, match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: outside the calibrated range"):
+    with pytest.raises(ValueError, match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: .*; allowed: "
+                                         r"\[3\.0, 14\.0\] kPa, the calibrated range"):
         resolve_config(RAMP, "ppo", env_kwargs={"randomization": {"pressure_kpa": [1.0, 50.0]}})
 
 
