@@ -101,7 +101,7 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
         except Exception as err:  # noqa: BLE001 - an unreadable config.yaml
             raise ValueError(f"controller: {spec!r}: {folder / 'config.yaml'} cannot be read: {err}") from None
         if env_id is not None and cfg.env_id != env_id and not allow_env_mismatch:
-            raise ValueError(f"controller: {spec!r} was trained on {cfg.env_id!r}, not on the evaluated env "
+            raise ValueError(f"env: {spec!r} was trained on {cfg.env_id!r}, not on the evaluated env "
                              f"{env_id!r}; pass --allow-env-mismatch to evaluate it there anyway")
         try:
             algo_class(cfg.algo).load(model, device="cpu")

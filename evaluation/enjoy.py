@@ -57,20 +57,9 @@ class EnjoySpec(EnjoyFields):
         folder = run_path(path)
         cfg = load_config(folder)  # "run: ... has no config.yaml" / cannot be read
         which = which or "model"
-        model_dir = folder / "best" if which == "best" else folder
-        model = model_dir / ("best_model.zip" if which == "best" else "model.zip")
-        if not model.is_file():
-            raise ValueError(f"run: {str(model)!r} is missing (training unfinished?)")
-        stats = model_dir / "vecnormalize.pkl"
-        if cfg.normalize is not None and not stats.is_file():
-            raise ValueError(f"run: {str(stats)!r} is missing: the policy was trained on VecNormalize-d "
-                             "observations and cannot act without those statistics")
         env_id = self.env_id or cfg.env_id
-        if env_id != cfg.env_id and not self.allow_env_mismatch:
-            raise ValueError(f"env: {self.run!r} was trained on {cfg.env_id!r}, not on {env_id!r}; pass "
-                             "--allow-env-mismatch to run it there anyway")
-        try:
-            check_spec(f"{folder}@{which}", None)  # the model and its statistics load
+        try:  # the model and its statistics are there and load, trained on env_id (or allowed not to be)
+            check_spec(f"{folder}@{which}", env_id, self.allow_env_mismatch)
         except ValueError as err:
             raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
         env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **self.env_kwargs}

@@ -41,9 +41,10 @@ import secrets
 import shutil
 import time
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Annotated, Any, Literal, Mapping, Sequence
 
 import numpy as np
+from pydantic import Field
 
 from sphere_env.cli import parse_env_kwargs, renamed
 from sphere_env.evaluation.cells import run_jobs, save_replay
@@ -61,7 +62,7 @@ from sphere_env.evaluation.sweep_report import (
 from sphere_env.files import staged_folder
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.parallel import default_workers
-from sphere_env.schemas import validate
+from sphere_env.schemas import allowed, checker, validate
 from sphere_env.schemas.evaluation import EvaluateOptions, ReplayCell, SweepFields
 
 #: What a sweep writes into ``out`` (replaced as a whole when ``out`` is reused).
@@ -135,10 +136,9 @@ def replay_job(cell: ReplayCell, spec: SweepSpec, i: int = 0) -> dict[str, Any]:
     inside the calibrated range."""
     from sphere_env.models.shell import ShellCalibration
 
-    ctrl = cell.controller or spec.labels[0]
-    if ctrl not in spec.labels:
-        raise ValueError(f"field 'replays[{i}].controller' = {ctrl!r}: not a controller of the sweep; allowed: "
-                         f"{spec.labels}")
+    ctrl = checker(Annotated[Literal[tuple(spec.labels)], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
+        f"a label of the sweep's controllers {spec.labels}"))])(cell.controller or spec.labels[0],
+                                                                f"field 'replays[{i}].controller'")
     p = spec.pressures_kpa[len(spec.pressures_kpa) // 2] if cell.pressure_kpa is None else cell.pressure_kpa
     ShellCalibration.load(spec.env_kwargs.get("calibration")).check_pressure(p, f"field 'replays[{i}].pressure_kpa'")
     cspec = spec.controllers[spec.labels.index(ctrl)].spec

@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Annotated, Any, Callable, Literal
 
 import numpy as np
+from pydantic import Field
 
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.params import GRAVITY_M_S2, PARAMETERS
+from sphere_env.schemas import allowed, checker
 from sphere_env.tasks.observation import MEASURED_INDEX, N_MEASURED
 
 DEFAULT_STEER_TORQUE_LIMIT_NM = PARAMETERS["steer_torque_limit_nm"].nominal
@@ -153,13 +155,14 @@ def pd_preset(env: Any) -> dict[str, float]:
     return PD_PRESETS.get(u.task.name, {})
 
 
+_BASELINE = checker(Annotated[Literal["pd", "zero"], Field(json_schema_extra=allowed("['pd', 'zero']"))])
+
+
 def controller_for(env: Any, name: str = "pd") -> Callable:
     """The named controller (``"pd"`` or ``"zero"``) configured for ``env`` (task preset, limits,
     control period, command mode)."""
-    if name == "zero":
+    if _BASELINE(name, "field 'name'") == "zero":
         return ZeroTorqueController()
-    if name != "pd":
-        raise ValueError(f"name: unknown controller {name!r}; allowed: ['pd', 'zero']")
     u = env.unwrapped
     layout = u.observation_layout
     if layout.command.start != CMD_SPEED or len(layout.command_names) < 2 or layout.command_names[0] != "omega_ref":

@@ -16,6 +16,8 @@ from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+from sphere_env.schemas import checker, count
+
 
 def default_workers() -> int:
     """Usable cores (respects CPU affinity), at least 1."""
@@ -23,6 +25,10 @@ def default_workers() -> int:
         return max(len(os.sched_getaffinity(0)), 1)
     except AttributeError:  # pragma: no cover - not Linux
         return max(os.cpu_count() or 1, 1)
+
+
+#: Processes of a pool: an integer >= 1, or None for every usable core.
+_WORKERS = checker(count(1) | None)
 
 
 def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[str, Any]],
@@ -34,11 +40,10 @@ def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[
     ``ray.init(address=...)`` (``auto``, ``ray://host:10001``); needs ``pip install -e .[ray]``.
     """
     jobs = list(jobs)
+    workers = _WORKERS(workers, "workers")
     if ray_address is not None:
         return _run_ray(fn, jobs, ray_address, workers)
-    n = default_workers() if workers is None else int(workers)
-    if n < 1:
-        raise ValueError(f"workers: value {workers!r} must be >= 1")
+    n = default_workers() if workers is None else workers
     if n == 1 or len(jobs) <= 1:
         it: Sequence[Any] | Iterable[Any] = map(fn, jobs)
     else:

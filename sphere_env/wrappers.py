@@ -20,12 +20,13 @@ stand-alone network.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Annotated, Any, Literal, Mapping, Sequence
 
 import gymnasium as gym
 import numpy as np
+from pydantic import Field
 
-from sphere_env.schemas import validate
+from sphere_env.schemas import allowed, checker, validate
 from sphere_env.schemas.env import ResidualKwargs, ShellModelMixtureKwargs
 
 
@@ -125,9 +126,9 @@ class ShellModelMixture(gym.Wrapper):
 
     def __init__(self, env: gym.Env, shell_models: Sequence[str] = ("point", "injected")):
         models = validate(ShellModelMixtureKwargs, {"shell_models": shell_models}, "ShellModelMixture").shell_models
-        own = env.unwrapped.shell_model
-        if own not in models:
-            raise ValueError(f"shell_models: value {shell_models!r} does not include the env's own shell model {own!r}")
+        # the wrapped env's own shell model is one of the mixture's
+        own = checker(Annotated[Literal[tuple(models)], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
+            f"one of shell_models {list(models)}"))])(env.unwrapped.shell_model, "ShellModelMixture: the env's shell_model")
         if env.spec is None:
             raise ValueError("env: ShellModelMixture needs an env made by gymnasium.make (it builds its siblings "
                              "from the env's spec)")

@@ -169,8 +169,9 @@ class TrainConfig:
         return out
 
 
-def load_section(path: str | Path, env_id: str) -> dict[str, Any]:
-    """The mapping for ``env_id`` in a hyperparameter YAML file."""
+def load_section(path: str | Path, env_id: str) -> Any:
+    """The section for ``env_id`` in a hyperparameter YAML file, as written (a mapping, else refused
+    by :func:`~sphere_env.schemas.training.check_section`)."""
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text())
@@ -179,10 +180,7 @@ def load_section(path: str | Path, env_id: str) -> dict[str, Any]:
     if not isinstance(data, Mapping) or env_id not in data:
         have = sorted(data) if isinstance(data, Mapping) else []
         raise ValueError(f"env: no section for {env_id!r} in {str(path)!r}; sections: {have}")
-    section = data[env_id]
-    if not isinstance(section, Mapping):
-        raise ValueError(f"hyperparams: section {env_id!r} in {str(path)!r} must be a mapping")
-    return copy.deepcopy(dict(section))
+    return copy.deepcopy(data[env_id])
 
 
 def _normalize(value: Any) -> dict[str, Any] | None:
@@ -264,15 +262,17 @@ def resolve_config(
                                                  else eval_pressures_kpa), tensorboard_log=tensorboard_log)
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
-    overrides = dict(overrides or {})
-    # An override choosing one layout replaces the file's other one (n_threads vs n_workers).
-    for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
-        if overrides.get(key) is not None and other not in overrides:
-            section.pop(other, None)
-    for key, val in overrides.items():
-        section[key] = copy.deepcopy(val)
+    if isinstance(section, Mapping):  # else refused by check_section, naming the file's section
+        section = dict(section)
+        overrides = dict(overrides or {})
+        # An override choosing one layout replaces the file's other one (n_threads vs n_workers).
+        for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
+            if overrides.get(key) is not None and other not in overrides:
+                section.pop(other, None)
+        for key, val in overrides.items():
+            section[key] = copy.deepcopy(val)
 
-    spec = check_section(algo, section)
+    spec = check_section(algo, section, f"hyperparams file {str(path)!r}, section {env_id!r}")
     given = spec.model_dump(exclude_unset=True)
     hyper = {k: plain_data(v) for k, v in given.items() if k not in SPECIAL_KEYS}
     kwargs = dict(spec.env_kwargs)
@@ -318,7 +318,7 @@ def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None
     if pressures is None:
         lo, hi = cal.pressure_range_kpa
         return [float(lo), float(cal.nominal_pressure_kpa), float(hi)]
-    return [cal.check_pressure(p, "eval_pressures_kpa") for p in pressures]
+    return [cal.check_pressure(p, "field 'eval_pressures_kpa'") for p in pressures]
 
 
 def _env_error(err: Exception, prefix: str) -> ValueError:

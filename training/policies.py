@@ -15,12 +15,15 @@ Registered with PPO under the name ``AsymmetricMlpPolicy`` on import of
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
 import gymnasium as gym
 import torch as th
+from pydantic import Field
 from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+from sphere_env.schemas import Finite, allowed, checker, count, fixed_tuple
 
 
 class DropPrivileged(BaseFeaturesExtractor):
@@ -51,17 +54,14 @@ class AsymmetricActorCriticPolicy(ActorCriticPolicy):
 
     def __init__(self, observation_space: gym.spaces.Box, action_space: gym.spaces.Space, lr_schedule: Any,
                  *args: Any, privileged_dims: int = 0, log_std_init: float | list[float] = 0.0, **kwargs: Any):
-        n = int(observation_space.shape[0])
-        per_action = list(log_std_init) if isinstance(log_std_init, (list, tuple)) else None
-        if per_action is not None and len(per_action) != int(action_space.shape[0]):
-            raise ValueError(f"policy_kwargs.log_std_init: value {log_std_init!r} must be one number or "
-                             f"{int(action_space.shape[0])} (one per action component)")
+        n, n_actions = int(observation_space.shape[0]), int(action_space.shape[0])
+        log_std_init = checker(Annotated[Finite | fixed_tuple(Finite, n_actions, ""), Field(json_schema_extra=allowed(
+            f"a finite number, or {n_actions} (one per action component)"))])(log_std_init, "policy_kwargs.log_std_init")
+        per_action = list(log_std_init) if isinstance(log_std_init, tuple) else None
         self._log_std_per_action = per_action
         kwargs["log_std_init"] = 0.0 if per_action is not None else log_std_init
-        if isinstance(privileged_dims, bool) or not isinstance(privileged_dims, int) or not 0 <= privileged_dims < n:
-            raise ValueError(f"policy_kwargs.privileged_dims: value {privileged_dims!r} must be an integer in "
-                             f"[0, {n - 1}] (the observation has {n} components)")
-        self.privileged_dims = privileged_dims
+        # the actor keeps at least one component of the observation
+        self.privileged_dims = checker(count(0, n - 1))(privileged_dims, "policy_kwargs.privileged_dims")
         kwargs["share_features_extractor"] = False
         super().__init__(observation_space, action_space, lr_schedule, *args, **kwargs)
         if per_action is not None:

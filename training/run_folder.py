@@ -28,6 +28,8 @@ import yaml
 
 from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
+from sphere_env.schemas import validate
+from sphere_env.schemas.training import RunConfigFile
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
 
 RUNS = Path("runs")
@@ -212,17 +214,13 @@ def load_config(run_dir: str | Path) -> TrainConfig:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as err:
         raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
+    validate(RunConfigFile, data, f"run: {str(path)!r}")  # a mapping holding env_id and algo
     fields = TrainConfig.__dataclass_fields__
-    if not isinstance(data, Mapping) or not {"env_id", "algo"} <= set(data):
-        raise ValueError(f"run: {str(path)!r} is not a training config (needs env_id and algo)")
     data = dict(data)
     if "randomization" in data and "randomization" not in (data.get("env_kwargs") or {}):
         # run folders written before randomization moved into env_kwargs
         data["env_kwargs"] = {**(data.get("env_kwargs") or {}), "randomization": data["randomization"]}
-    try:
-        return TrainConfig(**{k: v for k, v in data.items() if k in fields})
-    except TypeError as err:
-        raise ValueError(f"run: {str(path)!r} is not a training config: {err}") from None
+    return TrainConfig(**{k: v for k, v in data.items() if k in fields})
 
 
 #: What a run writes into its folder (cleared when an interrupted run is restarted from scratch).

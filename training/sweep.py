@@ -24,12 +24,14 @@ import io
 import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import yaml
+from pydantic import Field
 
 from sphere_env.files import write_text_atomic, write_text_exclusive
+from sphere_env.schemas import allowed, checker
 from sphere_env.training.config import TrainConfig
 
 #: Bootstrap of the across-seed mean: confidence level, resamples, fixed generator seed.
@@ -42,6 +44,11 @@ def _config_key(cfg: TrainConfig) -> str:
     d = cfg.as_dict()
     d.pop("seed")
     return json.dumps(d, sort_keys=True, default=str)
+
+
+#: A sweep's configurations: at least one (each seed × ``--trial``).
+_TRIALS = checker(Annotated[list[Any], Field(min_length=1, json_schema_extra=allowed(
+    "at least one configuration (a seed × a --trial)"))])
 
 
 def trial_folders(cfgs: Sequence[TrainConfig]) -> list[tuple[int, str]]:
@@ -75,8 +82,7 @@ def run_sweep(cfgs: Sequence[TrainConfig], sweep_dir: str | Path, ray_address: s
     taken = ValueError(f"run_dir: {str(sweep_dir)!r} already holds a sweep; use another folder")
     if (sweep_dir / "sweep.yaml").exists():
         raise taken
-    if not cfgs:
-        raise ValueError("seeds: no trials to run")
+    cfgs = _TRIALS(list(cfgs), "trials")
     if ray_address is not None:
         try:
             import ray  # noqa: F401

@@ -4,9 +4,17 @@ files are, and whether it fits the configured env, checked before anything is bu
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+from pydantic import BeforeValidator, Field, FilePath
+
+from sphere_env.schemas import allowed, checker
 from sphere_env.training.config import TrainConfig, algo_class
+
+#: A saved model: the name of a .zip file, and a file that exists (a run folder is given as its model.zip).
+_MODEL_WORDS = allowed("a saved model: a .zip file, or a run folder with model.zip")
+_ZIP_NAME = checker(Annotated[str, Field(pattern=r"\.zip$", json_schema_extra=_MODEL_WORDS)])
+_EXISTING_FILE = checker(Annotated[FilePath, BeforeValidator(lambda text: Path(text)), Field(json_schema_extra=_MODEL_WORDS)])
 
 
 def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
@@ -23,8 +31,7 @@ def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
     path = Path(str(cfg.trained_agent))
     if path.is_dir() and (path / "model.zip").exists():
         path = path / "model.zip"
-    if path.suffix != ".zip" or not path.is_file():
-        raise ValueError(f"trained_agent: {str(path)!r} is not a saved model (.zip file, or a run folder with model.zip)")
+    path = _EXISTING_FILE(_ZIP_NAME(str(path), "trained_agent"), "trained_agent")
     if cfg.normalize is None:
         return path, None
     candidates = [path.parent / "vecnormalize.pkl", path.parent / cfg.env_id.replace("/", "-") / "vecnormalize.pkl"]

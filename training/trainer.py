@@ -67,12 +67,10 @@ def _train_locked(cfg: TrainConfig, cls, run_dir: Path, resume: bool, created: b
     start_steps = 0
     ckpt = None
     previous: dict[str, Any] = {}
-    if resume:
-        if not (run_dir / "config.yaml").exists():
-            raise ValueError(f"resume: {str(run_dir)!r} has no config.yaml (not a training run folder)")
+    if resume:  # train() checked that config.yaml exists; gone since (another process): cannot be read
         try:
             previous = yaml.safe_load((run_dir / "config.yaml").read_text()) or {}
-        except yaml.YAMLError as err:
+        except (OSError, yaml.YAMLError) as err:
             raise ValueError(f"resume: {str(run_dir / 'config.yaml')!r} cannot be read: "
                              + " ".join(str(err).split())) from None
         ckpt, skipped = usable_checkpoint(cls, cfg, run_dir)

@@ -29,6 +29,8 @@ import numpy as np
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from stable_baselines3.common.vec_env.base_vec_env import CloudpickleWrapper, VecEnv
 
+from sphere_env.schemas import checker, count
+
 
 def usable_cores() -> int:
     """Cores this process may run on (its CPU affinity, e.g. under ``taskset``)."""
@@ -70,8 +72,7 @@ class ThreadedVecEnv(DummyVecEnv):
         n = len(env_fns)
         if n_threads is None:
             n_threads = min(usable_cores(), n)
-        if isinstance(n_threads, bool) or not isinstance(n_threads, int) or not 1 <= n_threads <= n:
-            raise ValueError(f"n_threads: value {n_threads!r} must be an integer within 1..{n} (the number of envs)")
+        n_threads = checker(count(1, n))(n_threads, "n_threads")  # at most one thread per env
         super().__init__(list(env_fns))
         per, extra = divmod(n, n_threads)
         bounds = np.cumsum([0] + [per + (1 if k < extra else 0) for k in range(n_threads)])
@@ -234,8 +235,7 @@ class BatchedSubprocVecEnv(VecEnv):
 
     def __init__(self, env_fns: Sequence[Callable[[], gym.Env]], n_workers: int, start_method: str | None = None):
         n = len(env_fns)
-        if isinstance(n_workers, bool) or not isinstance(n_workers, int) or not 1 <= n_workers <= n:
-            raise ValueError(f"n_workers: value {n_workers!r} must be an integer within 1..{n} (the number of envs)")
+        n_workers = checker(count(1, n))(n_workers, "n_workers")  # at most one block per env
         per = -(-n // n_workers)
         self.blocks = [list(range(i, min(i + per, n))) for i in range(0, n, per)]
         self.waiting = False

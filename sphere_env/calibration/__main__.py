@@ -27,7 +27,7 @@ from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.cli import renamed
 from sphere_env.resources import asset_path
-from sphere_env.schemas import Finite, OutputFile, Schema, cli_type, count, number, validate
+from sphere_env.schemas import Finite, OutputFile, checker, cli_type, count, number
 from sphere_env.schemas.twin import parameter
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
@@ -39,6 +39,7 @@ MAX_NFEV = cli_type(count(1, 100_000), int, "max_nfev")
 TIME_STEP_S = cli_type(parameter("time_step_s"), float, "time_step_s")
 PRESSURE_KPA = cli_type(Finite, float, "pressure_kpa")  # against the calibration's range once it is loaded
 DURATION_S = cli_type(number(gt=0.0, le=600.0, words="a simulated time in (0, 600] s"), float, "duration_s")
+OUTPUT_FILE = checker(OutputFile)
 
 
 def _trials(args, required=()):
@@ -451,28 +452,19 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-class OutputPath(Schema):
-    """One output file of a subcommand."""
-
-    path: OutputFile
-
-
 #: Output-file options of the subcommands, checked before any fit runs.
 OUTPUT_OPTIONS = ("out", "plot", "json", "preset_file", "write_manifest")
 
 
 def check_output_paths(args) -> None:
-    """Refuse an output path that is a folder or lies under a file, before anything is computed, so
-    that a bad second output cannot fail after the first one was written."""
+    """Refuse an output path that is a folder or lies under a file (:data:`OutputFile`), before
+    anything is computed, so that a bad second output cannot fail after the first one was written."""
     for name in OUTPUT_OPTIONS:
         value = getattr(args, name, None)
         # report --out is a folder; events --json is a flag (print JSON), not a path
         if not isinstance(value, str) or not value or (args.command == "report" and name == "out"):
             continue
-        try:
-            validate(OutputPath, {"path": value})
-        except ValueError as err:
-            raise ValueError(f"--{name.replace('_', '-')}: {value!r}: {str(err).split(': ', 1)[-1]}") from None
+        OUTPUT_FILE(value, f"--{name.replace('_', '-')}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,9 +15,10 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Literal, Mapping, Sequence
 
 import numpy as np
+from pydantic import Field
 from scipy.optimize import least_squares
 
 from sphere_env.analysis.metrics import rmse
@@ -26,6 +27,7 @@ from sphere_env.calibration.simulate import SimTrace, simulate_log
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
+from sphere_env.schemas import Schema, allowed, validate
 
 # Bounds for each law's parameters (units as in sphere_env.models.friction).
 BOUNDS: dict[str, dict[str, tuple[float, float]]] = {
@@ -33,6 +35,15 @@ BOUNDS: dict[str, dict[str, tuple[float, float]]] = {
     "coulomb": {"mu_s": (0.0, 3.0), "mu_d": (0.0, 3.0), "c": (0.0, 3.0), "v_tol": (0.005, 0.5)},
     "majd": {"f_w": (0.0, 3.0), "f_c": (0.0, 3.0), "sigma": (0.0, 30.0), "omega_c": (0.02, 3.0), "n": (0.2, 5.0)},
 }
+
+
+class FrictionFitOptions(Schema):
+    """The choices of :func:`fit_friction`: the law (one of :data:`BOUNDS`) and the joint."""
+
+    law: Literal[tuple(BOUNDS)] = Field(json_schema_extra=allowed(str(sorted(BOUNDS))))  # type: ignore[valid-type]
+    joint: Literal["steer"] = Field(json_schema_extra=allowed("['steer'] (the stand only frees the steer joint)"))
+
+
 DEFAULT_START: dict[str, dict[str, float]] = {
     "viscous": {"c": 0.3},
     "coulomb": {"mu_s": 0.5, "mu_d": 0.45, "c": 0.1, "v_tol": 0.05},
@@ -112,10 +123,7 @@ def fit_friction(
     :param fixed: parameters held at their ``start`` value (e.g. weakly identifiable ones).
     :param fit_offset: also fit a constant encoder offset θ_0 [rad]; else ``theta_offset_rad`` is used.
     """
-    if joint != "steer":
-        raise ValueError(f"joint: value {joint!r}; allowed: ['steer'] (the stand only frees the steer joint)")
-    if law not in BOUNDS:
-        raise ValueError(f"law: value {law!r}; allowed: {sorted(BOUNDS)}")
+    validate(FrictionFitOptions, {"law": law, "joint": joint}, "fit_friction")
     for log in logs:
         if not log.has("theta"):
             raise ValueError(f"log {log.path!r}: needs a theta (roll_joint.position) channel for a friction fit")

@@ -18,14 +18,13 @@ a trial is loaded.
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import Field, model_validator
+from pydantic import Field
 
 from sphere_env.calibration.logs import (
     PLAUSIBLE_PRESSURE_KPA,
@@ -37,7 +36,7 @@ from sphere_env.calibration.logs import (
     load_log,
 )
 from sphere_env.physics.twin import FIXTURES
-from sphere_env.schemas import Schema, allowed, validate
+from sphere_env.schemas import Schema, allowed, ordered_pair, validate
 
 _P_LO, _P_HI = PLAUSIBLE_PRESSURE_KPA
 
@@ -56,27 +55,11 @@ class TrialEntry(Schema):
     transient_s: float = Field(0.0, ge=0.0, lt=1e4, json_schema_extra=allowed("seconds dropped at the start, [0, 1e4)"))
     notes: str = ""
     mapping: str | None = Field(None, json_schema_extra=allowed("a column mapping YAML, relative to the manifest"))
-    ramp_window_s: list[float] | None = Field(None, min_length=2, max_length=2,
-                                              json_schema_extra=allowed("[start, end] seconds, start < end"))
-    window_s: list[float] | None = Field(
-        None, min_length=2, max_length=2,
-        json_schema_extra=allowed("[start, end] in seconds from the log's first sample, 0 <= start < end"))
+    ramp_window_s: ordered_pair(None, None, "s", strict=True, words="[start, end] seconds, start < end") | None = None
+    window_s: ordered_pair(0.0, None, "s", strict=True, words=(
+        "[start, end] in seconds from the log's first sample, 0 <= start < end")) | None = None
     time_unit: Literal[tuple(TIME_UNITS)] | None = Field(  # type: ignore[valid-type]
         None, json_schema_extra=allowed(str(list(TIME_UNITS))))
-
-    @model_validator(mode="after")
-    def _windows(self) -> "TrialEntry":
-        for key in ("window_s", "ramp_window_s"):
-            w = getattr(self, key)
-            if w is None:
-                continue
-            if not all(math.isfinite(v) for v in w):
-                raise ValueError(f"field {key!r} = {w!r} must be finite [start, end]")
-            if key == "window_s" and w[0] < 0:
-                raise ValueError(f"field {key!r} = {w!r}: start {w[0]} s is before the log's first sample")
-            if not w[0] < w[1]:
-                raise ValueError(f"field {key!r} = {w!r} is reversed or empty: start must be before end")
-        return self
 
 
 class ManifestFile(Schema):

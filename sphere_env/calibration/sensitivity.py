@@ -201,7 +201,7 @@ def match_dissipation_by_pressure(calibration: str | Path | None, time_step_s: f
     cal = ShellCalibration.load(calibration)
     ps = default_k_d_pressures(cal) if pressures_kpa is None else sorted({float(q) for q in pressures_kpa})
     for q in ps:
-        cal.check_pressure(q, "pressures_kpa")
+        cal.check_pressure(q, "field 'pressures_kpa'")
     # At a coarse step and high pressure ζ(p) may need several times the single-k_d dissipation
     # (about 3.4x at 10 ms and 14 kPa): a wider bracket than the one-pressure match's
     kwargs.setdefault("scale_bracket", (0.05, 8.0))

@@ -34,9 +34,10 @@ import copy
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Annotated, Any, Literal, Mapping, Sequence
 
 import numpy as np
+from pydantic import BeforeValidator, Field
 from scipy.optimize import brentq, least_squares
 
 from sphere_env.calibration.logs import RobotLog
@@ -45,6 +46,7 @@ from sphere_env.models.friction import FrictionModel
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration, membrane_contact_volume_m3
 from sphere_env.physics.twin import Twin, TwinConfig
+from sphere_env.schemas import Schema, _as_tuple, allowed, checker, validate
 
 
 def pressure_for_modulus(modulus_pa: float, robot: RobotParameters | None = None,
@@ -181,11 +183,23 @@ _BOUNDS = {
 HYDRO_PARAMS = ("couple_stiffness_factor", "couple_damping_factor")
 
 
+Form = Annotated[Literal[tuple(STEER_LAW_FORMS)], Field(  # type: ignore[valid-type]
+    json_schema_extra=allowed(str(list(STEER_LAW_FORMS))))]
+_FORM = checker(Form)
+
+
+class ShellFitOptions(Schema):
+    """The choices of :func:`fit_shell`: the shell model, the steer-law form and the fitted parameters."""
+
+    model: Literal["injected", "hydroelastic"] = Field(json_schema_extra=allowed("['injected', 'hydroelastic']"))
+    form: Form | None = None
+    params: Annotated[tuple[Literal[tuple(_BOUNDS)], ...], BeforeValidator(_as_tuple)] | None = Field(  # type: ignore[valid-type]
+        None, json_schema_extra=allowed(f"names from {sorted(_BOUNDS)}"))
+
+
 def law_params(form: str) -> tuple[str, ...]:
-    """The injected model's fitted parameters for a steer-law form."""
-    if form not in STEER_LAW_FORMS:
-        raise ValueError(f"form: unknown value {form!r}; allowed: {list(STEER_LAW_FORMS)}")
-    return ("omega_n", "zeta", "rest_angle_rad", *STEER_LAW_FORMS[form])
+    """The injected model's fitted parameters for a steer-law form (:data:`Form`)."""
+    return ("omega_n", "zeta", "rest_angle_rad", *STEER_LAW_FORMS[_FORM(form, "field 'form'")])
 
 
 def _start(name: str, base: ShellCalibration, p0: float, robot: RobotParameters) -> float:
@@ -302,8 +316,7 @@ def fit_shell(
     not converge within ``max_nfev`` evaluations (unless ``require_convergence`` is False), a
     diverged simulation at the optimum, and a result the robot cannot stand still with.
     """
-    if model not in ("injected", "hydroelastic"):
-        raise ValueError(f"model: value {model!r}; allowed: ['injected', 'hydroelastic']")
+    validate(ShellFitOptions, {"model": model, "form": form, "params": params}, "fit_shell")
     if not logs:
         raise FitError("fit_shell: no segments to fit on")
     for log in logs:
@@ -323,9 +336,6 @@ def fit_shell(
     if params is None:
         params = law_params(form) if model == "injected" else HYDRO_PARAMS
     names = list(params)
-    for n in names:
-        if n not in _BOUNDS:
-            raise ValueError(f"params: unknown value {n!r}; allowed: {sorted(_BOUNDS)}")
     fixed = dict(fixed_injected or {}) if model == "hydroelastic" else {}
     lo = np.array([_BOUNDS[n][0] for n in names])
     hi = np.array([_BOUNDS[n][1] for n in names])

@@ -18,7 +18,9 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Annotated, Any, Iterable, Mapping, Sequence
+
+from pydantic import BeforeValidator
 
 from sphere_env.analysis.metrics import pme_percent, rmse
 from sphere_env.calibration.logs import RobotLog
@@ -28,9 +30,11 @@ from sphere_env.parallel import run_parallel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
 from sphere_env.reporting import markdown_table, number
+from sphere_env.schemas import Schema
+from sphere_env.schemas import number as bounded
+from sphere_env.schemas import validate as validate_schema
 
 METRICS = ("phi", "theta", "omega_d")
-TOLERANCE_KEYS = METRICS + ("pendulum_pitch", "pme")
 #: RMSE over fewer samples compares nothing (the first sample is the simulation's initial state).
 MIN_COMPARED_SAMPLES = 3
 
@@ -152,25 +156,40 @@ def write_records(path: str | Path, rows: Sequence[ValidationRow]) -> Path:
     return write_text_atomic(path, json.dumps([r.record() for r in rows], indent=1) + "\n")
 
 
+def _limit_text(value: Any) -> Any:
+    """A limit as written on the command line (``0.1``) as the number it reads as; other text
+    unchanged, for the number check to refuse by name."""
+    try:
+        return float(value) if isinstance(value, str) else value
+    except ValueError:
+        return value
+
+
+Limit = Annotated[bounded(gt=0.0, words="NAME=LIMIT with LIMIT a finite number > 0"), BeforeValidator(_limit_text)]
+
+
+class Tolerances(Schema):
+    """``--tol`` limits: RMSE of φ ``phi``, θ ``theta`` [rad], ω_d ``omega_d`` [rad/s], α
+    ``pendulum_pitch`` [rad] and |PME| ``pme`` [%]."""
+
+    phi: Limit = None  # None: not checked
+    theta: Limit = None
+    omega_d: Limit = None
+    pendulum_pitch: Limit = None
+    pme: Limit = None
+
+
+#: The names a tolerance may take.
+TOLERANCE_KEYS = tuple(Tolerances.model_fields)
+
+
 def parse_tolerances(items: Sequence[str] | None) -> dict[str, float]:
     """``["phi=0.1", "theta=0.12", "pme=10"]`` -> {channel: limit}; RMSE in rad (rad/s), |PME| in %.
-
-    Keys: φ ``phi``, θ ``theta``, ω_d ``omega_d``, α ``pendulum_pitch`` (RMSE) and ``pme``.
-    """
-    out: dict[str, float] = {}
-    for item in items or ():
-        key, sep, val = item.partition("=")
-        key = key.strip()
-        if not sep or key not in TOLERANCE_KEYS:
-            raise ValueError(f"--tol: value {item!r}; allowed: NAME=LIMIT with NAME in {list(TOLERANCE_KEYS)}")
-        try:
-            lim = float(val)
-        except ValueError:
-            raise ValueError(f"--tol: value {item!r}: limit {val!r} is not a number") from None
-        if not math.isfinite(lim) or lim <= 0:
-            raise ValueError(f"--tol: value {item!r}: limit must be a positive number")
-        out[key] = lim
-    return out
+    Loaded through :class:`Tolerances`: an unknown name or a limit that is not a number > 0 is a
+    ValueError naming it."""
+    given = {key.strip(): val for key, _, val in (item.partition("=") for item in items or ())}
+    spec = validate_schema(Tolerances, given, "--tol")
+    return {key: getattr(spec, key) for key in given}
 
 
 def tolerance_failures(rows: Sequence[ValidationRow], tol: Mapping[str, float],

@@ -35,7 +35,7 @@ from sphere_env.envs.twins import (
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.params import ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
-from sphere_env.schemas import validate
+from sphere_env.schemas import checker, count, validate
 from sphere_env.schemas.env import RENDER_MODES, EnvKwargs, reset_options
 from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
 from sphere_env.tasks.observation import assemble_observation
@@ -48,6 +48,8 @@ from sphere_env.tasks.termination import physics_failure
 #: and of the sensing and actuation parameters the environment applies itself.
 _NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS + ENV_PARAMETERS if name != "pressure_kpa"}
 __all__ = ["SphereEnv", "PRESSURE_RESOLUTION_KPA", "INCLINE_RESOLUTION_DEG"]
+#: ``reset(seed=...)``: a non-negative integer or None.
+_SEED = checker(count(0) | None)
 
 
 class SphereEnv(gym.Env, EzPickle):
@@ -277,11 +279,10 @@ class SphereEnv(gym.Env, EzPickle):
         fixed: dict[str, Any] = {}
         for name, val in given.items():
             if name in RANDOMIZED:
+                # a fixed value (the options schema types it so); a pressure within the calibration's range
                 spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
-                d = spec.resolved(self.calibration.pressure_range_kpa, kwarg="options").terms[0].distribution
-                if d.kind != "fixed":
-                    raise ValueError(f"field 'options.{name}' = {val!r} is a distribution; allowed: a fixed value")
-                fixed[name] = d.value
+                term = spec.resolved(self.calibration.pressure_range_kpa, kwarg="options").terms[0]
+                fixed[name] = term.distribution.value
             elif name == "pressure_rate_kpa_per_s":
                 fixed[name] = val
         if "steer_friction_scale" in fixed or "drive_friction_scale" in fixed:
@@ -310,8 +311,7 @@ class SphereEnv(gym.Env, EzPickle):
         values) is checked before anything changes: a reset that raises ``ValueError`` leaves the environment as it was (the running
         episode, if any, carries on; a fresh env still needs a successful reset).
         """
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-            raise ValueError(f"seed: value {seed!r} must be a non-negative Python int or None")
+        seed = _SEED(seed, "seed")
         options, fixed, init = self._check_options(options)
         # Sample on a copy of the generator; it becomes the env's only once everything passed.
         if seed is not None:

@@ -8,14 +8,16 @@ physics layer can evaluate the identical law as a Drake symbolic expression in C
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Annotated, Any, Callable, Literal, Mapping
 
 import yaml
+from pydantic import Field
 
 from sphere_env.models.mathbackend import NUMPY
 from sphere_env.resources import asset_path
-from sphere_env.schemas import validate
+from sphere_env.schemas import allowed, checker, validate
 from sphere_env.schemas.friction import LAW_PARAMS, FrictionPresetFile, FrictionSpec
 
 DEFAULT_PRESETS = asset_path("friction", "presets.yaml")
@@ -122,12 +124,19 @@ def resolve_friction(spec: str | FrictionModel | Mapping[str, Any], joint: str) 
         entry = validate(FrictionSpec, spec, f"friction model for joint {joint!r}")
         return FrictionModel(entry.law, entry.params)
     presets = load_friction_presets()
-    if spec in presets:
-        return presets[spec]
-    if f"{spec}_{joint}" in presets:
-        return presets[f"{spec}_{joint}"]
-    if spec == "none":
-        return FrictionModel("none")
-    allowed = sorted(set(FRICTION_LAWS) | set(presets))
-    raise ValueError(f"friction model for joint {joint!r}: unknown value {spec!r}; allowed: {allowed}")
+    name = _friction_name(tuple(sorted(presets)), joint)(spec, f"friction model for joint {joint!r}: name")
+    if name in presets:
+        return presets[name]
+    if f"{name}_{joint}" in presets:
+        return presets[f"{name}_{joint}"]
+    return FrictionModel("none")
 
+
+@lru_cache(maxsize=None)
+def _friction_name(presets: tuple[str, ...], joint: str) -> Callable[[Any, str], str]:
+    """The check of a friction name for ``joint``: a preset, a law with a preset for the joint
+    (``majd`` -> ``majd_<joint>``) or ``none``."""
+    suffix = f"_{joint}"
+    names = sorted({*presets, *(p.removesuffix(suffix) for p in presets if p.endswith(suffix)), "none"})
+    return checker(Annotated[Literal[tuple(names)], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
+        f"a preset or law name {names}, a {{law, params}} mapping or a FrictionModel"))])

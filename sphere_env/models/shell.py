@@ -63,6 +63,9 @@ from sphere_env.resources import asset_path
 from sphere_env.schemas.calibration import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
     CalibrationFile,
+    calibrated_pressure,
+    calibration_form,
+    calibration_ref,
     check_calibration,
     interpolate_k_d,
     read_calibration_file,
@@ -72,28 +75,17 @@ from sphere_env.schemas.calibration import (
 DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
 
 
-def shipped_calibrations() -> list[str]:
-    """Names of the calibrations shipped in ``assets/calibration`` (``"default"``, ``"hydroelastic_fast"``, ...)."""
-    from importlib import resources
-
-    folder = resources.files("sphere_env.assets").joinpath("calibration")
-    return sorted(p.name[: -len(".yaml")] for p in folder.iterdir() if p.name.endswith(".yaml"))
-
-
 def calibration_file(calibration: str | Path | None) -> Path:
     """The file of a calibration given as a path, as the name of a shipped one (a bare name such as
     ``"hydroelastic_fast"``: no folder, no suffix, and no such file in the working folder), or
-    ``None`` (the shipped default)."""
+    ``None`` (the shipped default); anything else is a ValueError naming ``calibration``
+    (:func:`~sphere_env.schemas.calibration.calibration_ref`)."""
+    calibration = calibration_ref()(calibration, "calibration")
     if calibration is None:
         return DEFAULT_CALIBRATION
-    path = Path(calibration)
-    if isinstance(calibration, str) and path.name == calibration and not path.suffix and not path.exists():
-        if calibration in shipped_calibrations():
-            return asset_path("calibration", f"{calibration}.yaml")
-        raise ValueError(f"calibration: {calibration!r} is neither a file nor the name of a shipped calibration; "
-                         f"shipped: {shipped_calibrations()}")
-    return path
-
+    if calibration_form(calibration) == "name":
+        return asset_path("calibration", f"{calibration}.yaml")
+    return Path(calibration)
 
 
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:
@@ -245,9 +237,6 @@ class ShellCalibration:
     # ---- loading ---------------------------------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path | None = None) -> "ShellCalibration":
-        if path is not None and not isinstance(path, (str, Path)):
-            raise ValueError(f"calibration: value {path!r} must be the path of a calibration YAML file, the name "
-                             f"of a shipped one {shipped_calibrations()} (or None for the default)")
         path = calibration_file(path)
         data, spec = read_calibration_file(path)
         return cls.from_schema(spec, data, str(path))
@@ -309,19 +298,12 @@ class ShellCalibration:
                        calibrated_range_kpa=(lo, hi))
 
     # ---- curves ----------------------------------------------------------------------------------
-    def check_pressure(self, pressure_kpa: float, field: str = "pressure_kpa") -> float:
-        """Return ``pressure_kpa`` as float if finite and inside the calibrated range, else raise."""
+    def check_pressure(self, pressure_kpa: float, field: str = "field 'pressure_kpa'") -> float:
+        """``pressure_kpa`` as a float if it is a finite number inside the calibrated range
+        (:func:`~sphere_env.schemas.calibration.calibrated_pressure`), else a ValueError naming
+        ``field`` (where the value was given), the value and the range."""
         lo, hi = self.pressure_range_kpa
-        try:
-            val = float(pressure_kpa)
-        except (TypeError, ValueError):
-            raise ValueError(f"{field}: value {pressure_kpa!r} is not a number; allowed: [{lo}, {hi}] kPa") from None
-        if not math.isfinite(val) or not lo <= val <= hi:
-            raise ValueError(
-                f"{field}: value {pressure_kpa!r} is outside the calibrated range [{lo}, {hi}] kPa "
-                f"(calibration {self.source})"
-            )
-        return val
+        return float(calibrated_pressure(lo, hi, self.source)(pressure_kpa, field))
 
     def omega_n(self, pressure_kpa):
         """Locked-steer natural frequency ω_n(p) [rad/s]."""

@@ -64,7 +64,7 @@ class Twin:
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
         self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
         p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
-        self._pressure_kpa = self.calibration.check_pressure(p0, "pressure_kpa")
+        self._pressure_kpa = self.calibration.check_pressure(p0)
         self.terrain = Terrain(config.incline_deg, config.ramp_length_m)
         fitted = self.calibration.fitted_time_step_s
         if config.shell_model == "hydroelastic" and fitted is not None and not math.isclose(fitted, config.time_step_s):
@@ -192,7 +192,7 @@ class Twin:
         ``injected`` reads new K_inject, C_inject from the context; ``hydroelastic`` replaces the
         shell's proximity properties (modulus, dissipation) in the SceneGraph context.
         """
-        self._pressure_kpa = self.calibration.check_pressure(pressure_kpa, "pressure_kpa")
+        self._pressure_kpa = self.calibration.check_pressure(pressure_kpa)
         self._apply_pressure_to_context()
 
     def set_calibration(self, calibration: ShellCalibration | str | Path, pressure_kpa: float | None = None) -> None:
@@ -200,7 +200,7 @@ class Twin:
         current pressure. Validated first: on error nothing changes."""
         cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
         cal = cal.for_time_step(self.config.time_step_s).extrapolated(self.config.pressure_extrapolation_kpa)
-        p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa, "pressure_kpa")
+        p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa)
         shell = cal.bind(self.robot)
         self.calibration, self.shell, self._pressure_kpa = cal, shell, p
         self._apply_pressure_to_context()
@@ -307,7 +307,7 @@ class Twin:
         """
         cur = self.params
         new = {k: params[k] for k in TWIN_PARAMETERS if k in params}
-        new = {k: (self.calibration.check_pressure(v, k) if k == "pressure_kpa" else check_param(k, v))
+        new = {k: (self.calibration.check_pressure(v) if k == "pressure_kpa" else check_param(k, v))
                for k, v in new.items()}
         cur.update(new)
         fs = (cur["steer_friction_scale"], cur["drive_friction_scale"])
@@ -352,7 +352,7 @@ class Twin:
         """Reset time and state (the diagram is reused). Pressure is kept unless given."""
         initial = (initial or InitialState()).validate()
         if pressure_kpa is not None:
-            self.calibration.check_pressure(pressure_kpa, "pressure_kpa")
+            self.calibration.check_pressure(pressure_kpa)
         self.context.SetTime(0.0)
         plant, pc = self.plant, self.plant_context
         plant.SetDefaultState(pc, pc.get_mutable_state())

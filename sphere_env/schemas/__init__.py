@@ -90,17 +90,29 @@ def number(*, gt: float | None = None, ge: float | None = None, lt: float | None
                                                           json_schema_extra=allowed(words))]
 
 
-def _ordered(pair: tuple[float, float]) -> tuple[float, float]:
-    if pair[0] > pair[1]:
-        raise ValueError(f"low {pair[0]!r} is above high {pair[1]!r}")
-    return pair
+def _ordered(strict: bool) -> Callable[[tuple[Any, Any]], tuple[Any, Any]]:
+    """An after-validator of a pair (low, high) of numbers or of equal-length vectors (each
+    component): low <= high (``strict``: low < high)."""
+    def check(pair: tuple[Any, Any]) -> tuple[Any, Any]:
+        low, high = np.asarray(pair[0], dtype=float), np.asarray(pair[1], dtype=float)
+        if np.any(low > high) or (strict and np.any(low == high)):
+            raise ValueError(f"low {pair[0]!r} is {'not below' if strict else 'above'} high {pair[1]!r}")
+        return pair
+    return check
 
 
-def ordered_pair(low: float, high: float, unit: str) -> Any:
-    """A pair (low, high) of finite numbers with ``low`` <= low <= high <= ``high`` [``unit``]."""
-    words = f"a pair (low, high) with {low:g} <= low <= high <= {high:g} {unit}"
-    return Annotated[tuple[number(ge=low, le=high), number(ge=low, le=high)], AfterValidator(_ordered),
-                     BeforeValidator(_as_tuple), Field(json_schema_extra=allowed(words))]
+def ordered_pair(low: float | None, high: float | None, unit: str, strict: bool = False,
+                 words: str | None = None) -> Any:
+    """A pair (low, high) of finite numbers with ``low`` <= low <= high <= ``high`` [``unit``]
+    (``low``/``high`` None: unbounded on that side; ``strict``: low < high), its allowed values in
+    ``words`` (default: the bounds)."""
+    if words is None:
+        left = "" if low is None else f"{low:g} <= "
+        right = "" if high is None else f" <= {high:g}"
+        words = f"a pair (low, high) with {left}low {'<' if strict else '<='} high{right} {unit}"
+    item = number(ge=low, le=high)
+    return Annotated[tuple[item, item], AfterValidator(_ordered(strict)), BeforeValidator(_as_tuple),
+                     Field(json_schema_extra=allowed(words))]
 
 
 def _as_path(value: Any) -> Any:
@@ -268,6 +280,38 @@ def _model_in(ann: Any) -> type[BaseModel] | None:
         if m is not None:
             return m
     return None
+
+
+def _type_words(annotation: Any) -> str:
+    """The allowed words of a type: an ``Annotated`` type's own, else those of a union's branch
+    (``... or None``); "" without words."""
+    words = _words(annotation)
+    if words is None:
+        args = get_args(annotation)
+        words = next((w for w in map(_words, args) if w is not None), None)
+        if words is not None and type(None) in args:
+            words += " or None"
+    return words or ""
+
+
+def checker(annotation: Any) -> Callable[..., Any]:
+    """A check of one value that no schema field holds (a function's argument, a bound known only at
+    run time such as ``number(ge=lo, le=hi)``): ``check(value, name)`` returns ``value`` validated as
+    ``annotation`` (strict: a string is never a number, a bool never an int) or raises ``error``
+    (default ValueError) with one line ``<name> = <value>: <problem>; allowed: <words>``, the words
+    of the annotation (:func:`allowed`); ``name`` says where the value was given, as
+    :func:`validate` does (``field 'seed'``, ``options: field 'pressure_kpa'``, ``--tol``)."""
+    adapter = TypeAdapter(annotation, config=ConfigDict(strict=True))
+    words = _type_words(annotation)
+
+    def check(value: Any, name: str, error: type[Exception] = ValueError) -> Any:
+        try:
+            return adapter.validate_python(value)
+        except ValidationError as err:
+            problem = err.errors()[0]["msg"].removeprefix("Value error, ")
+            raise error(f"{name} = {value!r}: {problem}" + (f"; allowed: {words}" if words else "")) from None
+
+    return check
 
 
 def cli_type(annotation: Any, parse: Callable[[str], Any] = float, name: str = "value") -> Callable[[str], Any]:

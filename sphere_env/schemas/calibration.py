@@ -14,14 +14,15 @@ the robot can stand still under the steer law, stays with
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Callable, Literal, Union
 
 import numpy as np
 import yaml
-from pydantic import Field, model_validator
+from pydantic import Discriminator, Field, Tag, model_validator
 
-from sphere_env.schemas import Finite, Schema, allowed, number, validate
+from sphere_env.schemas import Finite, Schema, allowed, checker, number, ordered_pair, validate
 
 #: Gauge pressures [kPa] a calibration may cover: RoboBall runs 3-14 kPa and a fabric/rubber shell
 #: does not hold 1 bar (100 kPa) over ambient; a range written in Pa (thousands) or MPa (thousandths)
@@ -170,7 +171,7 @@ class CalibrationFile(Schema):
     """A shell calibration file."""
 
     name: str | None = None
-    pressure_range_kpa: list[Pressure] = Field(min_length=2, max_length=2, json_schema_extra=allowed(
+    pressure_range_kpa: ordered_pair(_P_LO, _P_HI, "kPa", strict=True, words=(
         f"[low, high] with {_P_LO} <= low < high <= {_P_HI} kPa (gauge; Pa or MPa fall outside)"))
     nominal_pressure_kpa: Finite | None = None
     omega_n: OmegaN
@@ -193,8 +194,6 @@ class CalibrationFile(Schema):
     @model_validator(mode="after")
     def _related_fields(self) -> "CalibrationFile":
         lo, hi = self.pressure_range_kpa
-        if not lo < hi:
-            raise ValueError(f"field 'pressure_range_kpa' = {[lo, hi]!r} must be [low, high] with low < high")
         if not lo <= self.nominal_kpa <= hi:
             raise ValueError(f"field 'nominal_pressure_kpa' = {self.nominal_pressure_kpa!r} must lie in [{lo}, {hi}]")
         for q in (lo, hi):
@@ -256,6 +255,44 @@ def _check_k_d_at_nominal(k_d: float, table: list[KdPoint], nominal_kpa: float, 
     if not math.isclose(k_d, expected, rel_tol=K_D_NOMINAL_REL_TOL):
         raise ValueError(f"field '{where}.k_d' = {k_d!r} must equal its k_d_by_pressure at nominal_pressure_kpa "
                          f"{nominal_kpa:g} kPa ({expected:.5g}, within {100 * K_D_NOMINAL_REL_TOL:g}%)")
+
+
+def shipped_calibrations() -> list[str]:
+    """Names of the calibrations shipped in ``assets/calibration`` (``"default"``, ``"hydroelastic_fast"``, ...)."""
+    from importlib import resources
+
+    folder = resources.files("sphere_env.assets").joinpath("calibration")
+    return sorted(p.name[: -len(".yaml")] for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def calibration_form(value: Any) -> str:
+    """``"name"`` for a calibration given by name (a bare word: no folder, no suffix, and no such
+    file in the working folder), else ``"path"`` (a path, or None: the shipped default)."""
+    if isinstance(value, str) and Path(value).name == value and not Path(value).suffix and not Path(value).exists():
+        return "name"
+    return "path"
+
+
+@lru_cache(maxsize=1)
+def calibration_ref() -> Callable[[Any, str], Any]:
+    """The check of a calibration reference (:func:`~sphere_env.schemas.checker`): the path of a
+    calibration YAML, the name of a shipped one (:func:`shipped_calibrations`) or None."""
+    names = tuple(shipped_calibrations())
+    return checker(Annotated[Union[Annotated[Literal[names], Tag("name")],  # type: ignore[valid-type]
+                                   Annotated[str | Path | None, Tag("path")]],
+                             Discriminator(calibration_form), Field(json_schema_extra=allowed(
+                                 f"the path of a calibration YAML file, the name of a shipped one {list(names)}, "
+                                 "or None (the shipped default)"))])
+
+
+@lru_cache(maxsize=64)
+def calibrated_pressure(low: float, high: float, source: str | None = None) -> Callable[[Any, str], float]:
+    """The check of a pressure [kPa] inside a calibration's range [low, high] (:func:`~sphere_env.schemas.checker`;
+    ``source``: the calibration's file, quoted by the error)."""
+    of = "" if source is None else f" (calibration {source})"
+    # no Python validator (the twin checks every pressure change): pydantic's own strict float, finite
+    return checker(Annotated[float, Field(ge=low, le=high, allow_inf_nan=False, json_schema_extra=allowed(
+        f"[{low}, {high}] kPa, the calibrated range{of}"))])
 
 
 def check_calibration(data: Any, source: str = "<dict>") -> CalibrationFile:

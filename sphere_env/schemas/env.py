@@ -26,6 +26,7 @@ from pydantic import AfterValidator, BeforeValidator, Field, create_model, field
 
 from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, RANDOMIZABLE, SHELL_MODELS
 from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number
+from sphere_env.schemas.randomization import fixed_value
 from sphere_env.schemas.twin import InitialStateFields, joint_friction, parameter
 from sphere_env.tasks.ramp_descent import RampDescentKwargs
 from sphere_env.tasks.roll import RollKwargs
@@ -189,8 +190,7 @@ def reset_options(task: Task) -> type[ResetOptions]:
 
 @lru_cache(maxsize=None)
 def _reset_options(commands: tuple[tuple[str, float, float], ...]) -> type[ResetOptions]:
-    fields: dict[str, Any] = {name: (Any, Field(None, json_schema_extra=allowed(
-        "a fixed value, as a randomization spec gives it"))) for name in RANDOMIZABLE}
+    fields: dict[str, Any] = {name: (fixed_value(PARAMETERS[name]), None) for name in RANDOMIZABLE}
     for name, lo, hi in commands:
         fields[name] = (number(ge=lo, le=hi, words=f"[{lo:g}, {hi:g}]"), None)
     return create_model("ResetOptions", __base__=ResetOptions, **fields)

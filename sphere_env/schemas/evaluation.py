@@ -124,18 +124,11 @@ def _controller_form(spec: str) -> str:
     raise ValueError(f"not a baseline {list(BASELINES)}, a run folder with config.yaml, or module:function")
 
 
-def _label(label: str) -> str:
-    if not label or "," in label:
-        raise ValueError("a label must be non-empty and hold no ','")
-    return label
-
-
 class ControllerSpec(Schema):
     """A controller of a sweep: ``label=spec`` text (a bare spec names itself,
     :func:`sphere_env.evaluation.controller_specs.split_label`) or a mapping ``{label, spec}``."""
 
-    label: Annotated[str, AfterValidator(_label), Field(json_schema_extra=allowed(
-        "a non-empty name without ','"))]
+    label: Annotated[str, Field(pattern=r"^[^,]+$", json_schema_extra=allowed("a non-empty name without ','"))]
     spec: Annotated[str, AfterValidator(_controller_form), Field(json_schema_extra=allowed(
         "zero | pd | pretrained | <run folder>[@best|@<checkpoint steps>] | module:function"))]
 
@@ -257,19 +250,17 @@ class EvaluateOptions(Schema):
         return self
 
 
-def _run_text(run: str) -> str:
-    """``<run folder>`` or ``<run folder>@best``/``@model``, the folder existing."""
+def _run_folder(run: str) -> str:
+    """The folder of ``<run folder>[@best|@model]`` exists."""
     from sphere_env.evaluation.controller_specs import run_path
 
-    path, _, which = run.partition("@")
-    if which not in ("", "best", "model"):
-        raise ValueError("use <run folder> or <run folder>@best")
-    if not run_path(path).is_dir():
+    if not run_path(run.partition("@")[0]).is_dir():
         raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.pkl)")
     return run
 
 
-RunText = Annotated[str, AfterValidator(_run_text), Field(json_schema_extra=allowed(
+RunText = Annotated[str, AfterValidator(_run_folder), Field(pattern=r"^[^@]*(?:@(?:best|model))?$",
+                                                            json_schema_extra=allowed(
     "a training run folder or pretrained, optionally @best"))]
 
 

@@ -34,7 +34,7 @@ from pydantic import (
 
 from sphere_env.params import PARAMETERS as REGISTRY
 from sphere_env.params import RANDOMIZABLE, Parameter
-from sphere_env.schemas import Schema, _integral, allowed, number, validate
+from sphere_env.schemas import Schema, _integral, _ordered, allowed, number, validate
 
 #: The preset names: a whole spec, or the ``base`` a mapping starts from.
 PRESETS = ("off", "default", "full")
@@ -94,8 +94,15 @@ def _words(rec: Parameter) -> str:
     return one if rec.size == 1 else f"{rec.size} numbers, each {one}"
 
 
-def _ordered(low: Any, high: Any) -> bool:
-    return bool(np.all(np.asarray(low, dtype=float) <= np.asarray(high, dtype=float)))
+def fixed_value(rec: Parameter) -> Any:
+    """The type of one fixed value of ``rec`` (a ``reset`` option): a value as an entry's value form
+    gives it (a tuple, a numpy array or numpy numbers read as plain data), never a distribution."""
+    return Annotated[_value(rec, _scalar(rec)), BeforeValidator(_plain), Field(json_schema_extra=allowed(
+        f"a fixed value: {_words(rec)}"))]
+
+
+#: The uniform distribution's bounds: low <= high (each component of a vector).
+_low_high = _ordered(strict=False)
 
 
 # ---- a distribution given in full ------------------------------------------------------------------
@@ -133,8 +140,8 @@ class Draw(Schema):
             if getattr(self, key) is None:
                 need = "uniform needs both 'low' and 'high'" if kind == "uniform" else f"{kind!r} needs it"
                 raise ValueError(f"field {key!r} is missing: {need}")
-        if kind == "uniform" and not _ordered(self.low, self.high):
-            raise ValueError(f"field 'low' = {self.low!r} > high {self.high!r}; allowed: low <= high")
+        if kind == "uniform":
+            _low_high((self.low, self.high))
         return self
 
 
@@ -200,8 +207,6 @@ def parameter_field(rec: Parameter, entry: bool = True) -> Any:
 
     def uniform(pair: list) -> Draw:
         low, high = pair
-        if not _ordered(low, high):
-            raise ValueError(f"low {low!r} > high {high!r}")
         return full.model_construct(distribution="uniform", low=low, high=high)
 
     def form(v: Any) -> str:  # the union's tags are no field names, so error paths leave them out
@@ -212,7 +217,8 @@ def parameter_field(rec: Parameter, entry: bool = True) -> Any:
         return "value-form"
 
     listed = (Annotated[list[value], Field(min_length=1), AfterValidator(choice)] if rec.choices else
-              Annotated[list[value], Field(min_length=2, max_length=2), AfterValidator(uniform)])
+              Annotated[list[value], Field(min_length=2, max_length=2), AfterValidator(_low_high),
+                        AfterValidator(uniform)])
     return Annotated[Union[Annotated[value, AfterValidator(fixed), Tag("value-form")],
                            Annotated[listed, Tag("list-form")],
                            Annotated[full, Tag("full-form")]], Discriminator(form)]

@@ -25,7 +25,7 @@ import ast
 import math
 from typing import Annotated, Any, Literal, Mapping
 
-from pydantic import AfterValidator, BeforeValidator, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
 
 from sphere_env.schemas import Finite, OutputFolder, Schema, _integral, allowed, count, number, validate
 
@@ -46,44 +46,34 @@ ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "Leak
                "silu": "SiLU"}
 
 
-def _positive_after(prefix: str, text: str) -> float:
-    """The number x > 0 of a text ``<prefix><x>`` (rl-zoo3's ``lin_3e-4``, SB3's ``auto_0.1``), else NaN."""
-    try:
-        x = float(text.removeprefix(prefix)) if text.startswith(prefix) else math.nan
-    except ValueError:
-        return math.nan
-    return x if math.isfinite(x) and x > 0 else math.nan
+#: A number > 0 written as text: at most 15 digits before the point (after leading zeros), at most
+#: 20 zeros after it before a non-zero digit, and an exponent of at most 2 digits, so it reads as a
+#: finite number > 0 (never 0, never inf).
+POSITIVE_TEXT = r"(?:0*[1-9][0-9]{0,14}(?:\.[0-9]*)?|0*\.0{0,20}[1-9][0-9]*)(?:[eE][-+]?[0-9]{1,2})?"
+#: rl-zoo3's linear schedule ``lin_<x>``, x > 0.
+LIN_PATTERN = rf"^lin_{POSITIVE_TEXT}$"
 
 
 def lin_value(text: str) -> float:
-    """The initial value of rl-zoo3's ``lin_<x>`` schedule (x > 0), else ValueError."""
-    x = _positive_after("lin_", text)
-    if math.isnan(x):
-        raise ValueError(f"{text!r} is not 'lin_<number > 0>'")
-    return x
-
-
-def _lin(text: str) -> str:
-    lin_value(text)
-    return text
+    """The initial value of a validated ``lin_<x>`` schedule (:data:`LIN_PATTERN`)."""
+    return float(text.removeprefix("lin_"))
 
 
 def activation_class_name(name: str) -> str:
-    """The torch.nn class name of an activation given as ``nn.ReLU``, ``ReLU`` or ``relu``."""
+    """The torch.nn class name of a validated activation (:data:`ACTIVATION_PATTERN`) given as
+    ``nn.ReLU``, ``ReLU`` or ``relu``."""
     bare = name.removeprefix("nn.")
-    out = ACTIVATIONS.get(bare.lower(), bare)
-    if out not in ACTIVATIONS.values():
-        raise ValueError(f"unknown activation {name!r}")
-    return out
+    return ACTIVATIONS.get(bare.lower(), bare)
 
 
-def _activation(name: str) -> str:
-    activation_class_name(name)
-    return name
+#: An activation: optionally ``nn.``, then a lower-case name of :data:`ACTIVATIONS` in any case, or
+#: a class name as torch spells it.
+ACTIVATION_PATTERN = (r"^(?:nn\.)?(?:(?i:" + "|".join(ACTIVATIONS) + ")|"
+                      + "|".join(c for c in ACTIVATIONS.values() if c.lower() not in ACTIVATIONS) + ")$")
 
 
 #: A positive number or rl-zoo3's linear schedule ``lin_<x>`` (x → 0 over training).
-Schedule = (number(gt=0.0) | Annotated[str, AfterValidator(_lin)])
+Schedule = (number(gt=0.0) | Annotated[str, Field(pattern=LIN_PATTERN)])
 PositiveSchedule = Annotated[Schedule, Field(json_schema_extra=allowed("a number > 0 or 'lin_<number > 0>'"))]
 Layers = list[count(1, 65536)]
 
@@ -101,7 +91,7 @@ class PolicyKwargs(Schema):
 
     net_arch: Layers | NetArch | None = Field(None, json_schema_extra=allowed(
         "a list of layer sizes >= 1, or {pi: [...], vf: [...]}"))
-    activation_fn: Annotated[str, AfterValidator(_activation)] | None = Field(None, json_schema_extra=allowed(
+    activation_fn: Annotated[str, Field(pattern=ACTIVATION_PATTERN)] | None = Field(None, json_schema_extra=allowed(
         f"one of {sorted(ACTIVATIONS.values())} (as nn.<Name> or a lower-case name)"))
     log_std_init: Finite | list[Finite] | None = Field(None, json_schema_extra=allowed(
         "a number, or one per action component"))
@@ -298,12 +288,6 @@ class PPOSection(Section):
     rollout_buffer_kwargs: dict[str, Any] | None = None
 
 
-def _sac_ent_coef(value: Any) -> Any:
-    if isinstance(value, str) and value != "auto" and math.isnan(_positive_after("auto_", value)):
-        raise ValueError(f"{value!r} is not 'auto' or 'auto_<number > 0>'")
-    return value
-
-
 class SACSection(Section):
     """A SAC section."""
 
@@ -312,10 +296,11 @@ class SACSection(Section):
     tau: number(gt=0.0, le=1.0) = 0.005
     train_freq: count(1) | tuple[count(1), Literal["step", "episode"]] = Field(1, json_schema_extra=allowed(
         "an integer >= 1 or [n, 'step'|'episode']"))
-    gradient_steps: Annotated[count(-1), AfterValidator(lambda v: v if v != 0 else _refuse_zero_steps())] = 1
+    gradient_steps: count(1) | Literal[-1] = Field(1, json_schema_extra=allowed(
+        "an integer >= 1 or -1 (as many as env steps)"))
     n_steps: count(1) = 1
-    ent_coef: number(ge=0.0) | Annotated[str, AfterValidator(_sac_ent_coef)] = Field("auto", json_schema_extra=allowed(
-        "a number >= 0, 'auto' or 'auto_<number > 0>'"))
+    ent_coef: number(ge=0.0) | Literal["auto"] | Annotated[str, Field(pattern=rf"^auto_{POSITIVE_TEXT}$")] = Field(
+        "auto", json_schema_extra=allowed("a number >= 0, 'auto' or 'auto_<number > 0>'"))
     target_update_interval: count(1) = 1
     target_entropy: Finite | Literal["auto"] = "auto"
     use_sde_at_warmup: bool = False
@@ -329,10 +314,6 @@ class SACSection(Section):
         if isinstance(data, Mapping) and isinstance(data.get("train_freq"), list):
             data = {**data, "train_freq": tuple(data["train_freq"])}
         return data
-
-
-def _refuse_zero_steps() -> int:
-    raise ValueError("must be an integer >= 1 or -1 (as many as env steps)")
 
 
 SECTIONS: dict[str, type[Section]] = {"ppo": PPOSection, "sac": SACSection}
@@ -353,10 +334,12 @@ def numbers_from_yaml_strings(section: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def check_section(algo: str, section: Mapping[str, Any]) -> Section:
+def check_section(algo: str, section: Any, where: str = "") -> Section:
     """The section (overrides merged) as ``algo``'s schema; ``ValueError`` naming
-    ``hyperparams.<key>`` otherwise."""
-    return validate(SECTIONS[algo], numbers_from_yaml_strings(section), root="hyperparams")
+    ``hyperparams.<key>`` otherwise (a section that is no mapping: ``<where>: field 'hyperparams'``)."""
+    if isinstance(section, Mapping):
+        return validate(SECTIONS[algo], numbers_from_yaml_strings(section), root="hyperparams")
+    return validate(SECTIONS[algo], section, where, root="hyperparams")
 
 
 #: Evaluation episodes per evaluation at the most.
@@ -385,20 +368,13 @@ def _registered_env(env_id: str) -> str:
     return env_id
 
 
-def _torch_device(value: str) -> str:
-    """A torch device this machine has (``cpu``, ``cuda``, ``cuda:<n>``) or ``auto``."""
-    import torch
+def _cuda_here(value: str) -> str:
+    """A CUDA device only on a machine that has one."""
+    if value.startswith("cuda"):
+        import torch
 
-    if value == "auto":
-        return value
-    try:
-        dev = torch.device(value)
-    except (RuntimeError, TypeError):
-        raise ValueError("not a torch device") from None
-    if dev.type == "cuda" and not torch.cuda.is_available():
-        raise ValueError("names a CUDA device and this machine has none")
-    if dev.type not in ("cpu", "cuda"):
-        raise ValueError(f"a {dev.type!r} device, which this trainer does not use")
+        if not torch.cuda.is_available():
+            raise ValueError("names a CUDA device and this machine has none")
     return value
 
 
@@ -422,8 +398,8 @@ class RunOptions(Schema):
 
     env_id: Annotated[str, AfterValidator(_registered_env)] = Field(json_schema_extra=allowed(
         "a registered env id such as 'sphere_env/RampDescent-v3'"))
-    device: Annotated[str, AfterValidator(_torch_device)] = Field("cpu", json_schema_extra=allowed(
-        "'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"))
+    device: Annotated[str, Field(pattern=r"^(?:auto|cpu|cuda(?::[0-9]+)?)$"), AfterValidator(_cuda_here)] = Field(
+        "cpu", json_schema_extra=allowed("'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"))
     seed: count(0)
     eval_freq: Period | None = None
     eval_episodes: count(1, MAX_EVAL_EPISODES) = 6
@@ -441,6 +417,17 @@ class RunFolders(Schema):
 
     log_folder: OutputFolder
     run_dir: OutputFolder | None = None
+
+
+class RunConfigFile(Schema):
+    """A run folder's ``config.yaml`` as far as loading it needs: the env id and the algorithm, the
+    fields of a ``TrainConfig`` without a default (the others are checked when the configuration
+    is resolved again; the file's other keys are records: versions, command, seeds, ...)."""
+
+    model_config = ConfigDict(extra="ignore", strict=True, frozen=True)
+
+    env_id: str
+    algo: str
 
 
 def check_run_options(**options: Any) -> RunOptions:

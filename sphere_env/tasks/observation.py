@@ -8,9 +8,12 @@ No Drake Context is touched here.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import Field
+
+from sphere_env.schemas import allowed, checker
 
 TWO_PI = 2.0 * math.pi
 
@@ -56,6 +59,11 @@ SHELL_ONE_HOT: tuple[str, ...] = ("shell_point", "shell_injected", "shell_hydroe
 MEASURED_INDEX: dict[str, int] = {c[0]: i for i, c in enumerate(MEASURED_COMPONENTS)}
 
 
+#: Names of extra measured components a task may observe (the keys of :data:`EXTRA_COMPONENTS`).
+_EXTRA_NAMES = checker(Annotated[tuple[Literal[tuple(EXTRA_COMPONENTS)], ...], Field(  # type: ignore[valid-type]
+    json_schema_extra=allowed(f"names from {list(EXTRA_COMPONENTS)}"))])
+
+
 class ObservationLayout:
     """Names of the observation components in order, exported by each task so controllers and
     evaluation index observations by name: ``obs[layout["omega_d"]]``, ``obs[layout.command]``.
@@ -72,10 +80,7 @@ class ObservationLayout:
     def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False,
                  extra_names: tuple[str, ...] = (), observe_shell_model: bool = False, history_steps: int = 0):
         self.command_names = tuple(command_names)
-        self.extra_names = tuple(extra_names)
-        for n in self.extra_names:
-            if n not in EXTRA_COMPONENTS:
-                raise ValueError(f"extra_names: unknown component {n!r}; allowed: {list(EXTRA_COMPONENTS)}")
+        self.extra_names = _EXTRA_NAMES(tuple(extra_names), "field 'extra_names'")
         own = tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + self.extra_names
         self.history_steps = history_steps
         self.names: tuple[str, ...] = (

@@ -47,6 +47,7 @@ import numpy as np
 
 from sphere_env.params import PARAMETERS as REGISTRY
 from sphere_env.params import RANDOMIZABLE, Parameter
+from sphere_env.schemas.calibration import calibrated_pressure
 from sphere_env.schemas.randomization import SpecInput, load_spec
 
 #: The randomizable parameters' records (name, unit, nominal, bounds; :mod:`sphere_env.params`).
@@ -131,9 +132,7 @@ class RandomizationSpec:
                     d = replace(d, low=lo, high=hi)
                 vals = {"fixed": [d.value], "uniform": [d.low, d.high], "choice": list(d.values)}.get(d.kind, [])
                 for v in vals:
-                    if not lo <= float(v) <= hi:
-                        raise ValueError(f"{kwarg}: field 'pressure_kpa' = {v!r}: outside the calibrated range; "
-                                         f"allowed: [{lo}, {hi}] kPa")
+                    calibrated_pressure(lo, hi)(v, f"{kwarg}: field 'pressure_kpa'")
                 t = replace(t, distribution=d)
             terms.append(t)
         return replace(self, terms=tuple(terms))

@@ -16,10 +16,12 @@ from the run's start, y to the left, ψ = 0 pointing down the fall line.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Annotated, Any, Literal, Mapping, Sequence
 
 import numpy as np
+from pydantic import Field
 
+from sphere_env.schemas import allowed, checker
 from sphere_env.tasks.observation import wrap_angle
 
 #: Each observation component: the sensor channels it reads, the computation, frame and unit.
@@ -97,6 +99,11 @@ def channel(sample: Mapping[str, float], name: str) -> float:
     raise KeyError(f"sensor channel {name!r} (or its alias) is missing; got {sorted(sample)}")
 
 
+#: Observation component names the sensors give (the keys of :data:`FROM_SENSORS`), in any order.
+_SENSOR_NAMES = checker(Annotated[tuple[Literal[tuple(FROM_SENSORS)], ...], Field(  # type: ignore[valid-type]
+    json_schema_extra=allowed(f"component names with a sensor computation: {sorted(FROM_SENSORS)}"))])
+
+
 class SensorObserver:
     """The env's observation computed from sensor samples at the control rate, as :data:`FROM_SENSORS`
     documents. Privileged components (pressure, shell model) are never computed: an exported policy
@@ -110,9 +117,7 @@ class SensorObserver:
 
     def __init__(self, names: Sequence[str], control_period_s: float, fall_line_yaw_rad: float = 0.0,
                  incline_deg: float = 0.0):
-        unknown = [n for n in names if n not in FROM_SENSORS]
-        if unknown:
-            raise ValueError(f"names: {unknown} have no sensor computation; allowed: {sorted(FROM_SENSORS)}")
+        names = _SENSOR_NAMES(tuple(names), "field 'names'")
         self.names, self.period_s, self.fall_line_yaw_rad = tuple(names), float(control_period_s), fall_line_yaw_rad
         self._encoder0: float | None = None
         self._integral = self._rate = self._omega_prev = 0.0  # the speed loop's state

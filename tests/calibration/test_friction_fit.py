@@ -56,3 +56,14 @@ def test_write_preset_replaces_entry_and_keeps_comments(tmp_path):
     assert text.startswith("# head") and "# [a] fitted on x" in text
     assert load_friction_presets(path)["a"].params["c"] == 0.5 and load_friction_presets(path)["b"].params["c"] == 2.0
     assert yaml.safe_load(text)["presets"]["a"]["law"] == "viscous"
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"law": "stribeck"}, "fit_friction: field 'law' = 'stribeck': Input should be 'viscous', 'coulomb' or 'majd'; "
+                          "allowed: ['coulomb', 'majd', 'viscous']"),
+    ({"joint": "drive"}, "fit_friction: field 'joint' = 'drive': Input should be 'steer'; allowed: ['steer']"),
+])
+def test_bad_law_or_joint_is_refused_before_any_fit(kwargs, message):
+    with pytest.raises(ValueError) as err:
+        fit_friction([], **kwargs)
+    assert str(err.value).startswith(message), err.value

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 
 import pytest
 import yaml
@@ -149,8 +150,8 @@ def test_default_calibration_has_one_k_d_at_every_pressure():
 def test_calibration_by_shipped_name():
     assert ShellCalibration.load("hydroelastic_fast").source == str(asset_path("calibration", "hydroelastic_fast.yaml"))
     assert ShellCalibration.load("default").raw == ShellCalibration.load().raw
-    with pytest.raises(ValueError, match=r"'hydroelastic_fst' is neither a file nor the name of a shipped "
-                                         r"calibration; shipped: \[.*'hydroelastic_fast'"):
+    with pytest.raises(ValueError, match=r"^calibration = 'hydroelastic_fst': .*; allowed: the path of a calibration "
+                                         r"YAML file, the name of a shipped one \[.*'hydroelastic_fast'"):
         ShellCalibration.load("hydroelastic_fst")
 
 
@@ -174,8 +175,10 @@ def test_shipped_calibrations_still_load():
 
 @pytest.mark.parametrize("value", [123, 4.5, ["a.yaml"]])
 def test_calibration_that_is_not_a_path_is_a_named_error(value):
-    with pytest.raises(ValueError, match=r"^calibration: value .* must be the path of a calibration YAML"):
+    with pytest.raises(ValueError, match=re.escape(f"calibration = {value!r}: ")) as err:
         ShellCalibration.load(value)
+    assert ("; allowed: the path of a calibration YAML file, the name of a shipped one ['default', "
+            "'free_robot_release', 'hydroelastic_fast', 'v0_linear'], or None") in str(err.value)
 
 
 def test_env_with_calibration_123_is_a_named_error():

@@ -55,7 +55,8 @@ def test_kd_step_writes_a_calibration_whose_k_d_at_that_step_keeps_the_damping(t
 def test_kd_pressure_refuses_pressures_not_spanning_the_range_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "cal.yaml"
     assert main(["kd-pressure", "--time-step-s", "0.01", "--pressure-kpa", "3", "20", "--out", str(out)]) == 2
-    assert "--pressure-kpa: value 20.0 is outside the calibrated range" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--pressure-kpa = 20.0: " in err and "; allowed: [3.0, 14.0] kPa, the calibrated range" in err
     for bad in (["5", "5"], ["3", "10"]):  # one pressure; 10-14 kPa would be extrapolated
         assert main(["kd-pressure", "--time-step-s", "0.01", "--pressure-kpa", *bad, "--out", str(out)]) == 2
         assert "must hold at least 2 pressures spanning the calibrated range [3.0, 14.0] kPa" in capsys.readouterr().err

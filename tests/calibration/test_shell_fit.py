@@ -4,7 +4,7 @@ import pytest
 
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.sensitivity import sweep
-from sphere_env.calibration.shell_fit import calibration_at, fit_shell, pressure_for_modulus
+from sphere_env.calibration.shell_fit import calibration_at, fit_shell, law_params, pressure_for_modulus
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
@@ -48,3 +48,24 @@ def test_hydroelastic_sweep_direction_parallel():
     z = {r["case"]: r["zeta"] for r in rows}
     assert z["dissipation -50%"] < z["control"] < z["dissipation +50%"]  # paper Fig. 11 direction
     assert all(abs(r["zeta_error_vs_curve_pct"]) < 1e3 for r in rows)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"model": "point"}, "fit_shell: field 'model' = 'point': Input should be 'injected' or 'hydroelastic'; "
+                         "allowed: ['injected', 'hydroelastic']"),
+    ({"form": "cubic"}, "fit_shell: field 'form' = 'cubic': Input should be 'linear', 'saturating' or 'quadratic'; "
+                        "allowed: ['linear', 'saturating', 'quadratic']"),
+    ({"params": ["omega_n", "stiffness"]}, "fit_shell: field 'params[1]' = 'stiffness': Input should be 'omega_n', "),
+])
+def test_bad_model_form_or_parameter_is_refused_before_any_fit(kwargs, message):
+    with pytest.raises(ValueError) as err:
+        fit_shell([], **{"model": "injected", "pressure_kpa": 6.0, **kwargs})
+    assert str(err.value).startswith(message), err.value
+    if "params" in kwargs:
+        assert "; allowed: names from ['amplitude_scale_rad', " in str(err.value)
+
+
+def test_law_params_refuses_an_unknown_form():
+    assert law_params("linear") == ("omega_n", "zeta", "rest_angle_rad")
+    with pytest.raises(ValueError, match=r"^field 'form' = 'cubic': .*; allowed: \['linear', 'saturating', 'quadratic'\]"):
+        law_params("cubic")

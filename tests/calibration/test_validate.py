@@ -6,7 +6,7 @@ import pytest
 from sphere_env.analysis.metrics import pme_percent
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.manifest import load_manifest
-from sphere_env.calibration.validate import validate
+from sphere_env.calibration.validate import parse_tolerances, validate
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
 from .conftest import synth_log, write_manifest
@@ -45,3 +45,23 @@ def test_pme_sign_and_window():
     assert pme_percent(e, 0.5 * e) == pytest.approx(50.0)  # sim underestimates -> positive
     assert pme_percent(e, 1.5 * e) == pytest.approx(-50.0)
     assert pme_percent(e, np.array([0, 1, 1, 4.0]), mask=np.array([1, 1, 0, 1], bool)) == pytest.approx(0.0)
+
+
+def test_tolerances_load_as_named_limits():
+    assert parse_tolerances(["theta=0.12", "phi=1e-1", "pme=10"]) == {"theta": 0.12, "phi": 0.1, "pme": 10.0}
+    assert parse_tolerances(None) == {}
+
+
+@pytest.mark.parametrize("item, message", [
+    ("bogus=1", "--tol: unknown field 'bogus'; allowed: ['omega_d', 'pendulum_pitch', 'phi', 'pme', 'theta']"),
+    ("theta=abc", "--tol: field 'theta' = 'abc': Input should be a valid number; allowed: NAME=LIMIT with LIMIT a "
+                  "finite number > 0"),
+    ("phi", "--tol: field 'phi' = '': Input should be a valid number; allowed: NAME=LIMIT"),
+    ("phi=0", "--tol: field 'phi' = 0.0: Input should be greater than 0; allowed: NAME=LIMIT"),
+    ("pme=-5", "--tol: field 'pme' = -5.0: Input should be greater than 0; allowed: NAME=LIMIT"),
+    ("omega_d=inf", "--tol: field 'omega_d' = inf: not a finite number; allowed: NAME=LIMIT"),
+])
+def test_bad_tolerance_is_refused_by_name(item, message):
+    with pytest.raises(ValueError) as err:
+        parse_tolerances(["phi=1", item])
+    assert str(err.value).startswith(message), err.value

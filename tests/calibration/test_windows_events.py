@@ -55,8 +55,12 @@ def test_window_cuts_the_log_and_restarts_time(tmp_path):
 
 
 @pytest.mark.parametrize("window, needle", [
-    ([5.0, 2.0], "is reversed"),
-    ([-1.0, 2.0], "before the log's first sample"),
+    ([5.0, 2.0], "window_s' = (5.0, 2.0): low 5.0 is not below high 2.0; allowed: [start, end] in seconds from the "
+                 "log's first sample, 0 <= start < end"),
+    ([2.0, 2.0], "window_s' = (2.0, 2.0): low 2.0 is not below high 2.0; allowed: [start, end]"),
+    ([-1.0, 2.0], "window_s[0]' = -1.0: Input should be greater than or equal to 0; allowed: [start, end] in seconds "
+                  "from the log's first sample, 0 <= start < end"),
+    ([1.0, float("nan")], "window_s[1]' = nan: not a finite number; allowed: [start, end]"),
     ([10.0, 20.0], "lies outside the log"),
     (["a", 2.0], "allowed: [start, end]"),
     ([1.0], "allowed: [start, end]"),
@@ -69,6 +73,15 @@ def test_bad_window_refused_by_name(tmp_path, window, needle):
     msg = str(err.value)
     assert "window_s" in msg and needle in msg, msg
     assert "m.yaml" in msg or "r.csv" in msg
+
+
+def test_reversed_ramp_window_refused_by_name(tmp_path):
+    man = write_manifest(tmp_path / "m.yaml", [{"name": "w", "file": "r.csv", "fixture": "free",
+                                                 "ramp_window_s": [3.0, 1.0]}])
+    with pytest.raises(LogError) as err:
+        load_manifest(man)
+    assert ("field 'trials[0].ramp_window_s' = (3.0, 1.0): low 3.0 is not below high 1.0; allowed: [start, end] "
+            "seconds, start < end") in str(err.value)
 
 
 def test_window_without_motion_refused(tmp_path):

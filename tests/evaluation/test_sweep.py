@@ -72,7 +72,7 @@ def test_sweep_writes_csv_report_plots_and_replay(tmp_path):
 
 
 def test_bad_grids_refused():
-    with pytest.raises(ValueError, match=r"^field 'pressures_kpa\[0\]': value 99.0 is outside the calibrated range"):
+    with pytest.raises(ValueError, match=r"^field 'pressures_kpa\[0\]' = 99\.0: .*; allowed: \[3\.0, 14\.0\] kPa, the calibrated range"):
         SweepSpec(controllers=["zero"], pressures_kpa=[99.0]).check()
     with pytest.raises(ValueError, match=r"^field 'shell_models\[0\]' = 'jelly'"):
         SweepSpec(controllers=["zero"], shell_models=["jelly"]).check()

@@ -1,6 +1,7 @@
 """Task functions are pure: tested here without Drake."""
 
 import math
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -97,8 +98,16 @@ def test_randomization_mapping_formats():
 
 @pytest.mark.parametrize("bad, match", [
     ({"bogus": 1.0}, "unknown field 'bogus'"),
-    ({"pressure_kpa": [1.0, 8.0]}, "outside the calibrated range"),
-    ({"ground_friction": {"distribution": "uniform", "low": 2.0, "high": 1.0}}, "low"),
+    ({"pressure_kpa": [1.0, 8.0]}, re.escape("field 'pressure_kpa' = 1.0: Input should be greater than or equal to 3; "
+                                             "allowed: [3.0, 14.0] kPa, the calibrated range")),
+    ({"ground_friction": {"distribution": "uniform", "low": 1.5, "high": 1.0}},
+     re.escape("field 'ground_friction' = {'distribution': 'uniform', 'low': 1.5, 'high': 1.0}: low 1.5 is above "
+               "high 1.0; allowed: ")),
+    ({"ground_friction": [1.2, 0.8]}, re.escape("field 'ground_friction' = [1.2, 0.8]: low 1.2 is above high 0.8; "
+                                                "allowed: ")),
+    ({"payload_com_offset_m": [[0.1, 0.0, 0.0], [0.0, 0.1, 0.1]]},
+     re.escape("field 'payload_com_offset_m' = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.1]]: low [0.1, 0.0, 0.0] is above high "
+               "[0.0, 0.1, 0.1]; allowed: ")),
     ({"incline_deg": {"distribution": "uniform", "low": 10, "high": 12, "mode": "interval", "interval_s": 1}}, "interval"),
     ({"ground_friction": {"distribution": "uniform", "low": 0.5, "high": 1.0, "mode": "interval"}}, "interval_s"),
     ({"payload_mass_kg": -1.0}, "field 'payload_mass_kg' = -1.0: Input should be greater than or equal to 0"),

@@ -83,3 +83,28 @@ def test_roll_task_resamples_its_command():
 def test_bad_task_kwargs_name_the_field(kwargs, name):
     with pytest.raises(ValueError, match=name):
         RollTask(**kwargs)
+
+
+def test_unknown_names_are_refused_with_what_is_allowed():
+    with pytest.raises(ValueError, match=r"^field 'extra_names' = \('pendulum_pitch', 'altitude'\): .*; allowed: names from \["):
+        ObservationLayout(("omega_ref",), extra_names=("pendulum_pitch", "altitude"))
+    with pytest.raises(ValueError, match=r"^field 'name' = 'pid': Input should be 'pd' or 'zero'; allowed: \['pd', 'zero'\]$"):
+        controllers.controller_for(None, "pid")
+
+
+def test_unknown_sensor_components_are_refused_with_what_is_allowed():
+    from sphere_env.tasks.sensors import FROM_SENSORS, SensorObserver
+
+    with pytest.raises(ValueError, match=r"^field 'names' = \('theta', 'pressure_kpa'\): .*; allowed: component names "
+                                         r"with a sensor computation: \["):
+        SensorObserver(("theta", "pressure_kpa"), 0.02)
+    assert SensorObserver(tuple(FROM_SENSORS), 0.02).names == tuple(FROM_SENSORS)
+
+
+def test_a_pool_needs_one_worker_at_least():
+    from sphere_env.parallel import run_parallel
+
+    for workers in (0, -2, 1.5, "2"):
+        with pytest.raises(ValueError, match=rf"^workers = {workers!r}: .*; allowed: an integer >= 1 or None$"):
+            run_parallel(abs, [{}], workers=workers)
+    assert run_parallel(len, [{}, {"a": 1}], workers=1) == [0, 1]

@@ -5,6 +5,7 @@ and drops history past the restored checkpoint; tiny budgets write a handful of 
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping
 
 import numpy as np
 import pytest
@@ -46,6 +47,41 @@ def test_bad_hyperparameters_refused_before_anything_is_written(tmp_path, capsys
     err = capsys.readouterr().err
     assert field in err, err
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("algo, section, message", [
+    ("ppo", {"policy_kwargs": {"net_arch": [-64, 64]}},
+     "field 'hyperparams.policy_kwargs.net_arch[0]' = -64: Input should be greater than or equal to 1; allowed: a "
+     "list of layer sizes >= 1"),
+    ("ppo", {"policy_kwargs": "dict(net_arch=dict(pi=[64, 0]))"},
+     "field 'hyperparams.policy_kwargs.net_arch' = {'pi': [64, 0]}: "),
+    ("ppo", {"policy_kwargs": {"activation_fn": "sigmoid"}},
+     "field 'hyperparams.policy_kwargs.activation_fn' = 'sigmoid': String should match pattern"),
+    ("ppo", {"policy_kwargs": {"activation_fn": "leakyrelu"}},
+     "field 'hyperparams.policy_kwargs.activation_fn' = 'leakyrelu': "),
+    ("ppo", {"learning_rate": "lin_0"}, "field 'hyperparams.learning_rate' = 'lin_0': "),
+    ("ppo", {"learning_rate": "lin_1e999"}, "field 'hyperparams.learning_rate' = 'lin_1e999': "),
+    ("ppo", {"clip_range": "lin_x"}, "field 'hyperparams.clip_range' = 'lin_x': "),
+    ("sac", {"gradient_steps": 0}, "field 'hyperparams.gradient_steps' = 0: Input should be greater than or equal to "
+                                   "1; allowed: an integer >= 1 or -1 (as many as env steps)"),
+    ("sac", {"ent_coef": "auto_0"}, "field 'hyperparams.ent_coef' = 'auto_0': "),
+    ("ppo", [64, 64], "field 'hyperparams' is a list, not a mapping; allowed keys: ["),
+])
+def test_bad_values_are_refused_by_name(algo, section, message):
+    with pytest.raises(ValueError) as err:
+        check_section(algo, section)
+    assert str(err.value).startswith(message), err.value
+    if isinstance(section, Mapping):
+        assert "; allowed: " in str(err.value)
+
+
+@pytest.mark.parametrize("algo, section", [
+    ("ppo", {"learning_rate": "lin_3e-4", "clip_range": "lin_0.2"}), ("ppo", {"learning_rate": "lin_.0003"}),
+    ("ppo", {"policy_kwargs": "dict(activation_fn=nn.LeakyReLU)"}), ("ppo", {"policy_kwargs": {"activation_fn": "Tanh"}}),
+    ("ppo", {"policy_kwargs": {"activation_fn": "leaky_relu"}}), ("sac", {"gradient_steps": -1}),
+])
+def test_good_values_pass(algo, section):
+    check_section(algo, section)
 
 
 @pytest.mark.parametrize("value, ok", [("auto", True), ("auto_0.1", True), (0.05, True), ("auto_-1", False),

@@ -16,7 +16,9 @@ TINY = ["--env", "sphere_env/RampDescent-v2", "-n", "32", "--eval-freq", "-1", "
 
 
 @pytest.mark.parametrize("argv, needle", [
-    (["--device", "banana"], "field 'device' = 'banana': not a torch device"),
+    (["--device", "banana"], "field 'device' = 'banana': String should match pattern"),
+    (["--device", "banana"], "; allowed: 'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"),
+    (["--device", "mps"], "field 'device' = 'mps': String should match pattern"),
     (["--device", "cuda:7"], "field 'device' = 'cuda:7': names a CUDA device and this machine has none"),
 ])
 def test_bad_arguments_end_in_one_named_line(tmp_path, capsys, argv, needle):

@@ -71,3 +71,10 @@ def test_initial_exploration_noise_per_action_component(env):
 def test_bad_privileged_dims_name_the_field(env, bad):
     with pytest.raises(ValueError, match="privileged_dims"):
         PPO("AsymmetricMlpPolicy", env, policy_kwargs=dict(privileged_dims=bad))
+
+
+@pytest.mark.parametrize("bad", [[-3.0, -2.0, -1.0], "x", float("nan")])
+def test_bad_log_std_init_names_the_field_and_the_action_size(env, bad):
+    with pytest.raises(ValueError, match=r"^policy_kwargs.log_std_init = .*; allowed: a finite number, or 2 \(one per "
+                                         r"action component\)$"):
+        PPO("AsymmetricMlpPolicy", env, policy_kwargs=dict(privileged_dims=4, log_std_init=bad))

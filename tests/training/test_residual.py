@@ -178,6 +178,14 @@ def test_shell_model_mixture_refuses_bad_lists_by_name(models):
         ShellModelMixture(gym.make(ENV, shell_model="injected"), models)
 
 
+def test_shell_model_mixture_needs_the_env_s_own_model():
+    from sphere_env.wrappers import ShellModelMixture
+
+    with pytest.raises(ValueError, match=r"^ShellModelMixture: the env's shell_model = 'injected': .*; allowed: one of "
+                                         r"shell_models \['point', 'hydroelastic'\]$"):
+        ShellModelMixture(gym.make(ENV, shell_model="injected"), ["point", "hydroelastic"])
+
+
 def test_shell_model_mixture_sets_the_randomization_of_every_model_or_none():
     from sphere_env.wrappers import ShellModelMixture
 

@@ -34,6 +34,12 @@ def test_trial_folders_group_seeds_by_configuration():
         trial_folders([a, a])
 
 
+def test_a_sweep_without_trials_is_refused(tmp_path):
+    with pytest.raises(ValueError, match=r"^trials = \[\]: .*; allowed: at least one configuration"):
+        run_sweep([], tmp_path / "sweep")
+    assert not (tmp_path / "sweep").exists()
+
+
 def test_bootstrap_interval_brackets_the_mean_and_needs_two_trials():
     vals = np.array([[1.0, 10.0], [2.0, 10.0], [3.0, 10.0], [6.0, 10.0]])
     low, high = bootstrap_ci(vals)

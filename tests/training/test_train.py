@@ -59,7 +59,9 @@ def no_workers(monkeypatch):
         (["--eval-env-kwargs", "shell_model:'jelly'"], "eval_env_kwargs.shell_model"),
         (["--eval-env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "field 'eval_env_kwargs.randomization.pressure_kpa'"),
         (["--eval-pressures-kpa", "3", "20"], "eval_pressures_kpa"),
-        (["-i", "no/such/model.zip"], "trained_agent"),
+        (["-i", "no/such/model.zip"], "trained_agent = 'no/such/model.zip': Path does not point to a file; "
+                                      "allowed: a saved model: a .zip file, or a run folder with model.zip"),
+        (["-i", "pyproject.toml"], "trained_agent = 'pyproject.toml': String should match pattern"),
         (["--seeds", "1", "1"], "seeds"),
     ],
 )
@@ -88,7 +90,8 @@ def test_layout_overrides_replace_the_files_layout():
 
 
 def test_bad_randomization_message_names_field():
-    with pytest.raises(ValueError, match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: outside the calibrated range"):
+    with pytest.raises(ValueError, match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: .*; allowed: "
+                                         r"\[3\.0, 14\.0\] kPa, the calibrated range"):
         resolve_config(RAMP, "ppo", env_kwargs={"randomization": {"pressure_kpa": [1.0, 50.0]}})
 
 
@@ -304,3 +307,24 @@ def test_unchecked_distributions_train_the_same_network_and_restore_the_checks()
         unchecked = run()
     assert torch.distributions.Distribution._validate_args
     assert torch.equal(checked, unchecked)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("env_id: sphere_env/RampDescent-v3\n", "field 'algo' is missing"),
+    ("algo: ppo\nenv_id: 3\n", "field 'env_id' = 3: Input should be a valid string"),
+    ("- a list\n", "the input is a list, not a mapping; allowed keys: ['algo', 'env_id']"),
+])
+def test_a_config_that_is_no_training_config_is_refused_by_name(tmp_path, text, message):
+    (tmp_path / "config.yaml").write_text(text)
+    with pytest.raises(ValueError) as err:
+        load_config(tmp_path)
+    assert str(err.value) == f"run: {str(tmp_path / 'config.yaml')!r}: {message}"
+
+
+def test_a_hyperparameter_section_that_is_no_mapping_is_refused_naming_the_file(tmp_path):
+    path = tmp_path / "h.yml"
+    path.write_text(f"{RAMP}: [64, 64]\n")
+    with pytest.raises(ValueError) as err:
+        resolve_config(RAMP, "ppo", path, build_env=False)
+    assert str(err.value).startswith(f"hyperparams file {str(path)!r}, section {RAMP!r}: field 'hyperparams' is a "
+                                     "list, not a mapping; allowed keys: [")

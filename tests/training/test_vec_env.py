@@ -83,8 +83,10 @@ def test_threaded_equals_dummy_over_episodes_with_resets():
 
 def test_threaded_n_threads_checked():
     fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, 0)]
-    with pytest.raises(ValueError, match=r"n_threads: value 2 must be an integer within 1\.\.1"):
+    with pytest.raises(ValueError, match=r"^n_threads = 2: .*; allowed: an integer within \[1, 1\]$"):
         ThreadedVecEnv(fns, n_threads=2)
+    with pytest.raises(ValueError, match=r"^n_workers = 0: .*; allowed: an integer within \[1, 1\]$"):
+        BatchedSubprocVecEnv(fns, n_workers=0)
 
 
 @pytest.mark.slow
