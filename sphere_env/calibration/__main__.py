@@ -27,7 +27,7 @@ from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.cli import renamed
 from sphere_env.resources import asset_path
-from sphere_env.schemas import Finite, OutputFile, checker, cli_type, count, number
+from sphere_env.schemas import Finite, OutputFile, OutputFolder, checker, cli_type, count, number
 from sphere_env.schemas.twin import parameter
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
@@ -40,6 +40,7 @@ TIME_STEP_S = cli_type(parameter("time_step_s"), float, "time_step_s")
 PRESSURE_KPA = cli_type(Finite, float, "pressure_kpa")  # against the calibration's range once it is loaded
 DURATION_S = cli_type(number(gt=0.0, le=600.0, words="a simulated time in (0, 600] s"), float, "duration_s")
 OUTPUT_FILE = checker(OutputFile)
+OUTPUT_FOLDER = checker(OutputFolder)
 
 
 def _trials(args, required=()):
@@ -462,7 +463,10 @@ def check_output_paths(args) -> None:
     for name in OUTPUT_OPTIONS:
         value = getattr(args, name, None)
         # report --out is a folder; events --json is a flag (print JSON), not a path
-        if not isinstance(value, str) or not value or (args.command == "report" and name == "out"):
+        if not isinstance(value, str) or not value:
+            continue
+        if args.command == "report" and name == "out":
+            OUTPUT_FOLDER(value, "--out")
             continue
         OUTPUT_FILE(value, f"--{name.replace('_', '-')}")
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ from sphere_env.calibration.logs import load_log
 from sphere_env.calibration.manifest import Manifest
 from sphere_env.calibration.sensitivity import plot_sweep, sensitivity_table, sweep
 from sphere_env.calibration.validate import plot_overlays, validate, validation_table
+from sphere_env.files import staged_folder
 from sphere_env.models.friction import FrictionModel, load_friction_presets
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.reporting import markdown_table, number
@@ -35,9 +37,22 @@ AUTHORS = {"steer_165825": {"phi": 0.098, "theta": 0.108}, "steer_165853": {"phi
 
 def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers: int | None = None,
                  starts: int = 2, calibration: str | None = None, sensitivity: bool = True) -> Path:
-    """Run every real-log check and write ``README.md``, ``results.json`` and PNGs into ``out_dir``."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    """Run every real-log check and write ``README.md``, ``results.json`` and PNGs into ``out_dir``:
+    all of them into a staging folder beside it first, moved into place only when every check has
+    finished, so an interrupted or failed report leaves ``out_dir`` as it was."""
+    with staged_folder(out_dir, _publish) as work:
+        _build(manifest, work, command, workers, starts, calibration, sensitivity)
+    return Path(out_dir) / "README.md"
+
+
+def _publish(work: Path, out: Path) -> None:
+    """Replace the earlier report's files in ``out`` by the new ones (other files there stay)."""
+    for p in work.iterdir():
+        os.replace(p, out / p.name)
+
+
+def _build(manifest: Manifest, out: Path, command: str, workers: int | None, starts: int,
+           calibration: str | None, sensitivity: bool) -> None:
     t_start = time.time()
     cal = ShellCalibration.load(calibration)
     presets = load_friction_presets()
@@ -103,7 +118,6 @@ def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers:
     results["runtime_s"] = time.time() - t_start
     (out / "results.json").write_text(json.dumps(results, indent=1, default=float))
     (out / "README.md").write_text(_markdown(results, stand, sf, rows, cal))
-    return out / "README.md"
 
 
 def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> str:

@@ -7,31 +7,8 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
-
-def _descendants(pid: int) -> set[int]:
-    children: dict[int, list[int]] = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
-    out, todo = set(), [pid]
-    while todo:
-        for c in children.get(todo.pop(), []):
-            out.add(c)
-            todo.append(c)
-    return out
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
+from tests.processes import alive, descendants
 
 
 def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
@@ -43,7 +20,7 @@ def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
     deadline = time.monotonic() + 120
     workers: set[int] = set()
     while time.monotonic() < deadline:  # the pool is up and the staging folder exists
-        workers = _descendants(proc.pid)
+        workers = descendants(proc.pid)
         if len(workers) >= 2 and list(tmp_path.glob(".eval.partial-*")):
             break
         time.sleep(0.2)
@@ -53,6 +30,6 @@ def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
     assert proc.returncode == 130, err[-2000:]
     assert "interrupted" in err and "Traceback" not in err
     time.sleep(1.0)
-    assert not [p for p in workers if _alive(p)], "worker processes outlived the evaluation"
+    assert not [p for p in workers if alive(p)], "worker processes outlived the evaluation"
     assert not list(tmp_path.iterdir()), "a staging or output folder was left behind"
     os.sync()
