@@ -37,7 +37,8 @@ PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     allow_abbrev=False)
     parser.add_argument("--train-steps", type=int, default=DEFAULT_TRAIN_STEPS,
                         help="env steps of the short training from scratch")
     parser.add_argument("--seed", type=int, default=0)

@@ -186,7 +186,8 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     from sphere_env.cli import parse_env_kwargs
 
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     allow_abbrev=False)
     parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best "
                                     "for its best model")
     parser.add_argument("--episodes", type=int, default=1, help="number of episodes (seeds seed, seed+1, ...)")

@@ -246,13 +246,15 @@ def _sweep(spec: SweepSpec, opts: EvaluateOptions, out: Path, replay_jobs, log,
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     allow_abbrev=False)
     parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
                         help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
     parser.add_argument("--env", default="sphere_env/RampDescent-v3")
     parser.add_argument("--pressure-kpa", type=float, nargs="+", default=[3.0, 8.5, 14.0],
                         help="inflation pressures [kPa] (default: 3 8.5 14, the demo's grid)")
     renamed(parser, "--pressures", "--pressure-kpa")
+    renamed(parser, "--pressure", "--pressure-kpa")
     parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
     parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds (default: the demo's 0 1 2)")

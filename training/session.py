@@ -31,7 +31,7 @@ class TrainingInterrupted(Exception):
 
 def say(msg: str) -> None:
     """A note of the trainer on stderr (a fallback taken, a file missing)."""
-    print(f"training.train: {msg}", file=sys.stderr, flush=True)
+    print(f"sphere-env train: {msg}", file=sys.stderr, flush=True)
 
 
 @contextlib.contextmanager

@@ -88,7 +88,8 @@ class StoreDict(argparse.Action):
 
 def build_parser() -> argparse.ArgumentParser:
     """The command line: rl-zoo3's ``train.py`` flags for what this trainer does, plus its own."""
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     allow_abbrev=False)
     parser.add_argument("--env", default="sphere_env/RampDescent-v3", help="registered env id")
     parser.add_argument("--algo", default="ppo", help="ppo or sac")
     parser.add_argument("-conf", "--conf-file", type=Path, default=None,

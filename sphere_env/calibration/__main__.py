@@ -333,7 +333,8 @@ def cmd_report(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     # usage lines read "sphere-env calibrate ..." from the sphere-env command (which sets argv[0])
     prog = sys.argv[0] if sys.argv[0].startswith("sphere-env") else "python -m sphere_env.calibration"
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 allow_abbrev=False)
     sub = ap.add_subparsers(dest="command", required=True)
 
     def common(p, group=None):
@@ -450,6 +451,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--starts", type=STARTS, default=2)
     p.add_argument("--no-sensitivity", action="store_true")
     p.set_defaults(func=cmd_report)
+    for p in sub.choices.values():  # a flag is spelled in full (no prefix of it), so a renamed flag is named
+        p.allow_abbrev = False
+        if "--pressure-kpa" in p._option_string_actions:
+            renamed(p, "--pressure", "--pressure-kpa")
     return ap
 
 
