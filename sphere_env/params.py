@@ -57,6 +57,11 @@ class Parameter:
     integer: bool = False
     #: a categorical parameter's values (then ``low``/``high`` are None and values are names)
     choices: tuple[str, ...] = ()
+    #: who applies a value within an episode: the twin's context (``twin``), the environment's
+    #: sensing and actuation (``env``), or neither (set when a twin is built or chosen)
+    applied_by: Literal["twin", "env"] | None = None
+    #: whether a randomization spec or an event may set it
+    randomizable: bool = False
 
     @property
     def allowed(self) -> str:
@@ -129,15 +134,15 @@ def _p(name, unit, nominal, low, high, changes, doc, **kw) -> tuple[str, Paramet
 PARAMETERS: dict[str, Parameter] = dict([
     # ---- may change within an episode (context parameters of the twin) ----
     _p("pressure_kpa", "kPa", None, None, None, "step",
-       "shell gauge pressure; nominal and bounds are the shell calibration's"),
-    _p("steer_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× steer joint friction torque"),
-    _p("drive_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× drive joint friction torque"),
+       "shell gauge pressure; nominal and bounds are the shell calibration's", applied_by="twin", randomizable=True),
+    _p("steer_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× steer joint friction torque", applied_by="twin", randomizable=True),
+    _p("drive_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× drive joint friction torque", applied_by="twin", randomizable=True),
     _p("ground_friction", "-", SHELL_FRICTION, 0.0, 2.0 * SHELL_FRICTION, "step",
        "effective shell–ground Coulomb μ (static = dynamic); < 2 μ_shell, see SHELL_FRICTION",
-       low_open=True, high_open=True),
-    _p("payload_mass_kg", "kg", 0.0, 0.0, 50.0, "step", "point mass on the pendulum"),
+       low_open=True, high_open=True, applied_by="twin", randomizable=True),
+    _p("payload_mass_kg", "kg", 0.0, 0.0, 50.0, "step", "point mass on the pendulum", applied_by="twin", randomizable=True),
     _p("payload_com_offset_m", "m", (0.0, 0.0, 0.0), -0.3, 0.3, "step",
-       "payload offset from the pendulum COM, pendulum frame", size=3),
+       "payload offset from the pendulum COM, pendulum frame", size=3, applied_by="twin", randomizable=True),
     _p("pressure_rate_kpa_per_s", "kPa/s", 0.0, None, None, "reset",
        "pressure schedule rate (< 0: a leak), sampled per episode"),
     # ---- sensing and actuation (the environment applies them, the twin never sees them) ----
@@ -145,18 +150,18 @@ PARAMETERS: dict[str, Parameter] = dict([
     # signal; far larger scales overflow the float32 observation to ±inf.
     _p("observation_noise_scale", "-", 0.0, 0.0, 100.0, "step",
        "× default per-component 1-σ noise of the measured observation components (0 = off); "
-       "the env kwarg of that name is the nominal value"),
+       "the env kwarg of that name is the nominal value", applied_by="env", randomizable=True),
     _p("action_latency_steps", "steps", 0, 0, 5, "reset",
        "control steps between an action and its torque (0 = applied at once; zero torque until the "
-       "first action arrives)", integer=True),
+       "first action arrives)", integer=True, applied_by="env", randomizable=True),
     _p("motor_torque_scale", "-", 1.0, 0.0, 1.0, "step",
-       "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)", low_open=True),
+       "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)", low_open=True, applied_by="env", randomizable=True),
     # ---- another twin, so only between episodes ----
     _p("shell_model", "-", None, None, None, "reset",
        "shell contact model; nominal: the env's shell_model kwarg (one twin per model, built on first use)",
-       choices=SHELL_MODELS),
+       choices=SHELL_MODELS, randomizable=True),
     _p("incline_deg", "deg", 0.0, 0.0, 30.0, "reset",
-       "ground incline, downhill along +x_W; the contact models were checked up to 30°"),
+       "ground incline, downhill along +x_W; the contact models were checked up to 30°", randomizable=True),
     # ---- fixed when built ----
     _p("time_step_s", "s", DEFAULT_TIME_STEP_S, 0.0, 0.05, "build", "plant time step", low_open=True),
     _p("ramp_length_m", "m", None, 0.0, 100.0, "build", "ramp length along the slope; None = infinite plane",
@@ -175,15 +180,12 @@ PARAMETERS: dict[str, Parameter] = dict([
        low_open=True),
 ])
 
-#: Parameters the twin's context takes within an episode (:meth:`Twin.apply`), nominal values.
-TWIN_PARAMETERS = ("pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
-                   "payload_mass_kg", "payload_com_offset_m")
-#: Parameters a randomization spec may sample.
-RANDOMIZABLE = ("shell_model", "pressure_kpa", "steer_friction_scale", "drive_friction_scale", "ground_friction",
-                "incline_deg", "payload_mass_kg", "payload_com_offset_m", "observation_noise_scale",
-                "action_latency_steps", "motor_torque_scale")
-#: Parameters the environment applies itself (sensing and actuation), nominal values.
-ENV_PARAMETERS = ("observation_noise_scale", "action_latency_steps", "motor_torque_scale")
+#: Parameters the twin's context takes within an episode (:meth:`Twin.apply`), in registry order.
+TWIN_PARAMETERS = tuple(name for name, p in PARAMETERS.items() if p.applied_by == "twin")
+#: Parameters a randomization spec or an event may set.
+RANDOMIZABLE = tuple(name for name, p in PARAMETERS.items() if p.randomizable)
+#: Parameters the environment applies itself (sensing and actuation).
+ENV_PARAMETERS = tuple(name for name, p in PARAMETERS.items() if p.applied_by == "env")
 
 
 def nominal(name: str) -> Any:
