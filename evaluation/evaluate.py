@@ -38,7 +38,6 @@ from __future__ import annotations
 import argparse
 import json
 import secrets
-import shutil
 import time
 from pathlib import Path
 from typing import Annotated, Any, Literal, Mapping, Sequence
@@ -59,7 +58,7 @@ from sphere_env.evaluation.sweep_report import (
     write_pme_csv,
     write_report,
 )
-from sphere_env.files import staged_folder
+from sphere_env.files import staged_folder, swap_folder
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.parallel import default_workers
 from sphere_env.schemas import allowed, checker, validate
@@ -177,16 +176,15 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
     return res
 
 
+def _produced(name: str) -> bool:
+    """Whether a sweep writes an entry of this name into its output folder."""
+    return name in OUTPUT_NAMES or (name.startswith("replay_") and name.endswith(".html"))
+
+
 def _replace_outputs(work: Path, out: Path) -> None:
-    """Replace what an earlier sweep wrote into ``out`` (:data:`OUTPUT_NAMES`, ``replay_*.html``)
-    by the contents of ``work``."""
-    for p in [*(out / n for n in OUTPUT_NAMES), *out.glob("replay_*.html")]:
-        if p.is_dir():
-            shutil.rmtree(p)
-        elif p.exists():
-            p.unlink()
-    for p in work.iterdir():
-        p.rename(out / p.name)
+    """Replace what an earlier sweep wrote into ``out`` by the contents of ``work`` as one set (a
+    folder swap); other files in ``out`` stay."""
+    swap_folder(work, out, _produced)
 
 
 def _staging(out: Path):

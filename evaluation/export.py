@@ -41,7 +41,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
@@ -49,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from sphere_env.files import swap_folder
 from sphere_env.schemas import validate
 from sphere_env.schemas.evaluation import EXPORT_FORMATS, ExportOptions
 from sphere_env.tasks.sensors import FROM_SENSORS
@@ -346,15 +346,7 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
 def _swap_in(work: Path, out: Path) -> None:
     """Replace the export folder ``out`` by the staged ``work`` (two renames); files in ``out`` that
     no export writes are carried over, the previous export's files are not."""
-    import shutil
-
-    old = out.with_name(f".{out.name}.old-{os.getpid()}")
-    for p in out.iterdir():
-        if p.name not in (*EXPORT_FORMATS.values(), "policy.json"):
-            (shutil.copytree if p.is_dir() else shutil.copy2)(p, work / p.name)
-    out.rename(old)
-    work.rename(out)
-    shutil.rmtree(old, ignore_errors=True)
+    swap_folder(work, out, lambda name: name in (*EXPORT_FORMATS.values(), "policy.json"))
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:

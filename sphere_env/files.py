@@ -68,3 +68,18 @@ def staged_folder(folder: str | Path, publish: Callable[[Path, Path], None]) -> 
         return
     publish(work, folder)
     shutil.rmtree(work, ignore_errors=True)
+
+
+def swap_folder(work: Path, out: Path, produced: Callable[[str], bool]) -> None:
+    """Replace the folder ``out`` by the staged ``work`` with two renames, so a reader sees the old
+    set of outputs or the new one, never a mix. Entries of ``out`` that the job does not produce
+    (``produced(name)`` false: a user's own files) are copied into ``work`` first and so carried
+    over; the earlier outputs are not. Usable as :func:`staged_folder`'s ``publish``."""
+    for p in out.iterdir():
+        if not produced(p.name):
+            (shutil.copytree if p.is_dir() else shutil.copy2)(p, work / p.name)
+    old = out.with_name(f".{out.name}.old-{os.getpid()}")
+    out.rename(old)
+    work.rename(out)
+    shutil.rmtree(old, ignore_errors=True)
+

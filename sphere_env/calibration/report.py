@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from pathlib import Path
 from typing import Any
@@ -26,7 +25,7 @@ from sphere_env.calibration.logs import load_log
 from sphere_env.calibration.manifest import Manifest
 from sphere_env.calibration.sensitivity import plot_sweep, sensitivity_table, sweep
 from sphere_env.calibration.validate import plot_overlays, validate, validation_table
-from sphere_env.files import staged_folder
+from sphere_env.files import staged_folder, swap_folder
 from sphere_env.models.friction import FrictionModel, load_friction_presets
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.reporting import markdown_table, number
@@ -46,9 +45,9 @@ def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers:
 
 
 def _publish(work: Path, out: Path) -> None:
-    """Replace the earlier report's files in ``out`` by the new ones (other files there stay)."""
-    for p in work.iterdir():
-        os.replace(p, out / p.name)
+    """Replace the earlier report in ``out`` by the new one as one set (a folder swap); other files
+    there stay."""
+    swap_folder(work, out, lambda name: name in ("README.md", "results.json") or name.endswith(".png"))
 
 
 def _build(manifest: Manifest, out: Path, command: str, workers: int | None, starts: int,

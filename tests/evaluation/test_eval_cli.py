@@ -145,8 +145,12 @@ def test_reused_out_holds_only_the_latest_sweep(tmp_path):
              out, workers=1, replays=[])
     assert (out / "pme.csv").exists() and (out / "plots" / "pme.png").exists()
     (out / "notes.txt").write_text("mine")  # not the sweep's: kept
+    earlier = out.stat().st_ino
     res = evaluate(SweepSpec(controllers=["pd"], pressures_kpa=[8.5], shell_models=["point"], seeds=[0]),
                    out, workers=1, replays=[])
+    # the new set came in as one folder (a swap, never file by file), and nothing is left beside it
+    assert out.stat().st_ino != earlier
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]
     assert not (out / "pme.csv").exists() and not (out / "plots" / "pme.png").exists()
     assert (out / "notes.txt").read_text() == "mine"
     assert all(p.exists() and p.is_relative_to(out) for p in res["files"].values())
