@@ -10,35 +10,21 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 
-def write_text_atomic(path: str | Path, text: str) -> Path:
+def write_text_atomic(path: str | Path, text: str, exclusive: bool = False) -> Path:
     """Write ``text`` to a temporary file beside ``path``, then rename it into place (parents
-    created). A failure on the way leaves ``path`` as it was and no temporary file behind."""
+    created). A failure on the way leaves ``path`` as it was and no temporary file behind. With
+    ``exclusive``, only when ``path`` does not exist yet: the complete file is linked into place,
+    which fails (``FileExistsError``) when another process got there first."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
+        (os.link if exclusive else os.replace)(tmp, path)
+    finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
-        raise
-    return path
-
-
-def write_text_exclusive(path: str | Path, text: str) -> Path:
-    """As :func:`write_text_atomic`, but only when ``path`` does not exist yet: the complete file is
-    linked into place, which fails (``FileExistsError``) when another process got there first."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.link(tmp, path)
-    finally:
-        os.unlink(tmp)
     return path
 
 

@@ -30,7 +30,7 @@ import numpy as np
 import yaml
 from pydantic import Field
 
-from sphere_env.files import write_text_atomic, write_text_exclusive
+from sphere_env.files import write_text_atomic
 from sphere_env.schemas import allowed, checker
 from sphere_env.training.config import TrainConfig
 
@@ -93,9 +93,9 @@ def run_sweep(cfgs: Sequence[TrainConfig], sweep_dir: str | Path, ray_address: s
                "env_kwargs": cfg.env_kwargs, "n_timesteps": cfg.n_timesteps}
               for (c, name), cfg in zip(names, cfgs)]
     try:  # created exclusively: of two sweeps started into one folder, the second is refused
-        write_text_exclusive(sweep_dir / "sweep.yaml", yaml.safe_dump(
+        write_text_atomic(sweep_dir / "sweep.yaml", yaml.safe_dump(
             {"env_id": cfgs[0].env_id, "algo": cfgs[0].algo, "executor": f"ray at {ray_address}" if ray_address
-             else "local", "command": list(command or []), "trials": trials}, sort_keys=False))
+             else "local", "command": list(command or []), "trials": trials}, sort_keys=False), exclusive=True)
     except FileExistsError:
         raise taken from None
     jobs = [{"cfg": cfg.as_dict(), "run_dir": str(sweep_dir / name), "command": list(command or [])}
