@@ -8,15 +8,26 @@ its unit), the unit, the nominal value, the allowed bounds and when the paramete
 * ``reset``: only between episodes (``incline_deg`` is terrain geometry: another twin);
 * ``build``: fixed when the twin or the environment is built.
 
+A record whose nominal value and bounds belong to a context (``bounds_from="calibration"``: the
+pressure, whose range is the shell calibration's) is filled in by a :class:`ParameterSpace`, the
+registry resolved against that context; the twin, the environment and the event manager check,
+clip and read nominal values through one space, so every parameter takes the same path.
+
+Adding a parameter is one record here and its use where it acts: a ``twin`` parameter is checked
+and stored by :meth:`~sphere_env.physics.Twin.apply` and pushed into the context where
+``Twin._push`` handles it; an ``env`` parameter is read from the episode's parameter set (the
+one ``info["params"]`` reports) where the environment applies it; a ``randomizable`` one is accepted by the randomization schema,
+the reset options and the event manager as its record says.
+
 Pure Python (no Drake), so tasks and randomization specs can be checked without a simulator.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from functools import cached_property
-from typing import Any, Literal
+from dataclasses import dataclass, replace
+from functools import cached_property, lru_cache
+from typing import Any, Literal, Mapping
 
 from pydantic import TypeAdapter, ValidationError
 
@@ -39,9 +50,9 @@ SHELL_MODELS = ("point", "injected", "hydroelastic")
 class Parameter:
     """One parameter: name (with unit), unit, nominal value, bounds and when it may change.
 
-    ``low``/``high`` are ``None`` where the bound comes from elsewhere (the pressure range from
-    the shell calibration) or does not exist; ``low_open``/``high_open`` exclude the bound.
-    ``size`` > 1 for vector parameters (each component within the bounds).
+    ``low``/``high`` are ``None`` where the bound does not exist, or where it comes from a context
+    (``bounds_from``) until a :class:`ParameterSpace` fills it in; ``low_open``/``high_open``
+    exclude the bound. ``size`` > 1 for vector parameters (each component within the bounds).
     """
 
     name: str
@@ -62,10 +73,27 @@ class Parameter:
     applied_by: Literal["twin", "env"] | None = None
     #: whether a randomization spec or an event may set it
     randomizable: bool = False
+    #: where nominal value and bounds come from when they are not in the record: ``calibration``
+    #: (the shell calibration's nominal pressure and range, filled in by a :class:`ParameterSpace`)
+    bounds_from: Literal["calibration"] | None = None
+    #: the bounds in words when a :class:`ParameterSpace` filled them in (they say where from)
+    bounds_text: str | None = None
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the record's bounds are known (a ``bounds_from`` record: once a space filled them in)."""
+        return self.bounds_from is None or self.bounds_text is not None
+
+    def _require_bounds(self) -> None:
+        if not self.resolved:
+            raise LookupError(f"{self.name}: its bounds come from the {self.bounds_from}; check and clip it "
+                              "through a ParameterSpace (e.g. ShellCalibration.parameter_space())")
 
     @property
     def allowed(self) -> str:
         """The bounds as text, e.g. ``(0, 0.05] s``, or a categorical parameter's names."""
+        if self.bounds_text is not None:
+            return self.bounds_text
         if self.choices:
             return str(list(self.choices))
         lo = "-inf" if self.low is None else f"{self.low:g}"
@@ -102,8 +130,10 @@ class Parameter:
 
     def check(self, value: Any, field: str | None = None):
         """``value`` as a float (an int for an integer parameter, a tuple of ``size`` floats for a
-        vector one, a name for a categorical one) within the bounds; ``ValueError`` naming ``field``
-        (default: the parameter's name), the value and the allowed range."""
+        vector one, a name for a categorical one) within the bounds; otherwise a ``ValueError`` in
+        the schemas' dialect, ``<field> = <value>: <problem>; allowed: <bounds>`` (``field``: where
+        the value was given, default ``field '<name>'``)."""
+        self._require_bounds()
         try:
             return self._type.validate_python(value)
         except ValidationError as err:
@@ -112,10 +142,11 @@ class Parameter:
                 problem, allowed = "not a valid vector", f"{self.size} finite numbers within {self.allowed}"
             else:
                 allowed = self.allowed
-            raise ValueError(f"{field or self.name}: value {value!r}: {problem}; allowed: {allowed}") from None
+            raise ValueError(f"{field or f'field {self.name!r}'} = {value!r}: {problem}; allowed: {allowed}") from None
 
     def clip(self, value: float) -> float:
         """Clip into the bounds (an open bound clips to the nearest allowed float)."""
+        self._require_bounds()
         lo, hi = self.low, self.high
         if self.integer:
             value = round(value)
@@ -134,7 +165,8 @@ def _p(name, unit, nominal, low, high, changes, doc, **kw) -> tuple[str, Paramet
 PARAMETERS: dict[str, Parameter] = dict([
     # ---- may change within an episode (context parameters of the twin) ----
     _p("pressure_kpa", "kPa", None, None, None, "step",
-       "shell gauge pressure; nominal and bounds are the shell calibration's", applied_by="twin", randomizable=True),
+       "shell gauge pressure; nominal and bounds are the shell calibration's", applied_by="twin", randomizable=True,
+       bounds_from="calibration"),
     _p("steer_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× steer joint friction torque", applied_by="twin", randomizable=True),
     _p("drive_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× drive joint friction torque", applied_by="twin", randomizable=True),
     _p("ground_friction", "-", SHELL_FRICTION, 0.0, 2.0 * SHELL_FRICTION, "step",
@@ -188,10 +220,66 @@ RANDOMIZABLE = tuple(name for name, p in PARAMETERS.items() if p.randomizable)
 ENV_PARAMETERS = tuple(name for name, p in PARAMETERS.items() if p.applied_by == "env")
 
 
-def nominal(name: str) -> Any:
-    return PARAMETERS[name].nominal
-
-
 def check(name: str, value: Any, field: str | None = None):
-    """Check ``value`` against the record ``name`` (see :meth:`Parameter.check`)."""
+    """Check ``value`` against the record ``name`` (see :meth:`Parameter.check`); a record whose
+    bounds come from a context is checked through a :class:`ParameterSpace` instead."""
     return PARAMETERS[name].check(value, field)
+
+
+@dataclass(frozen=True)
+class ParameterSpace:
+    """The registry resolved against a context: every record of :data:`PARAMETERS` with its nominal
+    value and bounds known. Records marked ``bounds_from="calibration"`` (the pressure) take them
+    from the shell calibration (:meth:`for_calibration`); every other record is as registered.
+
+    One path for every parameter: ``space.check(name, value)`` (the value, or a ``ValueError``
+    naming the field, the value and the allowed range), ``space.clip(name, value)``,
+    ``space.nominal(name)``, ``space.bounds(name)`` and ``space[name]`` (the resolved record).
+    """
+
+    records: Mapping[str, Parameter]
+
+    @staticmethod
+    @lru_cache(maxsize=64)
+    def for_calibration(low_kpa: float, high_kpa: float, nominal_kpa: float | None = None,
+                        source: str | None = None) -> "ParameterSpace":
+        """The space of a shell calibration whose pressure range is [``low_kpa``, ``high_kpa``] and
+        nominal pressure ``nominal_kpa`` (None: the middle of the range, as the calibration schema
+        defaults it); ``source`` (the calibration's file) is quoted by the pressure's bounds text.
+        One space per distinct calibration (cached)."""
+        low, high = float(low_kpa), float(high_kpa)
+        nominal = 0.5 * (low + high) if nominal_kpa is None else float(nominal_kpa)
+        of = "" if source is None else f" (calibration {source})"
+
+        def fill(rec: Parameter) -> Parameter:
+            return replace(rec, nominal=nominal, low=low, high=high,
+                           bounds_text=f"[{low}, {high}] {rec.unit}, the calibrated range{of}")
+
+        return ParameterSpace({name: fill(rec) if rec.bounds_from == "calibration" else rec
+                               for name, rec in PARAMETERS.items()})
+
+    def __getitem__(self, name: str) -> Parameter:
+        return self.records[name]
+
+    def check(self, name: str, value: Any, field: str | None = None):
+        """``value`` checked against the resolved record ``name`` (:meth:`Parameter.check`)."""
+        return self.records[name].check(value, field)
+
+    def clip(self, name: str, value: Any) -> Any:
+        """A drawn value clipped into the bounds of ``name`` (each component of a vector; a
+        categorical value unchanged)."""
+        rec = self.records[name]
+        if rec.choices:
+            return value
+        if isinstance(value, tuple):
+            return tuple(rec.clip(v) for v in value)
+        return rec.clip(float(value))
+
+    def nominal(self, name: str) -> Any:
+        """The value of ``name`` when nothing sets it."""
+        return self.records[name].nominal
+
+    def bounds(self, name: str) -> tuple[float | None, float | None]:
+        """(low, high) of ``name`` (None: unbounded on that side)."""
+        rec = self.records[name]
+        return rec.low, rec.high

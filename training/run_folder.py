@@ -192,7 +192,7 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     data = cfg.as_dict()
     cal = ShellCalibration.load(cfg.env_kwargs.get("calibration"))
     ramp = "Ramp" in cfg.env_id
-    spec = RandomizationSpec.parse(cfg.randomization, ramp=ramp).resolved(cal.pressure_range_kpa)
+    spec = RandomizationSpec.parse(cfg.randomization, ramp=ramp).resolved(cal.parameter_space())
     data["randomization_resolved"] = plain_data(spec)
     data["seeds"] = {"seed": cfg.seed, "workers": cfg.worker_seeds, "eval": cfg.eval_seed}
     data["monitor_info_keywords"] = list(MONITOR_KEYWORDS)

@@ -33,7 +33,7 @@ from sphere_env.envs.twins import (
     stability_problem,
 )
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
-from sphere_env.params import ENV_PARAMETERS, PARAMETERS, TWIN_PARAMETERS
+from sphere_env.params import ENV_PARAMETERS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
 from sphere_env.schemas.env import RENDER_MODES, EnvKwargs, reset_options
@@ -44,9 +44,6 @@ from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
 
-#: Nominal values of the twin parameters other than pressure (whose nominal is the calibration's)
-#: and of the sensing and actuation parameters the environment applies itself.
-_NOMINAL = {name: PARAMETERS[name].nominal for name in TWIN_PARAMETERS + ENV_PARAMETERS if name != "pressure_kpa"}
 __all__ = ["SphereEnv", "PRESSURE_RESOLUTION_KPA", "INCLINE_RESOLUTION_DEG"]
 #: ``reset(seed=...)``: a non-negative integer or None.
 _SEED = checker(count(0) | None)
@@ -100,6 +97,8 @@ class SphereEnv(gym.Env, EzPickle):
         except ValueError as err:
             raise ValueError(f"{where}: field 'calibration' = {kw.calibration!r}: {err}") from None
         self._calibration_path = kw.calibration
+        #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
+        self.parameter_space = self.calibration.parameter_space()
         self.control_period_s = 1.0 / kw.control_frequency_hz
         self.time_step_s = kw.time_step_s
         self.steer_torque_limit_nm = kw.steer_torque_limit_nm
@@ -189,10 +188,11 @@ class SphereEnv(gym.Env, EzPickle):
 
     def _event_manager(self, spec: RandomizationSpec) -> EventManager:
         """The :class:`~sphere_env.tasks.events.EventManager` of ``spec`` for this environment."""
-        nominal = {"shell_model": self.shell_model, "pressure_kpa": self.calibration.nominal_pressure_kpa, **_NOMINAL,
+        space = self.parameter_space
+        nominal = {"shell_model": self.shell_model,
+                   **{name: space.nominal(name) for name in TWIN_PARAMETERS + ENV_PARAMETERS},
                    "incline_deg": self.incline_deg, "observation_noise_scale": self.observation_noise_scale}
-        return EventManager(spec, nominal, self.calibration.pressure_range_kpa, self._quantize_pressure,
-                            {"incline_deg": self._snap_incline})
+        return EventManager(spec, nominal, space, self._quantize_pressure, {"incline_deg": self._snap_incline})
 
     @property
     def events(self) -> list[dict[str, Any]]:
@@ -201,7 +201,7 @@ class SphereEnv(gym.Env, EzPickle):
 
     def _check_randomization(self, spec: Any, steer_check: bool = True) -> RandomizationSpec:
         """Parse and resolve ``spec`` as the ``randomization`` kwarg; pure (raises, changes nothing)."""
-        resolved = RandomizationSpec.parse(spec, ramp=self.task.ramp).resolved(self.calibration.pressure_range_kpa)
+        resolved = RandomizationSpec.parse(spec, ramp=self.task.ramp).resolved(self.parameter_space)
         if steer_check:  # the constructor checks once its twin exists
             problem = self._stability_problem(resolved)
             if problem:
@@ -264,7 +264,7 @@ class SphereEnv(gym.Env, EzPickle):
         step = self._hydro_step_kpa if shell == "hydroelastic" else 0.0
         if step <= 0.0:
             return p
-        lo, hi = self.calibration.pressure_range_kpa
+        lo, hi = self.parameter_space.bounds("pressure_kpa")
         q = lo + round((p - lo) / step) * step
         return min(max(round(q, 9), lo), hi)
 
@@ -281,7 +281,7 @@ class SphereEnv(gym.Env, EzPickle):
             if name in RANDOMIZED:
                 # a fixed value (the options schema types it so); a pressure within the calibration's range
                 spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
-                term = spec.resolved(self.calibration.pressure_range_kpa, kwarg="options").terms[0]
+                term = spec.resolved(self.parameter_space, kwarg="options").terms[0]
                 fixed[name] = term.distribution.value
             elif name == "pressure_rate_kpa_per_s":
                 fixed[name] = val

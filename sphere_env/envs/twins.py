@@ -17,7 +17,7 @@ from sphere_env.params import PARAMETERS
 from sphere_env.physics import InitialState, Twin
 from sphere_env.physics.terrain import Terrain
 from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
-from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter
+from sphere_env.tasks.randomization import RandomizationSpec
 
 #: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
 INCLINE_RESOLUTION_DEG = 1.0
@@ -44,7 +44,7 @@ def shared_inclines(spec: RandomizationSpec, shell_model: str, incline_deg: floa
         values = range(math.floor(d.low), math.ceil(d.high) + 1)
     else:  # normal, clipped to the parameter's bounds
         values = range(math.floor(rec.low), math.ceil(rec.high) + 1)
-    grid = {quantize_incline(clip_parameter("incline_deg", v, (0.0, 0.0))) for v in values}
+    grid = {quantize_incline(rec.clip(float(v))) for v in values}
     return tuple(sorted(v for v in grid | {float(incline_deg)} if rec.contains(v)))
 
 

@@ -59,11 +59,11 @@ import numpy as np
 
 from sphere_env.models.mathbackend import NUMPY
 from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
+from sphere_env.params import ParameterSpace
 from sphere_env.resources import asset_path
 from sphere_env.schemas.calibration import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
     CalibrationFile,
-    calibrated_pressure,
     calibration_form,
     calibration_ref,
     check_calibration,
@@ -297,13 +297,21 @@ class ShellCalibration:
         return replace(self, pressure_range_kpa=(max(lo - margin_kpa, MIN_EXTRAPOLATED_KPA), hi + margin_kpa),
                        calibrated_range_kpa=(lo, hi))
 
-    # ---- curves ----------------------------------------------------------------------------------
-    def check_pressure(self, pressure_kpa: float, field: str = "field 'pressure_kpa'") -> float:
-        """``pressure_kpa`` as a float if it is a finite number inside the calibrated range
-        (:func:`~sphere_env.schemas.calibration.calibrated_pressure`), else a ValueError naming
-        ``field`` (where the value was given), the value and the range."""
+    # ---- parameters ------------------------------------------------------------------------------
+    def parameter_space(self) -> ParameterSpace:
+        """The parameter registry resolved against this calibration: the pressure's nominal value
+        and bounds are ``nominal_pressure_kpa`` and ``pressure_range_kpa`` (its errors quote
+        ``source``); every other parameter as registered (:class:`~sphere_env.params.ParameterSpace`)."""
         lo, hi = self.pressure_range_kpa
-        return float(calibrated_pressure(lo, hi, self.source)(pressure_kpa, field))
+        return ParameterSpace.for_calibration(lo, hi, self.nominal_pressure_kpa, self.source)
+
+    def check_pressure(self, pressure_kpa: float, field: str = "field 'pressure_kpa'") -> float:
+        """``pressure_kpa`` as a float if it is a finite number inside the calibrated range, else a
+        ValueError naming ``field`` (where the value was given), the value and the range: the
+        pressure's check in :meth:`parameter_space`, for callers that check one pressure."""
+        return self.parameter_space().check("pressure_kpa", pressure_kpa, field)
+
+    # ---- curves ----------------------------------------------------------------------------------
 
     def omega_n(self, pressure_kpa):
         """Locked-steer natural frequency ω_n(p) [rad/s]."""

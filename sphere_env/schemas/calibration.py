@@ -285,16 +285,6 @@ def calibration_ref() -> Callable[[Any, str], Any]:
                                  "or None (the shipped default)"))])
 
 
-@lru_cache(maxsize=64)
-def calibrated_pressure(low: float, high: float, source: str | None = None) -> Callable[[Any, str], float]:
-    """The check of a pressure [kPa] inside a calibration's range [low, high] (:func:`~sphere_env.schemas.checker`;
-    ``source``: the calibration's file, quoted by the error)."""
-    of = "" if source is None else f" (calibration {source})"
-    # no Python validator (the twin checks every pressure change): pydantic's own strict float, finite
-    return checker(Annotated[float, Field(ge=low, le=high, allow_inf_nan=False, json_schema_extra=allowed(
-        f"[{low}, {high}] kPa, the calibrated range{of}"))])
-
-
 def check_calibration(data: Any, source: str = "<dict>") -> CalibrationFile:
     """``data`` (a calibration mapping) as :class:`CalibrationFile`; ``ValueError``
     ``calibration file '<source>': <field>: ...`` otherwise."""

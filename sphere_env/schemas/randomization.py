@@ -42,9 +42,10 @@ PRESETS = ("off", "default", "full")
 DISTRIBUTIONS: dict[str, tuple[str, ...]] = {"fixed": ("value",), "uniform": ("low", "high"), "normal": ("mean", "std"),
                                              "choice": ("values",)}
 MODES = ("reset", "interval")
-#: Parameters whose uniform distribution may leave out both bounds: it then spans the shell
-#: calibration's pressure range (filled in by ``RandomizationSpec.resolved``).
-NATURAL_RANGE = ("pressure_kpa",)
+#: Parameters whose uniform distribution may leave out both bounds: those whose bounds come from a
+#: context (``bounds_from``; the pressure: the shell calibration's range), filled in by
+#: ``RandomizationSpec.resolved``.
+NATURAL_RANGE = tuple(name for name, rec in REGISTRY.items() if rec.bounds_from is not None)
 #: The registry record of the pressure schedule's rate (drawn once per episode).
 RATE = "pressure_rate_kpa_per_s"
 

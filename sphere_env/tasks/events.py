@@ -23,8 +23,8 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from sphere_env.params import PARAMETERS
-from sphere_env.tasks.randomization import RandomizationSpec, clip_parameter, schedule_pressure
+from sphere_env.params import PARAMETERS, ParameterSpace
+from sphere_env.tasks.randomization import RandomizationSpec, schedule_pressure
 
 #: The pressure schedule pushes a new pressure when it moved by at least this much [kPa].
 #: Hydroelastic pressures additionally snap to the environment's pressure grid: re-meshing the
@@ -36,9 +36,10 @@ class EventManager:
     """Draws and updates one episode's parameter set from a resolved spec.
 
     :param spec: the resolved :class:`RandomizationSpec` (pressure bounds filled in).
-    :param nominal: every parameter's value when no event sets it (pressure: the calibration's
-        nominal; env-applied parameters: the environment's kwargs).
-    :param pressure_range_kpa: the range pressures are clipped to [kPa].
+    :param nominal: every parameter's value when no event sets it (the space's nominal values;
+        env-applied parameters: the environment's kwargs).
+    :param space: the parameter space (:class:`~sphere_env.params.ParameterSpace`, resolved
+        against the shell calibration) whose bounds drawn values are clipped to.
     :param quantize_pressure: ``(pressure, episode parameters) -> pressure``: rounds a pressure to
         the values the episode's twin can take (the hydroelastic grid; identity otherwise), applied
         to every pressure an event sets.
@@ -46,12 +47,12 @@ class EventManager:
         environment snaps inclines to its terrain grid).
     """
 
-    def __init__(self, spec: RandomizationSpec, nominal: Mapping[str, Any], pressure_range_kpa: tuple[float, float],
+    def __init__(self, spec: RandomizationSpec, nominal: Mapping[str, Any], space: ParameterSpace,
                  quantize_pressure: Callable[[float, Mapping[str, Any]], float] = lambda p, params: p,
                  quantizers: Mapping[str, Callable[[Any], Any]] | None = None):
         self.spec = spec
         self._nominal = dict(nominal)
-        self._range = pressure_range_kpa
+        self._space = space
         self._quantize = quantize_pressure
         self._quantizers = dict(quantizers or {})
         self._intervals = [t for t in spec.terms if t.mode == "interval"]
@@ -77,7 +78,7 @@ class EventManager:
         ``fixed`` (checked ``reset`` options) on top; pressures snap to the twin's grid last."""
         params = dict(self._nominal)
         for name, val in self.spec.sample(rng).items():
-            val = clip_parameter(name, val, self._range)
+            val = self._space.clip(name, val)
             params[name] = self._quantizers[name](val) if name in self._quantizers else val
         sched = self.spec.pressure_schedule
         params["pressure_rate_kpa_per_s"] = 0.0 if sched is None else float(sched.rate_kpa_per_s.sample(rng, 1))
@@ -107,7 +108,7 @@ class EventManager:
             due = self._next_s[term.parameter]
             if time_s >= due - 1e-9:
                 val = term.distribution.sample(rng, PARAMETERS[term.parameter].size)
-                val = clip_parameter(term.parameter, val, self._range)
+                val = self._space.clip(term.parameter, val)
                 if term.parameter == "pressure_kpa":
                     val = self._quantize(val, params)
                     self._p0 = val
@@ -117,7 +118,7 @@ class EventManager:
                 fired.append(f"interval:{term.parameter}")
         rate = params["pressure_rate_kpa_per_s"]
         if rate != 0.0:
-            p = self._quantize(schedule_pressure(self._p0, rate, self._delay_s, time_s, self._range), params)
+            p = self._quantize(schedule_pressure(self._p0, rate, self._delay_s, time_s, self._space), params)
             if abs(p - self._p_applied) >= PRESSURE_RESOLUTION_KPA:
                 self._p_applied = changed["pressure_kpa"] = p
                 fired.append("schedule:pressure_kpa")

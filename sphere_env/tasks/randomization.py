@@ -46,12 +46,12 @@ from typing import Any
 import numpy as np
 
 from sphere_env.params import PARAMETERS as REGISTRY
-from sphere_env.params import RANDOMIZABLE, Parameter
-from sphere_env.schemas.calibration import calibrated_pressure
+from sphere_env.params import RANDOMIZABLE, Parameter, ParameterSpace
 from sphere_env.schemas.randomization import SpecInput, load_spec
 
 #: The randomizable parameters' records (name, unit, nominal, bounds; :mod:`sphere_env.params`).
-#: Pressure bounds come from the shell calibration.
+#: Pressure bounds come from the shell calibration: a :class:`~sphere_env.params.ParameterSpace`
+#: fills them in (:meth:`RandomizationSpec.resolved`).
 PARAMETERS: dict[str, Parameter] = {name: REGISTRY[name] for name in RANDOMIZABLE}
 
 
@@ -121,18 +121,21 @@ class RandomizationSpec:
         data = _as_data(spec, kwarg) if isinstance(spec, RandomizationSpec) else spec
         return _from_schema(load_spec(data, ramp, kwarg))
 
-    def resolved(self, pressure_range_kpa: tuple[float, float], kwarg: str = "randomization") -> "RandomizationSpec":
-        """Fill pressure bounds from the calibration and check pressures lie in its range."""
-        lo, hi = pressure_range_kpa
+    def resolved(self, space: ParameterSpace, kwarg: str = "randomization") -> "RandomizationSpec":
+        """The spec in ``space`` (the registry resolved against the calibration): a parameter whose
+        bounds come from the context (``bounds_from``: the pressure) gets them as its uniform
+        distribution's bounds when it gave none, and its values are checked against them (the
+        schema checked every other value against the registry already); ``ValueError`` naming
+        ``<kwarg>: field '<parameter>'`` otherwise."""
         terms = []
         for t in self.terms:
-            d = t.distribution
-            if t.parameter == "pressure_kpa":
+            d, rec = t.distribution, space[t.parameter]
+            if rec.bounds_from is not None:
                 if d.kind == "uniform" and d.low is None:
-                    d = replace(d, low=lo, high=hi)
+                    d = replace(d, low=rec.low, high=rec.high)
                 vals = {"fixed": [d.value], "uniform": [d.low, d.high], "choice": list(d.values)}.get(d.kind, [])
                 for v in vals:
-                    calibrated_pressure(lo, hi)(v, f"{kwarg}: field 'pressure_kpa'")
+                    rec.check(v, f"{kwarg}: field {t.parameter!r}")
                 t = replace(t, distribution=d)
             terms.append(t)
         return replace(self, terms=tuple(terms))
@@ -144,19 +147,6 @@ class RandomizationSpec:
             if which is None or t.mode == which:
                 out[t.parameter] = t.distribution.sample(rng, PARAMETERS[t.parameter].size)
         return out
-
-
-def clip_parameter(name: str, value, pressure_range_kpa: tuple[float, float]):
-    """Clip a (normal-)sampled value into the parameter's allowed bounds."""
-    if name == "pressure_kpa":
-        lo, hi = pressure_range_kpa
-        return min(max(float(value), lo), hi)
-    rec = PARAMETERS[name]
-    if rec.choices:
-        return value
-    if isinstance(value, tuple):
-        return tuple(rec.clip(v) for v in value)
-    return rec.clip(float(value))
 
 
 def _from_schema(spec: SpecInput) -> RandomizationSpec:
@@ -202,8 +192,7 @@ def _draw_data(d: Any) -> Any:
 
 
 def schedule_pressure(p0_kpa: float, rate_kpa_per_s: float, delay_s: float, t_s: float,
-                      pressure_range_kpa: tuple[float, float]) -> float:
-    """p(t) of a :class:`PressureSchedule` [kPa], clipped to the calibration range."""
-    lo, hi = pressure_range_kpa
-    p = p0_kpa + rate_kpa_per_s * max(t_s - delay_s, 0.0)
-    return min(max(p, lo), hi)
+                      space: ParameterSpace) -> float:
+    """p(t) of a :class:`PressureSchedule` [kPa], clipped to the pressure's bounds in ``space``
+    (the calibration range)."""
+    return space.clip("pressure_kpa", p0_kpa + rate_kpa_per_s * max(t_s - delay_s, 0.0))

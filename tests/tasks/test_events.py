@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import sphere_env  # noqa: F401
+from sphere_env.params import ParameterSpace
 from sphere_env.tasks.events import EventManager
 from sphere_env.tasks.randomization import RandomizationSpec
 
@@ -92,7 +93,7 @@ def test_draw_changes_nothing_until_started():
     spec = RandomizationSpec.parse({"pressure_kpa": [3.0, 14.0], "action_latency_steps": {"distribution": "choice",
                                                                                           "values": [0, 1, 2]}})
     nominal = {"pressure_kpa": 4.0, "action_latency_steps": 0, "observation_noise_scale": 0.0}
-    mgr = EventManager(spec, nominal, (3.0, 14.0))
+    mgr = EventManager(spec, nominal, ParameterSpace.for_calibration(3.0, 14.0))
     a = mgr.draw(np.random.default_rng(1))
     b = mgr.draw(np.random.default_rng(1))
     assert a == b and mgr.params == {} and not mgr.active

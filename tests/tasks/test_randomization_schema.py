@@ -6,6 +6,7 @@ import re
 import numpy as np
 import pytest
 
+from sphere_env.params import ParameterSpace
 from sphere_env.tasks.randomization import Distribution, PressureSchedule, RandomizationSpec, Term
 
 
@@ -82,7 +83,7 @@ def test_spec_objects_are_checked_as_their_mapping():
                                                                 "mode": "interval", "interval_s": 0.5}}):
         parsed = RandomizationSpec.parse(spec)
         assert RandomizationSpec.parse(parsed) == parsed  # an env's copies re-parse the spec they hold
-        resolved = parsed.resolved((3.0, 14.0))
+        resolved = parsed.resolved(ParameterSpace.for_calibration(3.0, 14.0))
         assert RandomizationSpec.parse(resolved) == resolved
 
 

@@ -7,8 +7,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from sphere_env.params import ParameterSpace
 from sphere_env.tasks import RollTask, observation, rewards, termination
 from sphere_env.tasks.randomization import RandomizationSpec, schedule_pressure
+
+#: The parameter space of a calibration whose pressure range is [3, 14] kPa.
+SPACE = ParameterSpace.for_calibration(3.0, 14.0)
 
 
 def fake_state(**kw):
@@ -70,16 +74,16 @@ def test_termination():
 
 
 def test_randomization_presets_and_sampling_are_seeded():
-    spec = RandomizationSpec.parse("default").resolved((3.0, 14.0))
+    spec = RandomizationSpec.parse("default").resolved(SPACE)
     a = spec.sample(np.random.default_rng(1))
     assert a == spec.sample(np.random.default_rng(1)) and 3.0 <= a["pressure_kpa"] <= 14.0
     assert a != spec.sample(np.random.default_rng(2))
     assert RandomizationSpec.parse("off").sample(np.random.default_rng(0)) == {}
-    full = RandomizationSpec.parse("full").resolved((3.0, 14.0))
+    full = RandomizationSpec.parse("full").resolved(SPACE)
     vals = full.sample(np.random.default_rng(0))
     assert set(vals) >= {"pressure_kpa", "ground_friction", "payload_mass_kg", "payload_com_offset_m", "incline_deg"}
     assert len(vals["payload_com_offset_m"]) == 3 and full.pressure_schedule is not None
-    assert "incline_deg" not in RandomizationSpec.parse("full", ramp=False).resolved((3, 14)).sample(np.random.default_rng(0))
+    assert "incline_deg" not in RandomizationSpec.parse("full", ramp=False).resolved(SPACE).sample(np.random.default_rng(0))
 
 
 def test_randomization_mapping_formats():
@@ -88,7 +92,7 @@ def test_randomization_mapping_formats():
         "ground_friction": {"distribution": "normal", "mean": 1.0, "std": 0.1, "mode": "interval", "interval_s": 0.5},
         "payload_mass_kg": 2.0,
         "pressure_schedule": {"rate_kpa_per_s": -0.1, "delay_s": 1.0},
-    }).resolved((3.0, 14.0))
+    }).resolved(SPACE)
     modes = {t.parameter: t.mode for t in spec.terms}
     assert modes == {"pressure_kpa": "reset", "ground_friction": "interval", "payload_mass_kg": "reset"}
     assert spec.sample(np.random.default_rng(0))["payload_mass_kg"] == 2.0
@@ -116,14 +120,14 @@ def test_randomization_mapping_formats():
 ])
 def test_randomization_bad_specs_name_the_field(bad, match):
     with pytest.raises(ValueError, match=match) as err:
-        RandomizationSpec.parse(bad).resolved((3.0, 14.0))
+        RandomizationSpec.parse(bad).resolved(SPACE)
     assert "randomization" in str(err.value)
 
 
 def test_pressure_schedule_leaks_and_clips():
-    assert schedule_pressure(10.0, -1.0, 0.0, 2.0, (3.0, 14.0)) == pytest.approx(8.0)
-    assert schedule_pressure(10.0, -1.0, 1.0, 0.5, (3.0, 14.0)) == 10.0
-    assert schedule_pressure(4.0, -1.0, 0.0, 10.0, (3.0, 14.0)) == 3.0
+    assert schedule_pressure(10.0, -1.0, 0.0, 2.0, SPACE) == pytest.approx(8.0)
+    assert schedule_pressure(10.0, -1.0, 1.0, 0.5, SPACE) == 10.0
+    assert schedule_pressure(4.0, -1.0, 0.0, 10.0, SPACE) == 3.0
 
 
 def test_speed_linear_term_pulls_where_the_gaussian_is_flat():
