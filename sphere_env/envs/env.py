@@ -425,11 +425,9 @@ class SphereEnv(gym.Env, EzPickle):
         """Push the parameters the event manager changed at sim time ``t`` into the twin (sensing
         and actuation parameters are read from ``self._params`` where they act)."""
         changed, self._fired = self._events.step(t, self.np_random)
-        twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS and k != "pressure_kpa"}
+        twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS}
         if twin_changes:
             self.twin.apply(twin_changes)
-        if "pressure_kpa" in changed:
-            self.twin.set_pressure(changed["pressure_kpa"])
 
     def _observe(self, state) -> np.ndarray:
         noise = None

@@ -26,7 +26,6 @@ from sphere_env.files import write_text_atomic
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.params import TWIN_PARAMETERS
-from sphere_env.params import check as check_param
 from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M, ExplicitStability, ground_clearance_m
 from sphere_env.physics.config import FIXTURES, InitialState, TwinConfig, TwinState
 from sphere_env.physics.diagram import (
@@ -63,8 +62,13 @@ class Twin:
                             .extrapolated(config.pressure_extrapolation_kpa))
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
         self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
-        p0 = self.calibration.nominal_pressure_kpa if config.pressure_kpa is None else config.pressure_kpa
-        self._pressure_kpa = self.calibration.check_pressure(p0)
+        # Every context parameter (TWIN_PARAMETERS), in one dict: nominal values from the parameter
+        # space, the pressure and ground friction the config gives. Twin.apply changes them.
+        space = self.calibration.parameter_space()
+        self._params: dict[str, Any] = {name: space.nominal(name) for name in TWIN_PARAMETERS}
+        if config.pressure_kpa is not None:
+            self._params["pressure_kpa"] = space.check("pressure_kpa", config.pressure_kpa)
+        self._params["ground_friction"] = float(config.ground_friction)
         self.terrain = Terrain(config.incline_deg, config.ramp_length_m)
         fitted = self.calibration.fitted_time_step_s
         if config.shell_model == "hydroelastic" and fitted is not None and not math.isclose(fitted, config.time_step_s):
@@ -80,7 +84,7 @@ class Twin:
 
     # ---- building --------------------------------------------------------------------------------
     def _build(self) -> None:
-        shell = shell_properties(self.config, self.shell, self._pressure_kpa)
+        shell = shell_properties(self.config, self.shell, self.pressure_kpa)
         d = build_diagram(self.config, self.robot, self.terrain, shell, self.meshcat)
         # Drake handles, public for tools that inspect the plant (calibration, tests); the env and
         # tasks use the methods below instead.
@@ -97,7 +101,7 @@ class Twin:
                                 else d.kinematics_switch.GetMyMutableContextFromRoot(self.context))
         self._ground_geometries: dict[float, list] = {}  # incline -> Terrain.geometries(), built once
         # The ground in the context: its incline and μ. Setters change the targets (config
-        # incline, _ground_friction) and mark it dirty; _sync_ground brings the context there
+        # incline, the ground_friction parameter) and mark it dirty; _sync_ground brings the context there
         # before the next reset, step or render, so a cached shell restored in between (which
         # brings the ground of its time) costs one update, not two.
         self._ground_incline = self.incline_deg
@@ -107,10 +111,7 @@ class Twin:
         self._layout = d.layout
         self._forces, self._forces_context, self._motor_port = d.forces, d.forces_context, d.motor_port
         self._motor_port.FixValue(self.context, np.zeros(2))
-        self._friction_scale = np.array([1.0, 1.0])
-        self._ground_friction = float(self.config.ground_friction)
         self._pendulum_inertia = self.pendulum.default_spatial_inertia()
-        self._payload = (0.0, (0.0, 0.0, 0.0))
         self._shells = ShellCache(self.sg_context)
         self._camera: RgbCamera | None = None
         self._apply_pressure_to_context()
@@ -137,7 +138,7 @@ class Twin:
         of that incline is selected, and the terrain (normal, ramp end) follows. The results are
         bit-identical to a twin built at that incline.
         """
-        inc = check_param("incline_deg", incline_deg)
+        inc = self.calibration.parameter_space().check("incline_deg", incline_deg)
         if inc not in self.inclines_deg:
             raise ValueError(f"incline_deg: value {incline_deg!r} is not one this twin was built for; allowed: "
                              f"{list(self.inclines_deg)} (TwinConfig.inclines_deg)")
@@ -151,9 +152,10 @@ class Twin:
     def _sync_ground(self) -> None:
         """Bring the context's ground to the current incline and μ (see ``_ground_dirty``)."""
         self._ground_dirty = False
-        if self._ground_mu_in_context != self._ground_friction:
-            self._assign_ground_friction(self._ground_friction)
-            self._ground_mu_in_context = self._ground_friction
+        mu = self._params["ground_friction"]
+        if self._ground_mu_in_context != mu:
+            self._assign_ground_friction(mu)
+            self._ground_mu_in_context = mu
         inc = self.config.incline_deg
         if self._ground_incline == inc:
             return
@@ -174,51 +176,81 @@ class Twin:
                 self._switch_context, self._kinematics_ports[self.incline_deg])
 
 
-    # ---- pressure --------------------------------------------------------------------------------
+    # ---- parameters: pressure, friction, payload ---------------------------------------------------
     GEOMETRY_CACHE_SIZE = 24  # hydroelastic shells kept per twin, one per distinct pressure
 
     @property
     def pressure_kpa(self) -> float:
-        return self._pressure_kpa
+        return self._params["pressure_kpa"]
+
+    @property
+    def params(self) -> dict:
+        """The context's current parameter values (the registry's ``TWIN_PARAMETERS``), a copy."""
+        return dict(self._params)
 
     def shell_parameters(self, pressure_kpa: float | None = None) -> dict:
         """The shell model's parameters at a pressure (current by default), with units in the keys."""
-        p = self._pressure_kpa if pressure_kpa is None else pressure_kpa
+        p = self.pressure_kpa if pressure_kpa is None else pressure_kpa
         return self.shell.parameters(self.config.shell_model, p)
 
+    def apply(self, params: Mapping[str, Any]) -> None:
+        """Change parameter values; the one path by which the twin's parameters change.
+
+        Keys: any of :data:`~sphere_env.params.TWIN_PARAMETERS` (``pressure_kpa``,
+        ``steer_friction_scale``, ``drive_friction_scale``, ``ground_friction``,
+        ``payload_mass_kg``, ``payload_com_offset_m``); other keys are ignored. All values are
+        checked first, through the calibration's parameter space
+        (:meth:`~sphere_env.models.shell.ShellCalibration.parameter_space`): on error nothing
+        changes. Then the values that changed are pushed into the context (cheap per step) and take
+        effect on the next step.
+        """
+        space = self.calibration.parameter_space()
+        new = {k: space.check(k, params[k]) for k in TWIN_PARAMETERS if k in params}
+        self._push({k: v for k, v in new.items() if v != self._params[k]})
+
+    def _push(self, changed: Mapping[str, Any]) -> None:
+        """Store checked values and bring the context to them. Pressure goes last: its push sets the
+        shell gains with the friction scales already stored and snapshots a hydroelastic shell with
+        the ground in force (the order the setters always had, so results stay bit-identical)."""
+        self._params.update(changed)
+        if "steer_friction_scale" in changed or "drive_friction_scale" in changed:
+            self._apply_gains()
+        if "ground_friction" in changed:
+            self._ground_dirty = True  # pushed before the next reset, step or render
+        if "payload_mass_kg" in changed or "payload_com_offset_m" in changed:
+            self._push_payload(self._params["payload_mass_kg"], np.asarray(self._params["payload_com_offset_m"]))
+        if "pressure_kpa" in changed:
+            self._apply_pressure_to_context()
+
     def set_pressure(self, pressure_kpa: float) -> None:
-        """Change the inflation pressure [kPa gauge] now; takes effect on the next step.
+        """Change the inflation pressure [kPa gauge] now (:meth:`apply`); takes effect on the next step.
 
         ``injected`` reads new K_inject, C_inject from the context; ``hydroelastic`` replaces the
         shell's proximity properties (modulus, dissipation) in the SceneGraph context.
         """
-        self._pressure_kpa = self.calibration.check_pressure(pressure_kpa)
-        self._apply_pressure_to_context()
+        self.apply({"pressure_kpa": pressure_kpa})
 
     def set_calibration(self, calibration: ShellCalibration | str | Path, pressure_kpa: float | None = None) -> None:
         """Use another shell calibration from now on (no rebuild), at ``pressure_kpa`` [kPa] or the
-        current pressure. Validated first: on error nothing changes."""
+        current pressure. Validated first (the pressure in the new calibration's parameter space): on
+        error nothing changes."""
         cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
         cal = cal.for_time_step(self.config.time_step_s).extrapolated(self.config.pressure_extrapolation_kpa)
-        p = cal.check_pressure(self._pressure_kpa if pressure_kpa is None else pressure_kpa)
+        p = cal.parameter_space().check("pressure_kpa", self.pressure_kpa if pressure_kpa is None else pressure_kpa)
         shell = cal.bind(self.robot)
-        self.calibration, self.shell, self._pressure_kpa = cal, shell, p
-        self._apply_pressure_to_context()
+        self.calibration, self.shell = cal, shell
+        self._push({"pressure_kpa": p})  # pushed even when unchanged: the shell laws are new
 
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
-        """Scale each joint's friction torque (domain randomization); 1 = nominal."""
-        s = check_param("steer_friction_scale", steer)
-        d = check_param("drive_friction_scale", drive)
-        self._friction_scale = np.array([s, d])
-        self._apply_gains()
+        """Scale each joint's friction torque (domain randomization); 1 = nominal (:meth:`apply`)."""
+        self.apply({"steer_friction_scale": steer, "drive_friction_scale": drive})
 
     def _apply_gains(self) -> None:
         if self._forces is None:  # bare plant
             return
-        law = self.shell.law_gains(self.config.shell_model, self._pressure_kpa)
-        self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(
-            np.concatenate([law, self._friction_scale])
-        )
+        law = self.shell.law_gains(self.config.shell_model, self.pressure_kpa)
+        scales = np.array([self._params["steer_friction_scale"], self._params["drive_friction_scale"]])
+        self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(np.concatenate([law, scales]))
 
     def _apply_pressure_to_context(self) -> None:
         """Push the current pressure into the context.
@@ -232,9 +264,9 @@ class Twin:
         self._apply_gains()
         if self.config.shell_model != "hydroelastic":
             return
+        p = self.pressure_kpa
         # a shell is its modulus, dissipation and mesh (the mesh may change with pressure)
-        key = (*self.shell.hydroelastic(self._pressure_kpa),
-               hydroelastic_resolution_hint_m(self.config, self.shell, self._pressure_kpa))
+        key = (*self.shell.hydroelastic(p), hydroelastic_resolution_hint_m(self.config, self.shell, p))
         ground = self._shells.restore(key)
         if ground is not None:
             # The snapshot holds the ground (pose, μ) of its time: synced before the next step.
@@ -243,18 +275,15 @@ class Twin:
             return
         self.scene_graph.AssignRole(
             self.sg_context, self.shell_source_id, self.shell_geometry,
-            shell_properties(self.config, self.shell, self._pressure_kpa), RoleAssign.kReplace,
+            shell_properties(self.config, self.shell, p), RoleAssign.kReplace,
         )
         self._shells.store(key, self._ground_mu_in_context, self._ground_incline, self.GEOMETRY_CACHE_SIZE)
 
     def set_payload(self, mass_kg: float = 0.0, offset_m=(0.0, 0.0, 0.0)) -> None:
         """Add a point-mass payload to the pendulum, at its nominal COM shifted by ``offset_m``
-        (pendulum frame, m). ``mass_kg = 0`` restores the URDF inertia. Context parameters only:
-        no rebuild; survives :meth:`reset`."""
-        m = check_param("payload_mass_kg", mass_kg)
-        off = np.asarray(check_param("payload_com_offset_m", offset_m))
-        self._push_payload(m, off)
-        self._payload = (m, tuple(off.tolist()))
+        (pendulum frame, m). ``mass_kg = 0`` restores the URDF inertia. Context parameters only
+        (:meth:`apply`): no rebuild; survives :meth:`reset`."""
+        self.apply({"payload_mass_kg": mass_kg, "payload_com_offset_m": offset_m})
 
     def _push_payload(self, m: float, off: np.ndarray) -> None:
         M0 = self._pendulum_inertia
@@ -265,15 +294,14 @@ class Twin:
         self.pendulum.SetSpatialInertiaInBodyFrame(self.plant_context, M)
 
     def set_ground_friction(self, mu: float) -> None:
-        """Set the effective shell–ground Coulomb friction [-] (static = dynamic); pushed into the
-        context before the next reset, step or render.
+        """Set the effective shell–ground Coulomb friction [-] (static = dynamic) (:meth:`apply`);
+        pushed into the context before the next reset, step or render.
 
         Drake combines the two geometries' coefficients as 2 μ_s μ_g / (μ_s + μ_g); the shell keeps
         μ_s = :data:`~sphere_env.params.SHELL_FRICTION`, so the ground's value is solved for:
         μ_g = μ μ_s / (2 μ_s − μ). Allowed: 0 < μ < 2 μ_s (the registry's bounds).
         """
-        self._ground_friction = check_param("ground_friction", mu)
-        self._ground_dirty = True  # pushed before the next reset, step or render
+        self.apply({"ground_friction": mu})
 
     def _assign_ground_friction(self, mu: float) -> None:
         mu_g = ground_coefficient(mu)
@@ -284,42 +312,6 @@ class Twin:
             props = ProximityProperties(inspector.GetProximityProperties(gid))
             props.UpdateProperty("material", "coulomb_friction", CoulombFriction(mu_g, mu_g))
             self.scene_graph.AssignRole(self.sg_context, self.shell_source_id, gid, props, RoleAssign.kReplace)
-
-    @property
-    def params(self) -> dict:
-        """The context's current parameter values (the registry's ``TWIN_PARAMETERS``)."""
-        return {
-            "pressure_kpa": self._pressure_kpa,
-            "steer_friction_scale": float(self._friction_scale[0]),
-            "drive_friction_scale": float(self._friction_scale[1]),
-            "ground_friction": self._ground_friction,
-            "payload_mass_kg": self._payload[0],
-            "payload_com_offset_m": self._payload[1],
-        }
-
-    def apply(self, params: Mapping[str, Any]) -> None:
-        """Push parameter values into the context, only those that changed (cheap per step).
-
-        Keys: any of :data:`~sphere_env.params.TWIN_PARAMETERS` (``pressure_kpa``,
-        ``steer_friction_scale``, ``drive_friction_scale``, ``ground_friction``,
-        ``payload_mass_kg``, ``payload_com_offset_m``); other keys are ignored. All values are
-        checked first; on error nothing changes.
-        """
-        cur = self.params
-        new = {k: params[k] for k in TWIN_PARAMETERS if k in params}
-        new = {k: (self.calibration.check_pressure(v) if k == "pressure_kpa" else check_param(k, v))
-               for k, v in new.items()}
-        cur.update(new)
-        fs = (cur["steer_friction_scale"], cur["drive_friction_scale"])
-        if fs != (float(self._friction_scale[0]), float(self._friction_scale[1])):
-            self.set_friction_scale(*fs)
-        if cur["ground_friction"] != self._ground_friction:
-            self.set_ground_friction(cur["ground_friction"])
-        pay = (cur["payload_mass_kg"], cur["payload_com_offset_m"])
-        if pay != self._payload:
-            self.set_payload(*pay)
-        if cur["pressure_kpa"] != self._pressure_kpa:
-            self.set_pressure(cur["pressure_kpa"])
 
     @property
     def cached_shell_count(self) -> int:
@@ -352,7 +344,7 @@ class Twin:
         """Reset time and state (the diagram is reused). Pressure is kept unless given."""
         initial = (initial or InitialState()).validate()
         if pressure_kpa is not None:
-            self.calibration.check_pressure(pressure_kpa)
+            pressure_kpa = self.calibration.parameter_space().check("pressure_kpa", pressure_kpa)
         self.context.SetTime(0.0)
         plant, pc = self.plant, self.plant_context
         plant.SetDefaultState(pc, pc.get_mutable_state())
@@ -384,7 +376,7 @@ class Twin:
             self.planar.set_translational_velocity(pc, [initial.velocity_m_s[1], initial.velocity_m_s[2]])
             self.planar.set_angular_velocity(pc, initial.angular_velocity_rad_s[0])
         if pressure_kpa is not None:
-            self.set_pressure(pressure_kpa)
+            self.apply({"pressure_kpa": pressure_kpa})
         self._sync_ground()
         self._motor_port.FixValue(self.context, np.zeros(2))
         self.simulator.Initialize()
@@ -411,7 +403,7 @@ class Twin:
         """Read θ, φ, ω_d, heading, pose and rates from the plant state (names and signs: docs/design.md;
         the math: :func:`~sphere_env.physics.state.read_state`)."""
         return read_state(self.plant.GetPositionsAndVelocities(self.plant_context), self._layout, self.terrain,
-                          self.context.get_time(), self._pressure_kpa)
+                          self.context.get_time(), self.pressure_kpa)
 
     def advance_unchecked(self, duration_s: float, motor_torque_nm: np.ndarray) -> None:
         """:meth:`advance` without input validation; ``motor_torque_nm`` must be a finite float64 (2,)."""
