@@ -80,6 +80,14 @@ class Parameter:
     bounds_text: str | None = None
 
     @property
+    def schedulable(self) -> bool:
+        """Whether a randomization spec may give it mode ``schedule`` (a rate of change within the
+        episode): a randomizable number, neither vector, whole number nor name, that may change at any
+        control step."""
+        return (self.randomizable and self.changes == "step" and self.size == 1 and not self.integer
+                and not self.choices)
+
+    @property
     def resolved(self) -> bool:
         """Whether the record's bounds are known (a ``bounds_from`` record: once a space filled them in)."""
         return self.bounds_from is None or self.bounds_text is not None
@@ -218,6 +226,24 @@ TWIN_PARAMETERS = tuple(name for name, p in PARAMETERS.items() if p.applied_by =
 RANDOMIZABLE = tuple(name for name, p in PARAMETERS.items() if p.randomizable)
 #: Parameters the environment applies itself (sensing and actuation).
 ENV_PARAMETERS = tuple(name for name, p in PARAMETERS.items() if p.applied_by == "env")
+
+
+def schedule_rate(name: str) -> Parameter:
+    """The record of the rate [unit/s] a ``schedule`` term of ``name`` draws once per episode: the
+    registry's record of that name when there is one (``pressure_rate_kpa_per_s``, which a reset
+    option may fix), else one made from ``name``'s record (unbounded, nominal 0). The name puts
+    ``_rate`` before a unit suffix (``payload_mass_kg`` -> ``payload_mass_rate_kg_per_s``) and
+    ``_rate_per_s`` after a name without one (``ground_friction_rate_per_s``)."""
+    rec = PARAMETERS[name]
+    stem, _, suffix = name.rpartition("_")
+    unit = rec.unit.lower().replace(" ", "")
+    if rec.unit != "-" and suffix == unit:
+        rate, per = f"{stem}_rate_{suffix}_per_s", f"{rec.unit}/s"
+    else:
+        rate, per = f"{name}_rate_per_s", "1/s" if rec.unit == "-" else f"{rec.unit}/s"
+    if rate in PARAMETERS:
+        return PARAMETERS[rate]
+    return Parameter(rate, per, 0.0, None, None, "reset", f"schedule rate of {name}, sampled per episode")
 
 
 def check(name: str, value: Any, field: str | None = None):

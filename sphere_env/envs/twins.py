@@ -59,10 +59,15 @@ def drawn_shells(spec: RandomizationSpec) -> set[str]:
 
 def largest(spec: RandomizationSpec, name: str) -> float:
     """The largest value a spec can give ``name`` (nominal when not randomized; a normal
-    distribution is clipped to the registry bound)."""
+    distribution is clipped to the registry bound; a schedule whose rate may be positive can
+    reach the registry bound)."""
     for t in spec.terms:
         if t.parameter == name:
             d = t.distribution
+            if t.mode == "schedule" and _may_rise(t.rate_per_s):
+                return float(PARAMETERS[name].high)
+            if d is None:
+                return float(PARAMETERS[name].nominal)
             if d.kind == "fixed":
                 return float(d.value)
             if d.kind == "uniform":
@@ -71,6 +76,17 @@ def largest(spec: RandomizationSpec, name: str) -> float:
                 return max(float(v) for v in d.values)
             return float(PARAMETERS[name].high)
     return float(PARAMETERS[name].nominal)
+
+
+def _may_rise(rate) -> bool:
+    """Whether a schedule's rate distribution can draw a positive rate."""
+    if rate.kind == "fixed":
+        return rate.value > 0
+    if rate.kind == "uniform":
+        return rate.high > 0
+    if rate.kind == "choice":
+        return max(rate.values) > 0
+    return True  # normal
 
 
 def stability_problem(spec: RandomizationSpec, twins: list[Twin]) -> str | None:

@@ -17,7 +17,7 @@ that :class:`~sphere_env.tasks.randomization.RandomizationSpec` is built from on
 
 from __future__ import annotations
 
-from typing import Annotated, Any, ClassVar, Literal, Mapping, Union
+from typing import Annotated, Any, ClassVar, Literal, Mapping, Optional, Union
 
 import numpy as np
 from pydantic import (
@@ -33,7 +33,7 @@ from pydantic import (
 )
 
 from sphere_env.params import PARAMETERS as REGISTRY
-from sphere_env.params import RANDOMIZABLE, Parameter
+from sphere_env.params import RANDOMIZABLE, Parameter, schedule_rate
 from sphere_env.schemas import Schema, _integral, _ordered, allowed, number, validate
 
 #: The preset names: a whole spec, or the ``base`` a mapping starts from.
@@ -41,7 +41,7 @@ PRESETS = ("off", "default", "full")
 #: The fields each distribution takes.
 DISTRIBUTIONS: dict[str, tuple[str, ...]] = {"fixed": ("value",), "uniform": ("low", "high"), "normal": ("mean", "std"),
                                              "choice": ("values",)}
-MODES = ("reset", "interval")
+MODES = ("reset", "interval", "schedule")
 #: Parameters whose uniform distribution may leave out both bounds: those whose bounds come from a
 #: context (``bounds_from``; the pressure: the shell calibration's range), filled in by
 #: ``RandomizationSpec.resolved``.
@@ -120,6 +120,8 @@ class Draw(Schema):
     def _infer_distribution(cls, data: Any) -> Any:
         if isinstance(data, Mapping) and "distribution" not in data:
             given = [kind for kind, fields in DISTRIBUTIONS.items() if any(f in data for f in fields)]
+            if not given and data.get("mode") == "schedule" and "mode" in cls.model_fields:
+                return data  # no draw: the schedule starts from the nominal value (or a reset option)
             if len(given) > 1:
                 raise ValueError(f"field 'distribution' is missing: the fields given belong to {given}; allowed: "
                                  "the fields of one distribution, or 'distribution' naming it")
@@ -129,6 +131,8 @@ class Draw(Schema):
     @model_validator(mode="after")
     def _fields_of_the_distribution(self) -> "Draw":
         kind = self.distribution
+        if kind is None:  # an entry's schedule without a draw (checked by the entry)
+            return self
         takes = DISTRIBUTIONS[kind]
         others = {k for fields in DISTRIBUTIONS.values() for k in fields} - set(takes)
         for key in sorted(others):
@@ -147,16 +151,29 @@ class Draw(Schema):
 
 
 class Entry(Draw):
-    """A parameter's entry given in full: a :class:`Draw`, and when it is drawn: at every ``reset``
-    or every ``interval_s`` seconds of sim time (``interval``)."""
+    """A parameter's entry given in full: a :class:`Draw`, and when it is drawn: at every ``reset``,
+    every ``interval_s`` seconds of sim time (``interval``), or at reset with a rate of change
+    ``rate_per_s`` (itself a draw, once per episode) that moves the value after ``delay_s``
+    (``schedule``; without a draw of its own the schedule starts from the nominal value)."""
 
     @model_validator(mode="after")
-    def _interval(self) -> "Entry":
-        if self.mode == "interval" and self.interval_s is None:
+    def _mode_fields(self) -> "Entry":
+        mode = self.mode
+        if mode == "interval" and self.interval_s is None:
             raise ValueError("field 'interval_s' is missing: mode 'interval' needs a period > 0 s")
-        if self.mode == "reset" and self.interval_s is not None:
-            raise ValueError(f"field 'interval_s' = {self.interval_s!r} is only for mode 'interval'; allowed: "
-                             "leave it out for mode 'reset'")
+        if mode == "schedule" and self.rate_per_s is None:
+            raise ValueError("field 'rate_per_s' is missing: mode 'schedule' needs a rate of change, drawn once per "
+                             "episode")
+        for key, owner in (("interval_s", "interval"), ("rate_per_s", "schedule"), ("delay_s", "schedule")):
+            if mode != owner and getattr(self, key) is not None:
+                value = getattr(self, key)
+                if isinstance(value, Draw):  # as given: a number, or the distribution's mapping
+                    value = value.value if value.distribution == "fixed" else value.model_dump(exclude_none=True)
+                raise ValueError(f"field {key!r} = {value!r} is only for mode {owner!r}; allowed: "
+                                 f"leave it out for mode {mode!r}")
+        if self.distribution is None and mode != "schedule":
+            raise ValueError(f"field 'distribution' = None: only mode 'schedule' may leave out the draw; allowed: "
+                             f"{list(DISTRIBUTIONS)}")
         return self
 
 
@@ -182,15 +199,32 @@ def draw_model(rec: Parameter, entry: bool = True) -> type[Draw]:
                 f"{rec.size} numbers >= 0" if rec.size > 1 else "a finite number >= 0"))),
         }
     if entry:
-        modes = ("reset",) if rec.changes == "reset" else MODES
-        why = f" ({rec.name} changes only between episodes)" if rec.changes == "reset" else ""
+        modes, why = modes_of(rec)
+        rate = schedule_rate(rec.name)
         fields |= {
+            # left out (None) only by a schedule without a draw of its own: the nominal value at reset
+            "distribution": (Optional[Literal[kinds]], Field(None, json_schema_extra=allowed(  # type: ignore[valid-type]
+                str(list(kinds))))),
             "mode": (Literal[modes], Field("reset", json_schema_extra=allowed(f"{list(modes)}{why}"))),  # type: ignore[valid-type]
             "interval_s": (number(gt=0.0) | None, Field(None, json_schema_extra=allowed("a period > 0 s"))),
+            "rate_per_s": (Optional[parameter_field(rate, entry=False)], Field(None, json_schema_extra=allowed(
+                f"a number [{rate.unit}] (fixed), [low, high] (uniform) or {{distribution: "
+                f"{'|'.join(DISTRIBUTIONS)}, ...}}, drawn once per episode"))),
+            "delay_s": (number(ge=0.0) | None, Field(None, json_schema_extra=allowed("a time >= 0 s"))),
         }
     model = create_model(f"{rec.name}_entry", __base__=Entry if entry else Draw, **fields)
     model.natural_range = rec.name in NATURAL_RANGE
     return model
+
+
+def modes_of(rec: Parameter) -> tuple[tuple[str, ...], str]:
+    """The modes ``rec``'s entry may take, and why others are not allowed (in words, or '')."""
+    if rec.changes == "reset":
+        return ("reset",), f" ({rec.name} changes only between episodes)"
+    if rec.schedulable:
+        return MODES, ""
+    what = "a vector" if rec.size > 1 else "a whole number" if rec.integer else "a name" if rec.choices else "fixed"
+    return ("reset", "interval"), f" ({rec.name} is {what}: no schedule)"
 
 
 def parameter_field(rec: Parameter, entry: bool = True) -> Any:
@@ -230,8 +264,9 @@ def _entry_words(rec: Parameter) -> str:
         return (f"a name (fixed), a non-empty list of names (choice) or {{distribution: fixed|choice, value|values}}; "
                 f"names: {rec.allowed}")
     pair = "[[low...], [high...]]" if rec.size > 1 else "[low, high]"
+    timing = "mode, interval_s, rate_per_s, delay_s" if rec.schedulable else "mode, interval_s"
     return (f"{_words(rec)} (fixed), {pair} (uniform) or {{distribution: {'|'.join(DISTRIBUTIONS)}, "
-            f"value|low,high|mean,std|values, mode, interval_s}}")
+            f"value|low,high|mean,std|values, {timing}}}")
 
 
 # ---- the whole spec --------------------------------------------------------------------------------
@@ -279,6 +314,13 @@ class SpecInput(ParameterEntries):
         data = _plain(data)
         if isinstance(data, Mapping) and data.get("base", "off") in PRESETS:
             ramp = (info.context or {}).get("ramp", True)
+            pressure = data.get("pressure_kpa")
+            if isinstance(pressure, Mapping) and pressure.get("mode") == "schedule":
+                if data.get("pressure_schedule") is not None:
+                    raise ValueError(f"field 'pressure_schedule' = {data['pressure_schedule']!r}: 'pressure_kpa' has "
+                                     "mode 'schedule' already; allowed: one pressure schedule (null here, or another "
+                                     "mode for 'pressure_kpa')")
+                data = {**data, "pressure_schedule": None}  # replaces a preset's
             data = {**preset(data.get("base", "off"), ramp), **data}
         out = handler(data)
         out._order = tuple(k for k in data if k in RANDOMIZABLE)

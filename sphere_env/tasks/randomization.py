@@ -1,18 +1,19 @@
 """Declarative domain randomization (Isaac Lab "event term" style), pure numpy.
 
 A :class:`RandomizationSpec` says **what** is sampled (a parameter name), **when** (``reset``:
-once per episode; ``interval``: again every ``interval_s`` seconds of sim time) and **from which
-distribution**; an optional :class:`PressureSchedule` moves the pressure within an episode (a
-slow leak or a pump). All sampling takes the env's ``np_random`` generator; nothing touches
-global RNG state. Every sampled value is reported in the env's ``info["params"]``.
+once per episode; ``interval``: again every ``interval_s`` seconds of sim time; ``schedule``: a
+value that moves at a rate drawn once per episode, value(t) = value at reset + rate ·
+max(t − delay_s, 0), clipped to the parameter's bounds) and **from which distribution**; the
+pressure's schedule may also be given as a :class:`PressureSchedule` (a slow leak or a pump). All
+sampling takes the env's ``np_random`` generator; nothing touches global RNG state. Every sampled
+value is reported in the env's ``info["params"]``.
 
 Parameters: the ``RANDOMIZABLE`` records of :mod:`sphere_env.params` (unit, nominal value when not
-randomized, bounds): ``pressure_kpa`` (the calibration's nominal and range; hydroelastic: snapped
-to the env's ``hydroelastic_pressure_step_kpa`` grid), ``steer_friction_scale``,
-``drive_friction_scale``, ``ground_friction``, ``incline_deg`` (ramp tasks, reset only, sampled
-values snap to 1°), ``payload_mass_kg``, ``payload_com_offset_m`` (3 components), and the sensing
-and actuation faults the environment applies: ``observation_noise_scale``,
-``action_latency_steps`` (reset only, whole numbers) and ``motor_torque_scale``. The
+randomized, bounds, whether it may change within an episode; listed in ``docs/envs.md``, generated
+from the registry). The pressure's nominal value and range are the calibration's (hydroelastic:
+values snap to the env's ``hydroelastic_pressure_step_kpa`` grid); drawn inclines snap to 1°; a
+parameter that changes only between episodes takes mode ``reset`` only; a numeric scalar one
+(``Parameter.schedulable``) also takes ``schedule``. The
 :class:`~sphere_env.tasks.events.EventManager` turns a spec into an episode's events.
 
 Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``randomization``), all
@@ -29,12 +30,15 @@ checked by one schema, :mod:`sphere_env.schemas.randomization` (the presets' map
 * a mapping ``{parameter: entry, ..., "pressure_schedule": {...}, "base": "off"|"default"|"full"}``
   where ``entry`` is a number or 3-list (fixed), ``[low, high]`` (uniform per reset; a vector's
   ``[[low...], [high...]]``), or a dict ``{distribution: fixed|uniform|normal|choice,
-  value|low,high|mean,std|values, mode: reset|interval, interval_s}`` holding only its
-  distribution's fields (``interval_s`` only with mode ``interval``; without ``distribution``:
-  the one whose fields are given). Without ``base`` the mapping starts from ``"off"``; its entries
-  replace the preset's. ``pressure_kpa: {distribution: uniform}`` without bounds means the
-  calibration's range. ``pressure_schedule``: ``{rate_kpa_per_s: entry without mode, delay_s}``
-  or ``null`` (none).
+  value|low,high|mean,std|values, mode: reset|interval|schedule, interval_s, rate_per_s,
+  delay_s}`` holding only its distribution's fields (``interval_s`` only with mode ``interval``;
+  ``rate_per_s``, an entry without mode drawn once per episode, and ``delay_s`` >= 0 only with mode
+  ``schedule``, which may leave out the distribution: the schedule then starts from the nominal
+  value; without ``distribution``: the one whose fields are given). Without ``base`` the mapping
+  starts from ``"off"``; its entries replace the preset's. ``pressure_kpa: {distribution:
+  uniform}`` without bounds means the calibration's range. ``pressure_schedule``:
+  ``{rate_kpa_per_s: entry without mode, delay_s}`` or ``null`` (none); ``pressure_kpa`` with mode
+  ``schedule`` replaces a preset's ``pressure_schedule`` and is refused beside one given with it.
 * a :class:`RandomizationSpec` (checked as the mapping it would be written as).
 """
 
@@ -86,12 +90,18 @@ class Distribution:
 
 @dataclass(frozen=True)
 class Term:
-    """What (``parameter``), when (``mode``, ``interval_s``) and from which ``distribution``."""
+    """What (``parameter``), when (``mode``, ``interval_s``) and from which ``distribution``.
+
+    Mode ``schedule``: value(t) = value at reset + rate · max(t − ``delay_s``, 0), clipped to the
+    parameter's bounds, the rate drawn once per episode from ``rate_per_s``; ``distribution`` None
+    means the value at reset is not drawn (the nominal value, or a reset option)."""
 
     parameter: str
-    distribution: Distribution
+    distribution: Distribution | None
     mode: str = "reset"
     interval_s: float | None = None
+    rate_per_s: Distribution | None = None
+    delay_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -130,7 +140,7 @@ class RandomizationSpec:
         terms = []
         for t in self.terms:
             d, rec = t.distribution, space[t.parameter]
-            if rec.bounds_from is not None:
+            if rec.bounds_from is not None and d is not None:
                 if d.kind == "uniform" and d.low is None:
                     d = replace(d, low=rec.low, high=rec.high)
                 vals = {"fixed": [d.value], "uniform": [d.low, d.high], "choice": list(d.values)}.get(d.kind, [])
@@ -141,10 +151,11 @@ class RandomizationSpec:
         return replace(self, terms=tuple(terms))
 
     def sample(self, rng: np.random.Generator, which: str | None = None) -> dict[str, Any]:
-        """Sample every term (``which=None``), or only terms of one mode. Fixed order."""
+        """Sample every term's value at reset (``which=None``), or only terms of one mode; a schedule
+        without a draw of its own samples nothing. Fixed order."""
         out = {}
         for t in self.terms:
-            if which is None or t.mode == which:
+            if t.distribution is not None and (which is None or t.mode == which):
                 out[t.parameter] = t.distribution.sample(rng, PARAMETERS[t.parameter].size)
         return out
 
@@ -153,7 +164,9 @@ def _from_schema(spec: SpecInput) -> RandomizationSpec:
     """A validated spec as the dataclasses the event manager reads (vectors as tuples)."""
     sched = spec.pressure_schedule
     return RandomizationSpec(
-        tuple(Term(name, _distribution(entry), entry.mode, entry.interval_s) for name, entry in spec.entries()),
+        tuple(Term(name, None if entry.distribution is None else _distribution(entry), entry.mode, entry.interval_s,
+                   None if entry.rate_per_s is None else _distribution(entry.rate_per_s), entry.delay_s or 0.0)
+              for name, entry in spec.entries()),
         None if sched is None else PressureSchedule(_distribution(sched.rate_kpa_per_s), sched.delay_s))
 
 
@@ -172,8 +185,13 @@ def _as_data(spec: RandomizationSpec, kwarg: str) -> dict[str, Any]:
     for t in spec.terms:
         if t.parameter in out:
             raise ValueError(f"{kwarg}: field {t.parameter!r} is given twice; allowed: one term per parameter")
-        interval = {} if t.interval_s is None else {"interval_s": t.interval_s}
-        out[t.parameter] = {**_draw_data(t.distribution), "mode": t.mode, **interval}
+        timing = {} if t.interval_s is None else {"interval_s": t.interval_s}
+        if t.rate_per_s is not None:
+            timing["rate_per_s"] = _draw_data(t.rate_per_s)
+        if t.delay_s or t.mode == "schedule":
+            timing["delay_s"] = t.delay_s
+        draw = {} if t.distribution is None else _draw_data(t.distribution)
+        out[t.parameter] = {**draw, "mode": t.mode, **timing}
     sched = spec.pressure_schedule
     if isinstance(sched, PressureSchedule):
         out["pressure_schedule"] = {"rate_kpa_per_s": _draw_data(sched.rate_kpa_per_s), "delay_s": sched.delay_s}
@@ -191,8 +209,15 @@ def _draw_data(d: Any) -> Any:
     return {"distribution": d.kind, **{k: v for k, v in fields.items() if v is not None}}
 
 
+def schedule_value(name: str, v0: float, rate_per_s: float, delay_s: float, t_s: float,
+                   space: ParameterSpace) -> float:
+    """value(t) of a schedule of ``name``: ``v0`` + rate · max(t − delay_s, 0), clipped to the
+    bounds of ``name`` in ``space``."""
+    return space.clip(name, v0 + rate_per_s * max(t_s - delay_s, 0.0))
+
+
 def schedule_pressure(p0_kpa: float, rate_kpa_per_s: float, delay_s: float, t_s: float,
                       space: ParameterSpace) -> float:
     """p(t) of a :class:`PressureSchedule` [kPa], clipped to the pressure's bounds in ``space``
     (the calibration range)."""
-    return space.clip("pressure_kpa", p0_kpa + rate_kpa_per_s * max(t_s - delay_s, 0.0))
+    return schedule_value("pressure_kpa", p0_kpa, rate_kpa_per_s, delay_s, t_s, space)

@@ -24,8 +24,8 @@ from sphere_env.tasks.randomization import Distribution, PressureSchedule, Rando
     ({"action_latency_steps": np.bool_(True)}, "field 'action_latency_steps' = True"),
     # a field the distribution does not use, or a mode field without its mode
     ({"ground_friction": {"distribution": "fixed", "value": 1.0, "low": 0.5}},
-     "field 'ground_friction.low' is not used by distribution 'fixed'; allowed: ['distribution', 'interval_s', "
-     "'mode', 'value']"),
+     "field 'ground_friction.low' is not used by distribution 'fixed'; allowed: ['delay_s', 'distribution', "
+     "'interval_s', 'mode', 'rate_per_s', 'value']"),
     ({"ground_friction": {"distribution": "uniform", "low": 0.5, "high": 1.0, "value": 0.8}},
      "field 'ground_friction.value' is not used by distribution 'uniform'"),
     ({"ground_friction": {"low": 0.5, "high": 1.0, "value": 0.8}},

@@ -9,7 +9,8 @@ A page marks each passage of measured numbers as a block::
 or inline, inside a sentence: ``... took <!-- generated: NAME -->6.1 min<!-- /generated --> ...``.
 NAME selects a renderer (``base.RENDERERS``, filled by the modules of this package, one per page or
 pair of pages), which writes the block from the results files under ``evaluation/results``: their
-JSON, or a study's Markdown table where the study wrote no JSON. Nothing is simulated or timed, and the text outside the blocks is left as it is (prose;
+JSON, or a study's Markdown table where the study wrote no JSON; the parameter lists
+(``registry``) are written from the parameter registry instead. Nothing is simulated or timed, and the text outside the blocks is left as it is (prose;
 aims and settings, no measured numbers).
 
     python -m evaluation.experiments.docs            # rewrite the pages whose blocks changed (make docs)
@@ -23,16 +24,16 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from sphere_env.evaluation.experiments.docs import calibration, demo, physics, speed, training
+from sphere_env.evaluation.experiments.docs import calibration, demo, physics, registry, speed, training
 from sphere_env.evaluation.experiments.docs.base import RENDERERS, DocsError, Results
 from sphere_env.files import write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[3]
 #: The pages with generated blocks, relative to the repository root.
 PAGES = ("README.md", "docs/results/speed.md", "docs/results/training_speed.md", "docs/physics.md",
-         "docs/calibration.md")
+         "docs/calibration.md", "docs/envs.md")
 #: The modules whose renderers fill them (importing one registers its renderers by block name).
-BLOCK_MODULES = (demo, speed, training, physics, calibration)
+BLOCK_MODULES = (demo, speed, training, physics, calibration, registry)
 BLOCK = re.compile(r"<!-- generated: (?P<name>[^\s>]+) -->(?P<body>.*?)<!-- /generated -->", re.S)
 OPEN, CLOSE = "<!-- generated:", "<!-- /generated -->"
 
