@@ -196,6 +196,8 @@ PARAMETERS: dict[str, Parameter] = dict([
        "first action arrives)", integer=True, applied_by="env", randomizable=True),
     _p("motor_torque_scale", "-", 1.0, 0.0, 1.0, "step",
        "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)", low_open=True, applied_by="env", randomizable=True),
+    _p("steer_torque_offset_nm", "N m", 0.0, -5.0, 5.0, "step", "steer motor torque bias (a current-sensor offset): "
+       "added to the commanded torque, the sum within the motor's saturation", applied_by="env", randomizable=True),
     # ---- another twin, so only between episodes ----
     _p("shell_model", "-", None, None, None, "reset",
        "shell contact model; nominal: the env's shell_model kwarg (one twin per model, built on first use)",

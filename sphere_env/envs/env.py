@@ -389,6 +389,9 @@ class SphereEnv(gym.Env, EzPickle):
             s0, s1 = min(max(s0, -cap), cap), min(max(s1, -cap), cap)
         tau[0] = s0 * self.steer_torque_limit_nm
         tau[1] = -s1 * self.drive_torque_limit_nm
+        if params["steer_torque_offset_nm"]:  # a bias in the motor's torque loop, which still saturates
+            lim = cap * self.steer_torque_limit_nm
+            tau[0] = min(max(tau[0] + params["steer_torque_offset_nm"], -lim), lim)
         self._fired = []
         if self._failed is None:
             if self._events.active:
