@@ -16,10 +16,13 @@ shell fit uses):
    the drive turns the motor is driving, and its torque is not logged, so that part cannot be
    replayed). A commanded steer ramp moves θ one way and does not swing; driving turns the drive.
 
-For a release the motion is free from the first moving sample: the hand lets go. A push is a
-hand moving the robot from standstill, so the hand may still touch it while the swing builds up;
-``free_start_s`` is then the first turning point of the moving channel (its rate changes sign),
-by which time the robot swings on its own. Manifest entries start their windows there.
+Whatever started the motion may still act on the robot while its first swing builds up: a push
+is a hand moving the robot from standstill, and a release lets go of a held pendulum gradually
+(on the free robot's release the pendulum leaves the hold far more slowly than gravity and the
+steer friction fitted on the stand allow, and the shell does not roll for 0.3 s; a twin fitted on
+that first swing still misses θ by 0.20 rad). For every event ``free_start_s`` is therefore the
+first turning point of the moving channel (its rate changes sign), by which time the robot swings
+on its own. Manifest entries start their windows there.
 
 Thresholds are constants of this module, chosen on physical grounds, not tuned per log. Swings
 worth fitting move at 0.1–1.5 rad/s (:data:`ACTIVE_RAD_S`). "At rest" is not "not moving": a robot
@@ -68,7 +71,7 @@ class Event:
     end_s: float
     moved: dict[str, float]
     kind: str  # "release" (held away from rest, then let go) or "push" (from standstill)
-    free_start_s: float  # where free motion surely runs: start_s for a release, first turning point for a push
+    free_start_s: float  # where free motion surely runs: the first turning point of the moving channel
 
     @property
     def duration_s(self) -> float:
@@ -166,16 +169,13 @@ def _classify(log: RobotLog, rates: dict[str, np.ndarray], s: int, e: int) -> Ev
     start_t = float(log.t_s[s]) + log.t0_s
     end_t = float(log.t_s[e]) + log.t0_s
     held = abs(float(log[main][s] - log[main][e])) > 0.5 * moved[main]
-    if held:
-        free_t = start_t
-    else:
-        idx = np.flatnonzero(big)
-        turn = idx[np.flatnonzero(np.diff(signs) != 0)[0] + 1]  # first fast sample after the first sign change
-        # step back to the turning point itself: the last sample before it with the old sign
-        k = int(turn)
-        while k > 0 and np.sign(r[k - 1]) == np.sign(r[turn]):
-            k -= 1
-        free_t = float(log.t_s[s + k]) + log.t0_s
+    idx = np.flatnonzero(big)
+    turn = idx[np.flatnonzero(np.diff(signs) != 0)[0] + 1]  # first fast sample after the first sign change
+    # step back to the turning point itself: the last sample before it with the old sign
+    k = int(turn)
+    while k > 0 and np.sign(r[k - 1]) == np.sign(r[turn]):
+        k -= 1
+    free_t = float(log.t_s[s + k]) + log.t0_s
     return Event(start_t, end_t, moved, "release" if held else "push", free_t)
 
 

@@ -185,10 +185,11 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "contact (scaled by `couple_stiffness_factor`, `couple_damping_factor`, fitted with the contact's own "
         "dissipation in place). With that couple its locked-steer decay is more damped than the Hunt–Crossley "
         "dissipation alone, so section 5's control rows no longer sit on ζ(p): k_d was matched without the couple.",
-        "- **Free robot**: the release at 32.8 s rocks stiffer than the steer_free trials (the pressure probably "
-        "differs and was not recorded), so the steer_free calibration misses it (section 3); fitted on the release "
-        "(section 4, a fit, not a test) the injected and hydroelastic shells follow it. "
-        "`assets/calibration/free_robot_release.yaml` is that fit.",
+        "- **Free robot**: the release at 32.8 s and the three pushes rock stiffer than the steer_free trials (the "
+        "pressure probably differs and was not recorded), so the steer_free calibration misses them (section 3); "
+        "section 4 fits on one window and validates on the others. "
+        "`assets/calibration/free_robot.yaml` is the pooled fit on all four windows "
+        "(`steer-fit --group free_robot`), with each window's leave-one-window-out error in its `steer_fit` record.",
         "- **Pressure**: the steer_free pressure was not recorded; 4.31 kPa is an ASSUMED anchor and the "
         "slopes of ω_n(p), ζ(p) are ASSUMED (see `assets/calibration/default.yaml`).",
         "",

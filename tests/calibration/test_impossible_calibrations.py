@@ -169,7 +169,7 @@ def test_hz_message_says_rad_per_s():
 
 
 def test_shipped_calibrations_still_load():
-    for name in ("default.yaml", "v0_linear.yaml", "free_robot_release.yaml", "hydroelastic_fast.yaml"):
+    for name in ("default.yaml", "v0_linear.yaml", "free_robot.yaml", "hydroelastic_fast.yaml"):
         ShellCalibration.load(asset_path("calibration", name))
 
 
@@ -178,7 +178,7 @@ def test_calibration_that_is_not_a_path_is_a_named_error(value):
     with pytest.raises(ValueError, match=re.escape(f"calibration = {value!r}: ")) as err:
         ShellCalibration.load(value)
     assert ("; allowed: the path of a calibration YAML file, the name of a shipped one ['default', "
-            "'free_robot_release', 'hydroelastic_fast', 'v0_linear'], or None") in str(err.value)
+            "'free_robot', 'hydroelastic_fast', 'v0_linear'], or None") in str(err.value)
 
 
 def test_env_with_calibration_123_is_a_named_error():

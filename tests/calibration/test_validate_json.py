@@ -102,7 +102,7 @@ def test_free_release_window_validates_to_records(roboball_dir, tmp_path):
     assert main(["validate", "--manifest", str(repo / "assets" / "logs" / "roboball.yaml"), "--data-root",
                  str(roboball_dir), "--trial", "free_release", "--models", "injected", "--json", str(out)]) == 0
     (rec,) = json.loads(out.read_text())
-    assert rec["trial"] == "free_release" and rec["fixture"] == "free" and rec["window_s"] == [32.81, 35.81]
+    assert rec["trial"] == "free_release" and rec["fixture"] == "free" and rec["window_s"] == [33.46, 37.21]
     assert "pme_percent" not in rec  # flat ground
     assert rec["omega_d_derived_from"] == "pendulum_pitch_rate - drive_rate"
     assert 0.0 < rec["rmse_phi_rad"] < 1.0 and 0.0 < rec["rmse_theta_rad"] < 2.0

@@ -109,8 +109,11 @@ def test_events_find_release_and_push_on_a_synthetic_log(tmp_path):
     assert ev[0].start_s == pytest.approx(2.0, abs=0.02) and 3.0 < ev[0].duration_s < 7.0
     assert set(ev[0].moved) == {"theta", "phi"}  # the drive joint did not turn
     assert ev[1].start_s == pytest.approx(11.0, abs=0.02) and set(ev[1].moved) == {"phi"}
-    # A release is free at once; a push from its first turning point, tan(3.5 τ) = 3.5 / (0.2 · 3.6).
-    assert ev[0].free_start_s == ev[0].start_s
+    # Both are free from their first turning point: the release's θ = A e^{−στ} cos(ω_d τ) turns at
+    # ω_d τ = π − atan(σ / ω_d) (σ = 0.2 · 3.6, ω_d = 3.6 √(1 − 0.2²)); the push's φ ∝ e^{−στ} sin(3.5 τ)
+    # at tan(3.5 τ) = 3.5 / σ.
+    wd = 3.6 * np.sqrt(1 - 0.2**2)
+    assert ev[0].free_start_s == pytest.approx(2.0 + (np.pi - np.arctan(0.72 / wd)) / wd, abs=0.02)
     assert ev[1].free_start_s == pytest.approx(11.0 + np.arctan(3.5 / 0.72) / 3.5, abs=0.02)
 
 
@@ -135,9 +138,9 @@ def test_events_command_writes_loadable_manifest_atomically(tmp_path):
     m = load_manifest(man)
     assert [s.fixture for s in m.trials] == ["free", "free"] and {s.group for s in m.trials} == {"g"}
     first = m.trials[0]
-    assert first.window_s[0] == pytest.approx(2.0, abs=0.02) and first.window_s[1] - first.window_s[0] == pytest.approx(3.0)
+    assert first.window_s[0] == pytest.approx(2.83, abs=0.02) and first.window_s[1] - first.window_s[0] == pytest.approx(3.0)
     assert first.load().t_s[-1] == pytest.approx(3.0, abs=0.011)
-    assert m.trials[1].window_s[0] == pytest.approx(11.39, abs=0.02)  # the push's window starts free
+    assert m.trials[1].window_s[0] == pytest.approx(11.39, abs=0.02)  # both windows start free
     before = man.read_text()
     assert main(["events", str(p), "--write-manifest", str(man)]) == 2  # names already there: refused
     assert man.read_text() == before and [f.name for f in tmp_path.iterdir() if f.suffix == ".tmp"] == []
@@ -187,6 +190,11 @@ def test_free_robot_events_include_the_release(free_robot):
     rel = [e for e in ev if 32.5 < e.start_s < 33.1]
     assert len(rel) == 1 and rel[0].kind == "release"
     assert rel[0].start_s == pytest.approx(32.81, abs=0.02)  # the last held sample
+    # free from θ's first turning point (θ̇ changes sign near θ ≈ −0.25 rad, 0.65 s after the hold)
+    k = np.argmin(np.abs(free_robot.t_s + free_robot.t0_s - rel[0].free_start_s))
+    assert rel[0].free_start_s == pytest.approx(33.46, abs=0.03)
+    assert free_robot["theta"][k] == pytest.approx(-0.25, abs=0.01)
+    assert free_robot["theta_dot"][k - 3] < 0 < free_robot["theta_dot"][k + 3]
     assert rel[0].duration_s == pytest.approx(4.4, abs=0.3)  # README: ≈ 4.4 s of free rocking
     assert {"theta", "phi"} <= set(rel[0].moved) and "drive_angle" not in rel[0].moved
     # The operator's driving (6.8–30.2 s) and the steer ramp (3.4–6 s) are not free motion.
@@ -200,9 +208,10 @@ def test_manifest_free_release_entry(roboball_dir):
     spec = m.by_name("free_release")
     assert spec.group == "free_robot" and spec.fixture == "free"
     log = spec.load()
-    assert log.window_s[1] - log.window_s[0] == pytest.approx(3.0)
-    assert log["theta"][0] == pytest.approx(1.037, abs=0.005) and log["phi"][0] == pytest.approx(-0.403, abs=0.005)
-    assert abs(log["theta_dot"][0]) < 0.01  # the window starts at the end of the hold
+    rel = next(e for e in find_events(load_log(roboball_dir / "free_robot" / "data2-conv.csv")) if e.kind == "release")
+    assert spec.window_s == (round(rel.free_start_s, 2), round(rel.end_s, 2))  # as for the pushes
+    assert log["theta"][0] == pytest.approx(-0.248, abs=0.005) and log["phi"][0] == pytest.approx(-0.10, abs=0.01)
+    assert abs(log["theta_dot"][0]) < 0.1  # the window starts at θ's first turning point
     yaml.safe_dump(log.meta)  # plain data
 
 

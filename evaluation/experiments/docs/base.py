@@ -9,9 +9,11 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+import yaml
 from tabulate import tabulate
 
 from sphere_env.evaluation.reporting import RESULTS
+from sphere_env.resources import asset_path
 
 MINUS = "\u2212"
 
@@ -35,6 +37,17 @@ class Results:
             except (OSError, ValueError) as e:
                 raise DocsError(f"cannot read results file {path}: {e}") from e
         return self._read[name]
+
+    def calibration(self, name: str) -> dict[str, Any]:
+        """A shipped calibration file (``assets/calibration/<name>.yaml``) as a mapping: the fits it records."""
+        key = f"calibration:{name}"
+        if key not in self._read:
+            path = asset_path("calibration", f"{name}.yaml")
+            try:
+                self._read[key] = yaml.safe_load(path.read_text())
+            except (OSError, yaml.YAMLError) as e:
+                raise DocsError(f"cannot read calibration file {path}: {e}") from e
+        return self._read[key]
 
     def md_table(self, name: str) -> list[dict[str, str]]:
         """The first Markdown table of a results page: one dict (header -> cell) per row."""
