@@ -162,9 +162,40 @@ def steer_fit(
                 f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}" + (" (refused)" if r.get("refused") else ""))
         record["leave_one_window_out"] = [_cv_row(r) for r in rows]
         for model in models:
-            record["models"][model]["held_out_rmse_rad"] = {
-                r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in rows if r["model"] == model}
+            rec = record["models"][model]
+            mine = [r for r in rows if r["model"] == model]
+            rec["held_out_rmse_rad"] = {r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in mine}
+            folds = [r["params"] for r in mine if "params" in r]
+            if len(folds) == len(mine) >= 2:
+                fitted = {k: v for k, v in rec["params"].items() if k in rec["ci95"]}
+                ci = jackknife_ci95(fitted, folds)
+                rec["ci95_over_windows"] = {k: list(v) for k, v in ci.items()}
+                for k, (lo, hi) in ci.items():
+                    if k not in rec["unidentified"] and hi - lo > abs(fitted[k]):
+                        rec["unidentified"][k] = (
+                            f"95 % interval over windows [{lo:.4g}, {hi:.4g}] wider than |value| {abs(fitted[k]):.4g}")
+                say(f"{model}: 95 % intervals over windows (jackknife over the {len(folds)} leave-one-window-out fits): "
+                    + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in ci.items()))
     return raw, record
+
+
+def jackknife_ci95(full: Mapping[str, float], folds: Sequence[Mapping[str, float]]) -> dict[str, tuple[float, float]]:
+    """95 % intervals of fitted parameters from delete-one-window refits (the jackknife over windows).
+
+    With n fits θ₍ᵢ₎, each leaving one window out, and θ̄ their mean, the jackknife variance is
+    (n − 1)/n · Σ (θ₍ᵢ₎ − θ̄)² and the interval θ ± t₀.₉₇₅,ₙ₋₁ · its square root, around the fit on
+    every window. Unlike the Jacobian interval of one fit it sees how much the parameter moves when
+    the data change, so a parameter the windows disagree on gets a wide interval."""
+    from scipy.stats import t as student_t
+
+    n = len(folds)
+    q = float(student_t.ppf(0.975, n - 1))
+    out = {}
+    for k, v in full.items():
+        x = np.array([f[k] for f in folds], dtype=float)
+        half = q * math.sqrt((n - 1) / n * float(np.sum((x - x.mean()) ** 2)))
+        out[k] = (float(v) - half, float(v) + half)
+    return out
 
 
 def _cv_row(row: Mapping[str, Any]) -> dict[str, Any]:

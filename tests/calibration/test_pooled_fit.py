@@ -58,7 +58,23 @@ def test_steer_fit_records_every_window_held_out(tmp_path):
     held = rec["models"]["injected"]["held_out_rmse_rad"]
     assert set(held) == {"a", "b"} and all(v["phi"] < 0.01 and v["theta"] < 0.01 for v in held.values())
     assert "unidentified" in rec["models"]["injected"]
+    assert set(rec["models"]["injected"]["ci95_over_windows"]) == set(rec["models"]["injected"]["ci95"])
     assert any(line.startswith("leave-one-window-out") for line in lines)
     # one window: nothing to leave out
     _, rec1 = steer_fit(logs[:1], ["injected"], P, truth, forms=("linear",), max_nfev=20)
     assert "leave_one_window_out" not in rec1
+
+
+def test_jackknife_over_windows_matches_its_formula_and_widens_with_disagreement():
+    from scipy.stats import t as student_t
+
+    from sphere_env.calibration.steer_fit import jackknife_ci95
+
+    folds = [{"a": 1.0, "b": 2.0}, {"a": 1.2, "b": 2.0}, {"a": 0.8, "b": 2.0}, {"a": 1.0, "b": 2.0}]
+    ci = jackknife_ci95({"a": 1.0, "b": 2.0}, folds)
+    # Σ (θ_i − θ̄)² = 0.08, variance 3/4 · 0.08 = 0.06, half-width t(0.975, 3) · √0.06
+    half = student_t.ppf(0.975, 3) * math.sqrt(0.06)
+    assert ci["a"] == pytest.approx((1.0 - half, 1.0 + half))
+    assert ci["b"] == (2.0, 2.0)  # the windows agree: no spread
+    wide = jackknife_ci95({"a": 1.0}, [{"a": 0.0}, {"a": 2.0}, {"a": 1.0}, {"a": 1.0}])
+    assert wide["a"][1] - wide["a"][0] > ci["a"][1] - ci["a"][0]
