@@ -29,10 +29,11 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(PY) -m evaluation.demo
 
-# Lint first (seconds): pyflakes, import order, bugbear (ruff) and dead code (vulture), as configured
-# in pyproject.toml; then the suite.
+# Lint first (seconds): pyflakes, import order, bugbear and the format check (ruff) and dead code
+# (vulture), as configured in pyproject.toml; then the suite.
 lint: $(STAMP)
 	$(VENV)/bin/ruff check sphere_env training evaluation tests
+	$(VENV)/bin/ruff format --check sphere_env training evaluation tests
 	$(PY) -m vulture
 
 test: $(STAMP) chromium lint

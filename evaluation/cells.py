@@ -31,13 +31,22 @@ def _env(job: Mapping[str, Any], record_replay: bool = False, render_mode: str |
     import sphere_env  # noqa: F401
 
     events = job.get("randomization", "off")  # a fault grid's events; else nothing randomized
-    key = json.dumps([job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], events, record_replay,
-                      render_mode], sort_keys=True, default=str)
+    key = json.dumps(
+        [job["env_id"], job["shell_model"], job["friction"], job["env_kwargs"], events, record_replay, render_mode],
+        sort_keys=True,
+        default=str,
+    )
     env = _ENVS.get(key)
     if env is None:
-        env = gym.make(job["env_id"], shell_model=job["shell_model"], friction_model=job["friction"],
-                       randomization=events, record_replay=record_replay, render_mode=render_mode,
-                       **job["env_kwargs"])
+        env = gym.make(
+            job["env_id"],
+            shell_model=job["shell_model"],
+            friction_model=job["friction"],
+            randomization=events,
+            record_replay=record_replay,
+            render_mode=render_mode,
+            **job["env_kwargs"],
+        )
         if not record_replay:
             _ENVS[key] = env
     return env
@@ -82,12 +91,19 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
         tr["reward"].append(float(r))
     trace = {k: np.asarray(v) for k, v in tr.items()}
     row = {k: job[k] for k in KEY_COLUMNS}
-    row.update({"return": ret, "length": n, "is_success": bool(info.get("is_success", False)),
-                "reached_runout": bool(info.get("reached_runout", n > 0 and trace["on_ramp"][-1] < 0.5)),
-                "terminated": bool(terminated), "truncated": bool(truncated),
-                "omega_ref_rad_s": float(trace["omega_ref"][0]) if n else math.nan,
-                "omega_ref_after_rad_s": float(trace["omega_ref"][-1]) if n else math.nan,
-                "truncation_reason": info.get("truncation_reason", "")})
+    row.update(
+        {
+            "return": ret,
+            "length": n,
+            "is_success": bool(info.get("is_success", False)),
+            "reached_runout": bool(info.get("reached_runout", n > 0 and trace["on_ramp"][-1] < 0.5)),
+            "terminated": bool(terminated),
+            "truncated": bool(truncated),
+            "omega_ref_rad_s": float(trace["omega_ref"][0]) if n else math.nan,
+            "omega_ref_after_rad_s": float(trace["omega_ref"][-1]) if n else math.nan,
+            "truncation_reason": info.get("truncation_reason", ""),
+        }
+    )
     row.update(episode_metrics(trace, dt))
     if "tracking_samples" in info:  # the task's own judgement (what its success uses)
         row["tracking_rmse_rad_s"] = float(info["tracking_rmse_rad_s"]) if info["tracking_samples"] else math.nan
@@ -103,8 +119,12 @@ def _run_job(job: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarr
     return rollout(job)
 
 
-def run_jobs(jobs: Sequence[Mapping[str, Any]], workers: int | None = None, ray_address: str | None = None,
-             progress: bool = False) -> list[tuple[dict[str, Any], dict[str, np.ndarray]]]:
+def run_jobs(
+    jobs: Sequence[Mapping[str, Any]],
+    workers: int | None = None,
+    ray_address: str | None = None,
+    progress: bool = False,
+) -> list[tuple[dict[str, Any], dict[str, np.ndarray]]]:
     """Run cells in job order: in-process (``workers=1``), on a local process pool, or on Ray."""
     return run_parallel(_run_job, jobs, workers=workers, progress=progress, ray_address=ray_address)
 

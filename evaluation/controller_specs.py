@@ -101,16 +101,22 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
         except Exception as err:  # noqa: BLE001 - an unreadable config.yaml
             raise ValueError(f"controller: {spec!r}: {folder / 'config.yaml'} cannot be read: {err}") from None
         if env_id is not None and cfg.env_id != env_id and not allow_env_mismatch:
-            raise ValueError(f"env: {spec!r} was trained on {cfg.env_id!r}, not on the evaluated env "
-                             f"{env_id!r}; pass --allow-env-mismatch to evaluate it there anyway")
+            raise ValueError(
+                f"env: {spec!r} was trained on {cfg.env_id!r}, not on the evaluated env "
+                f"{env_id!r}; pass --allow-env-mismatch to evaluate it there anyway"
+            )
         try:
             algo_class(cfg.algo).load(model, device="cpu")
         except Exception as err:  # noqa: BLE001 - truncated or foreign zip
-            raise ValueError(f"controller: {spec!r}: {model} cannot be loaded ({type(err).__name__}: {err}); "
-                             "a truncated or corrupt model file") from None
+            raise ValueError(
+                f"controller: {spec!r}: {model} cannot be loaded ({type(err).__name__}: {err}); "
+                "a truncated or corrupt model file"
+            ) from None
         if cfg.normalize is not None and not vn.exists():
-            raise ValueError(f"controller: {spec!r}: {vn} is missing: the policy was trained on VecNormalize-d "
-                             "observations and cannot be evaluated without their statistics")
+            raise ValueError(
+                f"controller: {spec!r}: {vn} is missing: the policy was trained on VecNormalize-d "
+                "observations and cannot be evaluated without their statistics"
+            )
         if vn.exists():
             try:
                 with open(vn, "rb") as f:
@@ -155,13 +161,14 @@ class PolicyController:
                 self.vecnormalize = pickle.load(f)  # only obs_rms/clip_obs are used: no venv needed
             self.vecnormalize.training = False
         # the wrappers that change the action (innermost first); training-only ones choose episodes
-        self.env_wrapper = [item for item in self.config.env_wrapper
-                            if not set(item) <= set(TRAINING_ONLY_WRAPPERS)]
+        self.env_wrapper = [item for item in self.config.env_wrapper if not set(item) <= set(TRAINING_ONLY_WRAPPERS)]
         unknown = [path for item in self.env_wrapper for path in item if path not in ACTION_COMBINERS]
         if unknown:
-            raise ValueError(f"run: {str(run_dir)!r} was trained inside env_wrapper {unknown}, whose action "
-                             f"evaluation cannot reproduce on the bare env; allowed: "
-                             f"{sorted(ACTION_COMBINERS) + list(TRAINING_ONLY_WRAPPERS)}")
+            raise ValueError(
+                f"run: {str(run_dir)!r} was trained inside env_wrapper {unknown}, whose action "
+                f"evaluation cannot reproduce on the bare env; allowed: "
+                f"{sorted(ACTION_COMBINERS) + list(TRAINING_ONLY_WRAPPERS)}"
+            )
         self._combiners: list[Any] | None = [] if not self.env_wrapper else None
 
     def check_env(self, env: Any, label: str = "") -> None:
@@ -170,11 +177,16 @@ class PolicyController:
         policy, :mod:`sphere_env.wrappers`) to ``env``."""
         want, got = self.model.observation_space.shape, env.observation_space.shape
         if want != got:
-            raise ValueError(f"controller: {label or 'policy'!r} takes observations of shape {want}, the env "
-                             f"{getattr(env.spec, 'id', '?')!r} gives {got}: another observation layout")
+            raise ValueError(
+                f"controller: {label or 'policy'!r} takes observations of shape {want}, the env "
+                f"{getattr(env.spec, 'id', '?')!r} gives {got}: another observation layout"
+            )
         # wrappers listed innermost first: the agent's action passes the outermost first
-        self._combiners = [ACTION_COMBINERS[path](env, **kwargs)
-                           for item in reversed(self.env_wrapper) for path, kwargs in item.items()]
+        self._combiners = [
+            ACTION_COMBINERS[path](env, **kwargs)
+            for item in reversed(self.env_wrapper)
+            for path, kwargs in item.items()
+        ]
 
     def reset(self) -> None:
         for c in self._combiners or ():
@@ -192,8 +204,10 @@ class PolicyController:
             raise RuntimeError("controller: a policy trained inside env_wrapper acts only after check_env(env)")
         bad = np.flatnonzero(~np.isfinite(np.asarray(obs, dtype=np.float64)))
         if bad.size:
-            raise ValueError(f"observation: components {bad.tolist()} are not finite ({np.asarray(obs)[bad].tolist()}); "
-                             "a policy acts on finite observations only")
+            raise ValueError(
+                f"observation: components {bad.tolist()} are not finite ({np.asarray(obs)[bad].tolist()}); "
+                "a policy acts on finite observations only"
+            )
         action, _ = self.model.predict(self.normalize(obs), deterministic=deterministic)
         action = np.asarray(action, dtype=np.float32)
         for c in self._combiners:
@@ -224,11 +238,13 @@ def check_action(label: str, action: Any) -> np.ndarray:
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"controller: {label!r} returned {action!r}; allowed: 2 real numbers "
-                         "[steer, drive] in [-1, 1]") from None
+        raise ValueError(
+            f"controller: {label!r} returned {action!r}; allowed: 2 real numbers [steer, drive] in [-1, 1]"
+        ) from None
     if a.size != 2:
-        raise ValueError(f"controller: {label!r} returned an action of shape {a.shape}; allowed: 2 numbers "
-                         "[steer, drive] in [-1, 1]")
+        raise ValueError(
+            f"controller: {label!r} returned an action of shape {a.shape}; allowed: 2 numbers [steer, drive] in [-1, 1]"
+        )
     return a.reshape(2)
 
 

@@ -37,21 +37,25 @@ PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     allow_abbrev=False)
-    parser.add_argument("--train-steps", type=int, default=DEFAULT_TRAIN_STEPS,
-                        help="env steps of the short training from scratch")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
+    parser.add_argument(
+        "--train-steps", type=int, default=DEFAULT_TRAIN_STEPS, help="env steps of the short training from scratch"
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds")
     parser.add_argument("--out", type=Path, default=Path("out/demo"), help="evaluation output folder")
-    parser.add_argument("--run-dir", type=Path, default=None,
-                        help="training run folder of ppo_from_scratch (default runs/demo_<time>)")
+    parser.add_argument(
+        "--run-dir", type=Path, default=None, help="training run folder of ppo_from_scratch (default runs/demo_<time>)"
+    )
     parser.add_argument("--workers", type=int, default=None, help="evaluation processes (default: all cores)")
     parser.add_argument("--publish", action="store_true", help="copy report and plots to evaluation/results/demo/")
     args = parser.parse_args(argv)
     try:
-        validate(DemoOptions, {k: getattr(args, k) for k in ("train_steps", "seed", "seeds", "out", "run_dir",
-                                                              "workers")})
+        validate(
+            DemoOptions, {k: getattr(args, k) for k in ("train_steps", "seed", "seeds", "out", "run_dir", "workers")}
+        )
     except ValueError as err:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
 
@@ -70,54 +74,98 @@ def main(argv: list[str] | None = None) -> dict:
     policies = {"ppo_from_scratch": (None, base_dir)}
     t_train, timings = {}, {}
     for label, (yaml_file, run_dir) in policies.items():
-        print(f"[1/3] Training {label} on {ENV_ID} for {n} env steps with the shipped recipe "
-              f"(point and injected shells, pressure ~ U[{lo:g}, {hi:g}] kPa per episode) ...", flush=True)
-        cfg = resolve_config(ENV_ID, "ppo", yaml_file, overrides={"n_timesteps": n}, seed=args.seed,
-                             eval_freq=max(n // 6, 1), eval_episodes=6, checkpoint_freq=max(n // 3, 1))
+        print(
+            f"[1/3] Training {label} on {ENV_ID} for {n} env steps with the shipped recipe "
+            f"(point and injected shells, pressure ~ U[{lo:g}, {hi:g}] kPa per episode) ...",
+            flush=True,
+        )
+        cfg = resolve_config(
+            ENV_ID,
+            "ppo",
+            yaml_file,
+            overrides={"n_timesteps": n},
+            seed=args.seed,
+            eval_freq=max(n // 6, 1),
+            eval_episodes=6,
+            checkpoint_freq=max(n // 3, 1),
+        )
         t0 = time.perf_counter()
         train(cfg, run_dir, progress_bar=True, command=["python", "-m", "evaluation.demo"])
         t_train[label] = time.perf_counter() - t0
         timings[label] = json.loads((run_dir / "timing.json").read_text())
 
-    print(f"[2/3] Evaluating the shipped policy (ppo) and {', '.join(policies)} vs zero torque vs PD: "
-          f"pressures {pressures} kPa x point/injected/hydroelastic x seeds {args.seeds} ...", flush=True)
-    spec = SweepSpec(controllers=["zero", "pd", "ppo=pretrained"] + [f"{label}={d}" for label, (_, d) in policies.items()],
-                     env_id=ENV_ID,
-                     pressures_kpa=pressures, seeds=args.seeds)
+    print(
+        f"[2/3] Evaluating the shipped policy (ppo) and {', '.join(policies)} vs zero torque vs PD: "
+        f"pressures {pressures} kPa x point/injected/hydroelastic x seeds {args.seeds} ...",
+        flush=True,
+    )
+    spec = SweepSpec(
+        controllers=["zero", "pd", "ppo=pretrained"] + [f"{label}={d}" for label, (_, d) in policies.items()],
+        env_id=ENV_ID,
+        pressures_kpa=pressures,
+        seeds=args.seeds,
+    )
     t0 = time.perf_counter()
     trained = "; ".join(
         f"{label} trained {timings[label]['num_timesteps']} env steps in {t_train[label]:.0f} s "
-        f"({timings[label]['steps_per_s']:.0f} env steps/s), run folder `{d}`" for label, (_, d) in policies.items())
-    res = evaluate(spec, args.out, workers=args.workers,
-                   replays=[f"ppo,point,{pressures[1]}", f"zero,point,{pressures[1]}"],
-                   progress=True, extra_report=f"Policies: {trained}.")
+        f"({timings[label]['steps_per_s']:.0f} env steps/s), run folder `{d}`"
+        for label, (_, d) in policies.items()
+    )
+    res = evaluate(
+        spec,
+        args.out,
+        workers=args.workers,
+        replays=[f"ppo,point,{pressures[1]}", f"zero,point,{pressures[1]}"],
+        progress=True,
+        extra_report=f"Policies: {trained}.",
+    )
     t_eval = time.perf_counter() - t0
     wall = time.perf_counter() - t_start
 
     from sphere_env.reporting import markdown_table
 
     agg = {a["controller"]: a for a in res["agg_controller"]}
-    cols = [("controller", "controller", ""), ("success_rate", "success", "{:.0%}"),
-            ("reached_runout_rate", "reached run-out", "{:.0%}"), ("return", "mean return", "{:.2f}"),
-            ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"), ("lateral_drift_m", "lateral drift m", "{:.3f}"),
-            ("energy_j", "energy J", "{:.1f}"), ("peak_torque_nm", "peak torque N m", "{:.1f}")]
+    cols = [
+        ("controller", "controller", ""),
+        ("success_rate", "success", "{:.0%}"),
+        ("reached_runout_rate", "reached run-out", "{:.0%}"),
+        ("return", "mean return", "{:.2f}"),
+        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+        ("energy_j", "energy J", "{:.1f}"),
+        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
+    ]
     summary = {
-        "env_id": ENV_ID, "pressures_kpa": pressures, "shell_models": list(spec.shell_models), "seeds": args.seeds,
+        "env_id": ENV_ID,
+        "pressures_kpa": pressures,
+        "shell_models": list(spec.shell_models),
+        "seeds": args.seeds,
         "episodes_per_controller": agg["ppo"]["episodes"],
-        "controllers": {k: {"success_rate": v["success_rate"], "reached_runout_rate": v["reached_runout_rate"],
-                            "mean_return": v["return"], "tracking_rmse_rad_s": v["tracking_rmse_rad_s"],
-                            "per_shell": per_shell(res["rows"], k, spec.shell_models)}
-                        for k, v in agg.items()},
+        "controllers": {
+            k: {
+                "success_rate": v["success_rate"],
+                "reached_runout_rate": v["reached_runout_rate"],
+                "mean_return": v["return"],
+                "tracking_rmse_rad_s": v["tracking_rmse_rad_s"],
+                "per_shell": per_shell(res["rows"], k, spec.shell_models),
+            }
+            for k, v in agg.items()
+        },
         "ppo": "the shipped policy (assets/policies, sphere-env evaluate pretrained)",
         "train_steps": {label: t["num_timesteps"] for label, t in timings.items()},
-        "train_wall_s": t_train, "train_steps_per_s": {label: t["steps_per_s"] for label, t in timings.items()},
-        "eval_wall_s": t_eval, "total_wall_s": wall, "run_dir": {label: str(d) for label, (_, d) in policies.items()},
+        "train_wall_s": t_train,
+        "train_steps_per_s": {label: t["steps_per_s"] for label, t in timings.items()},
+        "eval_wall_s": t_eval,
+        "total_wall_s": wall,
+        "run_dir": {label: str(d) for label, (_, d) in policies.items()},
     }
     write_text_atomic(Path(args.out) / "summary.json", json.dumps(summary, indent=2) + "\n")
     print("\n" + markdown_table(res["agg_controller"], cols) + "\n")
-    print(f"Success over the grid: shipped PPO {agg['ppo']['success_rate']:.0%}, PD {agg['pd']['success_rate']:.0%}, "
-          f"zero torque {agg['zero']['success_rate']:.0%}, PPO from scratch after {n} env steps "
-          f"{agg['ppo_from_scratch']['success_rate']:.0%}.")
+    print(
+        f"Success over the grid: shipped PPO {agg['ppo']['success_rate']:.0%}, PD {agg['pd']['success_rate']:.0%}, "
+        f"zero torque {agg['zero']['success_rate']:.0%}, PPO from scratch after {n} env steps "
+        f"{agg['ppo_from_scratch']['success_rate']:.0%}."
+    )
     print(f"[3/3] Done in {wall / 60:.1f} min (training {sum(t_train.values()):.0f} s, evaluation {t_eval:.0f} s).")
     for label, (_, d) in policies.items():
         print(f"  run folder ({label}) : {d.resolve()}")

@@ -69,9 +69,17 @@ class EnjoySpec(EnjoyFields):
         cal.check_pressure(pressure, "field 'pressure_kpa'")
         name = path if path == "pretrained" else folder.name
         label = self.label or (name if which == "model" else f"{name}@best")
-        return {"folder": folder, "which": which, "config": cfg, "env_id": env_id, "shell_model": shell,
-                "friction": cfg.env_kwargs.get("friction_model", "majd"), "pressure_kpa": float(pressure),
-                "env_kwargs": env_kwargs, "label": label}
+        return {
+            "folder": folder,
+            "which": which,
+            "config": cfg,
+            "env_id": env_id,
+            "shell_model": shell,
+            "friction": cfg.env_kwargs.get("friction_model", "majd"),
+            "pressure_kpa": float(pressure),
+            "env_kwargs": env_kwargs,
+            "label": label,
+        }
 
 
 class Paced:
@@ -120,8 +128,14 @@ def make_policy(folder: Path, which: str, deterministic: bool, seed: int, env: A
     return sample
 
 
-def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = None, realtime_rate: float = 1.0,
-          wait_for_enter: bool = False, say: Callable[[str], None] = print) -> list[dict[str, Any]]:
+def enjoy(
+    spec: EnjoySpec,
+    meshcat: bool = False,
+    video: str | Path | None = None,
+    realtime_rate: float = 1.0,
+    wait_for_enter: bool = False,
+    say: Callable[[str], None] = print,
+) -> list[dict[str, Any]]:
     """Roll out ``spec.episodes`` episodes; returns one row of metrics per episode (the evaluation's
     columns). ``video``: folder for the MP4s; ``meshcat``: live view."""
     import gymnasium as gym
@@ -144,8 +158,15 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
     torch.set_num_threads(1)
     render_mode = "rgb_array" if video is not None else ("human" if meshcat else None)
     try:
-        env = gym.make(r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off",
-                       render_mode=render_mode, meshcat=bool(meshcat), **r["env_kwargs"])
+        env = gym.make(
+            r["env_id"],
+            shell_model=r["shell_model"],
+            friction_model=r["friction"],
+            randomization="off",
+            render_mode=render_mode,
+            meshcat=bool(meshcat),
+            **r["env_kwargs"],
+        )
     except TypeError as err:
         raise ValueError(f"env_kwargs: {err}") from None
     rows = []
@@ -156,23 +177,33 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
             controller = Paced(controller, env, view.realtime_rate)
         with staged_videos(video) as video_work:
             for k in range(spec.episodes):
-                job = {"controller": r["label"], "spec": str(spec.run), "env_id": r["env_id"],
-                       "shell_model": r["shell_model"], "friction": r["friction"], "pressure_kpa": r["pressure_kpa"],
-                       "seed": spec.seed + k, "env_kwargs": r["env_kwargs"]}
+                job = {
+                    "controller": r["label"],
+                    "spec": str(spec.run),
+                    "env_id": r["env_id"],
+                    "shell_model": r["shell_model"],
+                    "friction": r["friction"],
+                    "pressure_kpa": r["pressure_kpa"],
+                    "seed": spec.seed + k,
+                    "env_kwargs": r["env_kwargs"],
+                }
                 if video_work is not None:
                     name = video_name(r["label"], r["shell_model"], r["pressure_kpa"], spec.seed + k)
-                    row, _ = record_episode(env, video_work, name,
-                                            lambda rec, job=job: rollout(job, env=rec, controller=controller))
+                    row, _ = record_episode(
+                        env, video_work, name, lambda rec, job=job: rollout(job, env=rec, controller=controller)
+                    )
                     row["video"] = str(Path(video) / f"{name}.mp4")
                 else:
                     row, _ = rollout(job, env=env, controller=controller)
                 if meshcat:
                     env.unwrapped.twin.publish()  # the last state
                 rows.append(row)
-                say(f"episode {k}: seed {row['seed']}, {row['pressure_kpa']:g} kPa, {row['shell_model']}: "
+                say(
+                    f"episode {k}: seed {row['seed']}, {row['pressure_kpa']:g} kPa, {row['shell_model']}: "
                     f"return {row['return']:.3f}, {row['length']} steps, success {bool(row['is_success'])}, "
                     f"tracking RMSE {row['tracking_rmse_rad_s']:.3f} rad/s"
-                    + (f", truncated ({row['truncation_reason']})" if row["truncation_reason"] else ""))
+                    + (f", truncated ({row['truncation_reason']})" if row["truncation_reason"] else "")
+                )
         for row in rows:
             if "video" in row:
                 say(f"video: {row['video']}")
@@ -186,42 +217,80 @@ def enjoy(spec: EnjoySpec, meshcat: bool = False, video: str | Path | None = Non
 def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
     from sphere_env.cli import parse_env_kwargs
 
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     allow_abbrev=False)
-    parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best "
-                                    "for its best model")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
+    parser.add_argument(
+        "run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best for its best model"
+    )
     parser.add_argument("--episodes", type=int, default=1, help="number of episodes (seeds seed, seed+1, ...)")
-    parser.add_argument("--pressure-kpa", type=float, default=None,
-                        help="inflation pressure [kPa] (default: the calibration's nominal pressure)")
+    parser.add_argument(
+        "--pressure-kpa",
+        type=float,
+        default=None,
+        help="inflation pressure [kPa] (default: the calibration's nominal pressure)",
+    )
     renamed(parser, "--pressure", "--pressure-kpa")
     parser.add_argument("--shell-model", default=None, help=f"{' | '.join(SHELL_MODELS)} (default: the run's)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     det = parser.add_mutually_exclusive_group()
-    det.add_argument("--deterministic", dest="deterministic", action="store_true", default=True,
-                     help="the policy's deterministic action (default)")
-    det.add_argument("--stochastic", dest="deterministic", action="store_false",
-                     help="sample actions from the policy's distribution")
+    det.add_argument(
+        "--deterministic",
+        dest="deterministic",
+        action="store_true",
+        default=True,
+        help="the policy's deterministic action (default)",
+    )
+    det.add_argument(
+        "--stochastic", dest="deterministic", action="store_false", help="sample actions from the policy's distribution"
+    )
     parser.add_argument("--meshcat", action="store_true", help="show the episodes live in Meshcat (URL printed)")
-    parser.add_argument("--realtime-rate", type=float, default=1.0,
-                        help="with --meshcat: simulated seconds per wall-clock second (0: as fast as possible)")
-    parser.add_argument("--video", default=None,
-                        help="folder for one MP4 per episode (<label>_<shell model>_<p>kPa_s<seed>.mp4)")
-    parser.add_argument("--label", default=None, help="controller name in the video file names (default: the run "
-                                                      "folder's name)")
+    parser.add_argument(
+        "--realtime-rate",
+        type=float,
+        default=1.0,
+        help="with --meshcat: simulated seconds per wall-clock second (0: as fast as possible)",
+    )
+    parser.add_argument(
+        "--video", default=None, help="folder for one MP4 per episode (<label>_<shell model>_<p>kPa_s<seed>.mp4)"
+    )
+    parser.add_argument(
+        "--label", default=None, help="controller name in the video file names (default: the run folder's name)"
+    )
     parser.add_argument("--env", default=None, help="env id (default: the run's)")
-    parser.add_argument("--allow-env-mismatch", action="store_true",
-                        help="run the policy on an env id other than the one it was trained on")
-    parser.add_argument("--env-kwargs", nargs="+", default=[], metavar="KWARGS",
-                        help="extra env kwargs: one YAML mapping, e.g. '{render_size: [640, 480]}', or key:value "
-                             "items (as train)")
+    parser.add_argument(
+        "--allow-env-mismatch",
+        action="store_true",
+        help="run the policy on an env id other than the one it was trained on",
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        default=[],
+        metavar="KWARGS",
+        help="extra env kwargs: one YAML mapping, e.g. '{render_size: [640, 480]}', or key:value items (as train)",
+    )
     args = parser.parse_args(argv)
     try:
-        spec = EnjoySpec(run=args.run, episodes=args.episodes, pressure_kpa=args.pressure_kpa, shell_model=args.shell_model,
-                         seed=args.seed, deterministic=args.deterministic, env_id=args.env,
-                         allow_env_mismatch=args.allow_env_mismatch, env_kwargs=parse_env_kwargs(args.env_kwargs),
-                         label=args.label)
-        return enjoy(spec, meshcat=args.meshcat, video=args.video, realtime_rate=args.realtime_rate,
-                     wait_for_enter=args.meshcat and sys.stdin.isatty())
+        spec = EnjoySpec(
+            run=args.run,
+            episodes=args.episodes,
+            pressure_kpa=args.pressure_kpa,
+            shell_model=args.shell_model,
+            seed=args.seed,
+            deterministic=args.deterministic,
+            env_id=args.env,
+            allow_env_mismatch=args.allow_env_mismatch,
+            env_kwargs=parse_env_kwargs(args.env_kwargs),
+            label=args.label,
+        )
+        return enjoy(
+            spec,
+            meshcat=args.meshcat,
+            video=args.video,
+            realtime_rate=args.realtime_rate,
+            wait_for_enter=args.meshcat and sys.stdin.isatty(),
+        )
     except (ValueError, OSError) as err:  # OSError: a failed write
         parser.exit(2, f"{parser.prog}: error: {err}\n")
 

@@ -82,8 +82,18 @@ class SweepSpec(SweepFields):
                 for fr in self.frictions:
                     for p in self.pressures_kpa:
                         for s in self.seeds:
-                            out.append(dict(controller=c.label, spec=c.spec, env_id=self.env_id, shell_model=model,
-                                            friction=fr, pressure_kpa=float(p), seed=int(s), env_kwargs=kw))
+                            out.append(
+                                dict(
+                                    controller=c.label,
+                                    spec=c.spec,
+                                    env_id=self.env_id,
+                                    shell_model=model,
+                                    friction=fr,
+                                    pressure_kpa=float(p),
+                                    seed=int(s),
+                                    env_kwargs=kw,
+                                )
+                            )
         return out
 
     def check(self) -> None:
@@ -113,8 +123,9 @@ class SweepSpec(SweepFields):
                 try:
                     action = ctrl(obs, info)
                 except Exception as err:  # noqa: BLE001 - the user's controller failed on a valid observation
-                    raise ValueError(f"controller: {c.label!r} failed on the first observation: "
-                                     f"{type(err).__name__}: {err}") from None
+                    raise ValueError(
+                        f"controller: {c.label!r} failed on the first observation: {type(err).__name__}: {err}"
+                    ) from None
                 check_action(c.label, action)
         finally:
             for env in envs.values():
@@ -125,8 +136,13 @@ def video_name_of(job: Mapping[str, Any], spec: SweepSpec) -> str:
     """An episode's video file stem (the friction preset is named only when the grid has several)."""
     from sphere_env.evaluation.video import video_name
 
-    return video_name(job["controller"], job["shell_model"], job["pressure_kpa"], job["seed"],
-                      job["friction"] if len(spec.frictions) > 1 else "")
+    return video_name(
+        job["controller"],
+        job["shell_model"],
+        job["pressure_kpa"],
+        job["seed"],
+        job["friction"] if len(spec.frictions) > 1 else "",
+    )
 
 
 def replay_job(cell: ReplayCell, spec: SweepSpec, i: int = 0) -> dict[str, Any]:
@@ -135,22 +151,45 @@ def replay_job(cell: ReplayCell, spec: SweepSpec, i: int = 0) -> dict[str, Any]:
     inside the calibrated range."""
     from sphere_env.models.shell import ShellCalibration
 
-    ctrl = checker(Annotated[Literal[tuple(spec.labels)], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
-        f"a label of the sweep's controllers {spec.labels}"))])(cell.controller or spec.labels[0],
-                                                                f"field 'replays[{i}].controller'")
+    ctrl = checker(
+        Annotated[
+            Literal[tuple(spec.labels)],
+            Field(
+                json_schema_extra=allowed(  # type: ignore[valid-type]
+                    f"a label of the sweep's controllers {spec.labels}"
+                )
+            ),
+        ]
+    )(cell.controller or spec.labels[0], f"field 'replays[{i}].controller'")
     p = spec.pressures_kpa[len(spec.pressures_kpa) // 2] if cell.pressure_kpa is None else cell.pressure_kpa
     ShellCalibration.load(spec.env_kwargs.get("calibration")).check_pressure(p, f"field 'replays[{i}].pressure_kpa'")
     cspec = spec.controllers[spec.labels.index(ctrl)].spec
-    return dict(controller=ctrl, spec=cspec, env_id=spec.env_id, shell_model=cell.shell_model or spec.shell_models[0],
-                friction=spec.frictions[0], pressure_kpa=float(p),
-                seed=spec.seeds[0] if cell.seed is None else cell.seed,
-                env_kwargs={**env_kwargs_of(cspec), **spec.env_kwargs})
+    return dict(
+        controller=ctrl,
+        spec=cspec,
+        env_id=spec.env_id,
+        shell_model=cell.shell_model or spec.shell_models[0],
+        friction=spec.frictions[0],
+        pressure_kpa=float(p),
+        seed=spec.seeds[0] if cell.seed is None else cell.seed,
+        env_kwargs={**env_kwargs_of(cspec), **spec.env_kwargs},
+    )
 
 
-def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_address: str | None = None,
-             replays: Sequence[str | Mapping[str, Any]] = ("",), pme_log: str | Path | None = None,
-             pme_log_pressure_kpa: float | None = None, pme_reference: str = "hydroelastic", plots: bool = True,
-             progress: bool = False, extra_report: str = "", video: str | Path | None = None) -> dict[str, Any]:
+def evaluate(
+    spec: SweepSpec,
+    out: str | Path,
+    workers: int | None = None,
+    ray_address: str | None = None,
+    replays: Sequence[str | Mapping[str, Any]] = ("",),
+    pme_log: str | Path | None = None,
+    pme_log_pressure_kpa: float | None = None,
+    pme_reference: str = "hydroelastic",
+    plots: bool = True,
+    progress: bool = False,
+    extra_report: str = "",
+    video: str | Path | None = None,
+) -> dict[str, Any]:
     """Run the sweep and write CSV, traces, report, plots and replays into ``out``, and with
     ``video`` one MP4 per episode into that folder (moved into place when the sweep succeeded).
     The options are loaded as :class:`~sphere_env.schemas.evaluation.EvaluateOptions` and the
@@ -160,10 +199,22 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
     """
     from sphere_env.evaluation.video import check_video_support, staged_videos
 
-    opts = validate(EvaluateOptions, dict(
-        out=out, workers=workers, ray_address=ray_address, replays=list(replays), pme_log=pme_log,
-        pme_log_pressure_kpa=pme_log_pressure_kpa, pme_reference=pme_reference, plots=plots, progress=progress,
-        extra_report=extra_report, video=video))
+    opts = validate(
+        EvaluateOptions,
+        dict(
+            out=out,
+            workers=workers,
+            ray_address=ray_address,
+            replays=list(replays),
+            pme_log=pme_log,
+            pme_log_pressure_kpa=pme_log_pressure_kpa,
+            pme_reference=pme_reference,
+            plots=plots,
+            progress=progress,
+            extra_report=extra_report,
+            video=video,
+        ),
+    )
     if opts.video is not None:
         check_video_support()
     spec.check()
@@ -171,8 +222,7 @@ def evaluate(spec: SweepSpec, out: str | Path, workers: int | None = None, ray_a
     log = load_user_log(opts.pme_log) if opts.pme_log is not None else None
     with _staging(opts.out) as work, staged_videos(opts.video) as video_work:
         res = _sweep(spec, opts, work, replay_jobs, log, video_work)
-    res["files"] = {k: opts.out / v.relative_to(work) if v.is_relative_to(work) else v
-                    for k, v in res["files"].items()}
+    res["files"] = {k: opts.out / v.relative_to(work) if v.is_relative_to(work) else v for k, v in res["files"].items()}
     return res
 
 
@@ -194,8 +244,9 @@ def _staging(out: Path):
     return staged_folder(out, _replace_outputs)
 
 
-def _sweep(spec: SweepSpec, opts: EvaluateOptions, out: Path, replay_jobs, log,
-           video_work: Path | None = None) -> dict[str, Any]:
+def _sweep(
+    spec: SweepSpec, opts: EvaluateOptions, out: Path, replay_jobs, log, video_work: Path | None = None
+) -> dict[str, Any]:
     if opts.plots:
         (out / "plots").mkdir()
     jobs = spec.jobs()
@@ -235,42 +286,79 @@ def _sweep(spec: SweepSpec, opts: EvaluateOptions, out: Path, replay_jobs, log,
         files[f"replay {rj['controller']} {rj['shell_model']} {rj['pressure_kpa']:g} kPa"] = save_replay(rj, out / name)
     files.update(videos)
     workers = opts.workers or default_workers()
-    executor = f"Ray at {opts.ray_address}" if opts.ray_address else (
-        f"process pool of {workers} workers" if workers > 1 else "in-process")
-    files["report"] = write_report(out, spec, rows, agg_model, agg_ctrl, pmes, files, wall, executor,
-                                   opts.extra_report)
-    return {"rows": rows, "pme": pmes, "files": files, "wall_s": wall, "agg_controller": agg_ctrl,
-            "agg_model": agg_model}
+    executor = (
+        f"Ray at {opts.ray_address}"
+        if opts.ray_address
+        else (f"process pool of {workers} workers" if workers > 1 else "in-process")
+    )
+    files["report"] = write_report(out, spec, rows, agg_model, agg_ctrl, pmes, files, wall, executor, opts.extra_report)
+    return {
+        "rows": rows,
+        "pme": pmes,
+        "files": files,
+        "wall_s": wall,
+        "agg_controller": agg_ctrl,
+        "agg_model": agg_model,
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     allow_abbrev=False)
-    parser.add_argument("--controller", nargs="+", default=["zero", "pd"],
-                        help="zero | pd | <run folder>[@best] | module:function, each optionally label=...")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
+    parser.add_argument(
+        "--controller",
+        nargs="+",
+        default=["zero", "pd"],
+        help="zero | pd | <run folder>[@best] | module:function, each optionally label=...",
+    )
     parser.add_argument("--env", default="sphere_env/RampDescent-v3")
-    parser.add_argument("--pressure-kpa", type=float, nargs="+", default=[3.0, 8.5, 14.0],
-                        help="inflation pressures [kPa] (default: 3 8.5 14, the demo's grid)")
+    parser.add_argument(
+        "--pressure-kpa",
+        type=float,
+        nargs="+",
+        default=[3.0, 8.5, 14.0],
+        help="inflation pressures [kPa] (default: 3 8.5 14, the demo's grid)",
+    )
     renamed(parser, "--pressures", "--pressure-kpa")
     renamed(parser, "--pressure", "--pressure-kpa")
     parser.add_argument("--shell-models", nargs="+", default=list(SHELL_MODELS))
-    parser.add_argument("--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds (default: the demo's 0 1 2)")
-    parser.add_argument("--env-kwargs", nargs="+", default=[], metavar="KWARGS",
-                        help="extra env kwargs: one YAML mapping '{k: v, ...}' or key:value items (as train)")
+    parser.add_argument(
+        "--friction", nargs="+", default=["majd"], help="friction presets (majd, viscous, coulomb, none)"
+    )
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds (default: the demo's 0 1 2)"
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        default=[],
+        metavar="KWARGS",
+        help="extra env kwargs: one YAML mapping '{k: v, ...}' or key:value items (as train)",
+    )
     parser.add_argument("--out", default=None, help="output folder (default out/eval/<time>)")
     parser.add_argument("--workers", type=int, default=None, help="process-pool size (default: all cores)")
-    parser.add_argument("--ray-address", default=None, help="run on Ray: 'local' (start one), 'auto', or ray://host:port")
-    parser.add_argument("--replay", nargs="*", default=[""],
-                        help="episodes to save as Meshcat HTML: controller,shell_model,pressure,seed (blank = defaults)")
+    parser.add_argument(
+        "--ray-address", default=None, help="run on Ray: 'local' (start one), 'auto', or ray://host:port"
+    )
+    parser.add_argument(
+        "--replay",
+        nargs="*",
+        default=[""],
+        help="episodes to save as Meshcat HTML: controller,shell_model,pressure,seed (blank = defaults)",
+    )
     parser.add_argument("--pme-log", default=None, help="CSV log (t_s, omega_d[, on_ramp]) for PME")
     parser.add_argument("--pme-log-pressure-kpa", type=float, default=None, help="the log's pressure [kPa]")
     renamed(parser, "--pme-log-pressure", "--pme-log-pressure-kpa")
     parser.add_argument("--pme-reference", default="hydroelastic", help="reference model of the PME plot")
-    parser.add_argument("--allow-env-mismatch", action="store_true",
-                        help="evaluate trained policies on an env id other than the one they were trained on")
-    parser.add_argument("--video", default=None,
-                        help="folder for one MP4 per episode (<controller>_<shell model>_<p>kPa_s<seed>.mp4)")
+    parser.add_argument(
+        "--allow-env-mismatch",
+        action="store_true",
+        help="evaluate trained policies on an env id other than the one they were trained on",
+    )
+    parser.add_argument(
+        "--video", default=None, help="folder for one MP4 per episode (<controller>_<shell model>_<p>kPa_s<seed>.mp4)"
+    )
     args = parser.parse_args(argv)
 
     # default: a new folder per run (a random suffix: evaluations started in one second differ)
@@ -279,12 +367,29 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
 
     try:
         env_kwargs = parse_env_kwargs(args.env_kwargs)
-        spec = SweepSpec(controllers=args.controller, env_id=args.env, pressures_kpa=args.pressure_kpa,
-                         shell_models=args.shell_models, frictions=args.friction, seeds=args.seeds,
-                         env_kwargs=env_kwargs, allow_env_mismatch=args.allow_env_mismatch)
+        spec = SweepSpec(
+            controllers=args.controller,
+            env_id=args.env,
+            pressures_kpa=args.pressure_kpa,
+            shell_models=args.shell_models,
+            frictions=args.friction,
+            seeds=args.seeds,
+            env_kwargs=env_kwargs,
+            allow_env_mismatch=args.allow_env_mismatch,
+        )
         with sigterm_as_interrupt():
-            res = evaluate(spec, out, args.workers, args.ray_address, args.replay, args.pme_log,
-                           args.pme_log_pressure_kpa, args.pme_reference, progress=True, video=args.video)
+            res = evaluate(
+                spec,
+                out,
+                args.workers,
+                args.ray_address,
+                args.replay,
+                args.pme_log,
+                args.pme_log_pressure_kpa,
+                args.pme_reference,
+                progress=True,
+                video=args.video,
+            )
     except (ValueError, OSError) as err:  # OSError: a write that failed after the checks (disk full)
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     except KeyboardInterrupt:

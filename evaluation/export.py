@@ -120,13 +120,19 @@ def check_supported(model: Any, algo: str) -> None:
     obs_space, act_space, policy = model.observation_space, model.action_space, model.policy
     problems = [
         (algo not in ("ppo", "sac"), f"algo: {algo!r} cannot be exported; allowed: ['ppo', 'sac']"),
-        (not (isinstance(obs_space, spaces.Box) and len(obs_space.shape) == 1),
-         f"policy: observation space {obs_space} is not a flat Box"),
+        (
+            not (isinstance(obs_space, spaces.Box) and len(obs_space.shape) == 1),
+            f"policy: observation space {obs_space} is not a flat Box",
+        ),
         (not isinstance(act_space, spaces.Box), f"policy: action space {act_space} is not a Box"),
-        (algo == "ppo" and policy.squash_output,
-         "policy: PPO with squash_output (gSDE) cannot be exported; train without squash_output"),
-        (type(policy).__name__ not in ("ActorCriticPolicy", "SACPolicy", "MlpPolicy", "AsymmetricActorCriticPolicy"),
-         f"policy: {type(policy).__name__} cannot be exported; allowed: MlpPolicy, AsymmetricMlpPolicy"),
+        (
+            algo == "ppo" and policy.squash_output,
+            "policy: PPO with squash_output (gSDE) cannot be exported; train without squash_output",
+        ),
+        (
+            type(policy).__name__ not in ("ActorCriticPolicy", "SACPolicy", "MlpPolicy", "AsymmetricActorCriticPolicy"),
+            f"policy: {type(policy).__name__} cannot be exported; allowed: MlpPolicy, AsymmetricMlpPolicy",
+        ),
     ]
     for failed, message in problems:
         if failed:
@@ -139,12 +145,15 @@ def check_onnx_support() -> None:
 
     missing = [m for m in ONNX_PACKAGES if importlib.util.find_spec(m) is None]
     if missing:
-        raise ValueError(f"format: onnx needs {', '.join(missing)}; install them with "
-                         "pip install \"sphere_env[export]\", or use --format torchscript")
+        raise ValueError(
+            f"format: onnx needs {', '.join(missing)}; install them with "
+            'pip install "sphere_env[export]", or use --format torchscript'
+        )
 
 
-def record_observations(controller: Any, env: Any, pressures_kpa: Sequence[float], steps: int = CHECK_STEPS,
-                        seed: int = 0) -> np.ndarray:
+def record_observations(
+    controller: Any, env: Any, pressures_kpa: Sequence[float], steps: int = CHECK_STEPS, seed: int = 0
+) -> np.ndarray:
     """Raw observations of rollouts of ``controller`` (one episode per pressure, up to ``steps``
     steps each; seeds ``seed``, ``seed + 1``, ...), stacked (n, n_obs) float32."""
     out = []
@@ -181,8 +190,15 @@ def _write_onnx(module, n_obs: int, path: Path) -> None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", (FutureWarning, DeprecationWarning, UserWarning))
-            program = torch.onnx.export(module, (example,), input_names=["observation"], output_names=["action"],
-                                        dynamic_shapes={"observation": {0: batch}}, dynamo=True, verbose=False)
+            program = torch.onnx.export(
+                module,
+                (example,),
+                input_names=["observation"],
+                output_names=["action"],
+                dynamic_shapes={"observation": {0: batch}},
+                dynamo=True,
+                verbose=False,
+            )
     finally:
         log.setLevel(level)
     program.save(str(path))
@@ -234,8 +250,14 @@ def _versions(fmt: str) -> dict[str, str]:
     return out
 
 
-def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: float = DEFAULT_TOL,
-           env_id: str | None = None, allow_env_mismatch: bool = False) -> dict[str, Path]:
+def export(
+    run: str,
+    fmt: str = "onnx",
+    out: str | Path | None = None,
+    tol: float = DEFAULT_TOL,
+    env_id: str | None = None,
+    allow_env_mismatch: bool = False,
+) -> dict[str, Path]:
     """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``.
     The options are loaded as :class:`~sphere_env.schemas.evaluation.ExportOptions` first."""
     import gymnasium as gym
@@ -245,8 +267,9 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
     from sphere_env.evaluation.enjoy import EnjoySpec
     from sphere_env.models.shell import ShellCalibration
 
-    opts = validate(ExportOptions, dict(run=run, format=fmt, out=out, tol=tol, env_id=env_id,
-                                        allow_env_mismatch=allow_env_mismatch))
+    opts = validate(
+        ExportOptions, dict(run=run, format=fmt, out=out, tol=tol, env_id=env_id, allow_env_mismatch=allow_env_mismatch)
+    )
     fmt, tol = opts.format, opts.tol
     if fmt == "onnx":
         check_onnx_support()
@@ -256,14 +279,17 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
     controller = PolicyController(r["folder"], r["which"])
     cfg = r["config"]
     if controller.env_wrapper:
-        raise ValueError(f"run: {str(r['folder'])!r} was trained inside env_wrapper "
-                         f"{[p for item in controller.env_wrapper for p in item]}: its network gives a correction "
-                         "to another controller, not the robot's action, so it is not exported alone")
+        raise ValueError(
+            f"run: {str(r['folder'])!r} was trained inside env_wrapper "
+            f"{[p for item in controller.env_wrapper for p in item]}: its network gives a correction "
+            "to another controller, not the robot's action, so it is not exported alone"
+        )
     check_supported(controller.model, cfg.algo)
     module = _policy_module(controller.model, controller.vecnormalize, cfg.algo)
 
-    env = gym.make(r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off",
-                   **r["env_kwargs"])
+    env = gym.make(
+        r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off", **r["env_kwargs"]
+    )
     try:
         u = env.unwrapped
         lo, hi = ShellCalibration.load(r["env_kwargs"].get("calibration")).pressure_range_kpa
@@ -297,31 +323,49 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
         got = run_exported(tmp, fmt, obs)
         diff = float(np.max(np.abs(got - expected)))
         if not diff <= tol:
-            raise ValueError(f"check: the exported policy's actions differ from the SB3 policy's by up to {diff:.3g} "
-                             f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written")
+            raise ValueError(
+                f"check: the exported policy's actions differ from the SB3 policy's by up to {diff:.3g} "
+                f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written"
+            )
         vn = controller.vecnormalize
         stats = None
         if vn is not None and vn.norm_obs:
             mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
             for rec, m, v in zip(observation_layout, mean, var):  # zip stops at the robot's components
                 rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
-            stats = {"epsilon": float(vn.epsilon), "clip_obs": float(vn.clip_obs),
-                     "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64"}
+            stats = {
+                "epsilon": float(vn.epsilon),
+                "clip_obs": float(vn.clip_obs),
+                "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64",
+            }
         layout = {
             "format": fmt,
             "file": name,
-            "input": {"name": "observation", "shape": ["batch", int(obs.shape[1])], "dtype": "float32",
-                      "meaning": "the env's raw observation (normalization is inside the file)"
-                      + (f", without the {k} privileged components the critic alone saw in training" if k else "")},
-            "output": {"name": "action", "shape": ["batch", 2], "dtype": "float32", "range": [-1.0, 1.0],
-                       "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)"},
-            "deterministic_action": ("Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
-                                     if cfg.algo == "ppo" else "tanh of the Gaussian mean (SB3 predict, "
-                                     "deterministic=True)"),
+            "input": {
+                "name": "observation",
+                "shape": ["batch", int(obs.shape[1])],
+                "dtype": "float32",
+                "meaning": "the env's raw observation (normalization is inside the file)"
+                + (f", without the {k} privileged components the critic alone saw in training" if k else ""),
+            },
+            "output": {
+                "name": "action",
+                "shape": ["batch", 2],
+                "dtype": "float32",
+                "range": [-1.0, 1.0],
+                "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)",
+            },
+            "deterministic_action": (
+                "Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
+                if cfg.algo == "ppo"
+                else "tanh of the Gaussian mean (SB3 predict, deterministic=True)"
+            ),
             "observation": observation_layout,
-            "observation_from_sensors": ("each component's from_sensors: the robot's channels, computation, frame "
-                                         "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
-                                         f"samples at {control_hz:g} Hz (incline_deg: the ramp's)"),
+            "observation_from_sensors": (
+                "each component's from_sensors: the robot's channels, computation, frame "
+                "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
+                f"samples at {control_hz:g} Hz (incline_deg: the ramp's)"
+            ),
             "observation_normalization": stats,
             "action": action_layout,
             "env_id": r["env_id"],
@@ -332,9 +376,13 @@ def export(run: str, fmt: str = "onnx", out: str | Path | None = None, tol: floa
             "run": str(r["folder"].resolve()),
             "model": "best/best_model.zip" if r["which"] == "best" else "model.zip",
             "num_timesteps": int(controller.model.num_timesteps),
-            "check": {"observations": len(obs), "pressures_kpa": [lo, nominal, hi],
-                      "max_abs_action_diff": diff, "tol": tol,
-                      "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit"},
+            "check": {
+                "observations": len(obs),
+                "pressures_kpa": [lo, nominal, hi],
+                "max_abs_action_diff": diff,
+                "tol": tol,
+                "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
+            },
             "versions": _versions(fmt),
             "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         }
@@ -350,13 +398,15 @@ def _swap_in(work: Path, out: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     allow_abbrev=False)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
     parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best")
     parser.add_argument("--format", default="onnx", help=f"{' | '.join(EXPORT_FORMATS)} (default onnx)")
     parser.add_argument("--out", default=None, help="output folder (default <run>/export)")
-    parser.add_argument("--tol", type=float, default=DEFAULT_TOL,
-                        help="largest allowed |exported - SB3| action difference in the check")
+    parser.add_argument(
+        "--tol", type=float, default=DEFAULT_TOL, help="largest allowed |exported - SB3| action difference in the check"
+    )
     parser.add_argument("--env", default=None, help="env id for the check rollouts and the layout (default: the run's)")
     parser.add_argument("--allow-env-mismatch", action="store_true", help="use an env id the run was not trained on")
     args = parser.parse_args(argv)
@@ -364,8 +414,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         res = export(args.run, args.format, args.out, args.tol, args.env, args.allow_env_mismatch)
     except (ValueError, OSError) as err:  # OSError: a failed write
         parser.exit(2, f"{parser.prog}: error: {err}\n")
-    print(f"policy: {res['policy'].resolve()}\nlayout: {res['layout'].resolve()}\n"
-          f"check: max |exported - SB3| action difference {res['max_abs_action_diff']:.2e}")
+    print(
+        f"policy: {res['policy'].resolve()}\nlayout: {res['layout'].resolve()}\n"
+        f"check: max |exported - SB3| action difference {res['max_abs_action_diff']:.2e}"
+    )
     return res
 
 

@@ -27,12 +27,37 @@ import numpy as np
 
 #: Columns naming an episode's cell, then its metrics, in a row of the episodes CSV.
 KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
-METRIC_COLUMNS = ("return", "length", "is_success", "reached_runout", "terminated", "truncated",
-                  "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j", "peak_torque_nm",
-                  "time_on_ramp_s", "omega_ref_rad_s", "omega_ref_after_rad_s")
+METRIC_COLUMNS = (
+    "return",
+    "length",
+    "is_success",
+    "reached_runout",
+    "terminated",
+    "truncated",
+    "tracking_rmse_rad_s",
+    "mean_omega_d_rad_s",
+    "lateral_drift_m",
+    "energy_j",
+    "peak_torque_nm",
+    "time_on_ramp_s",
+    "omega_ref_rad_s",
+    "omega_ref_after_rad_s",
+)
 #: Trace channels recorded per control step by :mod:`sphere_env.evaluation.cells`.
-TRACE_CHANNELS = ("t_s", "omega_d", "omega_ref", "x_m", "y_m", "z_m", "tau_steer_nm", "tau_drive_nm",
-                  "theta_dot", "drive_rate", "on_ramp", "reward")
+TRACE_CHANNELS = (
+    "t_s",
+    "omega_d",
+    "omega_ref",
+    "x_m",
+    "y_m",
+    "z_m",
+    "tau_steer_nm",
+    "tau_drive_nm",
+    "theta_dot",
+    "drive_rate",
+    "on_ramp",
+    "reward",
+)
 
 
 def episode_metrics(trace: Mapping[str, np.ndarray], dt_s: float) -> dict[str, float]:
@@ -43,7 +68,8 @@ def episode_metrics(trace: Mapping[str, np.ndarray], dt_s: float) -> dict[str, f
     sel = on if on.any() else np.ones_like(on)
     err = wd[sel] - ref[sel]
     power = np.abs(np.asarray(trace["tau_steer_nm"]) * np.asarray(trace["theta_dot"])) + np.abs(
-        np.asarray(trace["tau_drive_nm"]) * np.asarray(trace["drive_rate"]))
+        np.asarray(trace["tau_drive_nm"]) * np.asarray(trace["drive_rate"])
+    )
     tau = np.concatenate([np.abs(trace["tau_steer_nm"]), np.abs(trace["tau_drive_nm"])])
     n = len(wd)
     return {
@@ -61,8 +87,14 @@ def episode_metrics(trace: Mapping[str, np.ndarray], dt_s: float) -> dict[str, f
 PME_MIN_SPEED_RAD_S = 0.5
 
 
-def pme_between(t_e: np.ndarray, omega_e: np.ndarray, on_ramp_e: np.ndarray,
-                t_s: np.ndarray, omega_s: np.ndarray, min_speed_rad_s: float = PME_MIN_SPEED_RAD_S) -> float:
+def pme_between(
+    t_e: np.ndarray,
+    omega_e: np.ndarray,
+    on_ramp_e: np.ndarray,
+    t_s: np.ndarray,
+    omega_s: np.ndarray,
+    min_speed_rad_s: float = PME_MIN_SPEED_RAD_S,
+) -> float:
     """PME [%] of a simulation (``t_s``, ``omega_s``) against a reference ("experiment": another
     model or a real log; ``t_e``, ``omega_e``, its on-ramp mask ``on_ramp_e``).
 

@@ -26,7 +26,7 @@ def plot_drive_velocity(rows, traces, spec: SweepSpec, path: Path) -> Path:
     fig, axes = plt.subplots(nr, nc, figsize=(3.2 * nc, 2.4 * nr), sharex=True, sharey=True, squeeze=False)
     labels = spec.labels
     s0, f0 = spec.seeds[0], spec.frictions[0]
-    for (r, tr) in zip(rows, traces):
+    for r, tr in zip(rows, traces):
         if r["seed"] != s0 or r["friction"] != f0:
             continue
         i, j = spec.shell_models.index(r["shell_model"]), spec.pressures_kpa.index(r["pressure_kpa"])
@@ -67,16 +67,20 @@ def plot_error_bars(rows, traces, spec: SweepSpec, path: Path) -> Path:
         for i, m in enumerate(spec.shell_models):
             mean, std, tm, ts = [], [], [], []
             for p in spec.pressures_kpa:
-                sel = [(r, tr) for r, tr in zip(rows, traces)
-                       if r["controller"] == lab and r["shell_model"] == m and r["pressure_kpa"] == p]
+                sel = [
+                    (r, tr)
+                    for r, tr in zip(rows, traces)
+                    if r["controller"] == lab and r["shell_model"] == m and r["pressure_kpa"] == p
+                ]
                 samples = np.concatenate([tr["omega_d"][tr["on_ramp"] > 0.5] for _, tr in sel]) if sel else np.array([])
                 mean.append(samples.mean() if len(samples) else np.nan)
                 std.append(samples.std() if len(samples) else np.nan)
                 e = np.array([r["tracking_rmse_rad_s"] for r, _ in sel])
                 tm.append(e.mean() if len(e) else np.nan)
                 ts.append(e.std() if len(e) else np.nan)
-            axes[0][c].bar(x + (i - (len(spec.shell_models) - 1) / 2) * w, mean, w, yerr=std, capsize=3,
-                           color=f"C{i}", label=m)
+            axes[0][c].bar(
+                x + (i - (len(spec.shell_models) - 1) / 2) * w, mean, w, yerr=std, capsize=3, color=f"C{i}", label=m
+            )
             axes[1][c].bar(x + (i - (len(spec.shell_models) - 1) / 2) * w, tm, w, yerr=ts, capsize=3, color=f"C{i}")
         axes[0][c].set_title(lab)
         for ax in axes[:, c]:
@@ -100,13 +104,20 @@ def plot_success_tracking(agg_rows, spec: SweepSpec, path: Path) -> Path:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     for c, lab in enumerate(labels):
         for i, m in enumerate(spec.shell_models):
-            rs = sorted([a for a in agg_rows if a["controller"] == lab and a["shell_model"] == m],
-                        key=lambda a: a["pressure_kpa"])
+            rs = sorted(
+                [a for a in agg_rows if a["controller"] == lab and a["shell_model"] == m],
+                key=lambda a: a["pressure_kpa"],
+            )
             p = [a["pressure_kpa"] for a in rs]
             kw = dict(color=f"C{c}", ls=styles[i % 4], marker="o", ms=3, label=f"{lab} / {m}")
             axes[0].plot(p, [a["success_rate"] for a in rs], **kw)
-            axes[1].errorbar(p, [a["tracking_rmse_rad_s"] for a in rs], yerr=[a["tracking_rmse_rad_s_std"] for a in rs],
-                             capsize=2, **kw)
+            axes[1].errorbar(
+                p,
+                [a["tracking_rmse_rad_s"] for a in rs],
+                yerr=[a["tracking_rmse_rad_s_std"] for a in rs],
+                capsize=2,
+                **kw,
+            )
     axes[0].set_ylabel("success rate")
     axes[0].set_ylim(-0.05, 1.05)
     axes[1].set_ylabel("speed-tracking RMSE [rad/s]")
@@ -130,8 +141,15 @@ def plot_pme(pmes: Sequence[Mapping[str, Any]], path: Path, reference: str) -> P
     for i, sim in enumerate(sorted({r["simulation"] for r in sel})):
         ps = sorted({r["pressure_kpa"] for r in sel if r["simulation"] == sim})
         v = [[r["pme_percent"] for r in sel if r["simulation"] == sim and r["pressure_kpa"] == p] for p in ps]
-        ax.errorbar(ps, [np.mean(x) for x in v], yerr=[np.std(x) for x in v], marker="o", capsize=3,
-                    color=f"C{i}", label=f"{sim} vs {reference}")
+        ax.errorbar(
+            ps,
+            [np.mean(x) for x in v],
+            yerr=[np.std(x) for x in v],
+            marker="o",
+            capsize=3,
+            color=f"C{i}",
+            label=f"{sim} vs {reference}",
+        )
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xlabel("pressure [kPa]")
     ax.set_ylabel("PME [%] (> 0: underestimates)")

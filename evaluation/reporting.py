@@ -23,4 +23,3 @@ def machine_info() -> dict:
         pass
     sw = software_versions()
     return {"cpu": cpu, "cores": os.cpu_count(), "python": sw.pop("python"), "commit": sw.pop("git_commit"), **sw}
-

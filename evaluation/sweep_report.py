@@ -17,6 +17,7 @@ from sphere_env.evaluation.metrics import KEY_COLUMNS, METRIC_COLUMNS, PME_MIN_S
 if TYPE_CHECKING:
     from sphere_env.evaluation.evaluate import SweepSpec
 
+
 def _fmt(v: Any) -> str:
     if isinstance(v, bool):
         return str(int(v))
@@ -35,8 +36,9 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> Path:
     return path
 
 
-def pme_rows(rows: Sequence[Mapping[str, Any]], traces: Sequence[Mapping[str, np.ndarray]],
-             controller: str = "zero") -> list[dict[str, Any]]:
+def pme_rows(
+    rows: Sequence[Mapping[str, Any]], traces: Sequence[Mapping[str, np.ndarray]], controller: str = "zero"
+) -> list[dict[str, Any]]:
     """PME [%] of every ordered pair of shell models (reference → simulation) per (pressure,
     friction, seed) for ``controller``'s episodes."""
     cells: dict[tuple, dict[str, Mapping[str, np.ndarray]]] = {}
@@ -49,8 +51,16 @@ def pme_rows(rows: Sequence[Mapping[str, Any]], traces: Sequence[Mapping[str, np
             for sim, ts in by_model.items():
                 if ref == sim:
                     continue
-                out.append(dict(pressure_kpa=p, friction=fr, seed=s, reference=ref, simulation=sim,
-                                pme_percent=pme_between(te["t_s"], te["omega_d"], te["on_ramp"], ts["t_s"], ts["omega_d"])))
+                out.append(
+                    dict(
+                        pressure_kpa=p,
+                        friction=fr,
+                        seed=s,
+                        reference=ref,
+                        simulation=sim,
+                        pme_percent=pme_between(te["t_s"], te["omega_d"], te["on_ramp"], ts["t_s"], ts["omega_d"]),
+                    )
+                )
     return out
 
 
@@ -86,8 +96,9 @@ def load_user_log(path: str | Path) -> dict[str, np.ndarray]:
     return {"t_s": t - t[0], "omega_d": w, "on_ramp": on}
 
 
-def pme_log_rows(log: Mapping[str, np.ndarray], rows, traces, pressure_kpa: float | None,
-                 controller: str = "zero") -> list[dict[str, Any]]:
+def pme_log_rows(
+    log: Mapping[str, np.ndarray], rows, traces, pressure_kpa: float | None, controller: str = "zero"
+) -> list[dict[str, Any]]:
     """PME [%] of each shell model's zero-torque trace against a user log (nearest pressure)."""
     cand = [(r, tr) for r, tr in zip(rows, traces) if r["controller"] == controller]
     if not cand:
@@ -97,9 +108,16 @@ def pme_log_rows(log: Mapping[str, np.ndarray], rows, traces, pressure_kpa: floa
     out = []
     for r, tr in cand:
         if r["pressure_kpa"] == p:
-            out.append(dict(pressure_kpa=p, friction=r["friction"], seed=r["seed"], reference="log",
-                            simulation=r["shell_model"],
-                            pme_percent=pme_between(log["t_s"], log["omega_d"], log["on_ramp"], tr["t_s"], tr["omega_d"])))
+            out.append(
+                dict(
+                    pressure_kpa=p,
+                    friction=r["friction"],
+                    seed=r["seed"],
+                    reference="log",
+                    simulation=r["shell_model"],
+                    pme_percent=pme_between(log["t_s"], log["omega_d"], log["on_ramp"], tr["t_s"], tr["omega_d"]),
+                )
+            )
     return out
 
 
@@ -114,8 +132,15 @@ def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict
         d["episodes"] = len(rs)
         d["success_rate"] = float(np.mean([r["is_success"] for r in rs]))
         d["reached_runout_rate"] = float(np.mean([r["reached_runout"] for r in rs]))
-        for m in ("return", "tracking_rmse_rad_s", "mean_omega_d_rad_s", "lateral_drift_m", "energy_j",
-                  "peak_torque_nm", "time_on_ramp_s"):
+        for m in (
+            "return",
+            "tracking_rmse_rad_s",
+            "mean_omega_d_rad_s",
+            "lateral_drift_m",
+            "energy_j",
+            "peak_torque_nm",
+            "time_on_ramp_s",
+        ):
             v = np.array([r[m] for r in rs], float)
             d[m] = float(np.nanmean(v))
             d[m + "_std"] = float(np.nanstd(v))
@@ -123,8 +148,18 @@ def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict
     return out
 
 
-def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, files: Mapping[str, Path],
-                 wall_s: float, executor: str, extra: str = "") -> Path:
+def write_report(
+    out: Path,
+    spec: SweepSpec,
+    rows,
+    agg_model,
+    agg_ctrl,
+    pmes,
+    files: Mapping[str, Path],
+    wall_s: float,
+    executor: str,
+    extra: str = "",
+) -> Path:
     from sphere_env.evaluation.reporting import machine_info
     from sphere_env.reporting import markdown_table
 
@@ -143,32 +178,66 @@ def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, fi
     ]
     if extra:
         lines += [extra, ""]
-    ctrl_cols = [("controller", "controller", ""), ("episodes", "episodes", "{:d}"),
-                 ("success_rate", "success", "{:.0%}"), ("reached_runout_rate", "reached run-out", "{:.0%}"),
-                 ("return", "return", "{:.2f}"), ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
-                 ("lateral_drift_m", "lateral drift m", "{:.3f}"), ("energy_j", "energy J", "{:.1f}"),
-                 ("peak_torque_nm", "peak torque N m", "{:.1f}"), ("time_on_ramp_s", "time on ramp s", "{:.2f}")]
+    ctrl_cols = [
+        ("controller", "controller", ""),
+        ("episodes", "episodes", "{:d}"),
+        ("success_rate", "success", "{:.0%}"),
+        ("reached_runout_rate", "reached run-out", "{:.0%}"),
+        ("return", "return", "{:.2f}"),
+        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+        ("energy_j", "energy J", "{:.1f}"),
+        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
+        ("time_on_ramp_s", "time on ramp s", "{:.2f}"),
+    ]
     lines += ["## Summary per controller (all cells)", "", markdown_table(agg_ctrl, ctrl_cols), ""]
-    cols = [("controller", "controller", ""), ("shell_model", "shell model", ""), ("friction", "friction", ""),
-            ("pressure_kpa", "pressure kPa", "{:g}"), ("success_rate", "success", "{:.0%}"),
-            ("reached_runout_rate", "reached run-out", "{:.0%}"), ("return", "return", "{:.2f}"), ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
-            ("mean_omega_d_rad_s", "mean ω_d rad/s", "{:.2f}"), ("lateral_drift_m", "lateral drift m", "{:.3f}"),
-            ("energy_j", "energy J", "{:.1f}"), ("peak_torque_nm", "peak torque N m", "{:.1f}")]
-    lines += ["## Per controller, shell model and pressure (mean over seeds)", "",
-              markdown_table(sorted(agg_model, key=lambda a: (a["controller"], a["shell_model"], a["friction"],
-                                                               a["pressure_kpa"])), cols), ""]
+    cols = [
+        ("controller", "controller", ""),
+        ("shell_model", "shell model", ""),
+        ("friction", "friction", ""),
+        ("pressure_kpa", "pressure kPa", "{:g}"),
+        ("success_rate", "success", "{:.0%}"),
+        ("reached_runout_rate", "reached run-out", "{:.0%}"),
+        ("return", "return", "{:.2f}"),
+        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+        ("mean_omega_d_rad_s", "mean ω_d rad/s", "{:.2f}"),
+        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+        ("energy_j", "energy J", "{:.1f}"),
+        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
+    ]
+    lines += [
+        "## Per controller, shell model and pressure (mean over seeds)",
+        "",
+        markdown_table(
+            sorted(agg_model, key=lambda a: (a["controller"], a["shell_model"], a["friction"], a["pressure_kpa"])), cols
+        ),
+        "",
+    ]
     if pmes:
         pm = aggregate_pme(pmes)
-        lines += ["## Point Mean Error (eq. 12), zero-torque descent", "",
-                  "PME = mean over the reference's on-ramp samples of (ω_e − ω_s)/ω_e × 100 %, ω_e the "
-                  f"reference's and ω_s the simulation's drive velocity (samples with |ω_e| < {PME_MIN_SPEED_RAD_S} "
-                  "rad/s, the release, left out); positive when "
-                  "the simulation underestimates the reference. Mean ± std over seeds.", "",
-                  markdown_table(pm, [("reference", "reference", ""), ("simulation", "simulation", ""),
-                                      ("friction", "friction", ""), ("pressure_kpa", "pressure kPa", "{:g}"),
-                                      ("pme", "PME %", "")]), ""]
-    lines += ["## Files", ""] + [f"- {k}: `{v.relative_to(out) if v.is_relative_to(out) else v}`"
-                                  for k, v in files.items()]
+        lines += [
+            "## Point Mean Error (eq. 12), zero-torque descent",
+            "",
+            "PME = mean over the reference's on-ramp samples of (ω_e − ω_s)/ω_e × 100 %, ω_e the "
+            f"reference's and ω_s the simulation's drive velocity (samples with |ω_e| < {PME_MIN_SPEED_RAD_S} "
+            "rad/s, the release, left out); positive when "
+            "the simulation underestimates the reference. Mean ± std over seeds.",
+            "",
+            markdown_table(
+                pm,
+                [
+                    ("reference", "reference", ""),
+                    ("simulation", "simulation", ""),
+                    ("friction", "friction", ""),
+                    ("pressure_kpa", "pressure kPa", "{:g}"),
+                    ("pme", "PME %", ""),
+                ],
+            ),
+            "",
+        ]
+    lines += ["## Files", ""] + [
+        f"- {k}: `{v.relative_to(out) if v.is_relative_to(out) else v}`" for k, v in files.items()
+    ]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -177,6 +246,16 @@ def write_report(out: Path, spec: SweepSpec, rows, agg_model, agg_ctrl, pmes, fi
 def aggregate_pme(pmes: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     groups: dict[tuple, list[float]] = {}
     for r in pmes:
-        groups.setdefault((r["reference"], r["simulation"], r["friction"], r["pressure_kpa"]), []).append(r["pme_percent"])
-    return [dict(reference=k[0], simulation=k[1], friction=k[2], pressure_kpa=k[3],
-                 pme=f"{np.mean(v):+.1f} ± {np.std(v):.1f}") for k, v in sorted(groups.items())]
+        groups.setdefault((r["reference"], r["simulation"], r["friction"], r["pressure_kpa"]), []).append(
+            r["pme_percent"]
+        )
+    return [
+        dict(
+            reference=k[0],
+            simulation=k[1],
+            friction=k[2],
+            pressure_kpa=k[3],
+            pme=f"{np.mean(v):+.1f} ± {np.std(v):.1f}",
+        )
+        for k, v in sorted(groups.items())
+    ]

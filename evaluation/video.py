@@ -26,7 +26,7 @@ def check_video_support() -> None:
     try:
         import moviepy  # noqa: F401
     except ImportError:
-        raise ValueError("video: writing MP4s needs moviepy; install it with pip install \"sphere_env[video]\"") from None
+        raise ValueError('video: writing MP4s needs moviepy; install it with pip install "sphere_env[video]"') from None
 
 
 def video_name(controller: str, shell_model: str, pressure_kpa: float, seed: int, extra: str = "") -> str:

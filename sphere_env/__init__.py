@@ -26,8 +26,14 @@ __version__ = "0.1.0"
 #:       (``assets/calibration/v0_linear.yaml``); kept so earlier results and policies reproduce.
 #: The task settings of RampDescent-v0/v1: the paper's 16° ramp of 4 m, one command, success =
 #: reaching the run-out.
-_RAMP_V1 = {"incline_deg": 16.0, "ramp_length_m": 4.0, "omega_ref_range_rad_s": (4.0, 8.0),
-            "omega_ref_change_min_rad_s": None, "tracking_tolerance_rad_s": None, "extended_observation": False}
+_RAMP_V1 = {
+    "incline_deg": 16.0,
+    "ramp_length_m": 4.0,
+    "omega_ref_range_rad_s": (4.0, 8.0),
+    "omega_ref_change_min_rad_s": None,
+    "tracking_tolerance_rad_s": None,
+    "extended_observation": False,
+}
 #: RampDescent-v3's reward weights are per ramp length: v2's per-second weights × 6, about the
 #: duration of a descent on the 6 m ramp, so that the terms keep their v2 proportions.
 _RAMP_V3 = {"step_reward_per": "distance", "observe_tracking_state": True}
@@ -36,8 +42,11 @@ ENV_IDS = {
     "sphere_env/RampDescent-v2": ("sphere_env.envs.factories:make_ramp_descent", 600, {}),
     "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, {}),
     "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, _RAMP_V1),
-    "sphere_env/RampDescent-v0": ("sphere_env.envs.factories:make_ramp_descent", 400,
-                                  {**_RAMP_V1, "calibration": "v0_linear.yaml"}),
+    "sphere_env/RampDescent-v0": (
+        "sphere_env.envs.factories:make_ramp_descent",
+        400,
+        {**_RAMP_V1, "calibration": "v0_linear.yaml"},
+    ),
     "sphere_env/Roll-v0": ("sphere_env.envs.factories:make_roll", 500, {"calibration": "v0_linear.yaml"}),
 }
 
@@ -55,8 +64,9 @@ def register_envs() -> None:
             # Gymnasium's passive checker wrapper breaks on the first step() after a reset that
             # raised (it keeps nothing of the failed reset); the env validates its own inputs and
             # the test suite runs gymnasium's and SB3's full checkers on every id instead.
-            register(id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=kwargs,
-                     disable_env_checker=True)
+            register(
+                id=env_id, entry_point=entry_point, max_episode_steps=steps, kwargs=kwargs, disable_env_checker=True
+            )
 
 
 register_envs()

@@ -51,12 +51,13 @@ def parse_key_values(items: Sequence[str], field_name: str = "hyperparams") -> d
             val = ast.literal_eval(text.strip())
         except (ValueError, SyntaxError):
             if text.strip().startswith(("{", "[", "(")):
-                raise ValueError(f"{field_name}.{key}: value {text!r} is not a Python literal (values are read as in "
-                                 "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'})") from None
+                raise ValueError(
+                    f"{field_name}.{key}: value {text!r} is not a Python literal (values are read as in "
+                    "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'})"
+                ) from None
             val = text.strip()
         out[key] = val
     return out
-
 
 
 def parse_yaml_mapping(text: str, field_name: str = "env_kwargs") -> dict[str, Any]:
@@ -81,10 +82,10 @@ def parse_yaml_mapping(text: str, field_name: str = "env_kwargs") -> dict[str, A
     if value is None:
         return {}
     if not isinstance(value, dict):
-        raise ValueError(f"{field_name}: value {value!r} must be a YAML mapping such as "
-                         "'{observation_noise_scale: 0.5}'")
+        raise ValueError(
+            f"{field_name}: value {value!r} must be a YAML mapping such as '{{observation_noise_scale: 0.5}}'"
+        )
     return value
-
 
 
 def parse_env_kwargs(items: str | Sequence[str], field_name: str = "env_kwargs") -> dict[str, Any]:
@@ -95,8 +96,9 @@ def parse_env_kwargs(items: str | Sequence[str], field_name: str = "env_kwargs")
         return parse_yaml_mapping(items[0], field_name)
     for item in items:
         if ":" not in item or not item.partition(":")[0].strip():
-            raise ValueError(f"{field_name}: {item!r} must be a YAML mapping such as '{{shell_model: point}}' or "
-                             "key:value items")
+            raise ValueError(
+                f"{field_name}: {item!r} must be a YAML mapping such as '{{shell_model: point}}' or key:value items"
+            )
     return parse_key_values(items, field_name)
 
 
@@ -108,23 +110,42 @@ class Command:
 
 
 COMMANDS = {
-    "train": Command("sphere_env.training.train", "train a PPO/SAC policy (stable-baselines3; rl-zoo3 flags and YAML, sweeps on Ray)",
-                     (("stable_baselines3", "train"), ("torch", "train"), ("tensorboard", "train"),
-                      ("matplotlib", "train"))),
-    "evaluate": Command("sphere_env.evaluation.evaluate",
-                        "evaluate controllers or trained policies over seeds x pressures x friction",
-                        (("matplotlib", "eval"), ("tqdm", "eval"))),
-    "enjoy": Command("sphere_env.evaluation.enjoy", "watch a trained run in Meshcat or record it as MP4s",
-                     (("stable_baselines3", "train"), ("torch", "train"))),
-    "export": Command("sphere_env.evaluation.export",
-                      "export a trained policy (VecNormalize folded in) to ONNX or TorchScript for the robot",
-                      (("stable_baselines3", "train"), ("torch", "train"))),
-    "calibrate": Command("sphere_env.calibration.__main__",
-                         "fit and validate the shell and friction models against robot logs",
-                         (("matplotlib", "eval"),)),
-    "demo": Command("sphere_env.evaluation.demo", "train PPO briefly and compare it with the baselines",
-                    (("stable_baselines3", "train"), ("torch", "train"), ("tensorboard", "train"),
-                     ("matplotlib", "eval"), ("tqdm", "eval"))),
+    "train": Command(
+        "sphere_env.training.train",
+        "train a PPO/SAC policy (stable-baselines3; rl-zoo3 flags and YAML, sweeps on Ray)",
+        (("stable_baselines3", "train"), ("torch", "train"), ("tensorboard", "train"), ("matplotlib", "train")),
+    ),
+    "evaluate": Command(
+        "sphere_env.evaluation.evaluate",
+        "evaluate controllers or trained policies over seeds x pressures x friction",
+        (("matplotlib", "eval"), ("tqdm", "eval")),
+    ),
+    "enjoy": Command(
+        "sphere_env.evaluation.enjoy",
+        "watch a trained run in Meshcat or record it as MP4s",
+        (("stable_baselines3", "train"), ("torch", "train")),
+    ),
+    "export": Command(
+        "sphere_env.evaluation.export",
+        "export a trained policy (VecNormalize folded in) to ONNX or TorchScript for the robot",
+        (("stable_baselines3", "train"), ("torch", "train")),
+    ),
+    "calibrate": Command(
+        "sphere_env.calibration.__main__",
+        "fit and validate the shell and friction models against robot logs",
+        (("matplotlib", "eval"),),
+    ),
+    "demo": Command(
+        "sphere_env.evaluation.demo",
+        "train PPO briefly and compare it with the baselines",
+        (
+            ("stable_baselines3", "train"),
+            ("torch", "train"),
+            ("tensorboard", "train"),
+            ("matplotlib", "eval"),
+            ("tqdm", "eval"),
+        ),
+    ),
 }
 
 
@@ -139,9 +160,11 @@ def missing_extras(command: Command) -> list[str]:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="sphere-env", description="sphere_env: Drake digital twin and Gymnasium environments of a "
+        prog="sphere-env",
+        description="sphere_env: Drake digital twin and Gymnasium environments of a "
         "soft, pendulum-driven spherical robot.",
-        epilog="`sphere-env <command> --help` shows the options of a command.")
+        epilog="`sphere-env <command> --help` shows the options of a command.",
+    )
     sub = parser.add_subparsers(dest="command", metavar="<command>", required=True)
     for name, cmd in COMMANDS.items():
         # add_help=False: --help goes to the command's own parser, which knows its options.
@@ -162,8 +185,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     missing = [] if wants_help else missing_extras(cmd)
     if missing:
         extras = ",".join(missing)
-        parser.exit(2, f"sphere-env {name}: needs optional dependencies; install them with\n"
-                       f"    pip install \"sphere_env[{extras}]\"\n")
+        parser.exit(
+            2,
+            f"sphere-env {name}: needs optional dependencies; install them with\n"
+            f'    pip install "sphere_env[{extras}]"\n',
+        )
     module = importlib.import_module(cmd.module)
     old_argv0 = sys.argv[0]
     sys.argv[0] = f"sphere-env {name}"  # usage lines read "sphere-env train ..." (argparse's prog)

@@ -26,8 +26,8 @@ DEFAULT_DRIVE_TORQUE_LIMIT_NM = PARAMETERS["drive_torque_limit_nm"].nominal
 
 # Observation indices, from the tasks' layout: measured components, then the two command values.
 THETA, THETA_DOT, DRIVE_ANGLE, DRIVE_RATE, OMEGA_D, HEADING_RATE, GX, GZ = (
-    MEASURED_INDEX[n] for n in ("theta", "theta_dot", "drive_angle", "drive_rate", "omega_d", "heading_rate",
-                                "gravity_x", "gravity_z")
+    MEASURED_INDEX[n]
+    for n in ("theta", "theta_dot", "drive_angle", "drive_rate", "omega_d", "heading_rate", "gravity_x", "gravity_z")
 )
 CMD_SPEED, CMD_HEADING = N_MEASURED, N_MEASURED + 1  # ω_ref, then heading error or ψ̇_ref
 
@@ -135,8 +135,19 @@ class PendulumPDController:
 #:   error anticipates it (``t_lead_s``) and the lean loop is off (a lean while the pendulum brakes,
 #:   pitched far back, turns the robot unpredictably).
 PD_PRESETS = {
-    "RampDescent-v2": dict(k_speed=0.27, k_int=0.71, beta_max=1.2, kp_pitch=30.7, kd_pitch=1.32, t_lead_s=0.30,
-                           k_heading=0.51, k_yaw=0.18, theta_max=1.0, kp_lean=25.7, kd_lean=2.13),
+    "RampDescent-v2": dict(
+        k_speed=0.27,
+        k_int=0.71,
+        beta_max=1.2,
+        kp_pitch=30.7,
+        kd_pitch=1.32,
+        t_lead_s=0.30,
+        k_heading=0.51,
+        k_yaw=0.18,
+        theta_max=1.0,
+        kp_lean=25.7,
+        kd_lean=2.13,
+    ),
     "RampDescent": dict(t_lead_s=1.0, beta_max=1.2, k_heading=0.0, k_yaw=0.0),
     "Roll": dict(),
 }
@@ -176,8 +187,9 @@ def controller_for(env: Any, name: str = "pd") -> Callable:
     )
 
 
-def run_episode(env: Any, controller: Callable, seed: int | None = None, options: dict | None = None,
-                max_steps: int = 100_000) -> dict[str, Any]:
+def run_episode(
+    env: Any, controller: Callable, seed: int | None = None, options: dict | None = None, max_steps: int = 100_000
+) -> dict[str, Any]:
     """Roll one episode; returns return, length, success, last info."""
     if hasattr(controller, "reset"):
         controller.reset()

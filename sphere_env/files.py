@@ -68,4 +68,3 @@ def swap_folder(work: Path, out: Path, produced: Callable[[str], bool]) -> None:
     out.rename(old)
     work.rename(out)
     shutil.rmtree(old, ignore_errors=True)
-

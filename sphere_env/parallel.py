@@ -31,8 +31,13 @@ def default_workers() -> int:
 _WORKERS = checker(count(1) | None)
 
 
-def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[str, Any]],
-                 workers: int | None = None, progress: bool = False, ray_address: str | None = None) -> list[Any]:
+def run_parallel(
+    fn: Callable[[Mapping[str, Any]], Any],
+    jobs: Iterable[Mapping[str, Any]],
+    workers: int | None = None,
+    progress: bool = False,
+    ray_address: str | None = None,
+) -> list[Any]:
     """Run ``fn(job)`` for every job, on ``workers`` processes (None: all usable cores), or on Ray.
 
     ``fn`` must be importable at module level (pickled by reference). Results keep job order.
@@ -76,6 +81,7 @@ def run_parallel(fn: Callable[[Mapping[str, Any]], Any], jobs: Iterable[Mapping[
 def sigterm_as_interrupt():
     """Inside the block, SIGTERM raises KeyboardInterrupt in the main thread, so a command stopped by
     ``kill`` unwinds as Ctrl-C does: staging folders are removed and worker processes stopped."""
+
     def _raise(signum, frame):
         raise KeyboardInterrupt
 

@@ -84,8 +84,7 @@ class Parameter:
         """Whether a randomization spec may give it mode ``schedule`` (a rate of change within the
         episode): a randomizable number, neither vector, whole number nor name, that may change at any
         control step."""
-        return (self.randomizable and self.changes == "step" and self.size == 1 and not self.integer
-                and not self.choices)
+        return self.randomizable and self.changes == "step" and self.size == 1 and not self.integer and not self.choices
 
     @property
     def resolved(self) -> bool:
@@ -94,8 +93,10 @@ class Parameter:
 
     def _require_bounds(self) -> None:
         if not self.resolved:
-            raise LookupError(f"{self.name}: its bounds come from the {self.bounds_from}; check and clip it "
-                              "through a ParameterSpace (e.g. ShellCalibration.parameter_space())")
+            raise LookupError(
+                f"{self.name}: its bounds come from the {self.bounds_from}; check and clip it "
+                "through a ParameterSpace (e.g. ShellCalibration.parameter_space())"
+            )
 
     @property
     def allowed(self) -> str:
@@ -133,8 +134,9 @@ class Parameter:
             item = count(int(bounds.get("ge", 0)), None if "le" not in bounds else int(bounds["le"]))
         else:
             item = number(**bounds, words=self.allowed)
-        return TypeAdapter(item if self.size == 1 else fixed_tuple(item, self.size, self.allowed),
-                           config={"strict": True})
+        return TypeAdapter(
+            item if self.size == 1 else fixed_tuple(item, self.size, self.allowed), config={"strict": True}
+        )
 
     def check(self, value: Any, field: str | None = None):
         """``value`` as a float (an int for an integer parameter, a tuple of ``size`` floats for a
@@ -170,57 +172,193 @@ def _p(name, unit, nominal, low, high, changes, doc, **kw) -> tuple[str, Paramet
 
 
 #: Every physical or randomizable parameter, by name.
-PARAMETERS: dict[str, Parameter] = dict([
-    # ---- may change within an episode (context parameters of the twin) ----
-    _p("pressure_kpa", "kPa", None, None, None, "step",
-       "shell gauge pressure; nominal and bounds are the shell calibration's", applied_by="twin", randomizable=True,
-       bounds_from="calibration"),
-    _p("steer_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× steer joint friction torque", applied_by="twin", randomizable=True),
-    _p("drive_friction_scale", "-", 1.0, 0.0, 10.0, "step", "× drive joint friction torque", applied_by="twin", randomizable=True),
-    _p("ground_friction", "-", SHELL_FRICTION, 0.0, 2.0 * SHELL_FRICTION, "step",
-       "effective shell–ground Coulomb μ (static = dynamic); < 2 μ_shell, see SHELL_FRICTION",
-       low_open=True, high_open=True, applied_by="twin", randomizable=True),
-    _p("payload_mass_kg", "kg", 0.0, 0.0, 50.0, "step", "point mass on the pendulum", applied_by="twin", randomizable=True),
-    _p("payload_com_offset_m", "m", (0.0, 0.0, 0.0), -0.3, 0.3, "step",
-       "payload offset from the pendulum COM, pendulum frame", size=3, applied_by="twin", randomizable=True),
-    _p("pressure_rate_kpa_per_s", "kPa/s", 0.0, None, None, "reset",
-       "pressure schedule rate (< 0: a leak), sampled per episode"),
-    # ---- sensing and actuation (the environment applies them, the twin never sees them) ----
-    # Noise: 100× the default σ (0.5 rad on angles, 5 rad/s on rates) already buries every measured
-    # signal; far larger scales overflow the float32 observation to ±inf.
-    _p("observation_noise_scale", "-", 0.0, 0.0, 100.0, "step",
-       "× default per-component 1-σ noise of the measured observation components (0 = off); "
-       "the env kwarg of that name is the nominal value", applied_by="env", randomizable=True),
-    _p("action_latency_steps", "steps", 0, 0, 5, "reset",
-       "control steps between an action and its torque (0 = applied at once; zero torque until the "
-       "first action arrives)", integer=True, applied_by="env", randomizable=True),
-    _p("motor_torque_scale", "-", 1.0, 0.0, 1.0, "step",
-       "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)", low_open=True, applied_by="env", randomizable=True),
-    _p("steer_torque_offset_nm", "N m", 0.0, -5.0, 5.0, "step", "steer motor torque bias (a current-sensor offset): "
-       "added to the commanded torque, the sum within the motor's saturation", applied_by="env", randomizable=True),
-    # ---- another twin, so only between episodes ----
-    _p("shell_model", "-", None, None, None, "reset",
-       "shell contact model; nominal: the env's shell_model kwarg (one twin per model, built on first use)",
-       choices=SHELL_MODELS, randomizable=True),
-    _p("incline_deg", "deg", 0.0, 0.0, 30.0, "reset",
-       "ground incline, downhill along +x_W; the contact models were checked up to 30°", randomizable=True),
-    # ---- fixed when built ----
-    _p("time_step_s", "s", DEFAULT_TIME_STEP_S, 0.0, 0.05, "build", "plant time step", low_open=True),
-    _p("ramp_length_m", "m", None, 0.0, 100.0, "build", "ramp length along the slope; None = infinite plane",
-       low_open=True),
-    _p("control_frequency_hz", "Hz", 50.0, 0.0, 1000.0, "build", "policy rate", low_open=True),
-    # The pressure laws are analytic in p (ω_n linear, ζ exponential, hydroelastic modulus ∝ p,
-    # tables held at their end values), so they can be evaluated a little outside the range they were
-    # calibrated on; the fault grid does so to test pressures the calibration never saw.
-    _p("pressure_extrapolation_kpa", "kPa", 0.0, 0.0, 5.0, "build",
-       "accept pressures this far outside the calibrated range (gauge pressure stays ≥ 0.5 kPa)"),
-    # Gravity caps the useful pendulum torque near (m_pc r_pc + m_p r_p) g ≈ 21.9 N m; the steer
-    # motor only lifts the pendulum (m_p r_p g ≈ 20.5 N m). Real limits are unpublished.
-    _p("steer_torque_limit_nm", "N m", 20.0, 0.0, 200.0, "build", "steer motor torque at action ±1",
-       low_open=True),
-    _p("drive_torque_limit_nm", "N m", 22.0, 0.0, 200.0, "build", "drive motor torque at action ±1",
-       low_open=True),
-])
+PARAMETERS: dict[str, Parameter] = dict(
+    [
+        # ---- may change within an episode (context parameters of the twin) ----
+        _p(
+            "pressure_kpa",
+            "kPa",
+            None,
+            None,
+            None,
+            "step",
+            "shell gauge pressure; nominal and bounds are the shell calibration's",
+            applied_by="twin",
+            randomizable=True,
+            bounds_from="calibration",
+        ),
+        _p(
+            "steer_friction_scale",
+            "-",
+            1.0,
+            0.0,
+            10.0,
+            "step",
+            "× steer joint friction torque",
+            applied_by="twin",
+            randomizable=True,
+        ),
+        _p(
+            "drive_friction_scale",
+            "-",
+            1.0,
+            0.0,
+            10.0,
+            "step",
+            "× drive joint friction torque",
+            applied_by="twin",
+            randomizable=True,
+        ),
+        _p(
+            "ground_friction",
+            "-",
+            SHELL_FRICTION,
+            0.0,
+            2.0 * SHELL_FRICTION,
+            "step",
+            "effective shell–ground Coulomb μ (static = dynamic); < 2 μ_shell, see SHELL_FRICTION",
+            low_open=True,
+            high_open=True,
+            applied_by="twin",
+            randomizable=True,
+        ),
+        _p(
+            "payload_mass_kg",
+            "kg",
+            0.0,
+            0.0,
+            50.0,
+            "step",
+            "point mass on the pendulum",
+            applied_by="twin",
+            randomizable=True,
+        ),
+        _p(
+            "payload_com_offset_m",
+            "m",
+            (0.0, 0.0, 0.0),
+            -0.3,
+            0.3,
+            "step",
+            "payload offset from the pendulum COM, pendulum frame",
+            size=3,
+            applied_by="twin",
+            randomizable=True,
+        ),
+        _p(
+            "pressure_rate_kpa_per_s",
+            "kPa/s",
+            0.0,
+            None,
+            None,
+            "reset",
+            "pressure schedule rate (< 0: a leak), sampled per episode",
+        ),
+        # ---- sensing and actuation (the environment applies them, the twin never sees them) ----
+        # Noise: 100× the default σ (0.5 rad on angles, 5 rad/s on rates) already buries every measured
+        # signal; far larger scales overflow the float32 observation to ±inf.
+        _p(
+            "observation_noise_scale",
+            "-",
+            0.0,
+            0.0,
+            100.0,
+            "step",
+            "× default per-component 1-σ noise of the measured observation components (0 = off); "
+            "the env kwarg of that name is the nominal value",
+            applied_by="env",
+            randomizable=True,
+        ),
+        _p(
+            "action_latency_steps",
+            "steps",
+            0,
+            0,
+            5,
+            "reset",
+            "control steps between an action and its torque (0 = applied at once; zero torque until the "
+            "first action arrives)",
+            integer=True,
+            applied_by="env",
+            randomizable=True,
+        ),
+        _p(
+            "motor_torque_scale",
+            "-",
+            1.0,
+            0.0,
+            1.0,
+            "step",
+            "motor saturation: applied |torque| ≤ this × the torque limit (1 = the limit)",
+            low_open=True,
+            applied_by="env",
+            randomizable=True,
+        ),
+        _p(
+            "steer_torque_offset_nm",
+            "N m",
+            0.0,
+            -5.0,
+            5.0,
+            "step",
+            "steer motor torque bias (a current-sensor offset): "
+            "added to the commanded torque, the sum within the motor's saturation",
+            applied_by="env",
+            randomizable=True,
+        ),
+        # ---- another twin, so only between episodes ----
+        _p(
+            "shell_model",
+            "-",
+            None,
+            None,
+            None,
+            "reset",
+            "shell contact model; nominal: the env's shell_model kwarg (one twin per model, built on first use)",
+            choices=SHELL_MODELS,
+            randomizable=True,
+        ),
+        _p(
+            "incline_deg",
+            "deg",
+            0.0,
+            0.0,
+            30.0,
+            "reset",
+            "ground incline, downhill along +x_W; the contact models were checked up to 30°",
+            randomizable=True,
+        ),
+        # ---- fixed when built ----
+        _p("time_step_s", "s", DEFAULT_TIME_STEP_S, 0.0, 0.05, "build", "plant time step", low_open=True),
+        _p(
+            "ramp_length_m",
+            "m",
+            None,
+            0.0,
+            100.0,
+            "build",
+            "ramp length along the slope; None = infinite plane",
+            low_open=True,
+        ),
+        _p("control_frequency_hz", "Hz", 50.0, 0.0, 1000.0, "build", "policy rate", low_open=True),
+        # The pressure laws are analytic in p (ω_n linear, ζ exponential, hydroelastic modulus ∝ p,
+        # tables held at their end values), so they can be evaluated a little outside the range they were
+        # calibrated on; the fault grid does so to test pressures the calibration never saw.
+        _p(
+            "pressure_extrapolation_kpa",
+            "kPa",
+            0.0,
+            0.0,
+            5.0,
+            "build",
+            "accept pressures this far outside the calibrated range (gauge pressure stays ≥ 0.5 kPa)",
+        ),
+        # Gravity caps the useful pendulum torque near (m_pc r_pc + m_p r_p) g ≈ 21.9 N m; the steer
+        # motor only lifts the pendulum (m_p r_p g ≈ 20.5 N m). Real limits are unpublished.
+        _p("steer_torque_limit_nm", "N m", 20.0, 0.0, 200.0, "build", "steer motor torque at action ±1", low_open=True),
+        _p("drive_torque_limit_nm", "N m", 22.0, 0.0, 200.0, "build", "drive motor torque at action ±1", low_open=True),
+    ]
+)
 
 #: Parameters the twin's context takes within an episode (:meth:`Twin.apply`), in registry order.
 TWIN_PARAMETERS = tuple(name for name, p in PARAMETERS.items() if p.applied_by == "twin")
@@ -269,8 +407,9 @@ class ParameterSpace:
 
     @staticmethod
     @lru_cache(maxsize=64)
-    def for_calibration(low_kpa: float, high_kpa: float, nominal_kpa: float | None = None,
-                        source: str | None = None) -> "ParameterSpace":
+    def for_calibration(
+        low_kpa: float, high_kpa: float, nominal_kpa: float | None = None, source: str | None = None
+    ) -> "ParameterSpace":
         """The space of a shell calibration whose pressure range is [``low_kpa``, ``high_kpa``] and
         nominal pressure ``nominal_kpa`` (None: the middle of the range, as the calibration schema
         defaults it); ``source`` (the calibration's file) is quoted by the pressure's bounds text.
@@ -280,11 +419,17 @@ class ParameterSpace:
         of = "" if source is None else f" (calibration {source})"
 
         def fill(rec: Parameter) -> Parameter:
-            return replace(rec, nominal=nominal, low=low, high=high,
-                           bounds_text=f"[{low}, {high}] {rec.unit}, the calibrated range{of}")
+            return replace(
+                rec,
+                nominal=nominal,
+                low=low,
+                high=high,
+                bounds_text=f"[{low}, {high}] {rec.unit}, the calibrated range{of}",
+            )
 
-        return ParameterSpace({name: fill(rec) if rec.bounds_from == "calibration" else rec
-                               for name, rec in PARAMETERS.items()})
+        return ParameterSpace(
+            {name: fill(rec) if rec.bounds_from == "calibration" else rec for name, rec in PARAMETERS.items()}
+        )
 
     def __getitem__(self, name: str) -> Parameter:
         return self.records[name]

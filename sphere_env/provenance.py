@@ -19,8 +19,13 @@ def software_versions() -> dict[str, str]:
         except PackageNotFoundError:
             out[pkg] = "absent"
     try:
-        out["git_commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                           cwd=Path(__file__).parent, check=False).stdout.strip()
+        out["git_commit"] = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            cwd=Path(__file__).parent,
+            check=False,
+        ).stdout.strip()
     except OSError:
         out["git_commit"] = ""
     return out

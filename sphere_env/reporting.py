@@ -36,8 +36,9 @@ def _cell(row: Mapping[Any, Any] | Sequence[Any], key: Any, fmt: Format) -> str:
     return fmt.format(value) if fmt and value not in ("", None) else str(value)
 
 
-def markdown_table(rows: Iterable[Mapping[Any, Any] | Sequence[Any]], columns: Sequence[Column],
-                   align: str = "") -> str:
+def markdown_table(
+    rows: Iterable[Mapping[Any, Any] | Sequence[Any]], columns: Sequence[Column], align: str = ""
+) -> str:
     """A Markdown (pipe) table with one line per row of ``rows`` (mappings or sequences) and one
     column per entry of ``columns`` (module docstring). ``align``: one letter per column,
     ``l``eft, ``r``ight or ``c``entre (default: every column left)."""
@@ -45,8 +46,13 @@ def markdown_table(rows: Iterable[Mapping[Any, Any] | Sequence[Any]], columns: S
         raise ValueError(f"align {align!r}: one letter per column ({len(columns)} columns)")
     cols = [(j, col, "") if isinstance(col, str) else col for j, col in enumerate(columns)]
     cells = [[_cell(row, key, fmt) for key, _, fmt in cols] for row in rows]
-    return tabulate(cells, headers=[header for _, header, _ in cols], tablefmt="pipe", disable_numparse=True,
-                    colalign=[_ALIGN[a] for a in align or "l" * len(cols)])
+    return tabulate(
+        cells,
+        headers=[header for _, header, _ in cols],
+        tablefmt="pipe",
+        disable_numparse=True,
+        colalign=[_ALIGN[a] for a in align or "l" * len(cols)],
+    )
 
 
 __all__ = ["Column", "Format", "markdown_table", "number"]

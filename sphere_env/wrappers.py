@@ -127,11 +127,21 @@ class ShellModelMixture(gym.Wrapper):
     def __init__(self, env: gym.Env, shell_models: Sequence[str] = ("point", "injected")):
         models = validate(ShellModelMixtureKwargs, {"shell_models": shell_models}, "ShellModelMixture").shell_models
         # the wrapped env's own shell model is one of the mixture's
-        own = checker(Annotated[Literal[tuple(models)], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
-            f"one of shell_models {list(models)}"))])(env.unwrapped.shell_model, "ShellModelMixture: the env's shell_model")
+        own = checker(
+            Annotated[
+                Literal[tuple(models)],
+                Field(
+                    json_schema_extra=allowed(  # type: ignore[valid-type]
+                        f"one of shell_models {list(models)}"
+                    )
+                ),
+            ]
+        )(env.unwrapped.shell_model, "ShellModelMixture: the env's shell_model")
         if env.spec is None:
-            raise ValueError("env: ShellModelMixture needs an env made by gymnasium.make (it builds its siblings "
-                             "from the env's spec)")
+            raise ValueError(
+                "env: ShellModelMixture needs an env made by gymnasium.make (it builds its siblings "
+                "from the env's spec)"
+            )
         super().__init__(env)
         self.shell_models = models
         self.envs = {own: env}

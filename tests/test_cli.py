@@ -35,8 +35,11 @@ def test_unknown_subcommand_is_refused(capsys):
 
 
 def test_missing_extra_names_the_install_line(monkeypatch, capsys):
-    needy = cli.Command("sphere_env.evaluation.evaluate", "needs a package that is not installed",
-                        (("sphere_env_no_such_module", "train"), ("matplotlib", "eval")))
+    needy = cli.Command(
+        "sphere_env.evaluation.evaluate",
+        "needs a package that is not installed",
+        (("sphere_env_no_such_module", "train"), ("matplotlib", "eval")),
+    )
     assert cli.missing_extras(needy) == ["train"]
     monkeypatch.setitem(cli.COMMANDS, "evaluate", needy)
     with pytest.raises(SystemExit) as exc:
@@ -56,18 +59,40 @@ def test_train_takes_rl_zoo3_flags(capsys):
     with pytest.raises(SystemExit):
         cli.main(["train", "--help"])
     out = capsys.readouterr().out
-    for flag in ("-conf", "--conf-file", "-params", "--hyperparams", "--env-kwargs", "--eval-env-kwargs", "-f",
-                 "--log-folder", "-i", "--trained-agent", "-tb", "--tensorboard-log", "--save-freq", "--eval-freq",
-                 "--eval-episodes", "-n", "--n-timesteps", "--seed", "--ray-address", "--seeds"):
+    for flag in (
+        "-conf",
+        "--conf-file",
+        "-params",
+        "--hyperparams",
+        "--env-kwargs",
+        "--eval-env-kwargs",
+        "-f",
+        "--log-folder",
+        "-i",
+        "--trained-agent",
+        "-tb",
+        "--tensorboard-log",
+        "--save-freq",
+        "--eval-freq",
+        "--eval-episodes",
+        "-n",
+        "--n-timesteps",
+        "--seed",
+        "--ray-address",
+        "--seeds",
+    ):
         assert f" {flag}" in out, flag
 
 
-@pytest.mark.parametrize("argv", [
-    ["train", "--device", "banana"],
-    ["evaluate", "--controller", "no_such_controller"],
-    ["export", "/no/such/run"],
-    ["enjoy", "/no/such/run"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["train", "--device", "banana"],
+        ["evaluate", "--controller", "no_such_controller"],
+        ["export", "/no/such/run"],
+        ["enjoy", "/no/such/run"],
+    ],
+)
 def test_errors_are_one_line_under_the_subcommands_name(capsys, argv):
     with pytest.raises(SystemExit) as exc:
         cli.main(argv)
@@ -76,16 +101,22 @@ def test_errors_are_one_line_under_the_subcommands_name(capsys, argv):
     assert len(err) == 1 and err[0].startswith(f"sphere-env {argv[0]}: error: "), err
 
 
-@pytest.mark.parametrize("module, argv, old", [
-    ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--pressures", "5"], "--pressures"),
-    ("sphere_env.evaluation.enjoy", ["pretrained", "--pressure", "5"], "--pressure"),
-    ("sphere_env.calibration.__main__", ["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "3", "14",
-                                         "--out", "x.yaml"], "--pressures-kpa"),
-    # a prefix of --pressure-kpa is not taken for it (argparse's abbreviations are off): named as renamed
-    ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--pressure", "5"], "--pressure"),
-    ("sphere_env.calibration.__main__", ["sensitivity", "--pressure", "5"], "--pressure"),
-    ("sphere_env.calibration.__main__", ["steer-fit", "--pressure", "5"], "--pressure"),
-])
+@pytest.mark.parametrize(
+    "module, argv, old",
+    [
+        ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--pressures", "5"], "--pressures"),
+        ("sphere_env.evaluation.enjoy", ["pretrained", "--pressure", "5"], "--pressure"),
+        (
+            "sphere_env.calibration.__main__",
+            ["kd-pressure", "--time-step-s", "0.01", "--pressures-kpa", "3", "14", "--out", "x.yaml"],
+            "--pressures-kpa",
+        ),
+        # a prefix of --pressure-kpa is not taken for it (argparse's abbreviations are off): named as renamed
+        ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--pressure", "5"], "--pressure"),
+        ("sphere_env.calibration.__main__", ["sensitivity", "--pressure", "5"], "--pressure"),
+        ("sphere_env.calibration.__main__", ["steer-fit", "--pressure", "5"], "--pressure"),
+    ],
+)
 def test_former_pressure_spellings_fail_naming_the_new_one(module, argv, old, capsys):
     import importlib
 
@@ -95,11 +126,14 @@ def test_former_pressure_spellings_fail_naming_the_new_one(module, argv, old, ca
     assert f"{old}: renamed; use --pressure-kpa" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("module, argv", [
-    ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--press", "5"]),
-    ("sphere_env.training.train", ["--hyper", "n_envs:1"]),
-    ("sphere_env.calibration.__main__", ["sensitivity", "--dur", "1"]),
-])
+@pytest.mark.parametrize(
+    "module, argv",
+    [
+        ("sphere_env.evaluation.evaluate", ["--controller", "zero", "--press", "5"]),
+        ("sphere_env.training.train", ["--hyper", "n_envs:1"]),
+        ("sphere_env.calibration.__main__", ["sensitivity", "--dur", "1"]),
+    ],
+)
 def test_a_prefix_of_a_flag_is_refused(module, argv, capsys):
     import importlib
 
@@ -109,8 +143,9 @@ def test_a_prefix_of_a_flag_is_refused(module, argv, capsys):
     assert "unrecognized arguments" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("items", [["{shell_model: point, randomization: 'off'}"],
-                                   ["shell_model:'point'", "randomization:'off'"]])
+@pytest.mark.parametrize(
+    "items", [["{shell_model: point, randomization: 'off'}"], ["shell_model:'point'", "randomization:'off'"]]
+)
 def test_env_kwargs_read_the_same_in_every_subcommand(items):
     """One YAML mapping or rl-zoo3's key:value items: the same dict, by the one parser train,
     evaluate and enjoy use."""

@@ -21,12 +21,22 @@ def test_calibration_bounded_and_registered_parameters_take_one_check(monkeypatc
         return check(rec, value, field)
 
     monkeypatch.setattr(Parameter, "check", spy)
-    with pytest.raises(ValueError, match="^" + re.escape(
+    with pytest.raises(
+        ValueError,
+        match="^"
+        + re.escape(
             "field 'pressure_kpa' = 99: Input should be less than or equal to 14; allowed: [3.0, 14.0] kPa, "
-            "the calibrated range (calibration cal.yaml)") + "$"):
+            "the calibrated range (calibration cal.yaml)"
+        )
+        + "$",
+    ):
         SPACE.check("pressure_kpa", 99)
-    with pytest.raises(ValueError, match="^" + re.escape(
-            "field 'payload_mass_kg' = 99: Input should be less than or equal to 50; allowed: [0, 50] kg") + "$"):
+    with pytest.raises(
+        ValueError,
+        match="^"
+        + re.escape("field 'payload_mass_kg' = 99: Input should be less than or equal to 50; allowed: [0, 50] kg")
+        + "$",
+    ):
         SPACE.check("payload_mass_kg", 99)
     assert checked == ["pressure_kpa", "payload_mass_kg"]  # one method for both
     with pytest.raises(ValueError, match=r"^--pressure-kpa = nan: .*; allowed: \[3\.0, 14\.0\] kPa"):
@@ -64,8 +74,10 @@ def test_calibration_pressure_check_is_the_space_check():
     assert space.nominal("pressure_kpa") == cal.nominal_pressure_kpa
     assert {name: space.nominal(name) for name in TWIN_PARAMETERS}["pressure_kpa"] == cal.nominal_pressure_kpa
     errors = []
-    for check in (lambda: cal.check_pressure(99.0, "--pressure-kpa"),
-                  lambda: space.check("pressure_kpa", 99.0, "--pressure-kpa")):
+    for check in (
+        lambda: cal.check_pressure(99.0, "--pressure-kpa"),
+        lambda: space.check("pressure_kpa", 99.0, "--pressure-kpa"),
+    ):
         with pytest.raises(ValueError) as err:
             check()
         errors.append(str(err.value))

@@ -18,8 +18,12 @@ def test_mapping_rows_with_formats_and_missing_keys():
     rows = [{"name": "a", "x": 1.234, "share": 0.5, "rmse": math.nan}, {"name": "b", "x": "", "rmse": None}]
     cols = [("name", "name", ""), ("x", "x [m]", "{:.1f}"), ("share", "share", "{:.0%}"), ("rmse", "RMSE", number)]
     table = markdown_table(rows, cols, align="lrrr")
-    assert _cells(table) == [["name", "x [m]", "share", "RMSE"], ["l", "r", "r", "r"],
-                             ["a", "1.2", "50%", "—"], ["b", "", "", "—"]]
+    assert _cells(table) == [
+        ["name", "x [m]", "share", "RMSE"],
+        ["l", "r", "r", "r"],
+        ["a", "1.2", "50%", "—"],
+        ["b", "", "", "—"],
+    ]
 
 
 def test_sequence_rows_under_plain_headers_are_left_aligned_text():
@@ -29,7 +33,12 @@ def test_sequence_rows_under_plain_headers_are_left_aligned_text():
 
 
 def test_number_and_a_wrong_alignment():
-    assert (number(0.12345), number(2, 1), number(None), number(math.inf), number("x")) == \
-        ("0.123", "2.0", "—", "—", "—")
+    assert (number(0.12345), number(2, 1), number(None), number(math.inf), number("x")) == (
+        "0.123",
+        "2.0",
+        "—",
+        "—",
+        "—",
+    )
     with pytest.raises(ValueError, match="one letter per column"):
         markdown_table([], ["a", "b"], align="l")

@@ -23,8 +23,12 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 #: Repository folder -> package it installs as (pyproject.toml, [tool.setuptools.package-dir]).
-INSTALLED_AS = {"sphere_env": "sphere_env", "assets": "sphere_env/assets", "training": "sphere_env/training",
-                "evaluation": "sphere_env/evaluation"}
+INSTALLED_AS = {
+    "sphere_env": "sphere_env",
+    "assets": "sphere_env/assets",
+    "training": "sphere_env/training",
+    "evaluation": "sphere_env/evaluation",
+}
 SOURCES = ("pyproject.toml", "README.md", *INSTALLED_AS)
 COMMANDS = ("train", "evaluate", "calibrate", "demo")
 
@@ -67,10 +71,10 @@ def _clean_env() -> dict[str, str]:
 
 
 def _run(cmd, cwd: Path, timeout: float = 120) -> subprocess.CompletedProcess:
-    proc = subprocess.run([str(c) for c in cmd], cwd=cwd, env=_clean_env(), capture_output=True, text=True,
-                          timeout=timeout, check=False)
-    assert proc.returncode == 0, (f"{cmd} failed ({proc.returncode}):\n"
-                                  f"{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}")
+    proc = subprocess.run(
+        [str(c) for c in cmd], cwd=cwd, env=_clean_env(), capture_output=True, text=True, timeout=timeout, check=False
+    )
+    assert proc.returncode == 0, f"{cmd} failed ({proc.returncode}):\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
     return proc
 
 
@@ -86,8 +90,11 @@ def wheel(tmp_path_factory) -> Path:
             shutil.copytree(path, src / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         else:
             shutil.copy2(path, src / name)
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--quiet",
-          "-w", tmp / "dist", src], cwd=tmp, timeout=300)
+    _run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--quiet", "-w", tmp / "dist", src],
+        cwd=tmp,
+        timeout=300,
+    )
     wheels = list((tmp / "dist").glob("sphere_env-*.whl"))
     assert len(wheels) == 1, wheels
     return wheels[0]
@@ -99,11 +106,14 @@ def fresh_venv(wheel, tmp_path_factory) -> Path:
     venv = tmp_path_factory.mktemp("wheel_venv") / "venv"
     _run([sys.executable, "-m", "venv", "--without-pip", venv], cwd=venv.parent)
     py = venv / "bin" / "python"
-    site = Path(_run([py, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"], cwd=venv.parent)
-                .stdout.strip())
+    site = Path(
+        _run([py, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"], cwd=venv.parent).stdout.strip()
+    )
     (site / "_project_deps.pth").write_text(sysconfig.get_path("purelib") + "\n")
-    _run([sys.executable, "-m", "pip", "--python", py, "install", "--no-deps", "--no-index", "--quiet", wheel],
-         cwd=venv.parent)
+    _run(
+        [sys.executable, "-m", "pip", "--python", py, "install", "--no-deps", "--no-index", "--quiet", wheel],
+        cwd=venv.parent,
+    )
     return venv
 
 
@@ -118,10 +128,15 @@ def test_wheel_contents_and_metadata(wheel):
         for init in (REPO / folder).rglob("__init__.py"):
             rel = init.relative_to(REPO / folder).as_posix()
             assert f"{installed}/{rel}" in names, f"package {init.parent} is missing from the wheel"
-    for data in ("sphere_env/assets/robot/roboball.urdf", "sphere_env/assets/friction/presets.yaml",
-                 "sphere_env/assets/calibration/default.yaml", "sphere_env/assets/logs/roboball.yaml",
-                 "sphere_env/training/hyperparams/ppo.yml", "sphere_env/training/hyperparams/sac.yml",
-                 "sphere_env/py.typed"):
+    for data in (
+        "sphere_env/assets/robot/roboball.urdf",
+        "sphere_env/assets/friction/presets.yaml",
+        "sphere_env/assets/calibration/default.yaml",
+        "sphere_env/assets/logs/roboball.yaml",
+        "sphere_env/training/hyperparams/ppo.yml",
+        "sphere_env/training/hyperparams/sac.yml",
+        "sphere_env/py.typed",
+    ):
         assert data in names, data
     for asset in (REPO / "assets").rglob("*"):
         if asset.is_file() and asset.suffix not in (".py", ".pyc"):
@@ -135,7 +150,12 @@ def test_wheel_contents_and_metadata(wheel):
     assert not pinned, f"exact pins in the metadata: {pinned}"
     core = [r for r in requires if "extra ==" not in r]
     assert {re.split(r"[<>=!~ ;\[]", r, maxsplit=1)[0].lower() for r in core} >= {
-        "drake", "gymnasium", "numpy", "scipy", "pyyaml"}
+        "drake",
+        "gymnasium",
+        "numpy",
+        "scipy",
+        "pyyaml",
+    }
     sb3 = [r for r in requires if r.lower().startswith("stable-baselines3")]
     assert sb3 and all("<" in r for r in sb3), f"stable-baselines3 needs an upper bound: {sb3}"
     assert not [r for r in core if r.lower().startswith(("pillow", "torch", "stable-baselines3"))], core

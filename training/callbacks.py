@@ -50,8 +50,9 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
             self._f = open(path, "a", newline="")
             self._w = csv.writer(self._f)
             if new:
-                self._w.writerow(["timesteps", "return", "length", "is_success", "pressure_kpa", "shell_model", "params",
-                                  "env"])
+                self._w.writerow(
+                    ["timesteps", "return", "length", "is_success", "pressure_kpa", "shell_model", "params", "env"]
+                )
 
         def _on_step(self) -> bool:
             for rank, info in enumerate(self.locals.get("infos", ())):
@@ -59,10 +60,21 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
                 if ep is not None:
                     # the episode's sampled parameters (pressure, faults, ...), so training success
                     # can be split by them
-                    params = {k: (list(v) if isinstance(v, tuple) else v) for k, v in (info.get("params") or {}).items()}
-                    self._w.writerow([self.num_timesteps, f"{ep['r']:.6g}", ep["l"], int(bool(info.get("is_success"))),
-                                      f"{info.get('pressure_kpa', float('nan')):.4g}", info.get("shell_model", ""),
-                                      json.dumps(params, default=float), rank])
+                    params = {
+                        k: (list(v) if isinstance(v, tuple) else v) for k, v in (info.get("params") or {}).items()
+                    }
+                    self._w.writerow(
+                        [
+                            self.num_timesteps,
+                            f"{ep['r']:.6g}",
+                            ep["l"],
+                            int(bool(info.get("is_success"))),
+                            f"{info.get('pressure_kpa', float('nan')):.4g}",
+                            info.get("shell_model", ""),
+                            json.dumps(params, default=float),
+                            rank,
+                        ]
+                    )
                     self._f.flush()
             return True
 
@@ -72,16 +84,28 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
     n = cfg.n_envs
     callbacks: list[BaseCallback] = [EpisodeLog()]
     if cfg.checkpoint_freq > 0:
-        callbacks.insert(0, CheckpointCallback(
-            save_freq=max(cfg.checkpoint_freq // n, 1), save_path=str(run_dir / "checkpoints"),
-            name_prefix=CHECKPOINT_PREFIX, save_vecnormalize=cfg.normalize is not None,
-            save_replay_buffer=cfg.algo == "sac" and cfg.save_replay_buffer))
+        callbacks.insert(
+            0,
+            CheckpointCallback(
+                save_freq=max(cfg.checkpoint_freq // n, 1),
+                save_path=str(run_dir / "checkpoints"),
+                name_prefix=CHECKPOINT_PREFIX,
+                save_vecnormalize=cfg.normalize is not None,
+                save_replay_buffer=cfg.algo == "sac" and cfg.save_replay_buffer,
+            ),
+        )
     if eval_env is None:
         return CallbackList(callbacks)
     ev = FixedEpisodesEvalCallback(
-        eval_env, callback_on_new_best=SaveVecNormalize(), n_eval_episodes=cfg.eval_episodes,
-        eval_freq=max(cfg.eval_freq // n, 1), log_path=str(run_dir / "eval"),
-        best_model_save_path=str(run_dir / "best"), deterministic=True, verbose=0)
+        eval_env,
+        callback_on_new_best=SaveVecNormalize(),
+        n_eval_episodes=cfg.eval_episodes,
+        eval_freq=max(cfg.eval_freq // n, 1),
+        log_path=str(run_dir / "eval"),
+        best_model_save_path=str(run_dir / "best"),
+        deterministic=True,
+        verbose=0,
+    )
     callbacks.insert(len(callbacks) - 1, ev)
     old = run_dir / "eval" / "evaluations.npz"
     if old.exists():  # resume: keep earlier evaluations in the log

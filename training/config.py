@@ -255,11 +255,19 @@ def resolve_config(
         ``eval_pressures_kpa``, ``n_envs``, ...).
     """
     algo_class(algo)  # refuses an unknown algorithm; registers the project policies
-    opts = check_run_options(env_id=env_id, device=device, seed=seed, eval_freq=eval_freq,
-                             eval_episodes=eval_episodes, checkpoint_freq=checkpoint_freq, torch_threads=torch_threads,
-                             env_kwargs=_plain_mapping(env_kwargs), eval_env_kwargs=_plain_mapping(eval_env_kwargs),
-                             eval_pressures_kpa=(list(eval_pressures_kpa) if isinstance(eval_pressures_kpa, tuple)
-                                                 else eval_pressures_kpa), tensorboard_log=tensorboard_log)
+    opts = check_run_options(
+        env_id=env_id,
+        device=device,
+        seed=seed,
+        eval_freq=eval_freq,
+        eval_episodes=eval_episodes,
+        checkpoint_freq=checkpoint_freq,
+        torch_threads=torch_threads,
+        env_kwargs=_plain_mapping(env_kwargs),
+        eval_env_kwargs=_plain_mapping(eval_env_kwargs),
+        eval_pressures_kpa=(list(eval_pressures_kpa) if isinstance(eval_pressures_kpa, tuple) else eval_pressures_kpa),
+        tensorboard_log=tensorboard_log,
+    )
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
     section = load_section(path, env_id)
     if isinstance(section, Mapping):  # else refused by check_section, naming the file's section
@@ -278,23 +286,37 @@ def resolve_config(
     kwargs = dict(spec.env_kwargs)
     kwargs.update(copy.deepcopy(opts.env_kwargs))
     eval_kwargs = {"randomization": "off", **copy.deepcopy(opts.eval_env_kwargs)}
-    policy, n_envs, n_threads, n_workers, n_timesteps = (spec.policy, spec.n_envs, spec.n_threads, spec.n_workers,
-                                                         spec.n_timesteps)
+    policy, n_envs, n_threads, n_workers, n_timesteps = (
+        spec.policy,
+        spec.n_envs,
+        spec.n_threads,
+        spec.n_workers,
+        spec.n_timesteps,
+    )
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
     # default evaluation and checkpoint periods are never shorter, so a tiny budget (--n-timesteps 10)
     # gives a handful of checkpoints, not one per env step of the first rollout.
     chunk = n_envs * (hyper.get("n_steps", 2048) if algo == "ppo" else 1)
     cfg = TrainConfig(
-        env_id=env_id, algo=algo, seed=opts.seed, n_timesteps=n_timesteps, n_envs=n_envs,
-        n_workers=n_workers, n_threads=n_threads,
-        policy=policy, normalize=_normalize(spec.normalize), env_kwargs=kwargs,
+        env_id=env_id,
+        algo=algo,
+        seed=opts.seed,
+        n_timesteps=n_timesteps,
+        n_envs=n_envs,
+        n_workers=n_workers,
+        n_threads=n_threads,
+        policy=policy,
+        normalize=_normalize(spec.normalize),
+        env_kwargs=kwargs,
         hyperparams=hyper,
         eval_freq=max(n_timesteps // 10, chunk) if opts.eval_freq is None else opts.eval_freq,
         eval_episodes=opts.eval_episodes,
         eval_env_kwargs=eval_kwargs,
         eval_pressures_kpa=_eval_pressures({**kwargs, **eval_kwargs}, opts.eval_pressures_kpa),
         checkpoint_freq=max(n_timesteps // 5, chunk) if opts.checkpoint_freq is None else opts.checkpoint_freq,
-        device=opts.device, torch_threads=opts.torch_threads, hyperparams_file=str(path),
+        device=opts.device,
+        torch_threads=opts.torch_threads,
+        hyperparams_file=str(path),
         tensorboard_log=None if tensorboard_log is None else str(tensorboard_log),
         trained_agent=None if trained_agent is None else str(trained_agent),
         save_replay_buffer=bool(save_replay_buffer),
@@ -340,7 +362,7 @@ def _named_field(msg: str, prefix: str) -> str | None:
     if m is None:
         return None
     root = f"{prefix}.randomization." if m.group(1) else f"{prefix}."
-    return f"{m.group(2) or ''}field '{root}{msg[m.end():]}"
+    return f"{m.group(2) or ''}field '{root}{msg[m.end() :]}"
 
 
 def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | None = None) -> None:
@@ -357,12 +379,14 @@ def _try_episode_start(env, seed: int, where: str, options: Mapping[str, Any] | 
         named = _named_field(msg, where)
         if named is not None or msg.startswith("randomization"):
             raise ValueError(named or f"{where}.{msg}") from None
-        raise ValueError(f"{where}: the env failed its first reset/step with this configuration: "
-                         f"{type(err).__name__}: {msg}") from None
+        raise ValueError(
+            f"{where}: the env failed its first reset/step with this configuration: {type(err).__name__}: {msg}"
+        ) from None
 
 
-def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str,
-                  env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]] = ()):
+def _make_checked(
+    env_id: str, kwargs: Mapping[str, Any], where: str, env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]] = ()
+):
     import gymnasium as gym
 
     try:
@@ -381,7 +405,7 @@ def _make_checked(env_id: str, kwargs: Mapping[str, Any], where: str,
 def apply_env_wrappers(env: Any, env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]]) -> Any:
     """``env`` inside the ``env_wrapper`` entries (the first innermost)."""
     for item in env_wrapper:
-        (path, kwargs), = item.items()
+        ((path, kwargs),) = item.items()
         env = wrapper_class(path)(env, **dict(kwargs))
     return env
 
@@ -409,8 +433,9 @@ def validate_with_env(cfg: TrainConfig) -> None:
         if cfg.eval_freq <= 0:
             return
         train_kw, eval_kw = cfg.make_kwargs(), cfg.make_kwargs(evaluation=True)
-        same_env = {k: v for k, v in train_kw.items() if k != "randomization"} == \
-            {k: v for k, v in eval_kw.items() if k != "randomization"}
+        same_env = {k: v for k, v in train_kw.items() if k != "randomization"} == {
+            k: v for k, v in eval_kw.items() if k != "randomization"
+        }
         if same_env:
             eval_env = env
             try:

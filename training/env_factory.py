@@ -35,8 +35,12 @@ def _monitor_class():
         class EnvMonitor(Monitor):
             def __setattr__(self, name: str, value: Any) -> None:
                 env = self.__dict__.get("env")
-                if env is not None and name not in self.__dict__ and not hasattr(type(self), name) \
-                        and isinstance(getattr(type(env.unwrapped), name, None), property):
+                if (
+                    env is not None
+                    and name not in self.__dict__
+                    and not hasattr(type(self), name)
+                    and isinstance(getattr(type(env.unwrapped), name, None), property)
+                ):
                     env.set_wrapper_attr(name, value)
                 else:
                     super().__setattr__(name, value)
@@ -71,9 +75,15 @@ class EvaluationEpisodes(gym.Wrapper):
         return self.env.reset(seed=self.first_seed + k, options=opts or None)
 
 
-def make_env(env_id: str, env_kwargs: Mapping[str, Any], seed: int, monitor_file: str | None = None,
-             torch_threads: int = 1, eval_pressures_kpa: Sequence[float] | None = None,
-             env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]] = ()):
+def make_env(
+    env_id: str,
+    env_kwargs: Mapping[str, Any],
+    seed: int,
+    monitor_file: str | None = None,
+    torch_threads: int = 1,
+    eval_pressures_kpa: Sequence[float] | None = None,
+    env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]] = (),
+):
     """Build one Monitor-wrapped env seeded with ``seed`` (called inside the worker), inside the
     ``env_wrapper`` entries (``TrainConfig.env_wrapper``). ``eval_pressures_kpa`` (a list, possibly
     empty) makes it an evaluation env (:class:`EvaluationEpisodes`)."""
@@ -120,12 +130,32 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
     if mon is not None:
         mon.mkdir(parents=True, exist_ok=True)
     if evaluation:
-        fns = [partial(make_env, cfg.env_id, kwargs, cfg.eval_seed,
-                       None if mon is None else str(mon / "eval"), cfg.torch_threads, cfg.eval_pressures_kpa or [],
-                       cfg.env_wrapper)]
+        fns = [
+            partial(
+                make_env,
+                cfg.env_id,
+                kwargs,
+                cfg.eval_seed,
+                None if mon is None else str(mon / "eval"),
+                cfg.torch_threads,
+                cfg.eval_pressures_kpa or [],
+                cfg.env_wrapper,
+            )
+        ]
         return DummyVecEnv(fns)
-    fns = [partial(make_env, cfg.env_id, kwargs, s, None if mon is None else str(mon / f"train_{rank}"),
-                   cfg.torch_threads, None, cfg.env_wrapper) for rank, s in enumerate(cfg.worker_seeds)]
+    fns = [
+        partial(
+            make_env,
+            cfg.env_id,
+            kwargs,
+            s,
+            None if mon is None else str(mon / f"train_{rank}"),
+            cfg.torch_threads,
+            None,
+            cfg.env_wrapper,
+        )
+        for rank, s in enumerate(cfg.worker_seeds)
+    ]
     if cfg.n_envs == 1:
         venv = DummyVecEnv(fns)
     elif cfg.n_workers is not None:
@@ -159,4 +189,3 @@ def wrap_normalize(cfg: TrainConfig, venv, evaluation: bool = False, stats: Path
         venv.training = False
         venv.norm_reward = False
     return venv
-

@@ -35,7 +35,7 @@ class DropPrivileged(BaseFeaturesExtractor):
         super().__init__(observation_space, n)
         mask = th.ones(n)
         if privileged_dims:
-            mask[n - privileged_dims:] = 0.0
+            mask[n - privileged_dims :] = 0.0
         self.register_buffer("mask", mask)
 
     def forward(self, observations: th.Tensor) -> th.Tensor:
@@ -52,11 +52,23 @@ class AsymmetricActorCriticPolicy(ActorCriticPolicy):
         per action component (e.g. less exploration noise on the steer torque than on the drive).
     """
 
-    def __init__(self, observation_space: gym.spaces.Box, action_space: gym.spaces.Space, lr_schedule: Any,
-                 *args: Any, privileged_dims: int = 0, log_std_init: float | list[float] = 0.0, **kwargs: Any):
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        action_space: gym.spaces.Space,
+        lr_schedule: Any,
+        *args: Any,
+        privileged_dims: int = 0,
+        log_std_init: float | list[float] = 0.0,
+        **kwargs: Any,
+    ):
         n, n_actions = int(observation_space.shape[0]), int(action_space.shape[0])
-        log_std_init = checker(Annotated[Finite | fixed_tuple(Finite, n_actions, ""), Field(json_schema_extra=allowed(
-            f"a finite number, or {n_actions} (one per action component)"))])(log_std_init, "policy_kwargs.log_std_init")
+        log_std_init = checker(
+            Annotated[
+                Finite | fixed_tuple(Finite, n_actions, ""),
+                Field(json_schema_extra=allowed(f"a finite number, or {n_actions} (one per action component)")),
+            ]
+        )(log_std_init, "policy_kwargs.log_std_init")
         per_action = list(log_std_init) if isinstance(log_std_init, tuple) else None
         self._log_std_per_action = per_action
         kwargs["log_std_init"] = 0.0 if per_action is not None else log_std_init

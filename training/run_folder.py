@@ -34,6 +34,8 @@ from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
+
+
 def latest_checkpoint(run_dir: Path) -> tuple[int, Path] | None:
     """(steps, path) of the newest ``checkpoints/rl_model_<steps>_steps.zip``."""
     best = None
@@ -98,22 +100,48 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
     if train.exists():
         with open(train) as f:
             for r in csv.DictReader(f):
-                rows.append(dict(kind="train", timesteps=int(r["timesteps"]), return_mean=float(r["return"]),
-                                 return_std=0.0, length_mean=float(r["length"]), success_rate=float(r["is_success"]),
-                                 pressure_kpa=float(r["pressure_kpa"])))
+                rows.append(
+                    dict(
+                        kind="train",
+                        timesteps=int(r["timesteps"]),
+                        return_mean=float(r["return"]),
+                        return_std=0.0,
+                        length_mean=float(r["length"]),
+                        success_rate=float(r["is_success"]),
+                        pressure_kpa=float(r["pressure_kpa"]),
+                    )
+                )
     ev = run_dir / "eval" / "evaluations.npz"
     if ev.exists():
         d = np.load(ev)
         for i, t in enumerate(d["timesteps"]):
             succ = float(np.mean(d["successes"][i])) if "successes" in d and len(d["successes"]) > i else math.nan
-            rows.append(dict(kind="eval", timesteps=int(t), return_mean=float(np.mean(d["results"][i])),
-                             return_std=float(np.std(d["results"][i])), length_mean=float(np.mean(d["ep_lengths"][i])),
-                             success_rate=succ, pressure_kpa=math.nan))
+            rows.append(
+                dict(
+                    kind="eval",
+                    timesteps=int(t),
+                    return_mean=float(np.mean(d["results"][i])),
+                    return_std=float(np.std(d["results"][i])),
+                    length_mean=float(np.mean(d["ep_lengths"][i])),
+                    success_rate=succ,
+                    pressure_kpa=math.nan,
+                )
+            )
     rows.sort(key=lambda r: (r["timesteps"], r["kind"]))
     csv_path = run_dir / "learning_curve.csv"
     with open(csv_path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["kind", "timesteps", "return_mean", "return_std", "length_mean",
-                                          "success_rate", "pressure_kpa"])
+        w = csv.DictWriter(
+            f,
+            fieldnames=[
+                "kind",
+                "timesteps",
+                "return_mean",
+                "return_std",
+                "length_mean",
+                "success_rate",
+                "pressure_kpa",
+            ],
+        )
         w.writeheader()
         w.writerows(rows)
 
@@ -129,7 +157,9 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
         ax.plot(t, y, ".", ms=2, alpha=0.3, color="C0", label="training episodes")
         k = max(len(y) // 20, 1)
         if len(y) >= k:
-            ax.plot(t[k - 1:], np.convolve(y, np.ones(k) / k, mode="valid"), color="C0", label=f"training (mean of {k})")
+            ax.plot(
+                t[k - 1 :], np.convolve(y, np.ones(k) / k, mode="valid"), color="C0", label=f"training (mean of {k})"
+            )
     evr = [r for r in rows if r["kind"] == "eval"]
     if evr:
         t = np.array([r["timesteps"] for r in evr])
@@ -174,8 +204,10 @@ def run_lock(run_dir: Path):
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise ValueError(f"run_dir: {str(run_dir)!r} is in use by another training process (it holds "
-                             f"{LOCK_FILE}); wait for it to end or use another folder") from None
+            raise ValueError(
+                f"run_dir: {str(run_dir)!r} is in use by another training process (it holds "
+                f"{LOCK_FILE}); wait for it to end or use another folder"
+            ) from None
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()}\n".encode())
         yield
@@ -183,8 +215,9 @@ def run_lock(run_dir: Path):
         os.close(fd)
 
 
-def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None = None,
-                 extra: Mapping[str, Any] | None = None) -> Path:
+def write_config(
+    cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None = None, extra: Mapping[str, Any] | None = None
+) -> Path:
     """config.yaml: the resolved config, the resolved randomization, versions, command, seeds."""
     from sphere_env.models.shell import ShellCalibration
     from sphere_env.tasks.randomization import RandomizationSpec
@@ -201,7 +234,6 @@ def write_config(cfg: TrainConfig, run_dir: Path, command: Sequence[str] | None 
     data["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
     data.update(extra or {})
     return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(plain_data(data), sort_keys=False))
-
 
 
 def load_config(run_dir: str | Path) -> TrainConfig:
@@ -224,8 +256,19 @@ def load_config(run_dir: str | Path) -> TrainConfig:
 
 
 #: What a run writes into its folder (cleared when an interrupted run is restarted from scratch).
-RUN_OUTPUTS = ("checkpoints", "monitor", "eval", "best", "tb", "learning_curve_train.csv", "learning_curve.csv",
-               "learning_curve.png", "model.zip", "vecnormalize.pkl", "timing.json")
+RUN_OUTPUTS = (
+    "checkpoints",
+    "monitor",
+    "eval",
+    "best",
+    "tb",
+    "learning_curve_train.csv",
+    "learning_curve.csv",
+    "learning_curve.png",
+    "model.zip",
+    "vecnormalize.pkl",
+    "timing.json",
+)
 
 
 def _truncate_monitor(path: Path, episodes: int) -> None:
@@ -234,14 +277,17 @@ def _truncate_monitor(path: Path, episodes: int) -> None:
     head = 2 if len(lines) > 1 and lines[0].startswith("#") else 1  # SB3's JSON comment, then the columns
     if len(lines) - head > episodes:
         tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text("".join(lines[:head + episodes]))
+        tmp.write_text("".join(lines[: head + episodes]))
         tmp.replace(path)
 
 
 def _is_interrupted_run(run_dir: Path) -> bool:
     """A folder with config.yaml but no model and no checkpoint: a run stopped before its first checkpoint."""
-    return ((run_dir / "config.yaml").exists() and not (run_dir / "model.zip").exists()
-            and latest_checkpoint(run_dir) is None)
+    return (
+        (run_dir / "config.yaml").exists()
+        and not (run_dir / "model.zip").exists()
+        and latest_checkpoint(run_dir) is None
+    )
 
 
 def _clear_outputs(run_dir: Path) -> None:
@@ -285,5 +331,3 @@ def _truncate_history(run_dir: Path, steps: int) -> None:
             tmp = ev.with_name("evaluations.tmp.npz")
             np.savez(tmp, **{k: np.asarray(v)[mask] if len(v) == len(mask) else v for k, v in d.items()})
             tmp.replace(ev)
-
-

@@ -59,8 +59,15 @@ def save_model(model, run_dir: Path, cfg: TrainConfig) -> None:
     save_checkpoint(model, run_dir, cfg)
 
 
-def train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] | None, start_steps: int,
-                  progress_bar: bool, verbose: int):
+def train_session(
+    cfg: TrainConfig,
+    cls,
+    run_dir: Path,
+    ckpt: tuple[int, Path] | None,
+    start_steps: int,
+    progress_bar: bool,
+    verbose: int,
+):
     """Train ``cls`` per ``cfg`` from ``start_steps`` to ``cfg.n_timesteps`` in ``run_dir``: from the
     checkpoint ``ckpt`` = (steps, path) when given, else from the trained agent (``-i``) or a new
     model; saved at the end (:func:`save_model`, ``timing.json``) or on an interrupt
@@ -96,26 +103,46 @@ def train_session(cfg: TrainConfig, cls, run_dir: Path, ckpt: tuple[int, Path] |
             if cfg.algo == "sac" and rb.exists():
                 model.load_replay_buffer(rb)
         else:
-            model = cls(cfg.policy, venv, seed=cfg.seed, device=cfg.device, verbose=verbose,
-                        tensorboard_log=tb, **cfg.algo_kwargs())
+            model = cls(
+                cfg.policy,
+                venv,
+                seed=cfg.seed,
+                device=cfg.device,
+                verbose=verbose,
+                tensorboard_log=tb,
+                **cfg.algo_kwargs(),
+            )
         t0 = time.perf_counter()
         try:
             with unchecked_distributions():
-                model.learn(total_timesteps=cfg.n_timesteps - start_steps,
-                            callback=build_callbacks(cfg, run_dir, eval_env), progress_bar=progress_bar, reset_num_timesteps=not resume, tb_log_name=cfg.algo)
+                model.learn(
+                    total_timesteps=cfg.n_timesteps - start_steps,
+                    callback=build_callbacks(cfg, run_dir, eval_env),
+                    progress_bar=progress_bar,
+                    reset_num_timesteps=not resume,
+                    tb_log_name=cfg.algo,
+                )
         except KeyboardInterrupt:
             # the rollout in progress is dropped; everything trained so far is saved and resumable
             save_model(model, run_dir, cfg)
             raise TrainingInterrupted(
                 f"interrupted at {model.num_timesteps} env steps; saved model.zip, vecnormalize.pkl and a "
-                f"checkpoint in {run_dir}; continue with --resume {run_dir}") from None
+                f"checkpoint in {run_dir}; continue with --resume {run_dir}"
+            ) from None
         wall = time.perf_counter() - t0
         save_model(model, run_dir, cfg)
         steps = model.num_timesteps - start_steps
-        (run_dir / "timing.json").write_text(json.dumps(
-            {"num_timesteps": model.num_timesteps, "steps_this_session": steps, "wall_s": wall,
-             "steps_per_s": steps / wall if wall > 0 else math.nan}, indent=2))
+        (run_dir / "timing.json").write_text(
+            json.dumps(
+                {
+                    "num_timesteps": model.num_timesteps,
+                    "steps_this_session": steps,
+                    "wall_s": wall,
+                    "steps_per_s": steps / wall if wall > 0 else math.nan,
+                },
+                indent=2,
+            )
+        )
     finally:
         venv.close()
     return model
-

@@ -47,8 +47,11 @@ def _config_key(cfg: TrainConfig) -> str:
 
 
 #: A sweep's configurations: at least one (each seed × ``--trial``).
-_TRIALS = checker(Annotated[list[Any], Field(min_length=1, json_schema_extra=allowed(
-    "at least one configuration (a seed × a --trial)"))])
+_TRIALS = checker(
+    Annotated[
+        list[Any], Field(min_length=1, json_schema_extra=allowed("at least one configuration (a seed × a --trial)"))
+    ]
+)
 
 
 def trial_folders(cfgs: Sequence[TrainConfig]) -> list[tuple[int, str]]:
@@ -71,8 +74,13 @@ def _run_trial(job: Mapping[str, Any]) -> str:
     return str(train(cfg, job["run_dir"], progress_bar=False, command=job["command"]))
 
 
-def run_sweep(cfgs: Sequence[TrainConfig], sweep_dir: str | Path, ray_address: str | None = None,
-              command: Sequence[str] | None = None, ray_cpus: int | None = None) -> Path:
+def run_sweep(
+    cfgs: Sequence[TrainConfig],
+    sweep_dir: str | Path,
+    ray_address: str | None = None,
+    command: Sequence[str] | None = None,
+    ray_cpus: int | None = None,
+) -> Path:
     """Train every (validated) config in ``cfgs`` into ``sweep_dir/config<c>_seed<s>``: as Ray tasks
     with ``ray_address`` (``local`` starts one with ``ray_cpus`` CPUs, default all), else one after
     the other here. Then write the aggregate learning curve. Returns ``sweep_dir``."""
@@ -89,17 +97,38 @@ def run_sweep(cfgs: Sequence[TrainConfig], sweep_dir: str | Path, ray_address: s
         except ImportError:
             raise ValueError("ray_address: Ray is not installed; pip install 'sphere_env[ray]'") from None
     names = trial_folders(cfgs)
-    trials = [{"folder": name, "config": c, "seed": cfg.seed, "hyperparams": cfg.hyperparams,
-               "env_kwargs": cfg.env_kwargs, "n_timesteps": cfg.n_timesteps}
-              for (c, name), cfg in zip(names, cfgs)]
+    trials = [
+        {
+            "folder": name,
+            "config": c,
+            "seed": cfg.seed,
+            "hyperparams": cfg.hyperparams,
+            "env_kwargs": cfg.env_kwargs,
+            "n_timesteps": cfg.n_timesteps,
+        }
+        for (c, name), cfg in zip(names, cfgs)
+    ]
     try:  # created exclusively: of two sweeps started into one folder, the second is refused
-        write_text_atomic(sweep_dir / "sweep.yaml", yaml.safe_dump(
-            {"env_id": cfgs[0].env_id, "algo": cfgs[0].algo, "executor": f"ray at {ray_address}" if ray_address
-             else "local", "command": list(command or []), "trials": trials}, sort_keys=False), exclusive=True)
+        write_text_atomic(
+            sweep_dir / "sweep.yaml",
+            yaml.safe_dump(
+                {
+                    "env_id": cfgs[0].env_id,
+                    "algo": cfgs[0].algo,
+                    "executor": f"ray at {ray_address}" if ray_address else "local",
+                    "command": list(command or []),
+                    "trials": trials,
+                },
+                sort_keys=False,
+            ),
+            exclusive=True,
+        )
     except FileExistsError:
         raise taken from None
-    jobs = [{"cfg": cfg.as_dict(), "run_dir": str(sweep_dir / name), "command": list(command or [])}
-            for (_, name), cfg in zip(names, cfgs)]
+    jobs = [
+        {"cfg": cfg.as_dict(), "run_dir": str(sweep_dir / name), "command": list(command or [])}
+        for (_, name), cfg in zip(names, cfgs)
+    ]
     run_parallel(_run_trial, jobs, workers=1 if ray_address is None else ray_cpus, ray_address=ray_address)
     aggregate_learning_curves(sweep_dir)
     return sweep_dir
@@ -112,8 +141,11 @@ def _eval_curve(run_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
         return None
     d = np.load(path)
     ret = np.mean(d["results"], axis=1)
-    succ = np.mean(d["successes"], axis=1) if "successes" in d and len(d["successes"]) == len(ret) else \
-        np.full(len(ret), np.nan)
+    succ = (
+        np.mean(d["successes"], axis=1)
+        if "successes" in d and len(d["successes"]) == len(ret)
+        else np.full(len(ret), np.nan)
+    )
     return np.asarray(d["timesteps"]), ret, succ
 
 
@@ -126,8 +158,15 @@ def bootstrap_ci(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if values.shape[0] < 2:
         nan = np.full(values.shape[1:], np.nan)
         return nan, nan
-    res = bootstrap((values,), np.mean, axis=0, confidence_level=CI_LEVEL, n_resamples=CI_RESAMPLES,
-                    method="percentile", rng=np.random.default_rng(CI_SEED))
+    res = bootstrap(
+        (values,),
+        np.mean,
+        axis=0,
+        confidence_level=CI_LEVEL,
+        n_resamples=CI_RESAMPLES,
+        method="percentile",
+        rng=np.random.default_rng(CI_SEED),
+    )
     return np.asarray(res.confidence_interval.low), np.asarray(res.confidence_interval.high)
 
 
@@ -153,9 +192,17 @@ def aggregate_learning_curves(sweep_dir: str | Path) -> tuple[Path, Path] | None
         succ = np.array([cv[2][np.isin(cv[0], steps)] for cv in curves])
         low, high = bootstrap_ci(ret)
         for j, t in enumerate(steps):
-            rows.append({"config": c, "timesteps": int(t), "n_trials": len(curves),
-                         "return_mean": float(np.mean(ret[:, j])), "return_ci_low": float(low[j]),
-                         "return_ci_high": float(high[j]), "success_rate_mean": float(np.mean(succ[:, j]))})
+            rows.append(
+                {
+                    "config": c,
+                    "timesteps": int(t),
+                    "n_trials": len(curves),
+                    "return_mean": float(np.mean(ret[:, j])),
+                    "return_ci_low": float(low[j]),
+                    "return_ci_high": float(high[j]),
+                    "success_rate_mean": float(np.mean(succ[:, j])),
+                }
+            )
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
     w.writeheader()
@@ -169,8 +216,9 @@ def aggregate_learning_curves(sweep_dir: str | Path) -> tuple[Path, Path] | None
     for c in sorted(by_config):
         r = [x for x in rows if x["config"] == c]
         t = np.array([x["timesteps"] for x in r])
-        ax.plot(t, [x["return_mean"] for x in r], marker="o", color=f"C{c}",
-                label=f"config {c} ({r[0]['n_trials']} seeds)")
+        ax.plot(
+            t, [x["return_mean"] for x in r], marker="o", color=f"C{c}", label=f"config {c} ({r[0]['n_trials']} seeds)"
+        )
         ax.fill_between(t, [x["return_ci_low"] for x in r], [x["return_ci_high"] for x in r], color=f"C{c}", alpha=0.2)
     ax.set_xlabel("environment steps")
     ax.set_ylabel("evaluation return (mean over seeds)")

@@ -66,9 +66,22 @@ from sphere_env.training.run_folder import (
 from sphere_env.training.session import TrainingInterrupted, unchecked_distributions
 from sphere_env.training.trainer import train
 
-__all__ = ["CHECKPOINT_PREFIX", "EvaluationEpisodes", "TrainingInterrupted", "build_parser", "default_run_dir",
-           "latest_checkpoint", "load_config", "main", "make_env", "make_vec_env", "run_lock", "train",
-           "unchecked_distributions", "wrap_normalize"]
+__all__ = [
+    "CHECKPOINT_PREFIX",
+    "EvaluationEpisodes",
+    "TrainingInterrupted",
+    "build_parser",
+    "default_run_dir",
+    "latest_checkpoint",
+    "load_config",
+    "main",
+    "make_env",
+    "make_vec_env",
+    "run_lock",
+    "train",
+    "unchecked_distributions",
+    "wrap_normalize",
+]
 
 
 class StoreDict(argparse.Action):
@@ -88,48 +101,116 @@ class StoreDict(argparse.Action):
 
 def build_parser() -> argparse.ArgumentParser:
     """The command line: rl-zoo3's ``train.py`` flags for what this trainer does, plus its own."""
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     allow_abbrev=False)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
     parser.add_argument("--env", default="sphere_env/RampDescent-v3", help="registered env id")
     parser.add_argument("--algo", default="ppo", help="ppo or sac")
-    parser.add_argument("-conf", "--conf-file", type=Path, default=None,
-                        help="hyperparameter YAML (default: the shipped training/hyperparams/<algo>.yml)")
-    parser.add_argument("-params", "--hyperparams", "--params", dest="hyperparams", nargs="+", action=StoreDict,
-                        default={}, metavar="KEY:VALUE",
-                        help="override hyperparameters, e.g. n_envs:4 learning_rate:1e-3 (values as Python literals)")
-    parser.add_argument("--env-kwargs", nargs="+", action=StoreDict, default={}, metavar="KEY:VALUE",
-                        help="env kwargs merged over the YAML's env_kwargs, e.g. shell_model:'hydroelastic' "
-                             "randomization:\"{'base': 'full'}\"")
-    parser.add_argument("--eval-env-kwargs", nargs="+", action=StoreDict, default={}, metavar="KEY:VALUE",
-                        help="evaluation env kwargs over the training ones (default randomization:'off')")
+    parser.add_argument(
+        "-conf",
+        "--conf-file",
+        type=Path,
+        default=None,
+        help="hyperparameter YAML (default: the shipped training/hyperparams/<algo>.yml)",
+    )
+    parser.add_argument(
+        "-params",
+        "--hyperparams",
+        "--params",
+        dest="hyperparams",
+        nargs="+",
+        action=StoreDict,
+        default={},
+        metavar="KEY:VALUE",
+        help="override hyperparameters, e.g. n_envs:4 learning_rate:1e-3 (values as Python literals)",
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        action=StoreDict,
+        default={},
+        metavar="KEY:VALUE",
+        help="env kwargs merged over the YAML's env_kwargs, e.g. shell_model:'hydroelastic' "
+        "randomization:\"{'base': 'full'}\"",
+    )
+    parser.add_argument(
+        "--eval-env-kwargs",
+        nargs="+",
+        action=StoreDict,
+        default={},
+        metavar="KEY:VALUE",
+        help="evaluation env kwargs over the training ones (default randomization:'off')",
+    )
     parser.add_argument("-n", "--n-timesteps", type=float, default=None, help="total env steps (overrides the YAML)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (-1: draw one, as rl-zoo3)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=None,
-                        help="train one run per seed (a sweep: one folder per trial, aggregate learning curve)")
-    parser.add_argument("--trial", action="append", default=None, metavar="'KEY:VALUE ...'",
-                        help="a sweep configuration: --hyperparams overrides in one quoted string; repeat for more")
-    parser.add_argument("--ray-address", default=None,
-                        help="run the sweep's trials as Ray tasks: 'local' (start one), 'auto', or ray://host:port")
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=None,
+        help="train one run per seed (a sweep: one folder per trial, aggregate learning curve)",
+    )
+    parser.add_argument(
+        "--trial",
+        action="append",
+        default=None,
+        metavar="'KEY:VALUE ...'",
+        help="a sweep configuration: --hyperparams overrides in one quoted string; repeat for more",
+    )
+    parser.add_argument(
+        "--ray-address",
+        default=None,
+        help="run the sweep's trials as Ray tasks: 'local' (start one), 'auto', or ray://host:port",
+    )
     parser.add_argument("-f", "--log-folder", type=Path, default=RUNS, help="folder of the run folders (default runs/)")
-    parser.add_argument("--run-dir", type=Path, default=None,
-                        help="exact run (or sweep) folder (default <log-folder>/<algo>_<env>_<time>_s<seed>)")
+    parser.add_argument(
+        "--run-dir",
+        type=Path,
+        default=None,
+        help="exact run (or sweep) folder (default <log-folder>/<algo>_<env>_<time>_s<seed>)",
+    )
     parser.add_argument("--resume", type=Path, default=None, help="continue this run folder from its last checkpoint")
-    parser.add_argument("-i", "--trained-agent", type=Path, default=None,
-                        help="start from this model.zip (with its VecNormalize statistics) in a new run folder")
+    parser.add_argument(
+        "-i",
+        "--trained-agent",
+        type=Path,
+        default=None,
+        help="start from this model.zip (with its VecNormalize statistics) in a new run folder",
+    )
     parser.add_argument("--eval-freq", type=int, default=None, help="env steps between evaluations (<= 0: none)")
-    parser.add_argument("--eval-episodes", type=int, default=6,
-                        help="episodes per evaluation, cycling over --eval-pressures-kpa (default 6)")
-    parser.add_argument("--eval-pressures-kpa", type=float, nargs="*", default=None,
-                        help="evaluation pressures (default: the calibration's low, nominal, high; "
-                             "none given: the eval env's randomization draws them)")
-    parser.add_argument("--save-freq", "--checkpoint-freq", dest="save_freq", type=int, default=None,
-                        help="env steps between checkpoints (<= 0: only the final one)")
-    parser.add_argument("-tb", "--tensorboard-log", type=Path, default=None, help="TensorBoard folder (default <run>/tb)")
+    parser.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=6,
+        help="episodes per evaluation, cycling over --eval-pressures-kpa (default 6)",
+    )
+    parser.add_argument(
+        "--eval-pressures-kpa",
+        type=float,
+        nargs="*",
+        default=None,
+        help="evaluation pressures (default: the calibration's low, nominal, high; "
+        "none given: the eval env's randomization draws them)",
+    )
+    parser.add_argument(
+        "--save-freq",
+        "--checkpoint-freq",
+        dest="save_freq",
+        type=int,
+        default=None,
+        help="env steps between checkpoints (<= 0: only the final one)",
+    )
+    parser.add_argument(
+        "-tb", "--tensorboard-log", type=Path, default=None, help="TensorBoard folder (default <run>/tb)"
+    )
     parser.add_argument("--torch-threads", "--num-threads", dest="torch_threads", type=int, default=1)
     parser.add_argument("--device", default="cpu", help="torch device (default cpu)")
-    parser.add_argument("--save-replay-buffer", action="store_true",
-                        help="SAC: keep the replay buffer in every checkpoint (hundreds of MB); without it a "
-                             "resumed run starts with an empty buffer")
+    parser.add_argument(
+        "--save-replay-buffer",
+        action="store_true",
+        help="SAC: keep the replay buffer in every checkpoint (hundreds of MB); without it a "
+        "resumed run starts with an empty buffer",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("-v", "--verbose", type=int, default=0)
     return parser
@@ -138,8 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> Path:
     parser = build_parser()
     args = parser.parse_args(argv)
-    command = [sys.executable, "-m", "sphere_env.training.train",
-               *(argv if argv is not None else sys.argv[1:])]
+    command = [sys.executable, "-m", "sphere_env.training.train", *(argv if argv is not None else sys.argv[1:])]
     try:
         if args.resume is None:
             validate(RunFolders, {"log_folder": args.log_folder, "run_dir": args.run_dir})
@@ -149,12 +229,21 @@ def main(argv: Sequence[str] | None = None) -> Path:
             elif args.seeds is not None or args.trial is not None or args.ray_address is not None:
                 from sphere_env.training.sweep import run_sweep
 
-                run = run_sweep(sweep_configs(args), args.run_dir or default_sweep_dir(args),
-                                ray_address=args.ray_address, command=command)
+                run = run_sweep(
+                    sweep_configs(args),
+                    args.run_dir or default_sweep_dir(args),
+                    ray_address=args.ray_address,
+                    command=command,
+                )
             else:
                 cfg = _config_from_args(args, args.hyperparams, args.seed)
-                run = train(cfg, args.run_dir or default_run_dir(cfg, args.log_folder),
-                            progress_bar=not args.no_progress, verbose=args.verbose, command=command)
+                run = train(
+                    cfg,
+                    args.run_dir or default_run_dir(cfg, args.log_folder),
+                    progress_bar=not args.no_progress,
+                    verbose=args.verbose,
+                    command=command,
+                )
     except ValueError as err:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     except OSError as err:  # a write that failed after the checks (disk full, a folder removed meanwhile)
@@ -177,19 +266,37 @@ def _config_from_args(args: argparse.Namespace, hyperparams: Mapping[str, Any], 
     if args.n_timesteps is not None:
         overrides["n_timesteps"] = args.n_timesteps
     return resolve_config(
-        args.env, args.algo, args.conf_file, overrides, seed=_seed(seed), eval_freq=args.eval_freq,
-        eval_episodes=args.eval_episodes, eval_env_kwargs=args.eval_env_kwargs,
-        eval_pressures_kpa=args.eval_pressures_kpa, checkpoint_freq=args.save_freq, device=args.device,
-        torch_threads=args.torch_threads, env_kwargs=args.env_kwargs, tensorboard_log=args.tensorboard_log,
-        trained_agent=args.trained_agent, save_replay_buffer=args.save_replay_buffer)
+        args.env,
+        args.algo,
+        args.conf_file,
+        overrides,
+        seed=_seed(seed),
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        eval_env_kwargs=args.eval_env_kwargs,
+        eval_pressures_kpa=args.eval_pressures_kpa,
+        checkpoint_freq=args.save_freq,
+        device=args.device,
+        torch_threads=args.torch_threads,
+        env_kwargs=args.env_kwargs,
+        tensorboard_log=args.tensorboard_log,
+        trained_agent=args.trained_agent,
+        save_replay_buffer=args.save_replay_buffer,
+    )
 
 
 def sweep_configs(args: argparse.Namespace) -> list[TrainConfig]:
     """One validated config per trial: every ``--trial`` (or the plain overrides) × every seed."""
-    opts = check_sweep_options(seeds=args.seeds if args.seeds is not None else [args.seed],
-                               trained_agent=args.trained_agent, tensorboard_log=args.tensorboard_log)
-    trials = [dict(args.hyperparams)] if not args.trial else [
-        {**args.hyperparams, **parse_key_values(t.split(), "trial")} for t in args.trial]
+    opts = check_sweep_options(
+        seeds=args.seeds if args.seeds is not None else [args.seed],
+        trained_agent=args.trained_agent,
+        tensorboard_log=args.tensorboard_log,
+    )
+    trials = (
+        [dict(args.hyperparams)]
+        if not args.trial
+        else [{**args.hyperparams, **parse_key_values(t.split(), "trial")} for t in args.trial]
+    )
     return [_config_from_args(args, h, s) for h in trials for s in opts.seeds]
 
 
@@ -204,20 +311,39 @@ def _resume(args: argparse.Namespace, command: Sequence[str]) -> Path:
     cfg = load_config(args.resume)
     if args.n_timesteps is not None:
         cfg.n_timesteps = args.n_timesteps  # checked with the rest by resolve_config
-    cfg = resolve_config(cfg.env_id, cfg.algo, cfg.hyperparams_file or None, overrides=_stored_overrides(cfg),
-                         seed=cfg.seed, eval_freq=cfg.eval_freq, eval_episodes=cfg.eval_episodes,
-                         eval_env_kwargs=cfg.eval_env_kwargs, eval_pressures_kpa=cfg.eval_pressures_kpa,
-                         checkpoint_freq=cfg.checkpoint_freq, device=cfg.device, torch_threads=cfg.torch_threads,
-                         tensorboard_log=cfg.tensorboard_log)
-    return train(cfg, args.resume, resume=True, progress_bar=not args.no_progress, verbose=args.verbose,
-                 command=command)
+    cfg = resolve_config(
+        cfg.env_id,
+        cfg.algo,
+        cfg.hyperparams_file or None,
+        overrides=_stored_overrides(cfg),
+        seed=cfg.seed,
+        eval_freq=cfg.eval_freq,
+        eval_episodes=cfg.eval_episodes,
+        eval_env_kwargs=cfg.eval_env_kwargs,
+        eval_pressures_kpa=cfg.eval_pressures_kpa,
+        checkpoint_freq=cfg.checkpoint_freq,
+        device=cfg.device,
+        torch_threads=cfg.torch_threads,
+        tensorboard_log=cfg.tensorboard_log,
+    )
+    return train(
+        cfg, args.resume, resume=True, progress_bar=not args.no_progress, verbose=args.verbose, command=command
+    )
 
 
 def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
     """A stored config as YAML-section overrides (so a resume re-validates exactly what ran)."""
-    return {"n_envs": cfg.n_envs, "n_workers": cfg.n_workers, "n_threads": cfg.n_threads, "n_timesteps": cfg.n_timesteps, "policy": cfg.policy,
-            "normalize": cfg.normalize if cfg.normalize is not None else False,
-            "env_kwargs": cfg.env_kwargs, "env_wrapper": cfg.env_wrapper or None, **cfg.hyperparams}
+    return {
+        "n_envs": cfg.n_envs,
+        "n_workers": cfg.n_workers,
+        "n_threads": cfg.n_threads,
+        "n_timesteps": cfg.n_timesteps,
+        "policy": cfg.policy,
+        "normalize": cfg.normalize if cfg.normalize is not None else False,
+        "env_kwargs": cfg.env_kwargs,
+        "env_wrapper": cfg.env_wrapper or None,
+        **cfg.hyperparams,
+    }
 
 
 if __name__ == "__main__":

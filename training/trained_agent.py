@@ -14,7 +14,9 @@ from sphere_env.training.config import TrainConfig, algo_class
 #: A saved model: the name of a .zip file, and a file that exists (a run folder is given as its model.zip).
 _MODEL_WORDS = allowed("a saved model: a .zip file, or a run folder with model.zip")
 _ZIP_NAME = checker(Annotated[str, Field(pattern=r"\.zip$", json_schema_extra=_MODEL_WORDS)])
-_EXISTING_FILE = checker(Annotated[FilePath, BeforeValidator(lambda text: Path(text)), Field(json_schema_extra=_MODEL_WORDS)])
+_EXISTING_FILE = checker(
+    Annotated[FilePath, BeforeValidator(lambda text: Path(text)), Field(json_schema_extra=_MODEL_WORDS)]
+)
 
 
 def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
@@ -41,9 +43,11 @@ def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
     for c in candidates:
         if c.is_file():
             return path, c
-    raise ValueError(f"trained_agent: no VecNormalize statistics for {str(path)!r} (looked for "
-                     f"{[str(c) for c in candidates]}); the config normalizes observations, so the model "
-                     "cannot continue without them (or set normalize: false)")
+    raise ValueError(
+        f"trained_agent: no VecNormalize statistics for {str(path)!r} (looked for "
+        f"{[str(c) for c in candidates]}); the config normalizes observations, so the model "
+        "cannot continue without them (or set normalize: false)"
+    )
 
 
 def check_trained_agent(cfg: TrainConfig, env) -> None:
@@ -54,13 +58,16 @@ def check_trained_agent(cfg: TrainConfig, env) -> None:
     try:
         model = algo_class(cfg.algo).load(path, device="cpu")
     except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
-        raise ValueError(f"trained_agent: {str(path)!r} cannot be loaded as {cfg.algo.upper()}: "
-                         f"{type(err).__name__}: {err}") from None
+        raise ValueError(
+            f"trained_agent: {str(path)!r} cannot be loaded as {cfg.algo.upper()}: {type(err).__name__}: {err}"
+        ) from None
     for name in ("observation_space", "action_space"):
         have, want = getattr(model, name), getattr(env, name)
         if have.shape != want.shape:
-            raise ValueError(f"trained_agent: {str(path)!r} has {name} shape {have.shape}; "
-                             f"{cfg.env_id} with these env_kwargs has {want.shape}")
+            raise ValueError(
+                f"trained_agent: {str(path)!r} has {name} shape {have.shape}; "
+                f"{cfg.env_id} with these env_kwargs has {want.shape}"
+            )
     # -i continues the saved network: policy_kwargs that differ from its own would be recorded in
     # config.yaml as used while the run trains the saved network, so they are refused
     given = cfg.algo_kwargs().get("policy_kwargs")
@@ -68,9 +75,11 @@ def check_trained_agent(cfg: TrainConfig, env) -> None:
     if given is not None:
         differ = {k: v for k, v in given.items() if k not in saved or saved[k] != v}
         if differ:
-            raise ValueError(f"hyperparams.policy_kwargs: {differ} differ from the network of trained_agent "
-                             f"{str(path)!r} ({ {k: saved[k] for k in differ if k in saved} or 'not set there'}), "
-                             "which -i continues as it is; leave them out or train a new run")
+            raise ValueError(
+                f"hyperparams.policy_kwargs: {differ} differ from the network of trained_agent "
+                f"{str(path)!r} ({ {k: saved[k] for k in differ if k in saved} or 'not set there' }), "
+                "which -i continues as it is; leave them out or train a new run"
+            )
     if stats is not None:
         try:
             with open(stats, "rb") as f:
@@ -79,8 +88,10 @@ def check_trained_agent(cfg: TrainConfig, env) -> None:
             raise ValueError(f"trained_agent: {str(stats)!r} cannot be read: {type(err).__name__}: {err}") from None
         shape = getattr(getattr(vn, "obs_rms", None), "mean", None)
         if shape is None or np_shape(shape) != env.observation_space.shape:
-            raise ValueError(f"trained_agent: {str(stats)!r} does not hold VecNormalize statistics for "
-                             f"observations of shape {env.observation_space.shape}")
+            raise ValueError(
+                f"trained_agent: {str(stats)!r} does not hold VecNormalize statistics for "
+                f"observations of shape {env.observation_space.shape}"
+            )
 
 
 def np_shape(x: Any) -> tuple[int, ...]:

@@ -33,8 +33,15 @@ from sphere_env.training.run_folder import (
 from sphere_env.training.session import TrainingInterrupted, say, train_session
 
 
-def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = False, progress_bar: bool = True,
-          verbose: int = 0, command: Sequence[str] | None = None, return_model: bool = False):
+def train(
+    cfg: TrainConfig,
+    run_dir: str | Path | None = None,
+    resume: bool = False,
+    progress_bar: bool = True,
+    verbose: int = 0,
+    command: Sequence[str] | None = None,
+    return_model: bool = False,
+):
     """Train per ``cfg`` into ``run_dir`` (new), or continue ``run_dir`` from its newest usable
     checkpoint (``resume``) up to ``cfg.n_timesteps`` total steps. Returns the run folder (and the
     in-memory model, whose ``get_vec_normalize_env()`` holds the statistics, with ``return_model``).
@@ -62,8 +69,17 @@ def train(cfg: TrainConfig, run_dir: str | Path | None = None, resume: bool = Fa
         return _train_locked(cfg, cls, run_dir, resume, created, progress_bar, verbose, command, return_model)
 
 
-def _train_locked(cfg: TrainConfig, cls, run_dir: Path, resume: bool, created: bool, progress_bar: bool,
-                  verbose: int, command: Sequence[str] | None, return_model: bool):
+def _train_locked(
+    cfg: TrainConfig,
+    cls,
+    run_dir: Path,
+    resume: bool,
+    created: bool,
+    progress_bar: bool,
+    verbose: int,
+    command: Sequence[str] | None,
+    return_model: bool,
+):
     start_steps = 0
     ckpt = None
     previous: dict[str, Any] = {}
@@ -71,42 +87,53 @@ def _train_locked(cfg: TrainConfig, cls, run_dir: Path, resume: bool, created: b
         try:
             previous = yaml.safe_load((run_dir / "config.yaml").read_text()) or {}
         except (OSError, yaml.YAMLError) as err:
-            raise ValueError(f"resume: {str(run_dir / 'config.yaml')!r} cannot be read: "
-                             + " ".join(str(err).split())) from None
+            raise ValueError(
+                f"resume: {str(run_dir / 'config.yaml')!r} cannot be read: " + " ".join(str(err).split())
+            ) from None
         ckpt, skipped = usable_checkpoint(cls, cfg, run_dir)
         if ckpt is None and skipped:
-            raise ValueError(f"resume: no usable checkpoint in {str(run_dir / 'checkpoints')!r}: "
-                             + "; ".join(skipped) + ". Start a new run (another --run-dir)")
+            raise ValueError(
+                f"resume: no usable checkpoint in {str(run_dir / 'checkpoints')!r}: "
+                + "; ".join(skipped)
+                + ". Start a new run (another --run-dir)"
+            )
         if ckpt is not None:
             start_steps = ckpt[0]
             if start_steps >= cfg.n_timesteps:
-                raise ValueError(f"n_timesteps: {cfg.n_timesteps} already reached (checkpoint at {start_steps}); "
-                                 "pass a larger --n-timesteps to continue")
+                raise ValueError(
+                    f"n_timesteps: {cfg.n_timesteps} already reached (checkpoint at {start_steps}); "
+                    "pass a larger --n-timesteps to continue"
+                )
             for problem in skipped:
                 say(f"resume: skipping a checkpoint: {problem}")
             if skipped:
                 say(f"resume: falling back to the checkpoint at {start_steps} steps")
             _truncate_history(run_dir, start_steps)
         else:
-            say(f"resume: {str(run_dir)!r} has no checkpoint (stopped before the first one); "
-                 "restarting from scratch in the same folder")
+            say(
+                f"resume: {str(run_dir)!r} has no checkpoint (stopped before the first one); "
+                "restarting from scratch in the same folder"
+            )
             _clear_outputs(run_dir)
             resume = False
     else:
         if (run_dir / "config.yaml").exists():
             if not _is_interrupted_run(run_dir):
                 raise ValueError(f"run_dir: {str(run_dir)!r} already holds a run; use --resume or another folder")
-            say(f"run_dir: {str(run_dir)!r} holds a run stopped before its first checkpoint; "
-                 "starting over in it")
+            say(f"run_dir: {str(run_dir)!r} holds a run stopped before its first checkpoint; starting over in it")
             _clear_outputs(run_dir)
     extra: dict[str, Any] = {}
     if previous:  # keep the original command; list the resume commands
         extra["command"] = previous.get("command", [])
         extra["created_utc"] = previous.get("created_utc")
-        extra["resume_commands"] = [*previous.get("resume_commands", []),
-                                    {"command": list(command) if command is not None else [],
-                                     "from_steps": start_steps,
-                                     "utc": datetime.now(UTC).isoformat(timespec="seconds")}]
+        extra["resume_commands"] = [
+            *previous.get("resume_commands", []),
+            {
+                "command": list(command) if command is not None else [],
+                "from_steps": start_steps,
+                "utc": datetime.now(UTC).isoformat(timespec="seconds"),
+            },
+        ]
         extra["resumed_from_steps"] = start_steps
     try:
         write_config(cfg, run_dir, command, extra=extra or None)
@@ -122,4 +149,3 @@ def _train_locked(cfg: TrainConfig, cls, run_dir: Path, resume: bool, created: b
         raise
     write_learning_curves(run_dir)
     return (run_dir, result) if return_model else run_dir
-

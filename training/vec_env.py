@@ -182,8 +182,12 @@ class _Failed:
         self.message = str(err)
 
     def raise_(self):
-        cls = {"ValueError": ValueError, "TypeError": TypeError, "AttributeError": AttributeError,
-               "KeyError": KeyError}.get(self.kind, RuntimeError)
+        cls = {
+            "ValueError": ValueError,
+            "TypeError": TypeError,
+            "AttributeError": AttributeError,
+            "KeyError": KeyError,
+        }.get(self.kind, RuntimeError)
         raise cls(self.message if cls is not RuntimeError else f"{self.kind}: {self.message}")
 
 
@@ -359,7 +363,9 @@ class _SafeCalls(gym.Wrapper):
 
     def get_wrapper_attr(self, name: str):
         try:
-            attr = getattr(self, name) if name in ("safe_get_attr", "safe_set_attr") else self.env.get_wrapper_attr(name)
+            attr = (
+                getattr(self, name) if name in ("safe_get_attr", "safe_set_attr") else self.env.get_wrapper_attr(name)
+            )
         except AttributeError as err:  # no such method: the call answers with the error
             failed = _Failed(err)
             return lambda *args, **kwargs: failed

@@ -85,14 +85,29 @@ def run_twin_benchmarks(seconds: float = 10.0, repeats: int = 3) -> list[dict]:
     for contact in ("point", "hydroelastic"):
         cfg = TwinConfig(shell_model=contact, steer_friction="none", drive_friction="none", bare_plant=True, **RAMP)
         wall = time_twin(cfg, seconds, repeats)
-        rows.append(dict(case=f"bare plant, {contact} contact (own trajectory, no friction)", shell_model=contact,
-                         friction="none", rtf=seconds / wall, chunks_per_s=seconds / CHUNK_S / wall, overhead_pct=""))
+        rows.append(
+            dict(
+                case=f"bare plant, {contact} contact (own trajectory, no friction)",
+                shell_model=contact,
+                friction="none",
+                rtf=seconds / wall,
+                chunks_per_s=seconds / CHUNK_S / wall,
+                overhead_pct="",
+            )
+        )
     for model in SHELL_MODELS:
         cfg = TwinConfig(shell_model=model, steer_friction="majd", drive_friction="majd", **RAMP)
         wall, ratio = time_twin_paired(cfg, seconds, repeats)
-        rows.append(dict(case=f"twin, {model}", shell_model=model, friction="majd/majd",
-                         rtf=seconds / wall, chunks_per_s=seconds / CHUNK_S / wall,
-                         overhead_pct=100.0 * (ratio - 1.0)))
+        rows.append(
+            dict(
+                case=f"twin, {model}",
+                shell_model=model,
+                friction="majd/majd",
+                rtf=seconds / wall,
+                chunks_per_s=seconds / CHUNK_S / wall,
+                overhead_pct=100.0 * (ratio - 1.0),
+            )
+        )
     return rows
 
 
@@ -109,8 +124,12 @@ def main(argv: list[str] | None = None) -> None:
 
     info = machine_info()
     twin_rows = run_twin_benchmarks(args.seconds, args.repeats)
-    cols = [("case", "case", ""), ("rtf", "real-time factor", "{:.1f}x"),
-            ("chunks_per_s", "20 ms chunks/s", "{:.0f}"), ("overhead_pct", "overhead vs bare plant, same trajectory %", "{:+.1f}")]
+    cols = [
+        ("case", "case", ""),
+        ("rtf", "real-time factor", "{:.1f}x"),
+        ("chunks_per_s", "20 ms chunks/s", "{:.0f}"),
+        ("overhead_pct", "overhead vs bare plant, same trajectory %", "{:+.1f}"),
+    ]
     md = [
         "# sphere_env benchmark",
         "",
@@ -135,20 +154,30 @@ def main(argv: list[str] | None = None) -> None:
         from sphere_env.evaluation.experiments.benchmark_env import ENV_COLUMNS, run_env_benchmarks
 
         env_rows = run_env_benchmarks(args.env_seconds)
-        md += ["", "## Environments: env steps/s at 50 Hz control, random actions", "",
-               markdown_table(env_rows, ENV_COLUMNS)]
+        md += [
+            "",
+            "## Environments: env steps/s at 50 Hz control, random actions",
+            "",
+            markdown_table(env_rows, ENV_COLUMNS),
+        ]
     train = {}
     if not args.skip_train:
         from sphere_env.evaluation.experiments.benchmark_train import report_markdown, run_train_benchmark
 
         train = run_train_benchmark(args.train_seconds, rounds=args.train_rounds)
-        md += ["", "## Training: PPO throughput against the single-env rate (RampDescent, shipped hyperparameters)", "",
-               report_markdown(train)]
+        md += [
+            "",
+            "## Training: PPO throughput against the single-env rate (RampDescent, shipped hyperparameters)",
+            "",
+            report_markdown(train),
+        ]
     text = "\n".join(md) + "\n"
     RESULTS.mkdir(parents=True, exist_ok=True)
     write_text_atomic(RESULTS / "benchmark.md", text)
-    write_text_atomic(RESULTS / "benchmark.json",
-                      json.dumps({"machine": info, "twin": twin_rows, "env": env_rows, "train": train}, indent=2))
+    write_text_atomic(
+        RESULTS / "benchmark.json",
+        json.dumps({"machine": info, "twin": twin_rows, "env": env_rows, "train": train}, indent=2),
+    )
     print(text)
 
 

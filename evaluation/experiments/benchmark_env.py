@@ -118,13 +118,22 @@ def bench_case(env_id: str, shell_model: str, seconds: float, seed: int = 0, blo
     env_sps, twin_sps = n / t_env, n / t_twin
     overhead = 100.0 * (t_env / t_twin - 1.0)
     aims = (
-        env_sps >= AIM_STEPS_PER_S[shell_model], overhead <= AIM_OVERHEAD_PCT, reset_ms <= AIM_RESET_MS,
+        env_sps >= AIM_STEPS_PER_S[shell_model],
+        overhead <= AIM_OVERHEAD_PCT,
+        reset_ms <= AIM_RESET_MS,
     )
-    return dict(env=env_id.split("/")[1], shell_model=shell_model, steps=n,
-                env_steps_per_s=env_sps, twin_steps_per_s=twin_sps, overhead_pct=overhead,
-                paired_max_state_diff=max_diff,
-                python_us_per_step=python_us, reset_ms=reset_ms,
-                aims_met=" / ".join("yes" if ok else "no" for ok in aims))
+    return dict(
+        env=env_id.split("/")[1],
+        shell_model=shell_model,
+        steps=n,
+        env_steps_per_s=env_sps,
+        twin_steps_per_s=twin_sps,
+        overhead_pct=overhead,
+        paired_max_state_diff=max_diff,
+        python_us_per_step=python_us,
+        reset_ms=reset_ms,
+        aims_met=" / ".join("yes" if ok else "no" for ok in aims),
+    )
 
 
 def run_env_benchmarks(seconds_per_case: float = 5.0) -> list[dict]:
@@ -145,21 +154,26 @@ def main(argv: list[str] | None = None) -> None:
     info = machine_info()
     load = os.getloadavg()[0]
     rows = run_env_benchmarks(args.seconds)
-    text = "\n".join([
-        "# sphere_env environment benchmark",
-        "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.experiments.benchmark_env` "
-        f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, 1-min load average at start "
-        f"{load:.1f}. {args.seconds:g} s of env stepping per case.",
-        "",
-        markdown_table(rows, ENV_COLUMNS),
-        "",
-        f"Aims at 50 Hz: point >= {AIM_STEPS_PER_S['point']}, injected >= {AIM_STEPS_PER_S['injected']}, "
-        f"hydroelastic >= {AIM_STEPS_PER_S['hydroelastic']} steps/s; overhead <= {AIM_OVERHEAD_PCT:.0f}%; "
-        f"reset <= {AIM_RESET_MS:.0f} ms. Env steps/s can never exceed the bare twin's: where the twin itself "
-        "is below the aim, only the overhead column is the env's to meet.",
-    ]) + "\n"
+    text = (
+        "\n".join(
+            [
+                "# sphere_env environment benchmark",
+                "",
+                f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+                f"by `python -m evaluation.experiments.benchmark_env` "
+                f"(commit {info['commit']}); {info['cpu']}, {info['cores']} cores, 1-min load average at start "
+                f"{load:.1f}. {args.seconds:g} s of env stepping per case.",
+                "",
+                markdown_table(rows, ENV_COLUMNS),
+                "",
+                f"Aims at 50 Hz: point >= {AIM_STEPS_PER_S['point']}, injected >= {AIM_STEPS_PER_S['injected']}, "
+                f"hydroelastic >= {AIM_STEPS_PER_S['hydroelastic']} steps/s; overhead <= {AIM_OVERHEAD_PCT:.0f}%; "
+                f"reset <= {AIM_RESET_MS:.0f} ms. Env steps/s can never exceed the bare twin's: where the twin itself "
+                "is below the aim, only the overhead column is the env's to meet.",
+            ]
+        )
+        + "\n"
+    )
     if args.write:
         RESULTS.mkdir(parents=True, exist_ok=True)
         (RESULTS / "benchmark_env.md").write_text(text)

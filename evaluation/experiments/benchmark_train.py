@@ -58,12 +58,18 @@ LAYOUTS = {
     "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2}),
 }
 TRAIN_COLUMNS = [
-    ("shell_model", "shell", ""), ("case", "case", ""), ("cores", "cores", "{:d}"),
-    ("steps", "env steps timed", "{:d}"), ("single_env_steps_per_s", "env steps/s", "{:.0f}"),
-    ("rollout_steps_per_s", "rollout steps/s", "{:.0f}"), ("rollout_ratio_pct", "rollout / (cores × single) %", "{:.0f}"),
+    ("shell_model", "shell", ""),
+    ("case", "case", ""),
+    ("cores", "cores", "{:d}"),
+    ("steps", "env steps timed", "{:d}"),
+    ("single_env_steps_per_s", "env steps/s", "{:.0f}"),
+    ("rollout_steps_per_s", "rollout steps/s", "{:.0f}"),
+    ("rollout_ratio_pct", "rollout / (cores × single) %", "{:.0f}"),
     ("stepping_ratio_pct", "env stepping alone / (cores × single) %", "{:.0f}"),
-    ("train_steps_per_s", "training steps/s", "{:.0f}"), ("train_ratio_pct", "training / (cores × single) %", "{:.0f}"),
-    ("update_share_pct", "update share %", "{:.0f}"), ("cpu_main_ms_per_step", "training process CPU ms/step", "{:.3f}"),
+    ("train_steps_per_s", "training steps/s", "{:.0f}"),
+    ("train_ratio_pct", "training / (cores × single) %", "{:.0f}"),
+    ("update_share_pct", "update share %", "{:.0f}"),
+    ("cpu_main_ms_per_step", "training process CPU ms/step", "{:.3f}"),
     ("main_ms_per_vec_step", "main-process ms per vectorized step outside env stepping", "{:.3f}"),
 ]
 
@@ -151,11 +157,14 @@ class TrainCase:
         label, over = LAYOUTS[layout]
         if "n_envs" in over:
             over = dict(over, n_steps=ROLLOUT // over["n_envs"])
-        cfg = resolve_config(ENV_ID, "ppo", overrides=over, env_kwargs={"shell_model": shell_model}, seed=seed,
-                             build_env=False)
+        cfg = resolve_config(
+            ENV_ID, "ppo", overrides=over, env_kwargs={"shell_model": shell_model}, seed=seed, build_env=False
+        )
         if cfg.n_envs * cfg.hyperparams["n_steps"] != ROLLOUT:
-            raise ValueError(f"layout {layout!r}: {cfg.n_envs} x {cfg.hyperparams['n_steps']} samples per update, "
-                             f"not the shipped {ROLLOUT} (ROLLOUT)")
+            raise ValueError(
+                f"layout {layout!r}: {cfg.n_envs} x {cfg.hyperparams['n_steps']} samples per update, "
+                f"not the shipped {ROLLOUT} (ROLLOUT)"
+            )
         self.cfg, self.layout, self.label, self.shell_model = cfg, layout, label, shell_model
         self.cores = cores or usable_cores()
         self.venv = wrap_normalize(cfg, make_vec_env(cfg, None))
@@ -229,15 +238,22 @@ def _layout_name(cfg) -> str:
     if cfg.n_threads is not None:
         return f"{cfg.n_envs} envs, {cfg.n_threads} threads (ThreadedVecEnv)"
     if cfg.n_workers is not None:
-        return (f"{cfg.n_envs} envs, {cfg.n_workers} blocks: this process + workers, one per usable core "
-                "(BatchedSubprocVecEnv)" if cfg.n_workers == "auto" else
-                f"{cfg.n_envs} envs in {cfg.n_workers} blocks: this process + workers (BatchedSubprocVecEnv)")
+        return (
+            f"{cfg.n_envs} envs, {cfg.n_workers} blocks: this process + workers, one per usable core "
+            "(BatchedSubprocVecEnv)"
+            if cfg.n_workers == "auto"
+            else f"{cfg.n_envs} envs in {cfg.n_workers} blocks: this process + workers (BatchedSubprocVecEnv)"
+        )
     return f"{cfg.n_envs} envs, 1 process each (SubprocVecEnv)"
 
 
-def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = ("point", "injected"),
-                        rounds: int = 3, layouts: dict[str, tuple[str, ...]] | None = None,
-                        one_core: bool = True) -> dict:
+def run_train_benchmark(
+    seconds: float = 24.0,
+    shell_models: tuple[str, ...] = ("point", "injected"),
+    rounds: int = 3,
+    layouts: dict[str, tuple[str, ...]] | None = None,
+    one_core: bool = True,
+) -> dict:
     """Interleaved timing of the single env, the layouts (``layouts[shell_model]``, default: all for
     point, shipped and the 2-process baseline otherwise) and, with ``one_core``, the shipped layout
     on one core. Returns ``{"rows": [...], "model": {...}, "load_avg": (...), "cores": n}``."""
@@ -269,24 +285,54 @@ def run_train_benchmark(seconds: float = 24.0, shell_models: tuple[str, ...] = (
     for m in shell_models:
         s = singles[m]
         single = s.steps / s.wall
-        rows.append(dict(shell_model=m, case="single env (one core)", layout="single", cores=1, steps=s.steps,
-                         single_env_steps_per_s=single, gil_us_per_step=1e6 * (s.wall - s.advance_s) / s.steps))
+        rows.append(
+            dict(
+                shell_model=m,
+                case="single env (one core)",
+                layout="single",
+                cores=1,
+                steps=s.steps,
+                single_env_steps_per_s=single,
+                gil_us_per_step=1e6 * (s.wall - s.advance_s) / s.steps,
+            )
+        )
         for c in (c for c in cases if c.shell_model == m):
             rollout = c.steps / (c.wall - c.update_s)
             train = c.steps / c.wall
             label = f"{c.label}: {_layout_name(c.cfg)}" if c.layout == "shipped" else c.label
-            rows.append(dict(shell_model=m, case=label + (" — pinned to 1 core" if c.cores == 1 else ""),
-                             layout=c.layout, cores=c.cores, steps=c.steps, single_env_steps_per_s=single,
-                             rollout_steps_per_s=rollout, rollout_ratio_pct=100 * rollout / (c.cores * single),
-                             stepping_ratio_pct=100 * c.steps / c.stepping_s / (c.cores * single),
-                             train_steps_per_s=train, train_ratio_pct=100 * train / (c.cores * single),
-                             update_share_pct=100 * c.update_s / c.wall, cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
-                             main_ms_per_vec_step=1e3 * (c.wall - c.update_s - c.stepping_s) / (c.steps / c.cfg.n_envs),
-                             update_ms_per_step=1e3 * c.update_s / c.steps, n_envs=c.cfg.n_envs,
-                             n_steps=c.cfg.hyperparams["n_steps"], n_threads=c.cfg.n_threads, n_workers=c.cfg.n_workers))
+            rows.append(
+                dict(
+                    shell_model=m,
+                    case=label + (" — pinned to 1 core" if c.cores == 1 else ""),
+                    layout=c.layout,
+                    cores=c.cores,
+                    steps=c.steps,
+                    single_env_steps_per_s=single,
+                    rollout_steps_per_s=rollout,
+                    rollout_ratio_pct=100 * rollout / (c.cores * single),
+                    stepping_ratio_pct=100 * c.steps / c.stepping_s / (c.cores * single),
+                    train_steps_per_s=train,
+                    train_ratio_pct=100 * train / (c.cores * single),
+                    update_share_pct=100 * c.update_s / c.wall,
+                    cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
+                    main_ms_per_vec_step=1e3 * (c.wall - c.update_s - c.stepping_s) / (c.steps / c.cfg.n_envs),
+                    update_ms_per_step=1e3 * c.update_s / c.steps,
+                    n_envs=c.cfg.n_envs,
+                    n_steps=c.cfg.hyperparams["n_steps"],
+                    n_threads=c.cfg.n_threads,
+                    n_workers=c.cfg.n_workers,
+                )
+            )
         model[m] = scaling_model(rows, m, cores)
-    return {"rows": rows, "model": model, "load_avg_start": load0, "load_avg_end": load1, "cores": cores,
-            "seconds_per_case": seconds, "rounds": rounds}
+    return {
+        "rows": rows,
+        "model": model,
+        "load_avg_start": load0,
+        "load_avg_end": load1,
+        "cores": cores,
+        "seconds_per_case": seconds,
+        "rounds": rounds,
+    }
 
 
 def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
@@ -314,21 +360,31 @@ def scaling_model(rows: list[dict], shell_model: str, cores: int) -> dict:
     # stepping rate = stepping_ratio × cores × single rate, in env steps per second of stepping
     e_b = blocks / (full["stepping_ratio_pct"] / 100 * cores * full["single_env_steps_per_s"])
     c_full = 1e-3 * full["main_ms_per_vec_step"]
-    wide = next((r for r in rows if r["shell_model"] == shell_model and r["layout"] == "proc16" and r["cores"] == cores),
-                None)
-    c1 = max(1e-3 * (wide["main_ms_per_vec_step"] - full["main_ms_per_vec_step"]) / (wide["n_envs"] - n_envs), 0.0) \
-        if wide is not None and wide["n_envs"] != n_envs else 0.0
+    wide = next(
+        (r for r in rows if r["shell_model"] == shell_model and r["layout"] == "proc16" and r["cores"] == cores), None
+    )
+    c1 = (
+        max(1e-3 * (wide["main_ms_per_vec_step"] - full["main_ms_per_vec_step"]) / (wide["n_envs"] - n_envs), 0.0)
+        if wide is not None and wide["n_envs"] != n_envs
+        else 0.0
+    )
     c0 = max(c_full - c1 * n_envs, 0.0)
 
     def rate(n_cores: int, n: int) -> float:
         return 1.0 / (u + (c0 + c1 * n) / n + e_b / min(n_cores, n))
 
     grid = (1, 2, 4, 8, 16, 64)
-    out = {"env_ms_per_step_single": 1e3 / full["single_env_steps_per_s"], "env_ms_per_step_in_block": 1e3 * e_b,
-           "update_ms_per_step": 1e3 * u, "main_ms_per_vec_step_fixed": 1e3 * c0, "main_ms_per_env_per_vec_step": 1e3 * c1,
-           "n_envs": n_envs, f"measured_{cores}_cores": full["train_steps_per_s"],
-           "predicted_shipped": {n: rate(n, n_envs) for n in grid},
-           "predicted_one_env_per_core": {n: rate(n, n) for n in grid}}
+    out = {
+        "env_ms_per_step_single": 1e3 / full["single_env_steps_per_s"],
+        "env_ms_per_step_in_block": 1e3 * e_b,
+        "update_ms_per_step": 1e3 * u,
+        "main_ms_per_vec_step_fixed": 1e3 * c0,
+        "main_ms_per_env_per_vec_step": 1e3 * c1,
+        "n_envs": n_envs,
+        f"measured_{cores}_cores": full["train_steps_per_s"],
+        "predicted_shipped": {n: rate(n, n_envs) for n in grid},
+        "predicted_one_env_per_core": {n: rate(n, n) for n in grid},
+    }
     if one is not None:
         out["measured_1_core"] = one["train_steps_per_s"]
     return out
@@ -351,13 +407,16 @@ def report_markdown(result: dict) -> str:
             continue
         ship = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_shipped"].items())
         wide = ", ".join(f"{n}: {v:.0f}" for n, v in fit["predicted_one_env_per_core"].items())
-        lines += ["", f"Scaling model, {m} (t = u + (c0 + c1 n)/n + e_b/min(N, n) per env step, the block layout): "
-                  f"env step in a block e_b = {fit['env_ms_per_step_in_block']:.3f} ms (single env "
-                  f"{fit['env_ms_per_step_single']:.3f} ms); main process outside the env stepping c0 = "
-                  f"{fit['main_ms_per_vec_step_fixed']:.3f} ms per vectorized step + c1 = "
-                  f"{fit['main_ms_per_env_per_vec_step']:.3f} ms per env; PPO update u = {fit['update_ms_per_step']:.3f} ms "
-                  f"per sample. Predicted training steps/s by cores N, shipped {fit['n_envs']} envs: {ship}; one env per "
-                  f"core (n = N): {wide}."]
+        lines += [
+            "",
+            f"Scaling model, {m} (t = u + (c0 + c1 n)/n + e_b/min(N, n) per env step, the block layout): "
+            f"env step in a block e_b = {fit['env_ms_per_step_in_block']:.3f} ms (single env "
+            f"{fit['env_ms_per_step_single']:.3f} ms); main process outside the env stepping c0 = "
+            f"{fit['main_ms_per_vec_step_fixed']:.3f} ms per vectorized step + c1 = "
+            f"{fit['main_ms_per_env_per_vec_step']:.3f} ms per env; PPO update u = {fit['update_ms_per_step']:.3f} ms "
+            f"per sample. Predicted training steps/s by cores N, shipped {fit['n_envs']} envs: {ship}; one env per "
+            f"core (n = N): {wide}.",
+        ]
     return "\n".join(lines)
 
 
@@ -373,19 +432,33 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds")
     parser.add_argument("--shell-models", nargs="+", default=["point", "injected"])
     parser.add_argument("--no-one-core", action="store_true", help="skip the 1-core (pinned) rows")
-    parser.add_argument("--no-write", action="store_true",
-                        help="print only (default: also write evaluation/results/benchmark_train.{md,json})")
+    parser.add_argument(
+        "--no-write",
+        action="store_true",
+        help="print only (default: also write evaluation/results/benchmark_train.{md,json})",
+    )
     args = parser.parse_args(argv)
     result = run_train_benchmark(args.seconds, tuple(args.shell_models), args.rounds, one_core=not args.no_one_core)
     info = machine_info()
-    command = " ".join(["python -m evaluation.experiments.benchmark_train", *(argv if argv is not None else sys.argv[1:])])
-    text = "\n".join([
-        "# sphere_env training throughput", "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `{command}` (commit {info['commit']}).",
-        f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
-        f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.", "",
-        f"PPO on {ENV_ID}, shipped hyperparameters, VecNormalize and pressure randomization on.", "",
-        report_markdown(result)]) + "\n"
+    command = " ".join(
+        ["python -m evaluation.experiments.benchmark_train", *(argv if argv is not None else sys.argv[1:])]
+    )
+    text = (
+        "\n".join(
+            [
+                "# sphere_env training throughput",
+                "",
+                f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `{command}` (commit {info['commit']}).",
+                f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
+                f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.",
+                "",
+                f"PPO on {ENV_ID}, shipped hyperparameters, VecNormalize and pressure randomization on.",
+                "",
+                report_markdown(result),
+            ]
+        )
+        + "\n"
+    )
     print(text)
     if not args.no_write:
         from sphere_env.files import write_text_atomic

@@ -97,12 +97,16 @@ CANDIDATES: dict[str, tuple[tuple[float, tuple[float, float] | None] | str | Non
     "0.1 m below 5 kPa else 0.05 m, 6.67 ms, k_d refit": ((0.05, (5.0, 0.1)), 0.02 / 3),
     "0.05 m, 10 ms, k_d refit": ((0.05, None), 0.01),
     "opt-in low-pressure mesh at time_step_s=0.01, shipped k_d_by_time_step": (None, 0.01),
-    "opt-in hydroelastic_fast.yaml at time_step_s=0.01: low-pressure mesh, k_d(p) fitted to ζ(p)":
-        (FAST_CALIBRATION, 0.01),
+    "opt-in hydroelastic_fast.yaml at time_step_s=0.01: low-pressure mesh, k_d(p) fitted to ζ(p)": (
+        FAST_CALIBRATION,
+        0.01,
+    ),
 }
 
 
-def candidate_calibration(base_raw: dict, hint_m: float, low_mesh, k_d: float | None, step_s: float, path: Path) -> Path:
+def candidate_calibration(
+    base_raw: dict, hint_m: float, low_mesh, k_d: float | None, step_s: float, path: Path
+) -> Path:
     """Write the shipped calibration with its hydroelastic mesh (and k_d, fitted step) changed and no
     k_d refits at other steps."""
     raw = copy.deepcopy(base_raw)
@@ -129,16 +133,26 @@ def with_low_pressure_mesh(base_raw: dict, path: Path) -> Path:
 
 def contact_polygons(twin: Twin) -> int:
     results = twin.plant.get_contact_results_output_port().Eval(twin.plant_context)
-    return sum(results.hydroelastic_contact_info(i).contact_surface().num_faces()
-               for i in range(results.num_hydroelastic_contacts()))
+    return sum(
+        results.hydroelastic_contact_info(i).contact_surface().num_faces()
+        for i in range(results.num_hydroelastic_contacts())
+    )
 
 
 def rock(calibration: Path, pressure_kpa: float, step_s: float, k_d: float | None = None) -> dict:
     """Locked-steer free decay (the protocol k_d is matched on): ω_n, ζ and the contact polygons
     at its end. ``k_d``: use this k_d at ``step_s`` instead of the calibration's."""
-    twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
-                           drive_friction="none", calibration=calibration, pressure_kpa=pressure_kpa,
-                           time_step_s=step_s))
+    twin = Twin(
+        TwinConfig(
+            fixture="locked_steer",
+            shell_model="hydroelastic",
+            steer_friction="none",
+            drive_friction="none",
+            calibration=calibration,
+            pressure_kpa=pressure_kpa,
+            time_step_s=step_s,
+        )
+    )
     if k_d is not None:
         raw = copy.deepcopy(dict(twin.calibration.raw))
         raw["hydroelastic"].pop("k_d_by_time_step", None)
@@ -161,8 +175,12 @@ def refit_k_d(calibration: Path, pressure_kpa: float, step_s: float, target_zeta
 
     cal = ShellCalibration.load(calibration)
     target = rock(calibration, pressure_kpa, cal.fitted_time_step_s)["zeta"] if target_zeta is None else target_zeta
-    return brentq(lambda k: rock(calibration, pressure_kpa, step_s, k_d=k)["zeta"] - target,
-                  0.05 * cal.k_d, 3.0 * cal.k_d, xtol=0.005 * cal.k_d)
+    return brentq(
+        lambda k: rock(calibration, pressure_kpa, step_s, k_d=k)["zeta"] - target,
+        0.05 * cal.k_d,
+        3.0 * cal.k_d,
+        xtol=0.005 * cal.k_d,
+    )
 
 
 def ramp_trace(calibration: Path, step_s: float, seconds: float = 6.0) -> np.ndarray:
@@ -213,8 +231,9 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
     base_name, base_path = names[0], paths[names[0]]
     cal = ShellCalibration.load(base_path)
     base_step = cands[base_name][1]
-    ref_cal = candidate_calibration(dict(cal.raw), REFERENCE_HINT_M, None, None, base_step,
-                                    base_path.parent / "reference_mesh.yaml")
+    ref_cal = candidate_calibration(
+        dict(cal.raw), REFERENCE_HINT_M, None, None, base_step, base_path.parent / "reference_mesh.yaml"
+    )
     ref_omega = {p: rock(ref_cal, p, base_step)["omega_n"] for p in pressures}
     log(f"reference ω_n ({REFERENCE_HINT_M} m mesh): {ref_omega}")
     p0 = cal.nominal_pressure_kpa
@@ -224,27 +243,48 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
     # The constraint's reference for a calibration without a k_d for 0.5 ms: the shipped calibration with
     # k_d refitted at 0.5 ms so that the decay at p0 keeps the ζ its k_d has at its fitted step.
     k_d_own_ref = refit_k_d(base_path, p0, REFERENCE_STEP_S)
-    own_ref_cal = candidate_calibration(dict(cal.raw), cal.resolution_hint_m, None, k_d_own_ref, REFERENCE_STEP_S,
-                                        base_path.parent / "reference_refit.yaml")
+    own_ref_cal = candidate_calibration(
+        dict(cal.raw),
+        cal.resolution_hint_m,
+        None,
+        k_d_own_ref,
+        REFERENCE_STEP_S,
+        base_path.parent / "reference_refit.yaml",
+    )
     own_refs = {None: ramp_trace(own_ref_cal, REFERENCE_STEP_S)}
-    log(f"refitted reference: k_d {k_d_own_ref:.4f} at {REFERENCE_STEP_S:g} s; its ramp departs "
-        f"{100 * float(np.sqrt(np.mean((own_refs[None] - ramp_ref) ** 2))) / peak:.2f} % of peak from the shipped setting")
+    log(
+        f"refitted reference: k_d {k_d_own_ref:.4f} at {REFERENCE_STEP_S:g} s; its ramp departs "
+        f"{100 * float(np.sqrt(np.mean((own_refs[None] - ramp_ref) ** 2))) / peak:.2f} % of peak from the shipped setting"
+    )
     # A second ramp reference with the same damping ratio at the nominal pressure as the calibration's
     # ζ(p0): k_d refitted at the reference step. Against it a candidate fitted to ζ(p) shows its step and
     # mesh error alone, not the difference in dissipation.
     k_d_zeta_ref = refit_k_d(base_path, p0, REFERENCE_STEP_S, target_zeta=float(cal.zeta(p0)))
-    zeta_ref_cal = candidate_calibration(dict(cal.raw), cal.resolution_hint_m, None, k_d_zeta_ref, REFERENCE_STEP_S,
-                                         base_path.parent / "reference_zeta.yaml")
+    zeta_ref_cal = candidate_calibration(
+        dict(cal.raw),
+        cal.resolution_hint_m,
+        None,
+        k_d_zeta_ref,
+        REFERENCE_STEP_S,
+        base_path.parent / "reference_zeta.yaml",
+    )
     ramp_ref_zeta = ramp_trace(zeta_ref_cal, REFERENCE_STEP_S)
     peak_zeta = float(np.max(np.abs(ramp_ref_zeta)))
-    log(f"ζ(p0) reference: k_d {k_d_zeta_ref:.4f} at {REFERENCE_STEP_S:g} s; its ramp departs "
-        f"{100 * float(np.sqrt(np.mean((ramp_ref_zeta - ramp_ref) ** 2))) / peak:.2f} % of peak from the shipped reference")
+    log(
+        f"ζ(p0) reference: k_d {k_d_zeta_ref:.4f} at {REFERENCE_STEP_S:g} s; its ramp departs "
+        f"{100 * float(np.sqrt(np.mean((ramp_ref_zeta - ramp_ref) ** 2))) / peak:.2f} % of peak from the shipped reference"
+    )
     out = {}
     for name, (mesh, step) in cands.items():
         used = ShellCalibration.load(paths[name]).for_time_step(step)
-        row: dict = {"candidate": name, "time_step_s": step, "resolution_hint_m": used.resolution_hint_m,
-                     "low_pressure_mesh": used.low_pressure_mesh, "k_d": used.k_d,
-                     "k_d_by_pressure": [list(pt) for pt in used.k_d_by_pressure]}
+        row: dict = {
+            "candidate": name,
+            "time_step_s": step,
+            "resolution_hint_m": used.resolution_hint_m,
+            "low_pressure_mesh": used.low_pressure_mesh,
+            "k_d": used.k_d,
+            "k_d_by_pressure": [list(pt) for pt in used.k_d_by_pressure],
+        }
         if used.fitted_time_step_s is not None and not math.isclose(step, used.fitted_time_step_s):
             if isinstance(mesh, str):
                 raise ValueError(f"candidate {name!r}: {mesh}.yaml has no k_d at {step:g} s; it is measured as it is")
@@ -255,8 +295,13 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
         per = {}
         for p in pressures:
             r = rock(paths[name], p, step)
-            per[p] = dict(r, k_d=used.k_d_at(p), omega_err_pct=100 * (r["omega_n"] / ref_omega[p] - 1),
-                          zeta_target=float(cal.zeta(p)), zeta_err_pct=100 * (r["zeta"] / float(cal.zeta(p)) - 1))
+            per[p] = dict(
+                r,
+                k_d=used.k_d_at(p),
+                omega_err_pct=100 * (r["omega_n"] / ref_omega[p] - 1),
+                zeta_target=float(cal.zeta(p)),
+                zeta_err_pct=100 * (r["zeta"] / float(cal.zeta(p)) - 1),
+            )
         row["per_pressure"] = per
         row["zeta_at_nominal"] = rock(paths[name], p0, step)["zeta"]
         trace = ramp_trace(paths[name], step)
@@ -265,8 +310,11 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
         key = paths[name] if held is not None and math.isclose(held, REFERENCE_STEP_S) else None
         if key not in own_refs:
             own_refs[key] = ramp_trace(paths[name], REFERENCE_STEP_S)
-        row["ramp_reference"] = ("its calibration's k_d at 0.5 ms" if key is not None
-                                 else f"shipped calibration, k_d refitted at 0.5 ms ({k_d_own_ref:.3f})")
+        row["ramp_reference"] = (
+            "its calibration's k_d at 0.5 ms"
+            if key is not None
+            else f"shipped calibration, k_d refitted at 0.5 ms ({k_d_own_ref:.3f})"
+        )
         own_peak = float(np.max(np.abs(own_refs[key])))
         row["ramp_rmse_pct"] = 100 * float(np.sqrt(np.mean((trace - own_refs[key]) ** 2))) / own_peak
         row["ramp_rmse_vs_shipped_unrefit_pct"] = 100 * float(np.sqrt(np.mean((trace - ramp_ref) ** 2))) / peak
@@ -274,55 +322,98 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
         row["max_omega_err_pct"] = max(abs(v["omega_err_pct"]) for v in per.values())
         row["max_zeta_err_pct"] = max(abs(v["zeta_err_pct"]) for v in per.values())
         out[name] = row
-        log(f"{name}: k_d {row['k_d']:.4f}, ω err {[round(v['omega_err_pct'], 2) for v in per.values()]} %, "
+        log(
+            f"{name}: k_d {row['k_d']:.4f}, ω err {[round(v['omega_err_pct'], 2) for v in per.values()]} %, "
             f"ζ {[round(v['zeta'], 4) for v in per.values()]} (at {p0:g} kPa {row['zeta_at_nominal']:.4f}), "
-            f"ramp {row['ramp_rmse_pct']:.2f} %, polygons {[v['polygons'] for v in per.values()]}")
+            f"ramp {row['ramp_rmse_pct']:.2f} %, polygons {[v['polygons'] for v in per.values()]}"
+        )
     base = out[base_name]["per_pressure"]
     for row in out.values():
         for p, v in row["per_pressure"].items():
             v["zeta_vs_baseline_pct"] = 100 * (v["zeta"] / base[p]["zeta"] - 1)
-    sweep = ramp_against_k_d(base_path, dict(cal.raw), RAMP_K_D_STEP_S, ramp_ref, peak, float(cal.zeta(p0)), p0, log,
-                             own_refs[None])
-    return {"rows": out, "reference_omega_n": ref_omega, "nominal_pressure_kpa": p0,
-            "ramp_reference_peak_rad_s": peak, "ramp_against_k_d": sweep,
-            "refitted_reference_k_d": k_d_own_ref,
-            "refitted_reference_ramp_rmse_vs_shipped_reference_pct":
-                100 * float(np.sqrt(np.mean((own_refs[None] - ramp_ref) ** 2))) / peak,
-            "zeta_reference_k_d": k_d_zeta_ref, "zeta_reference_ramp_rmse_vs_shipped_reference_pct":
-                100 * float(np.sqrt(np.mean((ramp_ref_zeta - ramp_ref) ** 2))) / peak}
+    sweep = ramp_against_k_d(
+        base_path, dict(cal.raw), RAMP_K_D_STEP_S, ramp_ref, peak, float(cal.zeta(p0)), p0, log, own_refs[None]
+    )
+    return {
+        "rows": out,
+        "reference_omega_n": ref_omega,
+        "nominal_pressure_kpa": p0,
+        "ramp_reference_peak_rad_s": peak,
+        "ramp_against_k_d": sweep,
+        "refitted_reference_k_d": k_d_own_ref,
+        "refitted_reference_ramp_rmse_vs_shipped_reference_pct": 100
+        * float(np.sqrt(np.mean((own_refs[None] - ramp_ref) ** 2)))
+        / peak,
+        "zeta_reference_k_d": k_d_zeta_ref,
+        "zeta_reference_ramp_rmse_vs_shipped_reference_pct": 100
+        * float(np.sqrt(np.mean((ramp_ref_zeta - ramp_ref) ** 2)))
+        / peak,
+    }
 
 
-def ramp_against_k_d(base_path: Path, base_raw: dict, step_s: float, ramp_ref: np.ndarray, peak: float,
-                     zeta_target: float, p0: float, log, refitted_ref: np.ndarray) -> list[dict]:
+def ramp_against_k_d(
+    base_path: Path,
+    base_raw: dict,
+    step_s: float,
+    ramp_ref: np.ndarray,
+    peak: float,
+    zeta_target: float,
+    p0: float,
+    log,
+    refitted_ref: np.ndarray,
+) -> list[dict]:
     """Ramp ω_d RMSE [% of peak] against the shipped setting at 0.5 ms (``ramp_ref``) and against the
     refitted 0.5 ms reference (``refitted_ref``), and locked-steer ζ error [%] at the nominal pressure,
     for each k_d of :data:`RAMP_K_D_SWEEP` (one k_d, ``step_s``, low-pressure mesh)."""
     refitted_peak = float(np.max(np.abs(refitted_ref)))
     rows = []
     for k_d in RAMP_K_D_SWEEP:
-        path = candidate_calibration(base_raw, base_raw["hydroelastic"]["resolution_hint_m"],
-                                     (LOW_PRESSURE_MESH["below_kpa"], LOW_PRESSURE_MESH["resolution_hint_m"]),
-                                     k_d, step_s, base_path.parent / "ramp_k_d.yaml")
+        path = candidate_calibration(
+            base_raw,
+            base_raw["hydroelastic"]["resolution_hint_m"],
+            (LOW_PRESSURE_MESH["below_kpa"], LOW_PRESSURE_MESH["resolution_hint_m"]),
+            k_d,
+            step_s,
+            base_path.parent / "ramp_k_d.yaml",
+        )
         trace = ramp_trace(path, step_s)
         zeta = rock(path, p0, step_s)["zeta"]
-        rows.append({"k_d": k_d, "ramp_rmse_pct": 100 * float(np.sqrt(np.mean((trace - ramp_ref) ** 2))) / peak,
-                     "ramp_rmse_vs_refitted_pct":
-                         100 * float(np.sqrt(np.mean((trace - refitted_ref) ** 2))) / refitted_peak,
-                     "zeta": zeta, "zeta_err_pct": 100 * (zeta / zeta_target - 1)})
-        log(f"ramp against k_d at {p0:g} kPa, {step_s:g} s: k_d {k_d:.4f}: ramp {rows[-1]['ramp_rmse_pct']:.2f} %, "
-            f"ζ err {rows[-1]['zeta_err_pct']:+.1f} %")
+        rows.append(
+            {
+                "k_d": k_d,
+                "ramp_rmse_pct": 100 * float(np.sqrt(np.mean((trace - ramp_ref) ** 2))) / peak,
+                "ramp_rmse_vs_refitted_pct": 100 * float(np.sqrt(np.mean((trace - refitted_ref) ** 2))) / refitted_peak,
+                "zeta": zeta,
+                "zeta_err_pct": 100 * (zeta / zeta_target - 1),
+            }
+        )
+        log(
+            f"ramp against k_d at {p0:g} kPa, {step_s:g} s: k_d {k_d:.4f}: ramp {rows[-1]['ramp_rmse_pct']:.2f} %, "
+            f"ζ err {rows[-1]['zeta_err_pct']:+.1f} %"
+        )
     return rows
 
 
-def speed(cands: dict, paths: dict, pressures, rounds: int, twin_seconds: float, env_id: str | None,
-          env_seconds: float, log) -> dict:
+def speed(
+    cands: dict, paths: dict, pressures, rounds: int, twin_seconds: float, env_id: str | None, env_seconds: float, log
+) -> dict:
     import gymnasium as gym
 
     import sphere_env  # noqa: F401  (registers ids)
 
-    twins = {name: Twin(TwinConfig(shell_model="hydroelastic", steer_friction="majd", drive_friction="majd",
-                                   calibration=paths[name], time_step_s=step, **RAMP))
-             for name, (_, step) in cands.items()}
+    twins = {
+        name: Twin(
+            TwinConfig(
+                shell_model="hydroelastic",
+                steer_friction="majd",
+                drive_friction="majd",
+                calibration=paths[name],
+                time_step_s=step,
+                **RAMP,
+            )
+        )
+        for name, (_, step) in cands.items()
+    }
     best = {(name, p): math.inf for name in cands for p in pressures}
     for name in cands:  # mesh every pressure once (cached), untimed
         for p in pressures:
@@ -352,9 +443,14 @@ def speed(cands: dict, paths: dict, pressures, rounds: int, twin_seconds: float,
     out = {}
     for name in cands:
         rtf = {p: twin_seconds / best[name, p] for p in pressures}
-        row = {"rtf": rtf, "mean_rtf": float(np.mean(list(rtf.values()))),
-               "chunks_per_s": {p: v / CHUNK_S for p, v in rtf.items()}, "env_steps_per_s": None,
-               "env_steps_per_s_at": None, "mean_env_steps_per_s": None}
+        row = {
+            "rtf": rtf,
+            "mean_rtf": float(np.mean(list(rtf.values()))),
+            "chunks_per_s": {p: v / CHUNK_S for p, v in rtf.items()},
+            "env_steps_per_s": None,
+            "env_steps_per_s_at": None,
+            "mean_env_steps_per_s": None,
+        }
         if env_id:
             row["env_steps_per_s"] = env_n[name, None] / env_wall[name, None]
             row["env_steps_per_s_at"] = {p: env_n[name, p] / env_wall[name, p] for p in pressures}
@@ -389,8 +485,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--twin-seconds", type=float, default=10.0, help="simulated seconds per twin run")
     parser.add_argument("--env-seconds", type=float, default=3.0, help="wall seconds of env stepping per round")
     parser.add_argument("--env-id", default="sphere_env/RampDescent-v1", help="env id for env steps/s ('' = skip)")
-    parser.add_argument("--only", nargs="*", default=None,
-                        help="candidate names to run (the first candidate, the baseline, always runs)")
+    parser.add_argument(
+        "--only",
+        nargs="*",
+        default=None,
+        help="candidate names to run (the first candidate, the baseline, always runs)",
+    )
     parser.add_argument("--out", default=str(RESULTS / "hydro_tradeoff"), help="output path without suffix")
     args = parser.parse_args(argv)
     names = list(CANDIDATES)
@@ -409,13 +509,20 @@ def main(argv: list[str] | None = None) -> None:
         print(msg, flush=True)
 
     with tempfile.TemporaryDirectory() as tmp:
-        paths = {n: (with_low_pressure_mesh(base_raw, Path(tmp) / f"cand{i}.yaml") if mesh is None
-                     else asset_path("calibration", f"{mesh}.yaml") if isinstance(mesh, str)
-                     else candidate_calibration(base_raw, *mesh, None, s, Path(tmp) / f"cand{i}.yaml"))
-                 for i, (n, (mesh, s)) in enumerate(cands.items())}
+        paths = {
+            n: (
+                with_low_pressure_mesh(base_raw, Path(tmp) / f"cand{i}.yaml")
+                if mesh is None
+                else asset_path("calibration", f"{mesh}.yaml")
+                if isinstance(mesh, str)
+                else candidate_calibration(base_raw, *mesh, None, s, Path(tmp) / f"cand{i}.yaml")
+            )
+            for i, (n, (mesh, s)) in enumerate(cands.items())
+        }
         acc = accuracy(cands, paths, PRESSURES_KPA, log)
-        spd = speed(cands, paths, PRESSURES_KPA, args.rounds, args.twin_seconds, args.env_id or None,
-                    args.env_seconds, log)
+        spd = speed(
+            cands, paths, PRESSURES_KPA, args.rounds, args.twin_seconds, args.env_id or None, args.env_seconds, log
+        )
     md, data = report(acc, spd, PRESSURES_KPA, args, info)
     out = Path(args.out)
     write_text_atomic(out.with_suffix(".md"), md)

@@ -53,13 +53,26 @@ def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
         return yaml.safe_load(f)["recipes"]
 
 
-def grid_jobs(controller: str, spec: str, env_kwargs: Mapping[str, Any], env_id: str = ENV_ID,
-              seeds: Sequence[int] = EVAL_SEEDS) -> list[dict[str, Any]]:
+def grid_jobs(
+    controller: str, spec: str, env_kwargs: Mapping[str, Any], env_id: str = ENV_ID, seeds: Sequence[int] = EVAL_SEEDS
+) -> list[dict[str, Any]]:
     """The demo grid's episodes (or, with other ``seeds``, the validation grid's) as
     :func:`sphere_env.evaluation.cells.rollout` jobs."""
-    return [dict(controller=controller, spec=spec, env_id=env_id, shell_model=m, friction="majd",
-                 pressure_kpa=p, seed=s, env_kwargs=dict(env_kwargs))
-            for m in SHELLS for p in PRESSURES_KPA for s in seeds]
+    return [
+        dict(
+            controller=controller,
+            spec=spec,
+            env_id=env_id,
+            shell_model=m,
+            friction="majd",
+            pressure_kpa=p,
+            seed=s,
+            env_kwargs=dict(env_kwargs),
+        )
+        for m in SHELLS
+        for p in PRESSURES_KPA
+        for s in seeds
+    ]
 
 
 def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -67,8 +80,12 @@ def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     succ = [bool(r["is_success"]) for r in rows]
     rmse = [r["tracking_rmse_rad_s"] for r in rows if np.isfinite(r["tracking_rmse_rad_s"])]
     per_shell = {m: float(np.mean([bool(r["is_success"]) for r in rows if r["shell_model"] == m])) for m in SHELLS}
-    return {"success_rate": float(np.mean(succ)), "tracking_rmse_rad_s": float(np.mean(rmse)) if rmse else math.nan,
-            "per_shell": per_shell, "episodes": len(rows)}
+    return {
+        "success_rate": float(np.mean(succ)),
+        "tracking_rmse_rad_s": float(np.mean(rmse)) if rmse else math.nan,
+        "per_shell": per_shell,
+        "episodes": len(rows),
+    }
 
 
 def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL_SEEDS) -> dict:
@@ -79,13 +96,21 @@ def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL
 
     ctrl = PolicyController(*run_folder(spec))
     rows = [rollout(job, controller=ctrl)[0] for job in grid_jobs("policy", spec, env_kwargs_of(spec), env_id, seeds)]
-    return {**grid_figures(rows), "episodes_detail": [
-        {k: r[k] for k in ("shell_model", "pressure_kpa", "seed", "is_success", "tracking_rmse_rad_s",
-                           "reached_runout")} for r in rows]}
+    return {
+        **grid_figures(rows),
+        "episodes_detail": [
+            {
+                k: r[k]
+                for k in ("shell_model", "pressure_kpa", "seed", "is_success", "tracking_rmse_rad_s", "reached_runout")
+            }
+            for r in rows
+        ],
+    }
 
 
-def fault_figures(spec: str, env_kwargs: Mapping[str, Any], cache: Path | None = None,
-                  env_id: str = ENV_ID) -> dict[str, dict[str, Any]]:
+def fault_figures(
+    spec: str, env_kwargs: Mapping[str, Any], cache: Path | None = None, env_id: str = ENV_ID
+) -> dict[str, dict[str, Any]]:
     """A controller (``pd``, ``zero``, or a run spec of a policy) on every fault of
     :data:`sphere_env.evaluation.faults.FAULTS`: grid figures per fault, each cached as
     ``<cache>/fault_<name>.json`` so an interrupted evaluation continues."""
@@ -122,7 +147,9 @@ def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) 
 
     cache = run_dir / "grid_eval"
     cache.mkdir(exist_ok=True)
-    ckpts = sorted(int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
+    ckpts = sorted(
+        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
+    )
     scored = []
     for n in (c for c in ckpts if c >= from_steps):
         done = cache / f"val_{n}.json"
@@ -140,8 +167,12 @@ def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) 
     if grid is None:
         grid = evaluate_policy(f"{run_dir}@{n}", env_id)
         grid.pop("episodes_detail")
-    return {"checkpoint_steps": n, "validation": val, "candidates": [x[2] for x in scored],
-            **{k: grid[k] for k in ("success_rate", "tracking_rmse_rad_s", "per_shell")}}
+    return {
+        "checkpoint_steps": n,
+        "validation": val,
+        "candidates": [x[2] for x in scored],
+        **{k: grid[k] for k in ("success_rate", "tracking_rmse_rad_s", "per_shell")},
+    }
 
 
 def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
@@ -165,7 +196,10 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
             spec = str(shipped_policy_path("pretrained"))
             grid = evaluate_policy(spec)
             grid.pop("episodes_detail")
-            base["pretrained"] = {**grid, "faults": fault_figures(spec, env_kwargs_of(spec), RUNS / "baselines" / "pretrained")}
+            base["pretrained"] = {
+                **grid,
+                "faults": fault_figures(spec, env_kwargs_of(spec), RUNS / "baselines" / "pretrained"),
+            }
             write_text_atomic(base_path, json.dumps(base, indent=1) + "\n")
     for f in sorted((results / "runs").glob("*/seed*.json")):
         res = json.loads(f.read_text())
@@ -219,9 +253,17 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
             raise ValueError(f"continue_from: {agent} is missing (run {recipe['continue_from']} seed {seed} first)")
         t = json.loads((first / "timing.json").read_text()) if (first / "timing.json").exists() else None
         offset_wall = offset * (t["wall_s"] / max(t["steps_this_session"], 1)) if t else math.nan
-    cfg = resolve_config(env_id, recipe.get("algo", "ppo"), hyperparams_path(recipe.get("conf", "ppo")),
-                         overrides=overrides, env_kwargs=recipe.get("env_kwargs") or {}, seed=seed,
-                         eval_freq=0, checkpoint_freq=every, trained_agent=agent)
+    cfg = resolve_config(
+        env_id,
+        recipe.get("algo", "ppo"),
+        hyperparams_path(recipe.get("conf", "ppo")),
+        overrides=overrides,
+        env_kwargs=recipe.get("env_kwargs") or {},
+        seed=seed,
+        eval_freq=0,
+        checkpoint_freq=every,
+        trained_agent=agent,
+    )
     run_dir = runs_root / recipe_name / f"seed{seed}"
     resume = (run_dir / "config.yaml").exists()
     t0 = time.perf_counter()
@@ -233,7 +275,9 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
     timing = json.loads((run_dir / "timing.json").read_text())
     wall_per_step = timing["wall_s"] / max(timing["steps_this_session"], 1)
     curve = []
-    ckpts = sorted(int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
+    ckpts = sorted(
+        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
+    )
     cache = run_dir / "grid_eval"  # one file per evaluated checkpoint: a longer budget re-uses them
     cache.mkdir(exist_ok=True)
     for n in ckpts:
@@ -249,15 +293,27 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
     level = pd_level()
     reached = next((c for c in curve if c["success_rate"] >= level - 1e-9), None)
     result = {
-        "method": recipe_name, "condition": recipe.get("condition", "pressure"), "from_scratch": True,
-        "seed": seed, "algo": cfg.algo, "env_id": env_id, "recipe": recipe, "success_rate": final["success_rate"],
-        "tracking_rmse_rad_s": final["tracking_rmse_rad_s"], "per_shell": final["per_shell"],
-        "episodes": final["episodes_detail"], "curve": curve, "pd_level": level,
+        "method": recipe_name,
+        "condition": recipe.get("condition", "pressure"),
+        "from_scratch": True,
+        "seed": seed,
+        "algo": cfg.algo,
+        "env_id": env_id,
+        "recipe": recipe,
+        "success_rate": final["success_rate"],
+        "tracking_rmse_rad_s": final["tracking_rmse_rad_s"],
+        "per_shell": final["per_shell"],
+        "episodes": final["episodes_detail"],
+        "curve": curve,
+        "pd_level": level,
         "env_steps_to_pd_level": reached["env_steps"] if reached else None,
         "wall_clock_to_pd_level_s": reached["wall_clock_s"] if reached else None,
-        "wall_clock_s": offset_wall + timing["wall_s"], "env_steps": offset + timing["num_timesteps"],
-        "steps_per_s": timing["steps_per_s"], "job_wall_s": time.perf_counter() - t0,
-        "commit": _commit(), "cores": os.cpu_count(),
+        "wall_clock_s": offset_wall + timing["wall_s"],
+        "env_steps": offset + timing["num_timesteps"],
+        "steps_per_s": timing["steps_per_s"],
+        "job_wall_s": time.perf_counter() - t0,
+        "commit": _commit(),
+        "cores": os.cpu_count(),
     }
     out.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out, json.dumps(result, indent=1) + "\n")
@@ -288,8 +344,15 @@ def baselines(results: Path = RESULTS) -> Path:
     for name in ("pd", "zero"):
         rows = [rollout(job)[0] for job in grid_jobs(name, name, {})]
         out[name] = grid_figures(rows)
-    out.update(grid={"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS),
-                     "episodes": len(SHELLS) * len(PRESSURES_KPA) * len(EVAL_SEEDS)}, commit=_commit())
+    out.update(
+        grid={
+            "shells": list(SHELLS),
+            "pressures_kpa": list(PRESSURES_KPA),
+            "seeds": list(EVAL_SEEDS),
+            "episodes": len(SHELLS) * len(PRESSURES_KPA) * len(EVAL_SEEDS),
+        },
+        commit=_commit(),
+    )
     path = results / "baselines.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, json.dumps(out, indent=1) + "\n")
@@ -309,8 +372,11 @@ def _candidate(spec: str, runs_root: Path) -> tuple[str, dict[str, Any]]:
         raise ValueError(f"candidates: {spec!r}; allowed: recipe:seed or recipe:seed:steps")
     run = str(runs_root / parts[0] / f"seed{parts[1]}") + (f"@{parts[2]}" if len(parts) == 3 else "")
     check_spec(run, ENV_ID)
-    return run, {"recipe": parts[0], "seed": int(parts[1]),
-                 "checkpoint_steps": int(parts[2]) if len(parts) == 3 else None}
+    return run, {
+        "recipe": parts[0],
+        "seed": int(parts[1]),
+        "checkpoint_steps": int(parts[2]) if len(parts) == 3 else None,
+    }
 
 
 def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
@@ -337,8 +403,10 @@ def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
         val.pop("episodes_detail")
         scores.append({"candidate": c, **desc, "validation": val})
         print(f"{c}: validation success {val['success_rate']:.0%}", flush=True)
-    best = max(range(len(scores)), key=lambda i: (scores[i]["validation"]["success_rate"],
-                                                  -scores[i]["validation"]["tracking_rmse_rad_s"]))
+    best = max(
+        range(len(scores)),
+        key=lambda i: (scores[i]["validation"]["success_rate"], -scores[i]["validation"]["tracking_rmse_rad_s"]),
+    )
     run, desc = runs[best]
     grid = evaluate_policy(run)
     folder, which = run_folder(run)
@@ -357,9 +425,13 @@ def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
         shutil.copy2(model, stage / "model.zip")
         shutil.copy2(stats, stage / "vecnormalize.pkl")
         card = {
-            "env_id": ENV_ID, "algo": "ppo", **desc,
-            "success_rate": grid["success_rate"], "tracking_rmse_rad_s": grid["tracking_rmse_rad_s"],
-            "per_shell": grid["per_shell"], "episodes": grid["episodes_detail"],
+            "env_id": ENV_ID,
+            "algo": "ppo",
+            **desc,
+            "success_rate": grid["success_rate"],
+            "tracking_rmse_rad_s": grid["tracking_rmse_rad_s"],
+            "per_shell": grid["per_shell"],
+            "episodes": grid["episodes_detail"],
             "grid": {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)},
             "chosen_on": {"seeds": list(VALIDATION_SEEDS), "candidates": scores},
             "recipes": {name: load_recipes()[name] for name in {s["recipe"] for s in scores}},
@@ -370,21 +442,29 @@ def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="python -m evaluation.experiments.learning", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m evaluation.experiments.learning",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sub = p.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run", help="train and evaluate recipe x seeds (skips finished jobs)")
     r.add_argument("--recipe", nargs="+", required=True)
     r.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     r.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
-    r.add_argument("--ray-address", default=None,
-                   help="run the jobs on a Ray cluster (auto, ray://host:10001, or local); needs the ray extra")
+    r.add_argument(
+        "--ray-address",
+        default=None,
+        help="run the jobs on a Ray cluster (auto, ray://host:10001, or local); needs the ray extra",
+    )
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
     sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
     sub.add_parser("faults", help="evaluate PD, zero, the pretrained policy and every finished run on the fault grid")
-    sp = sub.add_parser("ship", help="choose among runs on the validation grid and copy the best into the "
-                                     "package as the pretrained policy")
+    sp = sub.add_parser(
+        "ship",
+        help="choose among runs on the validation grid and copy the best into the package as the pretrained policy",
+    )
     sp.add_argument("--candidates", nargs="+", required=True, help="recipe:seed (final model) or recipe:seed:steps")
     args = p.parse_args(argv)
     if args.cmd == "ship":

@@ -49,8 +49,15 @@ def interval_estimates(scores: Mapping[str, np.ndarray], seed: int = 0) -> dict[
 
     np.random.seed(seed)  # rliable's bootstrap draws from numpy's global generator
     point, ci = rly.get_interval_estimates(dict(scores), agg, reps=BOOTSTRAP_REPS)
-    return {k: {"iqm": float(point[k][0]), "iqm_ci": [float(ci[k][0, 0]), float(ci[k][1, 0])],
-                "mean": float(point[k][1]), "mean_ci": [float(ci[k][0, 1]), float(ci[k][1, 1])]} for k in scores}
+    return {
+        k: {
+            "iqm": float(point[k][0]),
+            "iqm_ci": [float(ci[k][0, 0]), float(ci[k][1, 0])],
+            "mean": float(point[k][1]),
+            "mean_ci": [float(ci[k][0, 1]), float(ci[k][1, 1])],
+        }
+        for k in scores
+    }
 
 
 def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -61,25 +68,33 @@ def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
         steps = [r["env_steps_to_pd_level"] for r in runs]
         walls = [r["wall_clock_to_pd_level_s"] for r in runs]
         reached = [s for s in steps if s is not None]
-        rows.append({
-            "recipe": name, "seeds": len(runs), "env_steps": int(np.median([r["env_steps"] for r in runs])),
-            "mean_success": float(succ.mean()), "worst_seed_success": float(succ.min()),
-            "per_shell_mean": {m: float(np.mean([r["per_shell"][m] for r in runs])) for m in SHELLS},
-            "mean_tracking_rmse_rad_s": float(np.nanmean([r["tracking_rmse_rad_s"] for r in runs])),
-            "reached_pd_level": f"{len(reached)}/{len(runs)}",
-            "env_steps_to_pd_level_mean": float(np.mean(reached)) if len(reached) == len(runs) else None,
-            "env_steps_to_pd_level_range": [min(reached), max(reached)] if reached else None,
-            "wall_clock_to_pd_level_s_mean": float(np.mean([w for w in walls if w is not None]))
-            if len(reached) == len(runs) else None,
-            **{f"rliable_{k}": v for k, v in ests[name].items()},
-            "aims": {
-                "mean_success_ge_pd_minus_3": bool(succ.mean() >= pd["success_rate"] - 0.03 - 1e-9),
-                "worst_seed_ge_85": bool(succ.min() >= 0.85 - 1e-9),
-                "every_shell_ge_80": all(np.mean([r["per_shell"][m] for r in runs]) >= 0.8 - 1e-9 for m in SHELLS),
-                "rmse_le_pd": bool(np.nanmean([r["tracking_rmse_rad_s"] for r in runs]) <= pd["tracking_rmse_rad_s"]),
-            },
-            "note": "" if "@" in name else runs[0]["recipe"].get("note", ""),
-        })
+        rows.append(
+            {
+                "recipe": name,
+                "seeds": len(runs),
+                "env_steps": int(np.median([r["env_steps"] for r in runs])),
+                "mean_success": float(succ.mean()),
+                "worst_seed_success": float(succ.min()),
+                "per_shell_mean": {m: float(np.mean([r["per_shell"][m] for r in runs])) for m in SHELLS},
+                "mean_tracking_rmse_rad_s": float(np.nanmean([r["tracking_rmse_rad_s"] for r in runs])),
+                "reached_pd_level": f"{len(reached)}/{len(runs)}",
+                "env_steps_to_pd_level_mean": float(np.mean(reached)) if len(reached) == len(runs) else None,
+                "env_steps_to_pd_level_range": [min(reached), max(reached)] if reached else None,
+                "wall_clock_to_pd_level_s_mean": float(np.mean([w for w in walls if w is not None]))
+                if len(reached) == len(runs)
+                else None,
+                **{f"rliable_{k}": v for k, v in ests[name].items()},
+                "aims": {
+                    "mean_success_ge_pd_minus_3": bool(succ.mean() >= pd["success_rate"] - 0.03 - 1e-9),
+                    "worst_seed_ge_85": bool(succ.min() >= 0.85 - 1e-9),
+                    "every_shell_ge_80": all(np.mean([r["per_shell"][m] for r in runs]) >= 0.8 - 1e-9 for m in SHELLS),
+                    "rmse_le_pd": bool(
+                        np.nanmean([r["tracking_rmse_rad_s"] for r in runs]) <= pd["tracking_rmse_rad_s"]
+                    ),
+                },
+                "note": "" if "@" in name else runs[0]["recipe"].get("note", ""),
+            }
+        )
     return rows
 
 
@@ -89,8 +104,10 @@ def selected_runs(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[st
     out = {}
     for name, runs in runs_by_recipe.items():
         if runs and all("selected" in r for r in runs):
-            out[f"{name}@selected"] = [{**r, **{k: r["selected"][k] for k in ("success_rate", "tracking_rmse_rad_s",
-                                                                              "per_shell")}} for r in runs]
+            out[f"{name}@selected"] = [
+                {**r, **{k: r["selected"][k] for k in ("success_rate", "tracking_rmse_rad_s", "per_shell")}}
+                for r in runs
+            ]
     return out
 
 
@@ -105,8 +122,10 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
 
     rows = []
     for f in faults:
-        row = {"fault": f"{f}: {FAULTS[f].title}" if f in FAULTS else f,
-               **{c: _pct(v[f]["success_rate"]) for c, v in cols.items()}}
+        row = {
+            "fault": f"{f}: {FAULTS[f].title}" if f in FAULTS else f,
+            **{c: _pct(v[f]["success_rate"]) for c, v in cols.items()},
+        }
         for name, runs in runs_by_recipe.items():
             got = [r["faults"][f]["success_rate"] for r in runs if f in (r.get("faults") or {})]
             if got:
@@ -159,14 +178,22 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
             rows.append({"grid": grid, "condition": c, "runs": len(x), **est[c]})
         names = sorted(have)
         for i, a in enumerate(names):
-            for b in names[i + 1:]:
+            for b in names[i + 1 :]:
                 np.random.seed(0)
                 point, ci = rly.get_interval_estimates(
-                    {f"{a},{b}": (have[a], have[b])}, lambda x, y: np.array([metrics.probability_of_improvement(x, y)]),
-                    reps=BOOTSTRAP_REPS)
-                rows.append({"grid": grid, "condition": f"P({a} > {b})", "runs": f"{len(have[a])} vs {len(have[b])}",
-                             "poi": float(point[f"{a},{b}"][0]),
-                             "poi_ci": [float(ci[f"{a},{b}"][0, 0]), float(ci[f"{a},{b}"][1, 0])]})
+                    {f"{a},{b}": (have[a], have[b])},
+                    lambda x, y: np.array([metrics.probability_of_improvement(x, y)]),
+                    reps=BOOTSTRAP_REPS,
+                )
+                rows.append(
+                    {
+                        "grid": grid,
+                        "condition": f"P({a} > {b})",
+                        "runs": f"{len(have[a])} vs {len(have[b])}",
+                        "poi": float(point[f"{a},{b}"][0]),
+                        "poi_ci": [float(ci[f"{a},{b}"][0, 0]), float(ci[f"{a},{b}"][1, 0])],
+                    }
+                )
     return rows
 
 
@@ -183,8 +210,9 @@ def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
             continue
         scores = {}
         for n in steps:
-            scores[n] = np.array([[next(c for c in r["curve"] if c["env_steps"] == n)["per_shell"][m] for m in SHELLS]
-                                  for r in runs])
+            scores[n] = np.array(
+                [[next(c for c in r["curve"] if c["env_steps"] == n)["per_shell"][m] for m in SHELLS] for r in runs]
+            )
         est = interval_estimates({str(n): s for n, s in scores.items()})
         y = np.array([est[str(n)]["iqm"] for n in steps])
         lo = np.array([est[str(n)]["iqm_ci"][0] for n in steps])
@@ -214,37 +242,56 @@ def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
     """The randomization study's table (:func:`study_rows`)."""
     if not study:
         return ""
+
     def value(r: Mapping[str, Any]) -> str:
         if "poi" in r:
             return f"{r['poi']:.2f} [{r['poi_ci'][0]:.2f}, {r['poi_ci'][1]:.2f}]"
         return f"{_pct(r['iqm'])} [{_pct(r['iqm_ci'][0])}, {_pct(r['iqm_ci'][1])}]"
 
-    return markdown_table([[r["grid"], r["condition"], r["runs"], value(r)] for r in study],
-                          ["grid", "condition", "runs", "IQM [95% CI] / P(improvement) [95% CI]"])
+    return markdown_table(
+        [[r["grid"], r["condition"], r["runs"], value(r)] for r in study],
+        ["grid", "condition", "runs", "IQM [95% CI] / P(improvement) [95% CI]"],
+    )
 
 
-def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults: str = "",
-             study: Sequence[Mapping[str, Any]] = ()) -> str:
+def markdown(
+    rows: Sequence[Mapping[str, Any]],
+    base: Mapping[str, Any],
+    faults: str = "",
+    study: Sequence[Mapping[str, Any]] = (),
+) -> str:
     import pandas as pd_
 
     pd = base["pd"]
-    table = pd_.DataFrame([{
-        "recipe": r["recipe"], "seeds": r["seeds"], "env steps": r["env_steps"],
-        "mean success": _pct(r["mean_success"]), "worst seed": _pct(r["worst_seed_success"]),
-        "IQM [95% CI]": f"{_pct(r['rliable_iqm'])} [{_pct(r['rliable_iqm_ci'][0])}, {_pct(r['rliable_iqm_ci'][1])}]",
-        "point / injected / hydro": " / ".join(_pct(r["per_shell_mean"][m]) for m in SHELLS),
-        "RMSE rad/s": f"{r['mean_tracking_rmse_rad_s']:.2f}",
-        "runs at PD level": r["reached_pd_level"],
-        "steps to PD level (mean, range)": "–" if r["env_steps_to_pd_level_range"] is None else (
-            (f"{r['env_steps_to_pd_level_mean'] / 1e3:.0f} k, " if r["env_steps_to_pd_level_mean"] else "")
-            + f"{r['env_steps_to_pd_level_range'][0] / 1e3:.0f}–{r['env_steps_to_pd_level_range'][1] / 1e3:.0f} k"),
-    } for r in rows])
+    table = pd_.DataFrame(
+        [
+            {
+                "recipe": r["recipe"],
+                "seeds": r["seeds"],
+                "env steps": r["env_steps"],
+                "mean success": _pct(r["mean_success"]),
+                "worst seed": _pct(r["worst_seed_success"]),
+                "IQM [95% CI]": f"{_pct(r['rliable_iqm'])} [{_pct(r['rliable_iqm_ci'][0])}, {_pct(r['rliable_iqm_ci'][1])}]",
+                "point / injected / hydro": " / ".join(_pct(r["per_shell_mean"][m]) for m in SHELLS),
+                "RMSE rad/s": f"{r['mean_tracking_rmse_rad_s']:.2f}",
+                "runs at PD level": r["reached_pd_level"],
+                "steps to PD level (mean, range)": "–"
+                if r["env_steps_to_pd_level_range"] is None
+                else (
+                    (f"{r['env_steps_to_pd_level_mean'] / 1e3:.0f} k, " if r["env_steps_to_pd_level_mean"] else "")
+                    + f"{r['env_steps_to_pd_level_range'][0] / 1e3:.0f}–{r['env_steps_to_pd_level_range'][1] / 1e3:.0f} k"
+                ),
+            }
+            for r in rows
+        ]
+    )
     notes = "\n".join(f"- **{r['recipe']}**: {r['note']}" for r in rows if r["note"])
     from sphere_env.evaluation.experiments.learning import load_recipes
 
     finished = {r["recipe"].split("@")[0] for r in rows}
-    stopped = "\n".join(f"- **{name}**: {rec.get('note', '')}" for name, rec in load_recipes().items()
-                        if name not in finished)
+    stopped = "\n".join(
+        f"- **{name}**: {rec.get('note', '')}" for name, rec in load_recipes().items() if name not in finished
+    )
     g = base["grid"]
     return (
         "# Learning study\n\n"
@@ -256,23 +303,35 @@ def markdown(rows: Sequence[Mapping[str, Any]], base: Mapping[str, Any], faults:
         f"{' / '.join(_pct(pd['per_shell'][m]) for m in SHELLS)}), tracking RMSE "
         f"{pd['tracking_rmse_rad_s']:.2f} rad/s; zero torque {_pct(base['zero']['success_rate'])}. "
         "PD level = PD − 3 points. IQM and its interval: rliable, stratified bootstrap over training seeds "
-        f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n"
-        + table.to_markdown(index=False) + "\n\n"
+        f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n" + table.to_markdown(index=False) + "\n\n"
         "`<recipe>@selected`: each run reported by its checkpoint with the highest success on the validation "
         "grid (evaluation seeds 100-102, never the reported grid), from half its budget on: the model an "
         "rl-zoo3 user keeps as best_model. The plain rows report each run's final model.\n\n"
-        + notes + "\n\n![learning curves](learning_curves.png)\n"
-        + ("\n## Fault grid\n\nThe nominal grid under one fault at a time (`evaluation/faults.py`: what each "
-           "fault is and where its range comes from), deterministic actions; runs by their validation-chosen "
-           "checkpoint.\n\n" + faults + "\n" if faults else "")
-        + ("\n## Randomization study\n\nTraining conditions (each run's `condition`: nominal, pressure, "
-           "pressure_faults), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
-           "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
-           "each pair the probability that a run of the first condition beats one of the second (0.5: no "
-           "difference; an interval that excludes 0.5 tells them apart). Conditions with fewer than 2 runs are "
-           "left out.\n\n" + study_markdown(study) + "\n" if study else "")
-        + ("\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
-           "early for the reason in their note, or not run yet.\n\n" + stopped + "\n" if stopped else "")
+        + notes
+        + "\n\n![learning curves](learning_curves.png)\n"
+        + (
+            "\n## Fault grid\n\nThe nominal grid under one fault at a time (`evaluation/faults.py`: what each "
+            "fault is and where its range comes from), deterministic actions; runs by their validation-chosen "
+            "checkpoint.\n\n" + faults + "\n"
+            if faults
+            else ""
+        )
+        + (
+            "\n## Randomization study\n\nTraining conditions (each run's `condition`: nominal, pressure, "
+            "pressure_faults), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
+            "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
+            "each pair the probability that a run of the first condition beats one of the second (0.5: no "
+            "difference; an interval that excludes 0.5 tells them apart). Conditions with fewer than 2 runs are "
+            "left out.\n\n" + study_markdown(study) + "\n"
+            if study
+            else ""
+        )
+        + (
+            "\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
+            "early for the reason in their note, or not run yet.\n\n" + stopped + "\n"
+            if stopped
+            else ""
+        )
     )
 
 
@@ -282,16 +341,39 @@ def write_summary(results: Path) -> Path:
     rows = recipe_rows({**runs_by_recipe, **selected_runs(runs_by_recipe)}, base["pd"]) if runs_by_recipe else []
     study = study_rows(condition_scores(runs_by_recipe)) if runs_by_recipe else []
     summary = {
-        "commit": base.get("commit"), "cores": 2, "grid": base["grid"], "pd": base["pd"], "zero": base["zero"],
+        "commit": base.get("commit"),
+        "cores": 2,
+        "grid": base["grid"],
+        "pd": base["pd"],
+        "zero": base["zero"],
         "randomization_study": study,
         "pretrained": base.get("pretrained"),
         "recipes": rows,
-        "runs": [{k: r[k] for k in ("method", "condition", "from_scratch", "seed", "success_rate",
-                                    "tracking_rmse_rad_s", "per_shell", "env_steps_to_pd_level",
-                                    "wall_clock_to_pd_level_s", "wall_clock_s", "env_steps", "commit")}
-                 | {"faults": r.get("faults", {}), "selected": {k: v for k, v in r.get("selected", {}).items()
-                                                               if k != "faults"}}
-                 for runs in runs_by_recipe.values() for r in runs],
+        "runs": [
+            {
+                k: r[k]
+                for k in (
+                    "method",
+                    "condition",
+                    "from_scratch",
+                    "seed",
+                    "success_rate",
+                    "tracking_rmse_rad_s",
+                    "per_shell",
+                    "env_steps_to_pd_level",
+                    "wall_clock_to_pd_level_s",
+                    "wall_clock_s",
+                    "env_steps",
+                    "commit",
+                )
+            }
+            | {
+                "faults": r.get("faults", {}),
+                "selected": {k: v for k, v in r.get("selected", {}).items() if k != "faults"},
+            }
+            for runs in runs_by_recipe.values()
+            for r in runs
+        ],
     }
     write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
     if runs_by_recipe:

@@ -61,8 +61,11 @@ def measure(logs: Path) -> dict:
 
 
 def main(argv=None) -> None:
-    p = argparse.ArgumentParser(prog="python -m evaluation.experiments.log_noise", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m evaluation.experiments.log_noise",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--logs", type=Path, default=LOGS)
     args = p.parse_args(argv)
     out = measure(args.logs)

@@ -65,8 +65,14 @@ def bootstrap_ci(values: Sequence[float], confidence: float = 0.95) -> tuple[flo
     v = np.asarray(values, float)
     if len(v) < 2 or np.all(v == v[0]):
         return float(v.mean()), float(v.mean())
-    res = bootstrap((v,), np.mean, confidence_level=confidence, method="percentile", n_resamples=2000,
-                    random_state=np.random.default_rng(0))
+    res = bootstrap(
+        (v,),
+        np.mean,
+        confidence_level=confidence,
+        method="percentile",
+        n_resamples=2000,
+        random_state=np.random.default_rng(0),
+    )
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
@@ -77,16 +83,26 @@ def summarize(rows: Sequence[dict[str, Any]]) -> tuple[list[dict], list[dict]]:
     for r in rows:
         cond, _, seed = r["controller"].rpartition("_s")
         per_seed.setdefault((cond, int(seed), float(r["pressure_kpa"])), []).append(bool(r["is_success"]))
-    seed_rows = [{"condition": c, "train_seed": s, "pressure_kpa": p, "episodes": len(v),
-                  "success_rate": float(np.mean(v))} for (c, s, p), v in sorted(per_seed.items())]
+    seed_rows = [
+        {"condition": c, "train_seed": s, "pressure_kpa": p, "episodes": len(v), "success_rate": float(np.mean(v))}
+        for (c, s, p), v in sorted(per_seed.items())
+    ]
     out = []
     for cond in CONDITIONS:
         for p in sorted({r["pressure_kpa"] for r in seed_rows if r["condition"] == cond}):
             rates = [r["success_rate"] for r in seed_rows if r["condition"] == cond and r["pressure_kpa"] == p]
             lo, hi = bootstrap_ci(rates)
-            out.append({"condition": cond, "pressure_kpa": p, "train_seeds": len(rates),
-                        "mean_success": float(np.mean(rates)), "ci95_low": lo, "ci95_high": hi,
-                        "worst_seed_success": float(np.min(rates))})
+            out.append(
+                {
+                    "condition": cond,
+                    "pressure_kpa": p,
+                    "train_seeds": len(rates),
+                    "mean_success": float(np.mean(rates)),
+                    "ci95_low": lo,
+                    "ci95_high": hi,
+                    "worst_seed_success": float(np.min(rates)),
+                }
+            )
     return out, seed_rows
 
 
@@ -114,8 +130,10 @@ def plot(summary: Sequence[dict[str, Any]], path: Path) -> Path:
     ax.set_ylim(-0.03, 1.03)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(f"{ENV_ID}: PPO trained with / without pressure randomization\n(band: 95 % bootstrap CI across training seeds)",
-                 fontsize=9)
+    ax.set_title(
+        f"{ENV_ID}: PPO trained with / without pressure randomization\n(band: 95 % bootstrap CI across training seeds)",
+        fontsize=9,
+    )
     tmp = path.with_name(path.stem + ".tmp.png")
     save_figure(fig, tmp)
     tmp.replace(path)
@@ -127,10 +145,14 @@ def report(summary, seed_rows, args, timings: dict[str, float]) -> str:
     from sphere_env.reporting import markdown_table
 
     info = machine_info()
-    cols = [("condition", "training", ""), ("pressure_kpa", "pressure kPa", "{:g}"),
-            ("mean_success", "mean success", "{:.0%}"),
-            ("ci95_low", "95 % CI low", "{:.0%}"), ("ci95_high", "95 % CI high", "{:.0%}"),
-            ("worst_seed_success", "worst seed", "{:.0%}")]
+    cols = [
+        ("condition", "training", ""),
+        ("pressure_kpa", "pressure kPa", "{:g}"),
+        ("mean_success", "mean success", "{:.0%}"),
+        ("ci95_low", "95 % CI low", "{:.0%}"),
+        ("ci95_high", "95 % CI high", "{:.0%}"),
+        ("worst_seed_success", "worst seed", "{:.0%}"),
+    ]
     overall = {c: float(np.mean([r["success_rate"] for r in seed_rows if r["condition"] == c])) for c in CONDITIONS}
     worst = {c: float(np.min([r["success_rate"] for r in seed_rows if r["condition"] == c])) for c in CONDITIONS}
     lines = [
@@ -148,13 +170,21 @@ def report(summary, seed_rows, args, timings: dict[str, float]) -> str:
         "",
         markdown_table(summary, cols),
         "",
-        "Over all pressures: " + "; ".join(f"{c} {overall[c]:.0%} mean, worst seed × pressure {worst[c]:.0%}"
-                                           for c in CONDITIONS) + ".",
+        "Over all pressures: "
+        + "; ".join(f"{c} {overall[c]:.0%} mean, worst seed × pressure {worst[c]:.0%}" for c in CONDITIONS)
+        + ".",
         "",
         "Per training seed (success rate over shell models × eval seeds):",
         "",
-        markdown_table(seed_rows, [("condition", "training", ""), ("train_seed", "seed", "{}"),
-                                   ("pressure_kpa", "pressure kPa", "{:g}"), ("success_rate", "success", "{:.0%}")]),
+        markdown_table(
+            seed_rows,
+            [
+                ("condition", "training", ""),
+                ("train_seed", "seed", "{}"),
+                ("pressure_kpa", "pressure kPa", "{:g}"),
+                ("success_rate", "success", "{:.0%}"),
+            ],
+        ),
         "",
         f"Wall time: training {timings['train_s'] / 60:.1f} min, evaluation {timings['eval_s'] / 60:.1f} min.",
         "",
@@ -169,8 +199,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--train-steps", type=int, default=DEFAULT_TRAIN_STEPS, help="PPO env steps per run")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds per condition")
     parser.add_argument("--eval-seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--pressures", type=float, nargs="+", default=None,
-                        help="evaluation pressures [kPa] (default: 5 points over the calibrated range)")
+    parser.add_argument(
+        "--pressures",
+        type=float,
+        nargs="+",
+        default=None,
+        help="evaluation pressures [kPa] (default: 5 points over the calibrated range)",
+    )
     parser.add_argument("--out", type=Path, default=Path("out/randomization_study"))
     parser.add_argument("--workers", type=int, default=None, help="evaluation processes (default: all cores)")
     parser.add_argument("--publish", action="store_true", help=f"copy study.md/.csv/.png to {PUBLISH}")
@@ -201,10 +236,14 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     for cond in CONDITIONS:
         for seed in args.seeds:
             configs[(cond, seed)] = resolve_config(
-                ENV_ID, "ppo", overrides={"n_timesteps": args.train_steps,
-                                          **condition_overrides(cond, cal.nominal_pressure_kpa)},
-                seed=seed, eval_freq=max(args.train_steps // 4, 1), eval_episodes=3,
-                checkpoint_freq=max(args.train_steps // 2, 1))
+                ENV_ID,
+                "ppo",
+                overrides={"n_timesteps": args.train_steps, **condition_overrides(cond, cal.nominal_pressure_kpa)},
+                seed=seed,
+                eval_freq=max(args.train_steps // 4, 1),
+                eval_episodes=3,
+                checkpoint_freq=max(args.train_steps // 2, 1),
+            )
     # ---- train ----
     runs_dir = args.out / "runs"
     t0 = time.perf_counter()
@@ -222,8 +261,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     t_train = time.perf_counter() - t0
     # ---- evaluate ----
     t0 = time.perf_counter()
-    spec = SweepSpec(controllers=[f"{c}_s{s}={run}" for (c, s), run in runs.items()], env_id=ENV_ID,
-                     pressures_kpa=args.pressures, seeds=args.eval_seeds)
+    spec = SweepSpec(
+        controllers=[f"{c}_s{s}={run}" for (c, s), run in runs.items()],
+        env_id=ENV_ID,
+        pressures_kpa=args.pressures,
+        seeds=args.eval_seeds,
+    )
     res = evaluate(spec, args.out / "eval", workers=args.workers, plots=False, progress=True)
     t_eval = time.perf_counter() - t0
     summary, seed_rows = summarize(res["rows"])
@@ -232,8 +275,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     write_text_atomic(args.out / "per_seed.csv", _csv_text(seed_rows))
     plot(summary, args.out / "study.png")
     write_text_atomic(args.out / "study.md", report(summary, seed_rows, args, timings))
-    write_text_atomic(args.out / "study.json", json.dumps({"summary": summary, "per_seed": seed_rows,
-                                                           "timings": timings}, indent=2) + "\n")
+    write_text_atomic(
+        args.out / "study.json",
+        json.dumps({"summary": summary, "per_seed": seed_rows, "timings": timings}, indent=2) + "\n",
+    )
     print((args.out / "study.md").read_text())
     if args.publish:
         PUBLISH.mkdir(parents=True, exist_ok=True)

@@ -89,21 +89,39 @@ def fuzz(env_id: str, shell_model: str, steps: int, seed: int = 0) -> dict:
             bad_obs += 1
         if term or trunc:
             reason = info.get("truncation_reason")
-            ends["physics_failure" if reason else ("success" if info.get("is_success") else
-                 ("terminated" if term else "time_limit"))] += 1
+            ends[
+                "physics_failure"
+                if reason
+                else ("success" if info.get("is_success") else ("terminated" if term else "time_limit"))
+            ] += 1
             env.reset()
     wall = time.perf_counter() - t0
     env.close()
-    return dict(env=env_id.split("/")[1], shell_model=shell_model, steps=steps,
-                advanced=steps - counts["raised_as_documented"], wall_s=wall,
-                nan_inf_raised=counts["raised_as_documented"], nan_inf_sent=counts["nan"] + counts["inf"],
-                huge_sent=counts["pm1e6"] + counts["gauss1e6"], episodes=sum(ends.values()),
-                physics_failures=ends["physics_failure"], success=ends["success"],
-                non_finite_outputs=bad_obs, unexpected=len(unexpected), unexpected_examples=unexpected[:5])
+    return dict(
+        env=env_id.split("/")[1],
+        shell_model=shell_model,
+        steps=steps,
+        advanced=steps - counts["raised_as_documented"],
+        wall_s=wall,
+        nan_inf_raised=counts["raised_as_documented"],
+        nan_inf_sent=counts["nan"] + counts["inf"],
+        huge_sent=counts["pm1e6"] + counts["gauss1e6"],
+        episodes=sum(ends.values()),
+        physics_failures=ends["physics_failure"],
+        success=ends["success"],
+        non_finite_outputs=bad_obs,
+        unexpected=len(unexpected),
+        unexpected_examples=unexpected[:5],
+    )
 
 
-def soak(steps: int, seed: int = 0, sample_every: int = 10_000, shell_model: str = "injected",
-         env_id: str = "sphere_env/RampDescent-v0") -> dict:
+def soak(
+    steps: int,
+    seed: int = 0,
+    sample_every: int = 10_000,
+    shell_model: str = "injected",
+    env_id: str = "sphere_env/RampDescent-v0",
+) -> dict:
     """Run one env for ``steps`` random-action steps under ``randomization="full"``; sample RSS
     every ``sample_every`` steps and time every reset. Median and p95 reset are over the second
     half of the resets (caches warm)."""
@@ -133,32 +151,55 @@ def soak(steps: int, seed: int = 0, sample_every: int = 10_000, shell_model: str
     shells = env.unwrapped.cached_shell_count
     env.close()
     warm = samples[0][1]
-    late = sorted(reset_s[len(reset_s) // 2:]) or [float("nan")]
-    late_cpu = reset_cpu_s[len(reset_cpu_s) // 2:] or [float("nan")]
-    return dict(env=env_id.split("/")[1], shell_model=shell_model, steps=steps, wall_s=wall,
-                steps_per_s=steps / wall, episodes=episodes, physics_failures=failures,
-                twins_cached=twins, shells_cached=shells,
-                rss_start_mb=rss0, rss_after_build_mb=rss_built, rss_first_sample_mb=warm,
-                rss_end_mb=samples[-1][1], growth_from_build_mb=samples[-1][1] - rss_built,
-                growth_after_first_sample_mb=samples[-1][1] - warm, samples=samples,
-                median_reset_ms=1e3 * float(np.median(late)), p95_reset_ms=1e3 * float(np.percentile(late, 95)),
-                median_reset_cpu_ms=1e3 * float(np.median(late_cpu)),
-                max_reset_ms=1e3 * max(reset_s, default=float("nan")),
-                ok=samples[-1][1] - rss_built <= SOAK_LIMIT_MB)
+    late = sorted(reset_s[len(reset_s) // 2 :]) or [float("nan")]
+    late_cpu = reset_cpu_s[len(reset_cpu_s) // 2 :] or [float("nan")]
+    return dict(
+        env=env_id.split("/")[1],
+        shell_model=shell_model,
+        steps=steps,
+        wall_s=wall,
+        steps_per_s=steps / wall,
+        episodes=episodes,
+        physics_failures=failures,
+        twins_cached=twins,
+        shells_cached=shells,
+        rss_start_mb=rss0,
+        rss_after_build_mb=rss_built,
+        rss_first_sample_mb=warm,
+        rss_end_mb=samples[-1][1],
+        growth_from_build_mb=samples[-1][1] - rss_built,
+        growth_after_first_sample_mb=samples[-1][1] - warm,
+        samples=samples,
+        median_reset_ms=1e3 * float(np.median(late)),
+        p95_reset_ms=1e3 * float(np.percentile(late, 95)),
+        median_reset_cpu_ms=1e3 * float(np.median(late_cpu)),
+        max_reset_ms=1e3 * max(reset_s, default=float("nan")),
+        ok=samples[-1][1] - rss_built <= SOAK_LIMIT_MB,
+    )
 
 
-HOSTILE_NOTE = ("Hostile inputs (bad kwargs, randomization specs, reset options, seeds and actions; ended and "
-                "copied episodes; diverging configurations; hostile command lines, calibration files and logs) "
-                "are pytest cases in `tests/hostile/`, run by `make test`.")
+HOSTILE_NOTE = (
+    "Hostile inputs (bad kwargs, randomization specs, reset options, seeds and actions; ended and "
+    "copied episodes; diverging configurations; hostile command lines, calibration files and logs) "
+    "are pytest cases in `tests/hostile/`, run by `make test`."
+)
 
 SOAK_COLUMNS = [
-    ("env", "env", ""), ("shell_model", "shell", ""), ("steps", "steps", "{}"), ("wall_s", "wall s", "{:.0f}"),
-    ("episodes", "episodes", "{}"), ("physics_failures", "physics failures", "{}"),
-    ("twins_cached", "twins", "{}"), ("shells_cached", "hydroelastic shells cached", "{}"),
-    ("rss_after_build_mb", "RSS built MB", "{:.1f}"), ("rss_first_sample_mb", "RSS 1st sample MB", "{:.1f}"),
-    ("rss_end_mb", "RSS end MB", "{:.1f}"), ("growth_from_build_mb", "growth MB", "{:+.1f}"),
+    ("env", "env", ""),
+    ("shell_model", "shell", ""),
+    ("steps", "steps", "{}"),
+    ("wall_s", "wall s", "{:.0f}"),
+    ("episodes", "episodes", "{}"),
+    ("physics_failures", "physics failures", "{}"),
+    ("twins_cached", "twins", "{}"),
+    ("shells_cached", "hydroelastic shells cached", "{}"),
+    ("rss_after_build_mb", "RSS built MB", "{:.1f}"),
+    ("rss_first_sample_mb", "RSS 1st sample MB", "{:.1f}"),
+    ("rss_end_mb", "RSS end MB", "{:.1f}"),
+    ("growth_from_build_mb", "growth MB", "{:+.1f}"),
     ("growth_after_first_sample_mb", "growth after 1st sample MB", "{:+.1f}"),
-    ("median_reset_ms", "median reset ms (warm)", "{:.2f}"), ("p95_reset_ms", "p95 reset ms (warm)", "{:.1f}"),
+    ("median_reset_ms", "median reset ms (warm)", "{:.2f}"),
+    ("p95_reset_ms", "p95 reset ms (warm)", "{:.1f}"),
     ("median_reset_cpu_ms", "median reset CPU ms (warm)", "{:.2f}"),
     ("max_reset_ms", "max reset ms", "{:.0f}"),
 ]
@@ -189,7 +230,7 @@ def soak_markdown(soaks: list[dict], command: str, commit: str, loads: tuple) ->
         "",
         f"From `{command}` (commit {commit}; load average {loads[0][0]:.1f} at the start, {loads[1][0]:.1f} at "
         f"the end; wall-clock resets include waiting for a core, so their CPU time is given too). "
-        f"`randomization=\"full\"` (every reset resamples pressure, friction, ground μ, payload, "
+        f'`randomization="full"` (every reset resamples pressure, friction, ground μ, payload, '
         f"incline on the ramp, leak), random actions. RSS = resident memory of this process; the soaks run one "
         f"after another, so later rows start from the heap the earlier ones left. Median and p95 reset over the "
         f"second half of the resets (caches warm). Limit {SOAK_LIMIT_MB:.0f} MB growth after build (hydroelastic "
@@ -201,8 +242,11 @@ def soak_markdown(soaks: list[dict], command: str, commit: str, loads: tuple) ->
         "",
         markdown_table(soaks, SOAK_COLUMNS),
         "",
-        *[f"- {s['env']} {s['shell_model']} RSS samples (step, MB): "
-          f"{', '.join(f'({i}, {m:.1f})' for i, m in s['samples'])}" for s in soaks],
+        *[
+            f"- {s['env']} {s['shell_model']} RSS samples (step, MB): "
+            f"{', '.join(f'({i}, {m:.1f})' for i, m in s['samples'])}"
+            for s in soaks
+        ],
     ]
 
 
@@ -219,16 +263,31 @@ def _replace_soak_section(md: str, section: list[str]) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--fuzz-steps", type=int, default=60_000,
-                        help="total fuzzed step() calls over all cases (~25%% are NaN/inf and raise)")
-    parser.add_argument("--soak-steps", type=int, default=40_000,
-                        help="soak steps for point and injected (Roll hydroelastic: a quarter)")
-    parser.add_argument("--hydroelastic-soak-steps", type=int, default=None,
-                        help="RampDescent hydroelastic soak steps (default: a quarter of --soak-steps; "
-                             "hydroelastic is ~5x slower per step)")
-    parser.add_argument("--soak-only", action="store_true",
-                        help="run only the soaks and replace the soak section of the existing results "
-                             "(robustness.md section, robustness.json 'soak'); the rest is kept")
+    parser.add_argument(
+        "--fuzz-steps",
+        type=int,
+        default=60_000,
+        help="total fuzzed step() calls over all cases (~25%% are NaN/inf and raise)",
+    )
+    parser.add_argument(
+        "--soak-steps",
+        type=int,
+        default=40_000,
+        help="soak steps for point and injected (Roll hydroelastic: a quarter)",
+    )
+    parser.add_argument(
+        "--hydroelastic-soak-steps",
+        type=int,
+        default=None,
+        help="RampDescent hydroelastic soak steps (default: a quarter of --soak-steps; "
+        "hydroelastic is ~5x slower per step)",
+    )
+    parser.add_argument(
+        "--soak-only",
+        action="store_true",
+        help="run only the soaks and replace the soak section of the existing results "
+        "(robustness.md section, robustness.json 'soak'); the rest is kept",
+    )
     args = parser.parse_args(argv)
     hydro_steps = args.soak_steps // 4 if args.hydroelastic_soak_steps is None else args.hydroelastic_soak_steps
     if min(args.soak_steps, hydro_steps, args.fuzz_steps) < 8:
@@ -238,8 +297,10 @@ def main(argv: list[str] | None = None) -> None:
 
     info = machine_info()  # at the start: the commit that is actually run
     load0 = os.getloadavg()
-    soak_cmd = (f"python -m evaluation.experiments.robustness --soak-steps {args.soak_steps} "
-                f"--hydroelastic-soak-steps {hydro_steps}")
+    soak_cmd = (
+        f"python -m evaluation.experiments.robustness --soak-steps {args.soak_steps} "
+        f"--hydroelastic-soak-steps {hydro_steps}"
+    )
     if args.soak_only:
         md_path, json_path = RESULTS / "robustness.md", RESULTS / "robustness.json"
         old_md = md_path.read_text()  # both read before the long run: fail early
@@ -268,12 +329,20 @@ def main(argv: list[str] | None = None) -> None:
     fuzz_total = sum(r["steps"] for r in rows)
     fuzz_advanced = sum(r["advanced"] for r in rows)
     unexpected = sum(r["unexpected"] for r in rows)
-    cols = [("env", "env", ""), ("shell_model", "shell", ""), ("steps", "step() calls", "{}"),
-            ("advanced", "steps simulated", "{}"), ("wall_s", "wall s", "{:.0f}"),
-            ("huge_sent", "±1e6 / 1e6σ actions", "{}"), ("nan_inf_sent", "NaN/inf actions", "{}"),
-            ("nan_inf_raised", "…raised ValueError", "{}"), ("episodes", "episodes", "{}"),
-            ("physics_failures", "physics-failure truncations", "{}"), ("non_finite_outputs", "non-finite obs/reward", "{}"),
-            ("unexpected", "unexpected exceptions", "{}")]
+    cols = [
+        ("env", "env", ""),
+        ("shell_model", "shell", ""),
+        ("steps", "step() calls", "{}"),
+        ("advanced", "steps simulated", "{}"),
+        ("wall_s", "wall s", "{:.0f}"),
+        ("huge_sent", "±1e6 / 1e6σ actions", "{}"),
+        ("nan_inf_sent", "NaN/inf actions", "{}"),
+        ("nan_inf_raised", "…raised ValueError", "{}"),
+        ("episodes", "episodes", "{}"),
+        ("physics_failures", "physics-failure truncations", "{}"),
+        ("non_finite_outputs", "non-finite obs/reward", "{}"),
+        ("unexpected", "unexpected exceptions", "{}"),
+    ]
     md = [
         "# sphere_env robustness",
         "",
@@ -288,13 +357,18 @@ def main(argv: list[str] | None = None) -> None:
         f"## Fuzzed actions: {fuzz_total} step() calls ({fuzz_advanced} simulated), {unexpected} unexpected exceptions",
         "",
         "Actions: 40% uniform [-1, 1], 20% ±1e6, 15% N(0, 1e6²), 12.5% with a NaN, 12.5% with ±inf; "
-        "`randomization=\"full\"`. NaN/inf must raise `ValueError` naming the action (and the env stays usable); "
+        '`randomization="full"`. NaN/inf must raise `ValueError` naming the action (and the env stays usable); '
         "everything else is clipped and stepped (so these never reach the truncation path).",
         "",
         markdown_table(rows, cols),
         "",
-        *soak_markdown(soaks, f"python -m evaluation.experiments.robustness --fuzz-steps {args.fuzz_steps} --soak-steps "
-                              f"{args.soak_steps} --hydroelastic-soak-steps {hydro_steps}", info["commit"], (load0, load_soak)),
+        *soak_markdown(
+            soaks,
+            f"python -m evaluation.experiments.robustness --fuzz-steps {args.fuzz_steps} --soak-steps "
+            f"{args.soak_steps} --hydroelastic-soak-steps {hydro_steps}",
+            info["commit"],
+            (load0, load_soak),
+        ),
     ]
     out = {"machine": info, "load_average": [load0, load1], "fuzz": rows, "soak": soaks}
     RESULTS.mkdir(parents=True, exist_ok=True)

@@ -41,26 +41,46 @@ def study(steps_s: list[float]) -> list[dict]:
     ref_dt = min(steps_s)
     rows = []
     for model in SHELL_MODELS:
-        ramp = {dt: trace(TwinConfig(shell_model=model, incline_deg=16, ramp_length_m=4.0, time_step_s=dt),
-                          InitialState(), 6.0, "omega_d") for dt in steps_s}
+        ramp = {
+            dt: trace(
+                TwinConfig(shell_model=model, incline_deg=16, ramp_length_m=4.0, time_step_s=dt),
+                InitialState(),
+                6.0,
+                "omega_d",
+            )
+            for dt in steps_s
+        }
         rock = {}
         for dt in steps_s:
-            phi = trace(TwinConfig(fixture="locked_steer", shell_model=model, time_step_s=dt),
-                        InitialState(roll=0.05), 6.0, "phi")
+            phi = trace(
+                TwinConfig(fixture="locked_steer", shell_model=model, time_step_s=dt),
+                InitialState(roll=0.05),
+                6.0,
+                "phi",
+            )
             rock[dt] = fit_free_decay(CHUNK_S * np.arange(1, len(phi) + 1), phi)
         for dt in steps_s:
             err = ramp[dt] - ramp[ref_dt]
-            rows.append(dict(
-                case=model, dt_ms=dt * 1e3,
-                ramp_omega_d_rmse_pct=100 * np.sqrt(np.mean(err**2)) / np.max(np.abs(ramp[ref_dt])),
-                rock_omega_n_err_pct=100 * (rock[dt].omega_n / rock[ref_dt].omega_n - 1),
-                rock_zeta_err_pct=100 * (rock[dt].zeta / rock[ref_dt].zeta - 1) if rock[ref_dt].zeta > 1e-3 else "",
-            ))
-    stand = {dt: trace(TwinConfig(fixture="stand", time_step_s=dt), InitialState(theta=0.4), 5.0, "theta")
-             for dt in steps_s}
+            rows.append(
+                dict(
+                    case=model,
+                    dt_ms=dt * 1e3,
+                    ramp_omega_d_rmse_pct=100 * np.sqrt(np.mean(err**2)) / np.max(np.abs(ramp[ref_dt])),
+                    rock_omega_n_err_pct=100 * (rock[dt].omega_n / rock[ref_dt].omega_n - 1),
+                    rock_zeta_err_pct=100 * (rock[dt].zeta / rock[ref_dt].zeta - 1) if rock[ref_dt].zeta > 1e-3 else "",
+                )
+            )
+    stand = {
+        dt: trace(TwinConfig(fixture="stand", time_step_s=dt), InitialState(theta=0.4), 5.0, "theta") for dt in steps_s
+    }
     for dt in steps_s:
-        rows.append(dict(case="stand (majd steer)", dt_ms=dt * 1e3,
-                         stand_theta_rmse_rad=float(np.sqrt(np.mean((stand[dt] - stand[ref_dt]) ** 2)))))
+        rows.append(
+            dict(
+                case="stand (majd steer)",
+                dt_ms=dt * 1e3,
+                stand_theta_rmse_rad=float(np.sqrt(np.mean((stand[dt] - stand[ref_dt]) ** 2))),
+            )
+        )
     return rows
 
 
@@ -70,24 +90,32 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     rows = study([s * 1e-3 for s in args.steps_ms])
     info = machine_info()
-    cols = [("case", "model", ""), ("dt_ms", "step ms", "{:g}"),
-            ("ramp_omega_d_rmse_pct", "ramp ω_d RMSE % of peak", "{:.2f}"),
-            ("rock_omega_n_err_pct", "rock ω_n err %", "{:+.2f}"), ("rock_zeta_err_pct", "rock ζ err %", "{:+.1f}"),
-            ("stand_theta_rmse_rad", "stand θ RMSE rad", "{:.4f}")]
-    text = "\n".join([
-        "# Plant time-step study",
-        "",
-        f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
-        f"by `python -m evaluation.experiments.timestep_study` "
-        f"(commit {info['commit']}, drake {info['drake']}). Reference: the {min(args.steps_ms):g} ms run of the same case.",
-        "",
-        markdown_table(rows, cols),
-        "",
-    ])
+    cols = [
+        ("case", "model", ""),
+        ("dt_ms", "step ms", "{:g}"),
+        ("ramp_omega_d_rmse_pct", "ramp ω_d RMSE % of peak", "{:.2f}"),
+        ("rock_omega_n_err_pct", "rock ω_n err %", "{:+.2f}"),
+        ("rock_zeta_err_pct", "rock ζ err %", "{:+.1f}"),
+        ("stand_theta_rmse_rad", "stand θ RMSE rad", "{:.4f}"),
+    ]
+    text = "\n".join(
+        [
+            "# Plant time-step study",
+            "",
+            f"Generated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC "
+            f"by `python -m evaluation.experiments.timestep_study` "
+            f"(commit {info['commit']}, drake {info['drake']}). Reference: the {min(args.steps_ms):g} ms run of the same case.",
+            "",
+            markdown_table(rows, cols),
+            "",
+        ]
+    )
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "timestep_study.md").write_text(text)
-    write_text_atomic(RESULTS / "timestep_study.json", json.dumps(
-        {"machine": info, "reference_ms": min(args.steps_ms), "rows": rows}, indent=2, default=float) + "\n")
+    write_text_atomic(
+        RESULTS / "timestep_study.json",
+        json.dumps({"machine": info, "reference_ms": min(args.steps_ms), "rows": rows}, indent=2, default=float) + "\n",
+    )
     print(text)
 
 

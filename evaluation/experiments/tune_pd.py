@@ -23,8 +23,19 @@ import numpy as np
 from sphere_env.files import write_text_atomic
 
 ENV_ID = "sphere_env/RampDescent-v2"
-GAINS = ("k_speed", "k_int", "beta_max", "kp_pitch", "kd_pitch", "t_lead_s", "k_heading", "k_yaw", "theta_max",
-         "kp_lean", "kd_lean")
+GAINS = (
+    "k_speed",
+    "k_int",
+    "beta_max",
+    "kp_pitch",
+    "kd_pitch",
+    "t_lead_s",
+    "k_heading",
+    "k_yaw",
+    "theta_max",
+    "kp_lean",
+    "kd_lean",
+)
 LIMITS = {"beta_max": 1.5, "theta_max": 1.0}  # rad: lift and lean references stay below these
 CASES = [(s, p) for s in ("point", "injected") for p in (3.0, 8.5, 14.0)] + [("hydroelastic", 8.5)]
 
@@ -70,8 +81,11 @@ def search(start: dict[str, float], n_random: int, n_local: int, seed: int, scor
         nonlocal best, best_s, best_e
         s, e = score(g)
         better = (s, -e) > (best_s, -best_e)
-        print(f"{tag}: success {s:.0%}, RMSE {e:.3f}{'  best' if better else ''}  "
-              f"{json.dumps({k: round(v, 3) for k, v in g.items()})}", flush=True)
+        print(
+            f"{tag}: success {s:.0%}, RMSE {e:.3f}{'  best' if better else ''}  "
+            f"{json.dumps({k: round(v, 3) for k, v in g.items()})}",
+            flush=True,
+        )
         if better:
             best, best_s, best_e = g, s, e
 

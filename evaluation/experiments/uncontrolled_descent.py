@@ -1,6 +1,6 @@
 """The paper's uncontrolled ramp descent (§IV) on the twin: one run per shell model and pressure.
 
-    python -m evaluation.experiments.uncontrolled_descent [--pressures 3 4.6 14] [--replay out/ramp.html]
+python -m evaluation.experiments.uncontrolled_descent [--pressures 3 4.6 14] [--replay out/ramp.html]
 """
 
 from __future__ import annotations
@@ -30,8 +30,14 @@ class Descent:
     x_m: np.ndarray
 
 
-def descend(shell_model: str, pressure_kpa: float | None, incline_deg: float = 16.0, ramp_length_m: float = 4.0,
-            seconds: float = 5.0, twin: Twin | None = None) -> Descent:
+def descend(
+    shell_model: str,
+    pressure_kpa: float | None,
+    incline_deg: float = 16.0,
+    ramp_length_m: float = 4.0,
+    seconds: float = 5.0,
+    twin: Twin | None = None,
+) -> Descent:
     twin = twin or Twin(TwinConfig(shell_model=shell_model, incline_deg=incline_deg, ramp_length_m=ramp_length_m))
     twin.reset(InitialState(), pressure_kpa=pressure_kpa)
     x_end = float(twin.terrain.ramp_end_W[0])
@@ -54,15 +60,27 @@ def summary_rows(pressures: list[float | None], seconds: float = 5.0) -> list[di
             d = descend(model, p, seconds=seconds, twin=twin)
             on = d.on_ramp
             t_exit = float(d.t_s[~on][0]) if (~on).any() else float("nan")
-            rows.append(dict(shell_model=model, pressure_kpa=d.pressure_kpa,
-                             mean_omega_d=float(d.omega_d[on].mean()), peak_omega_d=float(d.omega_d.max()),
-                             t_exit_s=t_exit, x_final_m=float(d.x_m[-1])))
+            rows.append(
+                dict(
+                    shell_model=model,
+                    pressure_kpa=d.pressure_kpa,
+                    mean_omega_d=float(d.omega_d[on].mean()),
+                    peak_omega_d=float(d.omega_d.max()),
+                    t_exit_s=t_exit,
+                    x_final_m=float(d.x_m[-1]),
+                )
+            )
     return rows
 
 
-COLUMNS = [("shell_model", "shell model", ""), ("pressure_kpa", "pressure kPa", "{:.1f}"),
-           ("mean_omega_d", "mean ω_d on ramp rad/s", "{:.2f}"), ("peak_omega_d", "peak ω_d rad/s", "{:.2f}"),
-           ("t_exit_s", "time to run-out s", "{:.2f}"), ("x_final_m", "x after 5 s m", "{:.2f}")]
+COLUMNS = [
+    ("shell_model", "shell model", ""),
+    ("pressure_kpa", "pressure kPa", "{:.1f}"),
+    ("mean_omega_d", "mean ω_d on ramp rad/s", "{:.2f}"),
+    ("peak_omega_d", "peak ω_d rad/s", "{:.2f}"),
+    ("t_exit_s", "time to run-out s", "{:.2f}"),
+    ("x_final_m", "x after 5 s m", "{:.2f}"),
+]
 
 
 def save_replay(path: Path, shell_model: str = "hydroelastic", pressure_kpa: float | None = None) -> Path:
@@ -76,8 +94,13 @@ def save_replay(path: Path, shell_model: str = "hydroelastic", pressure_kpa: flo
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--pressures", type=float, nargs="+", default=None,
-                        help="gauge pressures in kPa (default: low end, nominal, high end of the calibration)")
+    parser.add_argument(
+        "--pressures",
+        type=float,
+        nargs="+",
+        default=None,
+        help="gauge pressures in kPa (default: low end, nominal, high end of the calibration)",
+    )
     parser.add_argument("--replay", type=Path, default=Path("out/ramp_descent.html"))
     args = parser.parse_args(argv)
     from sphere_env.models.shell import ShellCalibration

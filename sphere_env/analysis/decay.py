@@ -103,9 +103,11 @@ def fit_free_decay(
         raise ValueError("fit_free_decay: t must increase strictly")
     swing = float(np.ptp(y))
     if swing <= MIN_SWING_REL * max(float(np.max(np.abs(y))), 1e-300) or swing == 0.0:
-        raise ValueError(f"fit_free_decay: the signal is constant (peak to peak {swing:.3g}); there is no "
-                         "oscillation to fit ω_n and ζ to")
-    offset0 = float(np.mean(y[-max(len(y) // 6, 1):]))
+        raise ValueError(
+            f"fit_free_decay: the signal is constant (peak to peak {swing:.3g}); there is no "
+            "oscillation to fit ω_n and ζ to"
+        )
+    offset0 = float(np.mean(y[-max(len(y) // 6, 1) :]))
     z_ld, wd_ld = log_decrement(t, y, offset0)
     if omega_guess is None:
         omega_guess = wd_ld if math.isfinite(wd_ld) else 2.0 * math.pi / max(t[-1], 1e-3)
@@ -132,12 +134,21 @@ def fit_free_decay(
     if not (np.isfinite(std[1:3]).all() and np.all(std[1:3] > 0)):
         # A zero-width or infinite interval: the data do not determine ω_n and ζ (e.g. no
         # oscillation, or fewer samples per period than parameters); the "fit" is the start guess.
-        raise ValueError(f"fit_free_decay: the data do not determine ω_n and ζ (standard errors "
-                         f"{std[2]:.3g} rad/s and {std[1]:.3g}); is there a decaying oscillation in the window?")
+        raise ValueError(
+            f"fit_free_decay: the data do not determine ω_n and ζ (standard errors "
+            f"{std[2]:.3g} rad/s and {std[1]:.3g}); is there a decaying oscillation in the window?"
+        )
     return DecayFit(
-        omega_n=float(popt[2]), zeta=float(popt[1]),
+        omega_n=float(popt[2]),
+        zeta=float(popt[1]),
         omega_n_ci=(float(popt[2] - tq * std[2]), float(popt[2] + tq * std[2])),
         zeta_ci=(float(popt[1] - tq * std[1]), float(popt[1] + tq * std[1])),
-        amplitude=float(popt[0]), phase=float(popt[3]), offset=float(popt[4]), rmse=r,
-        logdec_zeta=z_ld, logdec_omega_d=wd_ld, n_samples=len(t), confidence=confidence,
+        amplitude=float(popt[0]),
+        phase=float(popt[3]),
+        offset=float(popt[4]),
+        rmse=r,
+        logdec_zeta=z_ld,
+        logdec_omega_d=wd_ld,
+        n_samples=len(t),
+        confidence=confidence,
     )

@@ -13,8 +13,9 @@ def rmse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
 
 
-def pme_percent(omega_e: np.ndarray, omega_s: np.ndarray, mask: np.ndarray | None = None,
-                min_speed: float = 1e-3) -> float:
+def pme_percent(
+    omega_e: np.ndarray, omega_s: np.ndarray, mask: np.ndarray | None = None, min_speed: float = 1e-3
+) -> float:
     """Point Mean Error (paper eq. 12) [%]: mean of (ω_e − ω_s)/ω_e · 100 over on-ramp samples.
 
     Positive when the simulation underestimates the experiment. Samples with |ω_e| below

@@ -49,12 +49,12 @@ OUTPUT_FILE = checker(OutputFile)
 OUTPUT_FOLDER = checker(OutputFolder)
 
 
-
 def build_parser() -> argparse.ArgumentParser:
     # usage lines read "sphere-env calibrate ..." from the sphere-env command (which sets argv[0])
     prog = sys.argv[0] if sys.argv[0].startswith("sphere-env") else "python -m sphere_env.calibration"
-    ap = argparse.ArgumentParser(prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 allow_abbrev=False)
+    ap = argparse.ArgumentParser(
+        prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
     sub = ap.add_subparsers(dest="command", required=True)
 
     def common(p, group=None):
@@ -74,23 +74,44 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("steer-fit", help="free-motion segments (steer_plane trials, free windows) -> shell law")
     common(p, "steer_free")
     p.add_argument("--models", nargs="+", default=["injected", "hydroelastic"], choices=["injected", "hydroelastic"])
-    p.add_argument("--forms", nargs="+", default=["linear", "saturating", "quadratic"],
-                   choices=["linear", "saturating", "quadratic"],
-                   help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted")
-    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, default=None,
-                   help="pressure the fit is stated at (default: the base calibration's nominal; the segments' "
-                        "own pressure may be unknown)")
-    p.add_argument("--fit-on", nargs="*", help="trial names to fit on (others are validation); with two or more, "
-                   "each is also left out in turn (leave-one-window-out) and its held-out RMSE recorded")
+    p.add_argument(
+        "--forms",
+        nargs="+",
+        default=["linear", "saturating", "quadratic"],
+        choices=["linear", "saturating", "quadratic"],
+        help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted",
+    )
+    p.add_argument(
+        "--pressure-kpa",
+        type=PRESSURE_KPA,
+        default=None,
+        help="pressure the fit is stated at (default: the base calibration's nominal; the segments' "
+        "own pressure may be unknown)",
+    )
+    p.add_argument(
+        "--fit-on",
+        nargs="*",
+        help="trial names to fit on (others are validation); with two or more, "
+        "each is also left out in turn (leave-one-window-out) and its held-out RMSE recorded",
+    )
     p.add_argument("--workers", type=WORKERS, default=1, help="processes for the cross-validation folds (default 1)")
-    p.add_argument("--max-nfev", type=MAX_NFEV, default=60, help="simulations allowed per fit (refused if not converged)")
+    p.add_argument(
+        "--max-nfev", type=MAX_NFEV, default=60, help="simulations allowed per fit (refused if not converged)"
+    )
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
     p.add_argument("--base", default=None, help="starting calibration (slopes, V(p) shape are kept)")
-    p.add_argument("--match-kd", action="store_true",
-                   help="then set hydroelastic k_d so the locked-steer hydroelastic decay has ζ(p0)")
-    p.add_argument("--time-step-s", type=TIME_STEP_S, default=None,
-                   help="plant step [s] the k_d match runs at and is recorded for (default: the twin's)")
+    p.add_argument(
+        "--match-kd",
+        action="store_true",
+        help="then set hydroelastic k_d so the locked-steer hydroelastic decay has ζ(p0)",
+    )
+    p.add_argument(
+        "--time-step-s",
+        type=TIME_STEP_S,
+        default=None,
+        help="plant step [s] the k_d match runs at and is recorded for (default: the twin's)",
+    )
     p.add_argument("--out", help="calibration YAML to write")
     p.set_defaults(func=cmd_steer_fit)
 
@@ -124,14 +145,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the refit)")
     p.set_defaults(func=cmd_kd_step)
 
-    p = sub.add_parser("kd-pressure", help="hydroelastic k_d against pressure at a plant step, each fitted so "
-                       "the locked-steer decay has ζ(p) (k_d_by_pressure)")
+    p = sub.add_parser(
+        "kd-pressure",
+        help="hydroelastic k_d against pressure at a plant step, each fitted so "
+        "the locked-steer decay has ζ(p) (k_d_by_pressure)",
+    )
     p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
     p.add_argument("--time-step-s", type=TIME_STEP_S, required=True, help="plant step [s] the decays run at")
     renamed(p, "--pressures-kpa", "--pressure-kpa")
-    p.add_argument("--pressure-kpa", type=PRESSURE_KPA, nargs="+", default=None,
-                   help="pressures [kPa] to fit k_d at, spanning the calibrated range (default: its ends, the "
-                        "nominal, 5 even points and both sides of a low_pressure_mesh switch)")
+    p.add_argument(
+        "--pressure-kpa",
+        type=PRESSURE_KPA,
+        nargs="+",
+        default=None,
+        help="pressures [kPa] to fit k_d at, spanning the calibrated range (default: its ends, the "
+        "nominal, 5 even points and both sides of a low_pressure_mesh switch)",
+    )
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the table)")
     p.set_defaults(func=cmd_kd_pressure)
 
@@ -139,11 +168,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")
     p.add_argument("--mapping", default=None, help="column mapping YAML for other naming")
     p.add_argument("--time-unit", default=None, help="time column unit, overriding the mapping's (s|ms|us|ns)")
-    p.add_argument("--write-manifest", default=None, metavar="PATH",
-                   help="add one fixture:free entry per event to this manifest (created if missing)")
+    p.add_argument(
+        "--write-manifest",
+        default=None,
+        metavar="PATH",
+        help="add one fixture:free entry per event to this manifest (created if missing)",
+    )
     p.add_argument("--group", default=None, help="group of the written entries (default: the log's folder)")
-    p.add_argument("--duration-s", type=DURATION_S, default=None,
-                   help="cap each written window at this many seconds from its start")
+    p.add_argument(
+        "--duration-s",
+        type=DURATION_S,
+        default=None,
+        help="cap each written window at this many seconds from its start",
+    )
     p.add_argument("--json", action="store_true", help="also print the events as JSON")
     p.set_defaults(func=cmd_events)
 
@@ -154,11 +191,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pressure-kpa", type=PRESSURE_KPA, default=None, help="pressure for trials without one")
     p.add_argument("--steer-friction", default="majd_steer")
     p.add_argument("--drive-friction", default="majd_drive")
-    p.add_argument("--tol", nargs="*", help="limits like phi=0.1 theta=0.12 omega_d=0.5 pendulum_pitch=0.05 "
-                   "pme=15; exit 1 if one is exceeded or could not be checked on a trial")
+    p.add_argument(
+        "--tol",
+        nargs="*",
+        help="limits like phi=0.1 theta=0.12 omega_d=0.5 pendulum_pitch=0.05 "
+        "pme=15; exit 1 if one is exceeded or could not be checked on a trial",
+    )
     p.add_argument("--tol-models", nargs="*", default=None, help="models the tolerance applies to (default all)")
-    p.add_argument("--json", default=None, metavar="PATH",
-                   help="write one record per trial and model (trial, model, rmse_phi_rad, rmse_theta_rad, ...)")
+    p.add_argument(
+        "--json",
+        default=None,
+        metavar="PATH",
+        help="write one record per trial and model (trial, model, rmse_phi_rad, rmse_theta_rad, ...)",
+    )
     p.add_argument("--workers", type=WORKERS, default=1, help="processes for the (trial, model) runs (default 1)")
     p.add_argument("--plot")
     p.set_defaults(func=cmd_validate)

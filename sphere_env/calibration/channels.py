@@ -6,9 +6,21 @@ from __future__ import annotations
 
 from sphere_env.tasks.sensors import CHANNEL_ALIASES
 
-STATE_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate",
-                  "pendulum_pitch", "pendulum_pitch_rate", "heading", "heading_rate")
+STATE_CHANNELS = (
+    "theta",
+    "theta_dot",
+    "phi",
+    "phi_dot",
+    "omega_d",
+    "drive_angle",
+    "drive_rate",
+    "pendulum_pitch",
+    "pendulum_pitch_rate",
+    "heading",
+    "heading_rate",
+)
 ANGLE_CHANNELS = ("theta", "phi", "drive_angle", "pendulum_pitch", "heading")
+
 
 def _with_aliases(*columns: str) -> tuple[str, ...]:
     """The RoboBall columns of a channel followed by their aliases (:data:`CHANNEL_ALIASES`)."""

@@ -40,13 +40,20 @@ def cmd_shell(args) -> int:
         fit = fit_free_decay(log.t_s, log[args.channel])
         fits.append(fit)
         ps.append(log.pressure_kpa)
-        print(f"{log.name}: p={log.pressure_kpa} kPa  ω_n={fit.omega_n:.4f} [{fit.omega_n_ci[0]:.4f}, {fit.omega_n_ci[1]:.4f}] rad/s"
-              f"  ζ={fit.zeta:.4f} [{fit.zeta_ci[0]:.4f}, {fit.zeta_ci[1]:.4f}]  log-dec ζ={fit.logdec_zeta:.4f}")
+        print(
+            f"{log.name}: p={log.pressure_kpa} kPa  ω_n={fit.omega_n:.4f} [{fit.omega_n_ci[0]:.4f}, {fit.omega_n_ci[1]:.4f}] rad/s"
+            f"  ζ={fit.zeta:.4f} [{fit.zeta_ci[0]:.4f}, {fit.zeta_ci[1]:.4f}]  log-dec ζ={fit.logdec_zeta:.4f}"
+        )
     curve = fit_pressure_curves(ps, [f.omega_n for f in fits], [f.zeta for f in fits])
     print(json.dumps(curve.as_dict(), indent=1))
     base = ShellCalibration.load(args.base)
-    data = calibration_dict(curve, base, provenance={
-        "omega_n, zeta": f"free-decay fits of '{args.channel}' on {[log.name for log in logs]} ({args.manifest})"})
+    data = calibration_dict(
+        curve,
+        base,
+        provenance={
+            "omega_n, zeta": f"free-decay fits of '{args.channel}' on {[log.name for log in logs]} ({args.manifest})"
+        },
+    )
     data["trial_fits"] = {log.name: f.as_dict() for log, f in zip(logs, fits)}
     if args.out:
         write_yaml(args.out, data, "# Written by python -m sphere_env.calibration shell")
@@ -65,17 +72,27 @@ def cmd_steer_fit(args) -> int:
 
     man, logs = _trials(args, required=("phi", "theta"))
     base = ShellCalibration.load(args.base)
-    p0 = base.check_pressure(args.pressure_kpa if args.pressure_kpa is not None else base.nominal_pressure_kpa,
-                             "--pressure-kpa")
+    p0 = base.check_pressure(
+        args.pressure_kpa if args.pressure_kpa is not None else base.nominal_pressure_kpa, "--pressure-kpa"
+    )
     names = [log.name for log in logs]
     if args.fit_on:
         missing = [n for n in args.fit_on if n not in names]
         if missing:
             raise LogError(f"--fit-on {missing}: no such trial in {names} (manifest {args.manifest})")
     fit_logs = [log for log in logs if not args.fit_on or log.name in args.fit_on]
-    raw, record = steer_fit(fit_logs, args.models, p0, base, forms=args.forms, steer_friction=args.steer_friction,
-                            drive_friction=args.drive_friction, max_nfev=args.max_nfev, log_to=print,
-                            workers=args.workers)
+    raw, record = steer_fit(
+        fit_logs,
+        args.models,
+        p0,
+        base,
+        forms=args.forms,
+        steer_friction=args.steer_friction,
+        drive_friction=args.drive_friction,
+        max_nfev=args.max_nfev,
+        log_to=print,
+        workers=args.workers,
+    )
     for model, fit in record["models"].items():
         per = trial_rmse(fit.pop("pool"), logs)
         for name, r in per.items():
@@ -91,17 +108,19 @@ def cmd_steer_fit(args) -> int:
             path = write_yaml(Path(tmp) / "cal.yaml", raw)
             m = match_dissipation(path, p0, time_step_s=args.time_step_s)
         # k_d holds at the plant step it was matched at: record that step
-        raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"],
-                                          fitted_time_step_s=m["time_step_s"]))
-        print(f"hydroelastic k_d = {m['k_d']:.4f} (d = {m['dissipation_s_per_m']:.4f} s/m): locked-steer decay "
-              f"zeta = {m['zeta_sim']:.4f} matches zeta(p0) = {m['target_zeta']:.4f}")
+        raw = dict(raw, hydroelastic=dict(raw["hydroelastic"], k_d=m["k_d"], fitted_time_step_s=m["time_step_s"]))
+        print(
+            f"hydroelastic k_d = {m['k_d']:.4f} (d = {m['dissipation_s_per_m']:.4f} s/m): locked-steer decay "
+            f"zeta = {m['zeta_sim']:.4f} matches zeta(p0) = {m['target_zeta']:.4f}"
+        )
     if args.out:
         ShellCalibration.from_dict(raw, source=str(args.out))  # validated (incl. stand-still) before writing
         raw = dict(raw, steer_fit=_jsonable(record))
         raw["steer_fit"]["how"] = (
             f"python -m sphere_env.calibration {' '.join(shlex.quote(a) for a in sys.argv[1:])}; "
             f"the segments' pressure is unknown: the fitted law is stated at nominal_pressure_kpa = {p0} "
-            "and the slopes of omega_n(p), zeta(p) are kept from the base calibration")
+            "and the slopes of omega_n(p), zeta(p) are kept from the base calibration"
+        )
         write_yaml(args.out, raw, "# Written by python -m sphere_env.calibration steer-fit")
         print(f"wrote {args.out}")
     return 0
@@ -117,22 +136,36 @@ def cmd_friction(args) -> int:
 
     _, logs = _trials(args, required=("theta",))
     fixed = tuple(args.fixed) if args.fixed is not None else None
-    fit = fit_friction(logs, args.law, args.joint, fixed=fixed, fit_offset=args.fit_offset, starts=args.starts,
-                       seed=args.seed)
+    fit = fit_friction(
+        logs, args.law, args.joint, fixed=fixed, fit_offset=args.fit_offset, starts=args.starts, seed=args.seed
+    )
     print(json.dumps(fit.as_dict(), indent=1))
     if args.loo:
-        for row in leave_one_out(logs, law=args.law, joint=args.joint, fixed=fixed, fit_offset=args.fit_offset,
-                                 starts=args.starts, seed=args.seed):
-            print(f"held out {row['held_out']}: test RMSE {row['test_rmse_rad']:.4f} rad, "
-                  f"train RMSE {json.dumps({k: round(v, 4) for k, v in row['train_rmse_rad'].items()})}")
+        for row in leave_one_out(
+            logs,
+            law=args.law,
+            joint=args.joint,
+            fixed=fixed,
+            fit_offset=args.fit_offset,
+            starts=args.starts,
+            seed=args.seed,
+        ):
+            print(
+                f"held out {row['held_out']}: test RMSE {row['test_rmse_rad']:.4f} rad, "
+                f"train RMSE {json.dumps({k: round(v, 4) for k, v in row['train_rmse_rad'].items()})}"
+            )
     if args.plot:
         plot_stand_overlay(args.plot, logs, {f"{args.law} fit": (fit.model, fit.theta_offset_rad)})
         print(f"wrote {args.plot}")
     if args.preset_file:
         names = [log.name for log in logs]
-        write_preset(args.preset_file, args.preset_name or f"{args.law}_{args.joint}", fit.model,
-                     f"fitted by `python -m sphere_env.calibration friction` on {names}; "
-                     f"theta RMSE {json.dumps({k: round(v, 4) for k, v in fit.rmse_per_trial.items()})} rad")
+        write_preset(
+            args.preset_file,
+            args.preset_name or f"{args.law}_{args.joint}",
+            fit.model,
+            f"fitted by `python -m sphere_env.calibration friction` on {names}; "
+            f"theta RMSE {json.dumps({k: round(v, 4) for k, v in fit.rmse_per_trial.items()})} rad",
+        )
         print(f"wrote preset into {args.preset_file}")
     return 0
 
@@ -163,14 +196,17 @@ def cmd_kd_step(args) -> int:
     m = match_dissipation_at_step(args.calibration, args.time_step_s, args.pressure_kpa)
     hyd = dict(cal.raw["hydroelastic"])
     steps = [e for e in hyd.get("k_d_by_time_step", []) if not math.isclose(e["time_step_s"], m["time_step_s"])]
-    hyd["k_d_by_time_step"] = sorted(steps + [{"time_step_s": m["time_step_s"], "k_d": round(m["k_d"], 5)}],
-                                     key=lambda e: e["time_step_s"])
+    hyd["k_d_by_time_step"] = sorted(
+        steps + [{"time_step_s": m["time_step_s"], "k_d": round(m["k_d"], 5)}], key=lambda e: e["time_step_s"]
+    )
     raw = dict(cal.raw, hydroelastic=hyd)
     ShellCalibration.from_dict(raw, source=str(args.out))  # validated before writing
     write_yaml(args.out, raw)
-    print(f"k_d at time_step_s={m['time_step_s']:g} s: {m['k_d']:.5f} (locked-steer decay at {m['pressure_kpa']:g} kPa: "
-          f"zeta {m['zeta_sim']:.4f}, the calibration's k_d {cal.k_d:g} gives {m['reference_zeta']:.4f} at its "
-          f"{m['reference_time_step_s']:g} s) -> {args.out}")
+    print(
+        f"k_d at time_step_s={m['time_step_s']:g} s: {m['k_d']:.5f} (locked-steer decay at {m['pressure_kpa']:g} kPa: "
+        f"zeta {m['zeta_sim']:.4f}, the calibration's k_d {cal.k_d:g} gives {m['reference_zeta']:.4f} at its "
+        f"{m['reference_time_step_s']:g} s) -> {args.out}"
+    )
     return 0
 
 
@@ -185,8 +221,10 @@ def cmd_kd_pressure(args) -> int:
             cal.check_pressure(q, "--pressure-kpa")
         lo, hi = cal.pressure_range_kpa
         if len(set(args.pressure_kpa)) < 2 or min(args.pressure_kpa) > lo or max(args.pressure_kpa) < hi:
-            raise ValueError(f"--pressure-kpa: value {args.pressure_kpa!r} must hold at least 2 pressures spanning "
-                             f"the calibrated range [{lo}, {hi}] kPa (k_d is not extrapolated)")
+            raise ValueError(
+                f"--pressure-kpa: value {args.pressure_kpa!r} must hold at least 2 pressures spanning "
+                f"the calibrated range [{lo}, {hi}] kPa (k_d is not extrapolated)"
+            )
     rows = match_dissipation_by_pressure(args.calibration, args.time_step_s, args.pressure_kpa)
     step = rows[0]["time_step_s"]
     table = [{"pressure_kpa": r["pressure_kpa"], "k_d": round(r["k_d"], 5)} for r in rows]
@@ -197,19 +235,24 @@ def cmd_kd_pressure(args) -> int:
         hyd.update(k_d=k_d_nominal, k_d_by_pressure=table, fitted_time_step_s=step)
         # refits at other steps kept the damping of the k_d replaced here (as calibration_at drops them)
         if hyd.pop("k_d_by_time_step", None):
-            print("dropped hydroelastic.k_d_by_time_step: its refits matched the replaced k_d; refit them "
-                  "(kd-step, kd-pressure)")
+            print(
+                "dropped hydroelastic.k_d_by_time_step: its refits matched the replaced k_d; refit them "
+                "(kd-step, kd-pressure)"
+            )
     else:
         steps = [e for e in hyd.get("k_d_by_time_step", []) if not math.isclose(e["time_step_s"], step)]
         hyd["k_d_by_time_step"] = sorted(
             steps + [{"time_step_s": step, "k_d": k_d_nominal, "k_d_by_pressure": table}],
-            key=lambda e: e["time_step_s"])
+            key=lambda e: e["time_step_s"],
+        )
     raw = dict(cal.raw, hydroelastic=hyd)
     ShellCalibration.from_dict(raw, source=str(args.out))  # validated before writing
     write_yaml(args.out, raw)
     for r in rows:
-        print(f"time_step_s={step:g} s, {r['pressure_kpa']:g} kPa: k_d {r['k_d']:.5f} (locked-steer decay zeta "
-              f"{r['zeta_sim']:.4f}, zeta(p) {r['target_zeta']:.4f})")
+        print(
+            f"time_step_s={step:g} s, {r['pressure_kpa']:g} kPa: k_d {r['k_d']:.5f} (locked-steer decay zeta "
+            f"{r['zeta_sim']:.4f}, zeta(p) {r['target_zeta']:.4f})"
+        )
     print(f"k_d at the nominal {cal.nominal_pressure_kpa:g} kPa: {k_d_nominal:.5f} -> {args.out}")
     return 0
 
@@ -226,8 +269,15 @@ def cmd_validate(args) -> int:
 
     tol = parse_tolerances(args.tol)
     _, logs = _trials(args)
-    rows = validate(logs, args.models, steer_friction=args.steer_friction, drive_friction=args.drive_friction,
-                    calibration=args.calibration, default_pressure_kpa=args.pressure_kpa, workers=args.workers)
+    rows = validate(
+        logs,
+        args.models,
+        steer_friction=args.steer_friction,
+        drive_friction=args.drive_friction,
+        calibration=args.calibration,
+        default_pressure_kpa=args.pressure_kpa,
+        workers=args.workers,
+    )
     print(validation_table(rows))
     if args.json:
         write_records(args.json, rows)
@@ -237,8 +287,10 @@ def cmd_validate(args) -> int:
         print(f"wrote {args.plot}")
     bad = tolerance_failures(rows, tol, args.tol_models)
     for msg in bad:
-        print(f"TOLERANCE {'NOT CHECKED' if 'not compared' in msg or 'nothing compared' in msg else 'EXCEEDED'}: "
-              f"{msg}", file=sys.stderr)
+        print(
+            f"TOLERANCE {'NOT CHECKED' if 'not compared' in msg or 'nothing compared' in msg else 'EXCEEDED'}: {msg}",
+            file=sys.stderr,
+        )
     return 1 if bad else 0
 
 
@@ -257,8 +309,10 @@ def cmd_events(args) -> int:
         mapping = replace(mapping, time=(mapping.time[0], args.time_unit))
     log = load_log(args.log, mapping)
     events = find_events(log)
-    print(f"{args.log}: {len(log.t_s)} samples over {log.t_s[-1]:.2f} s (time unit {mapping.time[1]}); "
-          f"{len(events)} free-motion event(s)")
+    print(
+        f"{args.log}: {len(log.t_s)} samples over {log.t_s[-1]:.2f} s (time unit {mapping.time[1]}); "
+        f"{len(events)} free-motion event(s)"
+    )
     print(events_table(events))
     if args.json:
         print(json.dumps([e.as_dict() for e in events], indent=1))
@@ -294,7 +348,8 @@ def cmd_report(args) -> int:
         print(f"report: real logs not found at {man.data_root}; nothing written", file=sys.stderr)
         return 2
     cmd = "python -m sphere_env.calibration " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    path = build_report(man, args.out, cmd, workers=args.workers, starts=args.starts,
-                        sensitivity=not args.no_sensitivity)
+    path = build_report(
+        man, args.out, cmd, workers=args.workers, starts=args.starts, sensitivity=not args.no_sensitivity
+    )
     print(f"wrote {path}")
     return 0

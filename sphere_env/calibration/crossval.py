@@ -29,9 +29,15 @@ FITTED_MODELS = ("injected", "hydroelastic")
 FitFn = Callable[[Sequence[RobotLog], str, float, ShellCalibration, Any], "tuple[dict[str, float], dict[str, Any]]"]
 
 
-def fit_calibration(train: Sequence[RobotLog], model: str, pressure_kpa: float, base: ShellCalibration,
-                    steer_friction: Any, max_nfev: int = 60,
-                    forms: Sequence[str] | None = None) -> tuple[dict[str, float], dict[str, Any]]:
+def fit_calibration(
+    train: Sequence[RobotLog],
+    model: str,
+    pressure_kpa: float,
+    base: ShellCalibration,
+    steer_friction: Any,
+    max_nfev: int = 60,
+    forms: Sequence[str] | None = None,
+) -> tuple[dict[str, float], dict[str, Any]]:
     """Fit ``model`` on ``train`` exactly as ``steer-fit --fit-on`` does (:func:`steer_fit`: the
     steer-law form chosen by held-out error within ``train``; ``hydroelastic`` fitted on top of an
     ``injected`` fit of the same segments, so nothing of a held-out segment leaks in through the
@@ -41,8 +47,16 @@ def fit_calibration(train: Sequence[RobotLog], model: str, pressure_kpa: float, 
     from sphere_env.models.shell import STEER_LAW_FORMS
 
     models = ("injected",) if model == "injected" else ("injected", model)
-    raw, record = steer_fit(list(train), models, pressure_kpa, base, forms=tuple(forms or STEER_LAW_FORMS),
-                            steer_friction=steer_friction, max_nfev=max_nfev, hold_out_windows=False)
+    raw, record = steer_fit(
+        list(train),
+        models,
+        pressure_kpa,
+        base,
+        forms=tuple(forms or STEER_LAW_FORMS),
+        steer_friction=steer_friction,
+        max_nfev=max_nfev,
+        hold_out_windows=False,
+    )
     params: dict[str, float] = {}
     for m in models:
         params.update({f"{m}.{k}" if m != model else k: v for k, v in record["models"][m]["params"].items()})
@@ -77,20 +91,45 @@ def cross_validate(
                         try:
                             params, raw = fit([train], model, p0, base, steer_friction)
                         except (ValueError, RuntimeError) as err:  # reported in the table, not fatal
-                            out.append({"group": group, "model": model, "fit_on": train.name, "pressure_kpa": p0,
-                                        "params": {}, "records": [], "rmse_rad": {}, "error": str(err)})
+                            out.append(
+                                {
+                                    "group": group,
+                                    "model": model,
+                                    "fit_on": train.name,
+                                    "pressure_kpa": p0,
+                                    "params": {},
+                                    "records": [],
+                                    "rmse_rad": {},
+                                    "error": str(err),
+                                }
+                            )
                             continue
                         cal_path = write_yaml(Path(tmp) / f"{group}_{model}_{train.name}.yaml", raw)
-                    rows = validate(logs, [model], steer_friction=steer_friction, drive_friction=drive_friction,
-                                    calibration=cal_path, default_pressure_kpa=p0, workers=workers)
+                    rows = validate(
+                        logs,
+                        [model],
+                        steer_friction=steer_friction,
+                        drive_friction=drive_friction,
+                        calibration=cal_path,
+                        default_pressure_kpa=p0,
+                        workers=workers,
+                    )
                     recs = []
                     for r in rows:
                         rec = r.record()
                         rec["role"] = "fit" if train is not None and r.trial == train.name else "held out"
                         recs.append(rec)
-                    out.append({"group": group, "model": model, "fit_on": None if train is None else train.name,
-                                "pressure_kpa": p0, "params": params, "records": recs,
-                                "rmse_rad": {r.trial: dict(r.rmse) for r in rows}})
+                    out.append(
+                        {
+                            "group": group,
+                            "model": model,
+                            "fit_on": None if train is None else train.name,
+                            "pressure_kpa": p0,
+                            "params": params,
+                            "records": recs,
+                            "rmse_rad": {r.trial: dict(r.rmse) for r in rows},
+                        }
+                    )
     return out
 
 
@@ -100,24 +139,53 @@ def crossval_table(results: Sequence[Mapping[str, Any]]) -> str:
     for x in results:
         pr = ", ".join(f"{k}={v:.4g}" for k, v in x["params"].items() if isinstance(v, (int, float))) or "—"
         if x.get("error"):
-            rows.append({"group": x["group"], "model": x["model"], "fit_on": x["fit_on"], "trial": "—",
-                         "role": f"fit failed: {x['error']}"})
+            rows.append(
+                {
+                    "group": x["group"],
+                    "model": x["model"],
+                    "fit_on": x["fit_on"],
+                    "trial": "—",
+                    "role": f"fit failed: {x['error']}",
+                }
+            )
         for rec in x["records"]:
-            rows.append({"group": x["group"], "model": x["model"], "fit_on": x["fit_on"] or "— (nothing to fit)",
-                         "trial": rec["trial"], "role": rec["role"] if x["fit_on"] else "baseline",
-                         "phi": number(rec.get("rmse_phi_rad")), "theta": number(rec.get("rmse_theta_rad")),
-                         "alpha": number(rec.get("rmse_pendulum_pitch_rad")), "params": pr})
-    return markdown_table(rows, [("group", "group", ""), ("model", "model", ""), ("fit_on", "fitted on", ""),
-                                 ("trial", "tested on", ""), ("role", "role", ""), ("phi", "RMSE φ [rad]", ""),
-                                 ("theta", "RMSE θ [rad]", ""), ("alpha", "RMSE α [rad]", ""),
-                                 ("params", "parameters", "")], align="lllllrrrl")
+            rows.append(
+                {
+                    "group": x["group"],
+                    "model": x["model"],
+                    "fit_on": x["fit_on"] or "— (nothing to fit)",
+                    "trial": rec["trial"],
+                    "role": rec["role"] if x["fit_on"] else "baseline",
+                    "phi": number(rec.get("rmse_phi_rad")),
+                    "theta": number(rec.get("rmse_theta_rad")),
+                    "alpha": number(rec.get("rmse_pendulum_pitch_rad")),
+                    "params": pr,
+                }
+            )
+    return markdown_table(
+        rows,
+        [
+            ("group", "group", ""),
+            ("model", "model", ""),
+            ("fit_on", "fitted on", ""),
+            ("trial", "tested on", ""),
+            ("role", "role", ""),
+            ("phi", "RMSE φ [rad]", ""),
+            ("theta", "RMSE θ [rad]", ""),
+            ("alpha", "RMSE α [rad]", ""),
+            ("params", "parameters", ""),
+        ],
+        align="lllllrrrl",
+    )
 
 
 def held_out_summary(results: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], dict[str, float]]:
     """(group, model) -> worst held-out and worst fit φ RMSE [rad] (NaN when there is none)."""
     out: dict[tuple[str, str], dict[str, float]] = {}
     for x in results:
-        d = out.setdefault((x["group"], x["model"]), {"worst_held_out_phi_rad": math.nan, "worst_fit_phi_rad": math.nan})
+        d = out.setdefault(
+            (x["group"], x["model"]), {"worst_held_out_phi_rad": math.nan, "worst_fit_phi_rad": math.nan}
+        )
         for rec in x["records"]:
             v = rec.get("rmse_phi_rad")
             if v is None:

@@ -22,8 +22,17 @@ from sphere_env.files import write_text_atomic
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.plotting import save_figure
 
-__all__ = ["DecayFit", "PressureFit", "calibration_dict", "damped_sinusoid", "fit_free_decay",
-           "fit_pressure_curves", "log_decrement", "plot_pressure_curves", "write_yaml"]
+__all__ = [
+    "DecayFit",
+    "PressureFit",
+    "calibration_dict",
+    "damped_sinusoid",
+    "fit_free_decay",
+    "fit_pressure_curves",
+    "log_decrement",
+    "plot_pressure_curves",
+    "write_yaml",
+]
 
 
 @dataclass(frozen=True)
@@ -96,7 +105,11 @@ def calibration_dict(
         "name": raw.get("name", "fitted"),
         "pressure_range_kpa": [float(lo), float(hi)],
         "nominal_pressure_kpa": float(nominal_pressure_kpa if nominal_pressure_kpa is not None else 0.5 * (lo + hi)),
-        "omega_n": {"model": "linear", "intercept_rad_s": fit.omega_n_intercept, "slope_rad_s_per_kpa": fit.omega_n_slope},
+        "omega_n": {
+            "model": "linear",
+            "intercept_rad_s": fit.omega_n_intercept,
+            "slope_rad_s_per_kpa": fit.omega_n_slope,
+        },
         "zeta": {"model": "exponential", "scale": fit.zeta_scale, "rate_per_kpa": fit.zeta_rate},
         "contact_volume": raw["contact_volume"],
         "hydroelastic": raw["hydroelastic"],
@@ -148,13 +161,21 @@ def plot_pressure_curves(
     w = np.array([f.omega_n for f in fits])
     werr = np.array([[f.omega_n - f.omega_n_ci[0], f.omega_n_ci[1] - f.omega_n] for f in fits]).T
     az.errorbar(p, z, yerr=zerr, fmt="o", label="free-decay fits")
-    az.plot(grid, curve.zeta_scale * np.exp(curve.zeta_rate * grid), "-",
-            label=f"ζ = {curve.zeta_scale:.3g} e^({curve.zeta_rate:.3g} p)")
+    az.plot(
+        grid,
+        curve.zeta_scale * np.exp(curve.zeta_rate * grid),
+        "-",
+        label=f"ζ = {curve.zeta_scale:.3g} e^({curve.zeta_rate:.3g} p)",
+    )
     az.set_ylabel("damping ratio ζ [-]")
     az.legend()
     aw.errorbar(p, w, yerr=werr, fmt="o", label="free-decay fits")
-    aw.plot(grid, curve.omega_n_intercept + curve.omega_n_slope * grid, "-",
-            label=f"ω_n = {curve.omega_n_intercept:.3g} + {curve.omega_n_slope:.3g} p")
+    aw.plot(
+        grid,
+        curve.omega_n_intercept + curve.omega_n_slope * grid,
+        "-",
+        label=f"ω_n = {curve.omega_n_intercept:.3g} + {curve.omega_n_slope:.3g} p",
+    )
     aw.axhline(omega_point_rad_s, ls="--", color="k", label=f"point contact √(K_eq/M_eq) = {omega_point_rad_s:.3f}")
     aw.set_xlabel("gauge pressure p [kPa]")
     aw.set_ylabel("natural frequency ω_n [rad/s]")

@@ -78,9 +78,13 @@ class Event:
         return self.end_s - self.start_s
 
     def as_dict(self) -> dict[str, Any]:
-        return {"start_s": round(self.start_s, 3), "end_s": round(self.end_s, 3), "kind": self.kind,
-                "free_start_s": round(self.free_start_s, 3),
-                "moved_rad": {k: round(v, 4) for k, v in self.moved.items()}}
+        return {
+            "start_s": round(self.start_s, 3),
+            "end_s": round(self.end_s, 3),
+            "kind": self.kind,
+            "free_start_s": round(self.free_start_s, 3),
+            "moved_rad": {k: round(v, 4) for k, v in self.moved.items()},
+        }
 
 
 def _rate(log: RobotLog, chan: str) -> np.ndarray:
@@ -179,21 +183,27 @@ def _classify(log: RobotLog, rates: dict[str, np.ndarray], s: int, e: int) -> Ev
     return Event(start_t, end_t, moved, "release" if held else "push", free_t)
 
 
-def manifest_entries(log: RobotLog, events: Sequence[Event], file: str, group: str,
-                     duration_s: float | None = None) -> list[dict[str, Any]]:
+def manifest_entries(
+    log: RobotLog, events: Sequence[Event], file: str, group: str, duration_s: float | None = None
+) -> list[dict[str, Any]]:
     """Manifest entries (``fixture: free``) for ``events``, each window from the event's
     ``free_start_s``; ``duration_s`` caps each window's length."""
     out = []
     stem = Path(file).stem.replace("-", "_")
     for ev in events:
         end = ev.end_s if duration_s is None else min(ev.end_s, ev.free_start_s + duration_s)
-        out.append({
-            "name": f"{stem}_{ev.kind}_{ev.start_s:.2f}s".replace(".", "_"),
-            "group": group, "fixture": "free", "file": file, "pressure_kpa": None,
-            "window_s": [round(ev.free_start_s, 2), round(end, 2)],
-            "notes": f"{ev.kind} found by `events`: moved " + ", ".join(
-                f"{c} {v:.3f} rad" for c, v in ev.moved.items()),
-        })
+        out.append(
+            {
+                "name": f"{stem}_{ev.kind}_{ev.start_s:.2f}s".replace(".", "_"),
+                "group": group,
+                "fixture": "free",
+                "file": file,
+                "pressure_kpa": None,
+                "window_s": [round(ev.free_start_s, 2), round(end, 2)],
+                "notes": f"{ev.kind} found by `events`: moved "
+                + ", ".join(f"{c} {v:.3f} rad" for c, v in ev.moved.items()),
+            }
+        )
     return out
 
 
@@ -224,14 +234,41 @@ def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], 
 
 def events_table(events: Sequence[Event]) -> str:
     """A Markdown table of events (times in s from the log's first sample)."""
-    rows = [{"i": i, "kind": ev.kind, "start": ev.start_s, "free": ev.free_start_s, "end": ev.end_s,
-             "duration": ev.duration_s, "moved": ", ".join(f"{c} {v:.3f}" for c, v in ev.moved.items())}
-            for i, ev in enumerate(events)]
-    return markdown_table(rows, [("i", "#", "{}"), ("kind", "kind", ""), ("start", "start [s]", "{:.2f}"),
-                                 ("free", "free from [s]", "{:.2f}"), ("end", "end [s]", "{:.2f}"),
-                                 ("duration", "duration [s]", "{:.2f}"), ("moved", "moved (peak to peak, rad)", "")],
-                          align="rlrrrrl")
+    rows = [
+        {
+            "i": i,
+            "kind": ev.kind,
+            "start": ev.start_s,
+            "free": ev.free_start_s,
+            "end": ev.end_s,
+            "duration": ev.duration_s,
+            "moved": ", ".join(f"{c} {v:.3f}" for c, v in ev.moved.items()),
+        }
+        for i, ev in enumerate(events)
+    ]
+    return markdown_table(
+        rows,
+        [
+            ("i", "#", "{}"),
+            ("kind", "kind", ""),
+            ("start", "start [s]", "{:.2f}"),
+            ("free", "free from [s]", "{:.2f}"),
+            ("end", "end [s]", "{:.2f}"),
+            ("duration", "duration [s]", "{:.2f}"),
+            ("moved", "moved (peak to peak, rad)", ""),
+        ],
+        align="rlrrrrl",
+    )
 
 
-__all__ = ["Event", "events_table", "find_events", "manifest_entries", "write_manifest_entries",
-           "MAX_DRIVE_TURN_RAD", "MIN_SWINGS", "REST_RAD_S", "ACTIVE_RAD_S"]
+__all__ = [
+    "Event",
+    "events_table",
+    "find_events",
+    "manifest_entries",
+    "write_manifest_entries",
+    "MAX_DRIVE_TURN_RAD",
+    "MIN_SWINGS",
+    "REST_RAD_S",
+    "ACTIVE_RAD_S",
+]

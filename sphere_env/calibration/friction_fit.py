@@ -77,27 +77,37 @@ class FrictionFit:
 
     def as_dict(self) -> dict[str, Any]:
         return {
-            "law": self.law, "joint": self.joint, "params": self.params,
-            "theta_offset_rad": self.theta_offset_rad, "rmse_per_trial_rad": self.rmse_per_trial,
-            "free": list(self.free), "ci95": {k: list(v) for k, v in self.ci95.items()}, "starts": self.starts,
+            "law": self.law,
+            "joint": self.joint,
+            "params": self.params,
+            "theta_offset_rad": self.theta_offset_rad,
+            "rmse_per_trial_rad": self.rmse_per_trial,
+            "free": list(self.free),
+            "ci95": {k: list(v) for k, v in self.ci95.items()},
+            "starts": self.starts,
         }
 
 
 def stand_twin(model: FrictionModel, time_step_s: float = 0.005) -> Twin:
     """A ``stand`` twin with ``model`` on the steer joint (built in ~10 ms)."""
-    return Twin(TwinConfig(fixture="stand", shell_model="point", steer_friction=model,
-                           drive_friction="none", time_step_s=time_step_s))
+    return Twin(
+        TwinConfig(
+            fixture="stand", shell_model="point", steer_friction=model, drive_friction="none", time_step_s=time_step_s
+        )
+    )
 
 
-def simulate_stand(logs: Sequence[RobotLog], model: FrictionModel, theta_offset_rad: float = 0.0,
-                   time_step_s: float = 0.005) -> list[SimTrace]:
+def simulate_stand(
+    logs: Sequence[RobotLog], model: FrictionModel, theta_offset_rad: float = 0.0, time_step_s: float = 0.005
+) -> list[SimTrace]:
     """Simulate every stand log with one friction model."""
     twin = stand_twin(model, time_step_s)
     return [simulate_log(twin, log, theta_offset_rad) for log in logs]
 
 
-def evaluate_friction(logs: Sequence[RobotLog], model: FrictionModel, theta_offset_rad: float = 0.0,
-                      time_step_s: float = 0.005) -> dict[str, float]:
+def evaluate_friction(
+    logs: Sequence[RobotLog], model: FrictionModel, theta_offset_rad: float = 0.0, time_step_s: float = 0.005
+) -> dict[str, float]:
     """Per-trial θ RMSE [rad] of ``model`` against stand logs."""
     traces = simulate_stand(logs, model, theta_offset_rad, time_step_s)
     return {log.name: rmse(tr["theta"], log["theta"]) for log, tr in zip(logs, traces)}
@@ -165,8 +175,9 @@ def fit_friction(
         starts_x.append(np.array(x))
     best = None
     for x0 in starts_x:
-        res = least_squares(residuals, x0, bounds=(lo, hi), diff_step=1e-3, x_scale="jac",
-                            max_nfev=max_nfev, xtol=1e-6, ftol=1e-8)
+        res = least_squares(
+            residuals, x0, bounds=(lo, hi), diff_step=1e-3, x_scale="jac", max_nfev=max_nfev, xtol=1e-6, ftol=1e-8
+        )
         if best is None or res.cost < best.cost:
             best = res
     model, off = unpack(best.x)
@@ -195,8 +206,15 @@ def leave_one_out(logs: Sequence[RobotLog], **fit_kwargs) -> list[dict[str, Any]
         train = [log for j, log in enumerate(logs) if j != i]
         fit = fit_friction(train, **fit_kwargs)
         test = evaluate_friction([held], fit.model, fit.theta_offset_rad)[held.name]
-        rows.append({"held_out": held.name, "train_rmse_rad": fit.rmse_per_trial, "test_rmse_rad": test,
-                     "params": fit.params, "theta_offset_rad": fit.theta_offset_rad})
+        rows.append(
+            {
+                "held_out": held.name,
+                "train_rmse_rad": fit.rmse_per_trial,
+                "test_rmse_rad": test,
+                "params": fit.params,
+                "theta_offset_rad": fit.theta_offset_rad,
+            }
+        )
     return rows
 
 
@@ -238,8 +256,12 @@ def write_preset(path: str | Path, name: str, model: FrictionModel, comment: str
     return path
 
 
-def plot_stand_overlay(path: str | Path, logs: Sequence[RobotLog], models: Mapping[str, tuple[FrictionModel, float]],
-                       time_step_s: float = 0.005) -> Path:
+def plot_stand_overlay(
+    path: str | Path,
+    logs: Sequence[RobotLog],
+    models: Mapping[str, tuple[FrictionModel, float]],
+    time_step_s: float = 0.005,
+) -> Path:
     """Paper Fig. 7: measured θ(t) of every stand trial overlaid with each named model's simulation."""
     from sphere_env.plotting import pyplot
 

@@ -75,9 +75,14 @@ MAX_RATE_RAD_S = 500.0  # no joint of this robot turns faster (the drive motor i
 #: offset (a multi-turn drive count reads ≈ 264 rad on a robot that booted long ago), so their
 #: absolute values are never checked: see :data:`SPAN_LIMITS` and :data:`MULTI_TURN`.
 CHANNEL_LIMITS: dict[str, float] = {
-    "phi": math.pi / 2, "pendulum_pitch": math.pi,
-    "theta_dot": 30.0, "phi_dot": 30.0, "pendulum_pitch_rate": 30.0, "heading_rate": 30.0,
-    "drive_rate": 60.0, "omega_d": 60.0,
+    "phi": math.pi / 2,
+    "pendulum_pitch": math.pi,
+    "theta_dot": 30.0,
+    "phi_dot": 30.0,
+    "pendulum_pitch_rate": 30.0,
+    "heading_rate": 30.0,
+    "drive_rate": 60.0,
+    "omega_d": 60.0,
 }
 #: Largest plausible peak-to-peak of an offset encoder [rad]: the steer joint θ moves within
 #: [−1.57, 1.0] rad (``docs/design.md`` §1), 2.57 rad, whatever zero its encoder has.
@@ -91,8 +96,7 @@ JUMP_SLACK_RAD = 0.05
 #: Longest gap between two samples, in median sample periods (the shared logs: at most 4.3).
 MAX_GAP_SAMPLES = 10.0
 #: Angle -> rate channel pairs whose ratio (rate against the angle's time derivative) is checked.
-RATE_OF = {"theta": "theta_dot", "phi": "phi_dot", "drive_angle": "drive_rate",
-           "pendulum_pitch": "pendulum_pitch_rate"}
+RATE_OF = {"theta": "theta_dot", "phi": "phi_dot", "drive_angle": "drive_rate", "pendulum_pitch": "pendulum_pitch_rate"}
 #: Least-squares gain of a rate on its angle's derivative outside this range means the angle and the
 #: rate are in different units (deg vs rad gives 57.3 or 1/57.3); judged only where the two agree in
 #: shape (correlation >= 0.9). The RoboBall logs give 0.79-0.95.
@@ -208,8 +212,16 @@ class RobotLog:
             raise LogError(f"log {self.path!r}: transient {transient_s} s leaves fewer than 3 samples")
         t = self.t_s[keep]
         return RobotLog(
-            self.name, self.path, t - t[0], {k: v[keep] for k, v in self.channels.items()},
-            self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived), self.window_s,
+            self.name,
+            self.path,
+            t - t[0],
+            {k: v[keep] for k, v in self.channels.items()},
+            self.fixture,
+            self.pressure_kpa,
+            self.notes,
+            dict(self.meta),
+            dict(self.derived),
+            self.window_s,
             self.t0_s + float(t[0]),
         )
 
@@ -223,17 +235,32 @@ class RobotLog:
         if not (math.isfinite(start_s) and math.isfinite(end_s)) or start_s >= end_s:
             raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}]: start must be before end (seconds)")
         if start_s < 0 or end_s > dur + 1e-9:
-            raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s lies outside the log, which spans "
-                        f"[0, {dur:.3f}] s from its first sample")
+            raise _fail(
+                self.path,
+                f"field {where!r} = [{start_s}, {end_s}] s lies outside the log, which spans "
+                f"[0, {dur:.3f}] s from its first sample",
+            )
         keep = (self.t_s >= start_s - 1e-9) & (self.t_s <= end_s + 1e-9)
         if keep.sum() < 3:
-            raise _fail(self.path, f"field {where!r} = [{start_s}, {end_s}] s holds {int(keep.sum())} samples; need >= 3")
+            raise _fail(
+                self.path, f"field {where!r} = [{start_s}, {end_s}] s holds {int(keep.sum())} samples; need >= 3"
+            )
         t = self.t_s[keep]
         # multi-turn angles restart from 0 at the window's start, as the twin's q_d and ψ do
         chans = {k: v[keep] - (v[keep][0] if k in MULTI_TURN else 0.0) for k, v in self.channels.items()}
-        return RobotLog(self.name, self.path, t - t[0], chans,
-                        self.fixture, self.pressure_kpa, self.notes, dict(self.meta), dict(self.derived),
-                        (self.t0_s + float(start_s), self.t0_s + float(end_s)), self.t0_s + float(t[0]))
+        return RobotLog(
+            self.name,
+            self.path,
+            t - t[0],
+            chans,
+            self.fixture,
+            self.pressure_kpa,
+            self.notes,
+            dict(self.meta),
+            dict(self.derived),
+            (self.t0_s + float(start_s), self.t0_s + float(end_s)),
+            self.t0_s + float(t[0]),
+        )
 
 
 #: The contract's name for a loaded trial.
@@ -305,23 +332,28 @@ def load_log(
     if (dt < 0).any():
         i = int(np.flatnonzero(dt < 0)[0]) + 1
         raise _fail(
-            p, f"line {i + 2}, column {tcol!r}: time {float(t_raw[i])} is before line {i + 1} ({float(t_raw[i - 1])}); "
-            "time must increase"
+            p,
+            f"line {i + 2}, column {tcol!r}: time {float(t_raw[i])} is before line {i + 1} ({float(t_raw[i - 1])}); "
+            "time must increase",
         )
     t = (t_raw - t_raw[0]) * TIME_UNITS[tunit]
     if len(t) >= 2:
         med = float(np.median(np.diff(t)))
         if not DT_RANGE_S[0] <= med <= DT_RANGE_S[1]:
             raise _fail(
-                p, f"column {tcol!r}: median sample period {med:.3g} s with unit {tunit!r} is implausible "
-                f"(allowed {DT_RANGE_S} s); is the time unit right?"
+                p,
+                f"column {tcol!r}: median sample period {med:.3g} s with unit {tunit!r} is implausible "
+                f"(allowed {DT_RANGE_S} s); is the time unit right?",
             )
         gaps = np.diff(t) > MAX_GAP_SAMPLES * med
         if gaps.any():
             i = int(np.flatnonzero(gaps)[0])
-            raise _fail(p, f"line {i + 3}, column {tcol!r}: a gap of {t[i + 1] - t[i]:.4g} s at t = {t[i]:.3f} s "
-                        f"from the first sample; allowed: at most {MAX_GAP_SAMPLES:g} sample periods "
-                        f"({MAX_GAP_SAMPLES * med:.3g} s): cut the log into windows either side of it")
+            raise _fail(
+                p,
+                f"line {i + 3}, column {tcol!r}: a gap of {t[i + 1] - t[i]:.4g} s at t = {t[i]:.3f} s "
+                f"from the first sample; allowed: at most {MAX_GAP_SAMPLES:g} sample periods "
+                f"({MAX_GAP_SAMPLES * med:.3g} s): cut the log into windows either side of it",
+            )
 
     channels: dict[str, np.ndarray] = {}
     columns: dict[str, str] = {}
@@ -338,18 +370,22 @@ def load_log(
                 span = np.maximum.accumulate(channels[chan]) - np.minimum.accumulate(channels[chan])
                 if chan in SPAN_LIMITS and span[-1] > SPAN_LIMITS[chan]:
                     i = int(np.flatnonzero(span > SPAN_LIMITS[chan])[0])
-                    raise _fail(p, f"line {i + 2}, column {col!r}: {chan} spans {span[i]:.4g} rad up to here (read "
-                                f"with unit {unit!r}); allowed: at most {SPAN_LIMITS[chan]:g} rad, the joint's range "
-                                "whatever its encoder's zero; is the column in degrees or counts?")
+                    raise _fail(
+                        p,
+                        f"line {i + 2}, column {col!r}: {chan} spans {span[i]:.4g} rad up to here (read "
+                        f"with unit {unit!r}); allowed: at most {SPAN_LIMITS[chan]:g} rad, the joint's range "
+                        "whatever its encoder's zero; is the column in degrees or counts?",
+                    )
                 limit = CHANNEL_LIMITS.get(chan, MAX_RATE_RAD_S if chan not in ANGLE_CHANNELS else math.inf)
                 big = np.abs(channels[chan]) > limit
                 if big.any():
                     i = int(np.flatnonzero(big)[0])
                     si = "rad" if chan in ANGLE_CHANNELS else "rad/s"
                     raise _fail(
-                        p, f"line {i + 2}, column {col!r}: {chan} = {channels[chan][i]:.4g} {si} "
+                        p,
+                        f"line {i + 2}, column {col!r}: {chan} = {channels[chan][i]:.4g} {si} "
                         f"(read with unit {unit!r}) is beyond what this robot can do: allowed |{chan}| <= "
-                        f"{limit:.4g} {si}; is the column in {'degrees' if si == 'rad' else 'deg/s'} or counts?"
+                        f"{limit:.4g} {si}; is the column in {'degrees' if si == 'rad' else 'deg/s'} or counts?",
                     )
                 columns[chan] = col
                 break
@@ -363,9 +399,7 @@ def load_log(
     for chan in need:
         if chan not in channels:
             cols = [c for c, _ in mapping.channels.get(chan, ())]
-            raise _fail(
-                p, f"column for {chan!r} missing (looked for {cols}); found columns {list(df.columns)}"
-            )
+            raise _fail(p, f"column for {chan!r} missing (looked for {cols}); found columns {list(df.columns)}")
     if not channels:
         raise _fail(p, f"no known channel columns; found {list(df.columns)} (mapping {mapping.source})")
     return RobotLog(name or Path(p).stem, p, t, channels, derived=derived)
@@ -383,9 +417,12 @@ def _check_rate_units(path: str, t: np.ndarray, channels: Mapping[str, np.ndarra
             continue
         gain = float(np.dot(r, g) / np.dot(g, g))
         if not RATE_GAIN_RANGE[0] <= gain <= RATE_GAIN_RANGE[1]:
-            raise _fail(path, f"columns {columns[rate]!r} and {columns[angle]!r}: {rate} is {gain:.3g} x the "
-                        f"time derivative of {angle} (allowed {RATE_GAIN_RANGE[0]}-{RATE_GAIN_RANGE[1]}); the two "
-                        "columns are in different units (57.3: deg/s against rad; 1000: a time unit off)")
+            raise _fail(
+                path,
+                f"columns {columns[rate]!r} and {columns[angle]!r}: {rate} is {gain:.3g} x the "
+                f"time derivative of {angle} (allowed {RATE_GAIN_RANGE[0]}-{RATE_GAIN_RANGE[1]}); the two "
+                "columns are in different units (57.3: deg/s against rad; 1000: a time unit off)",
+            )
 
 
 def _relative_turns(path: str, col: str, unit: str, chan: str, t: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -398,9 +435,12 @@ def _relative_turns(path: str, col: str, unit: str, chan: str, t: np.ndarray, x:
         jump = np.abs(np.diff(x)) > limit * np.diff(t) + JUMP_SLACK_RAD
         if jump.any():
             i = int(np.flatnonzero(jump)[0])
-            raise _fail(path, f"line {i + 3}, column {col!r}: {chan} jumps by {x[i + 1] - x[i]:.4g} rad in "
-                        f"{t[i + 1] - t[i]:.3g} s (read with unit {unit!r}); allowed: at most {limit:g} rad/s "
-                        "between samples; is the column in degrees or counts?")
+            raise _fail(
+                path,
+                f"line {i + 3}, column {col!r}: {chan} jumps by {x[i + 1] - x[i]:.4g} rad in "
+                f"{t[i + 1] - t[i]:.3g} s (read with unit {unit!r}); allowed: at most {limit:g} rad/s "
+                "between samples; is the column in degrees or counts?",
+            )
     return x - x[0]
 
 
@@ -415,8 +455,9 @@ def _fill_nans(path: str, col: str, x: np.ndarray, max_run: int) -> np.ndarray:
         if e - s > max_run or s == 0 or e == len(x):
             where = "at the start" if s == 0 else "at the end" if e == len(x) else f"of {e - s} samples"
             raise _fail(
-                path, f"lines {s + 2}-{e + 1}, column {col!r}: NaN run {where} "
-                f"(at most {max_run} interior NaN samples are interpolated)"
+                path,
+                f"lines {s + 2}-{e + 1}, column {col!r}: NaN run {where} "
+                f"(at most {max_run} interior NaN samples are interpolated)",
             )
     idx = np.arange(len(x))
     out = x.copy()
@@ -442,12 +483,16 @@ def check_motion(log: RobotLog, where: str = "window_s", min_motion_rad: float =
         raise _fail(log.path, f"field {where!r} = {list(log.window_s or ())}: no φ or θ channel to fit")
     if max(moved.values()) < min_motion_rad:
         desc = ", ".join(f"{c} {v:.4f} rad" for c, v in moved.items())
-        raise _fail(log.path, f"field {where!r} = {list(log.window_s or ())} s has no free motion to fit: "
-                    f"peak-to-peak {desc}, below {min_motion_rad} rad")
+        raise _fail(
+            log.path,
+            f"field {where!r} = {list(log.window_s or ())} s has no free motion to fit: "
+            f"peak-to-peak {desc}, below {min_motion_rad} rad",
+        )
 
 
-def write_log_csv(path: str | Path, t_s: np.ndarray, channels: Mapping[str, np.ndarray],
-                  t0_ns: int = 1_000_000_000) -> Path:
+def write_log_csv(
+    path: str | Path, t_s: np.ndarray, channels: Mapping[str, np.ndarray], t0_ns: int = 1_000_000_000
+) -> Path:
     """Write channels in the RoboBall CSV format (ns ``timestamp``, ``roll_joint.position`` ...).
 
     Used to synthesize logs from the twin (tests, examples). Channel names are project names;

@@ -49,17 +49,27 @@ class TrialEntry(Schema):
     name: str | None = None
     group: str = ""
     pressure_kpa: float | None = Field(
-        None, ge=_P_LO, le=_P_HI,
-        json_schema_extra=allowed(f"a gauge pressure in kPa within [{_P_LO}, {_P_HI}] (an inflatable shell; Pa or "
-                                  "MPa values fall outside), or null"))
+        None,
+        ge=_P_LO,
+        le=_P_HI,
+        json_schema_extra=allowed(
+            f"a gauge pressure in kPa within [{_P_LO}, {_P_HI}] (an inflatable shell; Pa or "
+            "MPa values fall outside), or null"
+        ),
+    )
     transient_s: float = Field(0.0, ge=0.0, lt=1e4, json_schema_extra=allowed("seconds dropped at the start, [0, 1e4)"))
     notes: str = ""
     mapping: str | None = Field(None, json_schema_extra=allowed("a column mapping YAML, relative to the manifest"))
     ramp_window_s: ordered_pair(None, None, "s", strict=True, words="[start, end] seconds, start < end") | None = None
-    window_s: ordered_pair(0.0, None, "s", strict=True, words=(
-        "[start, end] in seconds from the log's first sample, 0 <= start < end")) | None = None
+    window_s: (
+        ordered_pair(
+            0.0, None, "s", strict=True, words=("[start, end] in seconds from the log's first sample, 0 <= start < end")
+        )
+        | None
+    ) = None
     time_unit: Literal[tuple(TIME_UNITS)] | None = Field(  # type: ignore[valid-type]
-        None, json_schema_extra=allowed(str(list(TIME_UNITS))))
+        None, json_schema_extra=allowed(str(list(TIME_UNITS)))
+    )
 
 
 class ManifestFile(Schema):
@@ -100,8 +110,12 @@ class TrialSpec:
         if self.transient_s > 0:
             log = log.after(self.transient_s)
         log.fixture, log.pressure_kpa, log.notes = self.fixture, self.pressure_kpa, self.notes
-        log.meta = {"group": self.group, "transient_s": self.transient_s, "ramp_window_s": self.ramp_window_s,
-                    "window_s": self.window_s}
+        log.meta = {
+            "group": self.group,
+            "transient_s": self.transient_s,
+            "ramp_window_s": self.ramp_window_s,
+            "window_s": self.window_s,
+        }
         return log
 
 
@@ -161,17 +175,31 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
         f = Path(entry.file)
         f = f if f.is_absolute() else root / f
         if not _inside(f, root):
-            raise LogError(f"{where}: field 'file' = {entry.file!r} resolves outside data_root {str(root)!r}; "
-                           "allowed: a path inside data_root (nothing outside it is read)")
+            raise LogError(
+                f"{where}: field 'file' = {entry.file!r} resolves outside data_root {str(root)!r}; "
+                "allowed: a path inside data_root (nothing outside it is read)"
+            )
         mapping = None
         if entry.mapping is not None:
             mapping = Path(entry.mapping) if Path(entry.mapping).is_absolute() else base / entry.mapping
             if not _inside(mapping, base, root):
-                raise LogError(f"{where}: field 'mapping' = {entry.mapping!r} resolves outside the manifest's "
-                               "folder and data_root; allowed: a path inside either")
-        trials.append(TrialSpec(
-            name=name, file=f, fixture=entry.fixture, group=entry.group, pressure_kpa=entry.pressure_kpa,
-            transient_s=entry.transient_s, notes=entry.notes, mapping=mapping,
-            ramp_window_s=None if entry.ramp_window_s is None else tuple(entry.ramp_window_s),
-            window_s=None if entry.window_s is None else tuple(entry.window_s), time_unit=entry.time_unit))
+                raise LogError(
+                    f"{where}: field 'mapping' = {entry.mapping!r} resolves outside the manifest's "
+                    "folder and data_root; allowed: a path inside either"
+                )
+        trials.append(
+            TrialSpec(
+                name=name,
+                file=f,
+                fixture=entry.fixture,
+                group=entry.group,
+                pressure_kpa=entry.pressure_kpa,
+                transient_s=entry.transient_s,
+                notes=entry.notes,
+                mapping=mapping,
+                ramp_window_s=None if entry.ramp_window_s is None else tuple(entry.ramp_window_s),
+                window_s=None if entry.window_s is None else tuple(entry.window_s),
+                time_unit=entry.time_unit,
+            )
+        )
     return Manifest(p, root, tuple(trials))

@@ -34,8 +34,15 @@ TABLE_I_STEER = FrictionModel("majd", {"f_w": 0.20, "f_c": 0.45, "sigma": 10.0, 
 AUTHORS = {"steer_165825": {"phi": 0.098, "theta": 0.108}, "steer_165853": {"phi": 0.035, "theta": 0.057}}
 
 
-def build_report(manifest: Manifest, out_dir: str | Path, command: str, workers: int | None = None,
-                 starts: int = 2, calibration: str | None = None, sensitivity: bool = True) -> Path:
+def build_report(
+    manifest: Manifest,
+    out_dir: str | Path,
+    command: str,
+    workers: int | None = None,
+    starts: int = 2,
+    calibration: str | None = None,
+    sensitivity: bool = True,
+) -> Path:
     """Run every real-log check and write ``README.md``, ``results.json`` and PNGs into ``out_dir``:
     all of them into a staging folder beside it first, moved into place only when every check has
     finished, so an interrupted or failed report leaves ``out_dir`` as it was."""
@@ -50,31 +57,50 @@ def _publish(work: Path, out: Path) -> None:
     swap_folder(work, out, lambda name: name in ("README.md", "results.json") or name.endswith(".png"))
 
 
-def _build(manifest: Manifest, out: Path, command: str, workers: int | None, starts: int,
-           calibration: str | None, sensitivity: bool) -> None:
+def _build(
+    manifest: Manifest,
+    out: Path,
+    command: str,
+    workers: int | None,
+    starts: int,
+    calibration: str | None,
+    sensitivity: bool,
+) -> None:
     t_start = time.time()
     cal = ShellCalibration.load(calibration)
     presets = load_friction_presets()
     steer = presets["majd_steer"]
-    results: dict[str, Any] = {"command": command, "calibration": str(cal.source),
-                               "majd_steer": dict(steer.params)}
+    results: dict[str, Any] = {"command": command, "calibration": str(cal.source), "majd_steer": dict(steer.params)}
 
     # 1. Friction on stand_swing.
     stand = [t.load(required=("theta",)) for t in manifest.group("stand_swing")]
     shipped = evaluate_friction(stand, steer)
     table1 = evaluate_friction(stand, TABLE_I_STEER)
-    plot_stand_overlay(out / "stand_swing_overlay.png", stand,
-                       {"majd_steer (shipped)": (steer, 0.0), "Table I params, continuous law": (TABLE_I_STEER, 0.0)})
+    plot_stand_overlay(
+        out / "stand_swing_overlay.png",
+        stand,
+        {"majd_steer (shipped)": (steer, 0.0), "Table I params, continuous law": (TABLE_I_STEER, 0.0)},
+    )
     loo = leave_one_out(stand, law="majd", fixed=("sigma", "n"), starts=starts)
     with_offset = fit_friction(stand, "majd", fixed=("sigma", "n"), fit_offset=True, starts=1)
-    results["stand_swing"] = {"shipped_rmse_rad": shipped, "table_i_rmse_rad": table1, "leave_one_out": loo,
-                              "fit_with_offset": with_offset.as_dict()}
+    results["stand_swing"] = {
+        "shipped_rmse_rad": shipped,
+        "table_i_rmse_rad": table1,
+        "leave_one_out": loo,
+        "fit_with_offset": with_offset.as_dict(),
+    }
 
     # 2. Shell at the steer_free pressure: shipped calibration, every model.
     sf = [t.load(required=("phi", "theta")) for t in manifest.group("steer_free")]
     p0 = cal.nominal_pressure_kpa
-    rows = validate(sf, ("point", "injected", "hydroelastic"), steer_friction=steer, drive_friction="none",
-                    calibration=calibration, default_pressure_kpa=p0)
+    rows = validate(
+        sf,
+        ("point", "injected", "hydroelastic"),
+        steer_friction=steer,
+        drive_friction="none",
+        calibration=calibration,
+        default_pressure_kpa=p0,
+    )
     plot_overlays(out / "steer_free_overlay.png", sf, rows)
     results["steer_free_shipped"] = [r.as_dict() for r in rows]
     results["steer_free_decay"] = {}
@@ -92,8 +118,18 @@ def _build(manifest: Manifest, out: Path, command: str, workers: int | None, sta
         spec = next(t for t in free_specs if str(t.file) == f)
         full = load_log(spec.file, spec.mapping)
         results["free_robot_events"][Path(f).name] = [e.as_dict() for e in find_events(full)]
-    free_rows = validate(free, ("point", "injected", "hydroelastic"), steer_friction=steer, drive_friction="majd_drive",
-                         calibration=calibration, workers=workers) if free else []
+    free_rows = (
+        validate(
+            free,
+            ("point", "injected", "hydroelastic"),
+            steer_friction=steer,
+            drive_friction="majd_drive",
+            calibration=calibration,
+            workers=workers,
+        )
+        if free
+        else []
+    )
     results["free_robot_shipped"] = [r.record() for r in free_rows]
     if free:
         plot_overlays(out / "free_robot_overlay.png", free, free_rows)
@@ -102,10 +138,12 @@ def _build(manifest: Manifest, out: Path, command: str, workers: int | None, sta
     groups = {"steer_free": sf}
     if free:
         groups["free_robot"] = free
-    results["cross_validation"] = cross_validate(groups, ("point", "injected", "hydroelastic"), calibration,
-                                                 p0, steer, "majd_drive", workers=workers)
-    results["cross_validation_summary"] = {f"{g}/{m}": v for (g, m), v in
-                                           held_out_summary(results["cross_validation"]).items()}
+    results["cross_validation"] = cross_validate(
+        groups, ("point", "injected", "hydroelastic"), calibration, p0, steer, "majd_drive", workers=workers
+    )
+    results["cross_validation_summary"] = {
+        f"{g}/{m}": v for (g, m), v in held_out_summary(results["cross_validation"]).items()
+    }
 
     # 5. Hydroelastic sensitivity (paper Fig. 11).
     if sensitivity:
@@ -132,20 +170,31 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "## Summary",
         "",
     ]
-    summary = [["stand_swing, shipped `majd_steer`", name, "—", number(v, 4), "θ ≤ 0.03"]
-               for name, v in s["shipped_rmse_rad"].items()]
+    summary = [
+        ["stand_swing, shipped `majd_steer`", name, "—", number(v, 4), "θ ≤ 0.03"]
+        for name, v in s["shipped_rmse_rad"].items()
+    ]
     for r in res["steer_free_shipped"]:
         if r["model"] == "injected":
             a = AUTHORS.get(r["trial"], {})
-            summary.append(["steer_free, shipped calibration, injected", r["trial"], number(r["rmse"]["phi"]),
-                            number(r["rmse"]["theta"]),
-                            f"authors' Drake: φ {a.get('phi', '—')}, θ {a.get('theta', '—')}"])
+            summary.append(
+                [
+                    "steer_free, shipped calibration, injected",
+                    r["trial"],
+                    number(r["rmse"]["phi"]),
+                    number(r["rmse"]["theta"]),
+                    f"authors' Drake: φ {a.get('phi', '—')}, θ {a.get('theta', '—')}",
+                ]
+            )
     L.append(markdown_table(summary, ["check", "trial", "RMSE φ [rad]", "RMSE θ [rad]", "target"], align="llrrl"))
     inj = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "injected"}
     hyd = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "hydroelastic"}
     loo_test = [r["test_rmse_rad"] for r in s["leave_one_out"]]
-    xv = [x for x in res["cross_validation"]
-          if x["group"] == "steer_free" and x["model"] == "injected" and x["fit_on"] and x["rmse_rad"]]
+    xv = [
+        x
+        for x in res["cross_validation"]
+        if x["group"] == "steer_free" and x["model"] == "injected" and x["fit_on"] and x["rmse_rad"]
+    ]
     inj_w = [x["params"].get("omega_n", math.nan) for x in xv]
     held_vals = [x["rmse_rad"][other]["phi"] for x in xv for other in x["rmse_rad"] if other != x["fit_on"]]
     held = f"{min(held_vals):.3f}–{max(held_vals):.3f}" if held_vals else "—"
@@ -200,71 +249,158 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "",
         f"Shipped `majd_steer` = {json.dumps({k: round(v, 4) for k, v in steer.items()})}.",
         "",
-        markdown_table([[name, number(s["shipped_rmse_rad"][name], 4), number(s["table_i_rmse_rad"][name], 4)]
-                        for name in s["shipped_rmse_rad"]],
-                       ["trial", "shipped majd_steer θ RMSE [rad]", "Table I params, continuous law [rad]"],
-                       align="lrr"),
+        markdown_table(
+            [
+                [name, number(s["shipped_rmse_rad"][name], 4), number(s["table_i_rmse_rad"][name], 4)]
+                for name in s["shipped_rmse_rad"]
+            ],
+            ["trial", "shipped majd_steer θ RMSE [rad]", "Table I params, continuous law [rad]"],
+            align="lrr",
+        ),
     ]
-    L += ["", "![stand overlay](stand_swing_overlay.png)", "",
-          "### Leave one out (fit f_ω, f_c, ω_c on three trials, σ = 10 and n = 1 held; test on the fourth)", "",
-          markdown_table([{**r["params"], "held_out": r["held_out"], "train": max(r["train_rmse_rad"].values()),
-                           "test": r["test_rmse_rad"]} for r in s["leave_one_out"]],
-                         [("held_out", "held out", ""), ("f_w", "f_ω", "{:.3f}"), ("f_c", "f_c", "{:.3f}"),
-                          ("omega_c", "ω_c", "{:.3f}"), ("train", "train RMSE (max) [rad]", "{:.4f}"),
-                          ("test", "test RMSE [rad]", "{:.4f}")], align="lrrrrr")]
-    L += ["", "## 2. `steer_free` with the shipped calibration", "",
-          f"Fixture `steer_plane` (planar joint, drive locked, pendulum free with `majd_steer`), from the logged "
-          f"φ, θ and a quadratic-fit φ̇ at t = 0; pressure {cal.nominal_pressure_kpa} kPa (the calibration's "
-          "nominal, the ASSUMED steer_free pressure — see `assets/calibration/default.yaml`).", "",
-          validation_table(rows), "",
-          "Authors' Drake setup (hydroelastic 1.55e5 Pa, 0.405 s/m): φ 0.098 / 0.035 rad, θ 0.108 / 0.057 rad "
-          "(165825 / 165853); point contact φ 0.44 / 0.49 rad.", "",
-          "![steer_free overlay](steer_free_overlay.png)", "",
-          "Model-free cross-check: a damped sinusoid fitted to the logged φ(t) (the pendulum is free, so these are "
-          "not the locked-steer ω_n, ζ of the calibration):", "",
-          markdown_table([[name, d["error"], "", ""] if "error" in d else
-                          [name, f"{d['omega_n']:.3f} ({d['omega_n_ci'][0]:.3f}–{d['omega_n_ci'][1]:.3f})",
-                           f"{d['zeta']:.3f} ({d['zeta_ci'][0]:.3f}–{d['zeta_ci'][1]:.3f})", number(d["logdec_zeta"])]
-                          for name, d in res.get("steer_free_decay", {}).items()],
-                         ["trial", "ω_n [rad/s] (95 % CI)", "ζ (95 % CI)", "log-decrement ζ"], align="lllr")]
-    L += ["", "## 3. The free robot", "",
-          "Free-motion events found by `python -m sphere_env.calibration events LOG` in each free-robot log "
-          "(times in s from the log's first sample; a release or push followed by free decay, the drive not "
-          "turning):", ""]
+    L += [
+        "",
+        "![stand overlay](stand_swing_overlay.png)",
+        "",
+        "### Leave one out (fit f_ω, f_c, ω_c on three trials, σ = 10 and n = 1 held; test on the fourth)",
+        "",
+        markdown_table(
+            [
+                {
+                    **r["params"],
+                    "held_out": r["held_out"],
+                    "train": max(r["train_rmse_rad"].values()),
+                    "test": r["test_rmse_rad"],
+                }
+                for r in s["leave_one_out"]
+            ],
+            [
+                ("held_out", "held out", ""),
+                ("f_w", "f_ω", "{:.3f}"),
+                ("f_c", "f_c", "{:.3f}"),
+                ("omega_c", "ω_c", "{:.3f}"),
+                ("train", "train RMSE (max) [rad]", "{:.4f}"),
+                ("test", "test RMSE [rad]", "{:.4f}"),
+            ],
+            align="lrrrrr",
+        ),
+    ]
+    L += [
+        "",
+        "## 2. `steer_free` with the shipped calibration",
+        "",
+        f"Fixture `steer_plane` (planar joint, drive locked, pendulum free with `majd_steer`), from the logged "
+        f"φ, θ and a quadratic-fit φ̇ at t = 0; pressure {cal.nominal_pressure_kpa} kPa (the calibration's "
+        "nominal, the ASSUMED steer_free pressure — see `assets/calibration/default.yaml`).",
+        "",
+        validation_table(rows),
+        "",
+        "Authors' Drake setup (hydroelastic 1.55e5 Pa, 0.405 s/m): φ 0.098 / 0.035 rad, θ 0.108 / 0.057 rad "
+        "(165825 / 165853); point contact φ 0.44 / 0.49 rad.",
+        "",
+        "![steer_free overlay](steer_free_overlay.png)",
+        "",
+        "Model-free cross-check: a damped sinusoid fitted to the logged φ(t) (the pendulum is free, so these are "
+        "not the locked-steer ω_n, ζ of the calibration):",
+        "",
+        markdown_table(
+            [
+                [name, d["error"], "", ""]
+                if "error" in d
+                else [
+                    name,
+                    f"{d['omega_n']:.3f} ({d['omega_n_ci'][0]:.3f}–{d['omega_n_ci'][1]:.3f})",
+                    f"{d['zeta']:.3f} ({d['zeta_ci'][0]:.3f}–{d['zeta_ci'][1]:.3f})",
+                    number(d["logdec_zeta"]),
+                ]
+                for name, d in res.get("steer_free_decay", {}).items()
+            ],
+            ["trial", "ω_n [rad/s] (95 % CI)", "ζ (95 % CI)", "log-decrement ζ"],
+            align="lllr",
+        ),
+    ]
+    L += [
+        "",
+        "## 3. The free robot",
+        "",
+        "Free-motion events found by `python -m sphere_env.calibration events LOG` in each free-robot log "
+        "(times in s from the log's first sample; a release or push followed by free decay, the drive not "
+        "turning):",
+        "",
+    ]
     for fname, evs in res.get("free_robot_events", {}).items():
         L.append(f"`{fname}`:")
         L.append("")
-        L.append(markdown_table(
-            [{**e, "moved": ", ".join(f"{k} {v:.3f}" for k, v in e["moved_rad"].items())} for e in evs],
-            [("start_s", "start [s]", "{:.2f}"), ("free_start_s", "free from [s]", "{:.2f}"),
-             ("end_s", "end [s]", "{:.2f}"), ("kind", "kind", ""), ("moved", "moved (peak to peak, rad)", "")],
-            align="rrrll"))
+        L.append(
+            markdown_table(
+                [{**e, "moved": ", ".join(f"{k} {v:.3f}" for k, v in e["moved_rad"].items())} for e in evs],
+                [
+                    ("start_s", "start [s]", "{:.2f}"),
+                    ("free_start_s", "free from [s]", "{:.2f}"),
+                    ("end_s", "end [s]", "{:.2f}"),
+                    ("kind", "kind", ""),
+                    ("moved", "moved (peak to peak, rad)", ""),
+                ],
+                align="rrrll",
+            )
+        )
         L.append("")
     if res.get("free_robot_shipped"):
-        L += ["The manifest's free windows (`fixture: free`, zero torque, drive free with `majd_drive`, from the "
-              "logged state at the window start) with the shipped calibration at its nominal pressure (the "
-              "free robot's pressure was not recorded):", "",
-              markdown_table(res["free_robot_shipped"], [
-                  ("trial", "trial", ""), ("window_s", "window [s]", lambda w: "{}–{}".format(*(w or ["", ""]))),
-                  ("model", "model", ""), ("rmse_phi_rad", "RMSE φ [rad]", number),
-                  ("rmse_theta_rad", "RMSE θ [rad]", number), ("rmse_pendulum_pitch_rad", "RMSE α [rad]", number),
-                  ("rmse_omega_d_rad_s", "RMSE ω_d [rad/s]", number)], align="lllrrrr")]
-        L += ["", "ω_d of the free robot is derived from the logs (pendulum_pitch_rate - drive_rate), not measured.",
-              "", "![free robot overlay](free_robot_overlay.png)"]
-    L += ["", "## 4. Cross-validation: fit on one segment, validate on the others", "",
-          "Per group (segments at one unrecorded pressure), every shell model is fitted on each segment in turn "
-          "and validated on every segment of the group. The `fit` row is a fit, not a test; `held out` rows "
-          "are the test. `point` has nothing to fit: it is the rigid baseline with the shipped calibration.", "",
-          crossval_table(res["cross_validation"]), ""]
+        L += [
+            "The manifest's free windows (`fixture: free`, zero torque, drive free with `majd_drive`, from the "
+            "logged state at the window start) with the shipped calibration at its nominal pressure (the "
+            "free robot's pressure was not recorded):",
+            "",
+            markdown_table(
+                res["free_robot_shipped"],
+                [
+                    ("trial", "trial", ""),
+                    ("window_s", "window [s]", lambda w: "{}–{}".format(*(w or ["", ""]))),
+                    ("model", "model", ""),
+                    ("rmse_phi_rad", "RMSE φ [rad]", number),
+                    ("rmse_theta_rad", "RMSE θ [rad]", number),
+                    ("rmse_pendulum_pitch_rad", "RMSE α [rad]", number),
+                    ("rmse_omega_d_rad_s", "RMSE ω_d [rad/s]", number),
+                ],
+                align="lllrrrr",
+            ),
+        ]
+        L += [
+            "",
+            "ω_d of the free robot is derived from the logs (pendulum_pitch_rate - drive_rate), not measured.",
+            "",
+            "![free robot overlay](free_robot_overlay.png)",
+        ]
+    L += [
+        "",
+        "## 4. Cross-validation: fit on one segment, validate on the others",
+        "",
+        "Per group (segments at one unrecorded pressure), every shell model is fitted on each segment in turn "
+        "and validated on every segment of the group. The `fit` row is a fit, not a test; `held out` rows "
+        "are the test. `point` has nothing to fit: it is the rigid baseline with the shipped calibration.",
+        "",
+        crossval_table(res["cross_validation"]),
+        "",
+    ]
     summ = res.get("cross_validation_summary", {})
     if summ:
-        L.append(markdown_table([[k, number(v["worst_fit_phi_rad"]), number(v["worst_held_out_phi_rad"])]
-                                 for k, v in summ.items()],
-                                ["group / model", "worst φ on the fit segment [rad]", "worst φ held out [rad]"],
-                                align="lrr"))
+        L.append(
+            markdown_table(
+                [[k, number(v["worst_fit_phi_rad"]), number(v["worst_held_out_phi_rad"])] for k, v in summ.items()],
+                ["group / model", "worst φ on the fit segment [rad]", "worst φ held out [rad]"],
+                align="lrr",
+            )
+        )
     if "sensitivity" in res:
-        L += ["", "## 5. Hydroelastic sensitivity (paper Fig. 11)", "",
-              "`locked_steer`, hydroelastic, released at φ = 0.15 rad, no joint friction; ζ from a damped-sinusoid "
-              "fit of φ(t). Modulus and dissipation scaled ±50 % one at a time around the calibration.", "",
-              sensitivity_table(res["sensitivity"]), "", "![sensitivity](hydroelastic_sensitivity.png)"]
+        L += [
+            "",
+            "## 5. Hydroelastic sensitivity (paper Fig. 11)",
+            "",
+            "`locked_steer`, hydroelastic, released at φ = 0.15 rad, no joint friction; ζ from a damped-sinusoid "
+            "fit of φ(t). Modulus and dissipation scaled ±50 % one at a time around the calibration.",
+            "",
+            sensitivity_table(res["sensitivity"]),
+            "",
+            "![sensitivity](hydroelastic_sensitivity.png)",
+        ]
     return "\n".join(L) + "\n"

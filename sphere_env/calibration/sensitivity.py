@@ -23,8 +23,13 @@ from sphere_env.parallel import run_parallel
 from sphere_env.plotting import save_figure
 from sphere_env.reporting import markdown_table
 
-CASES = (("control", 1.0, 1.0), ("modulus -50%", 0.5, 1.0), ("modulus +50%", 1.5, 1.0),
-         ("dissipation -50%", 1.0, 0.5), ("dissipation +50%", 1.0, 1.5))
+CASES = (
+    ("control", 1.0, 1.0),
+    ("modulus -50%", 0.5, 1.0),
+    ("modulus +50%", 1.5, 1.0),
+    ("dissipation -50%", 1.0, 0.5),
+    ("dissipation +50%", 1.0, 1.5),
+)
 
 
 def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
@@ -38,11 +43,23 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     p = float(job["pressure_kpa"])
     m0, d0 = base.bind(robot).hydroelastic(p)
     m, d = m0 * job["modulus_scale"], d0 * job["dissipation_scale"]
-    twin = Twin(TwinConfig(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
-                           drive_friction="none", calibration=job.get("calibration"), pressure_kpa=p,
-                           time_step_s=step))
-    twin.set_calibration(ShellCalibration.from_dict(
-        calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>"), p)
+    twin = Twin(
+        TwinConfig(
+            fixture="locked_steer",
+            shell_model="hydroelastic",
+            steer_friction="none",
+            drive_friction="none",
+            calibration=job.get("calibration"),
+            pressure_kpa=p,
+            time_step_s=step,
+        )
+    )
+    twin.set_calibration(
+        ShellCalibration.from_dict(
+            calibration_at(base, p, modulus_pa=m, dissipation_s_per_m=d, robot=robot), source="<sweep>"
+        ),
+        p,
+    )
     twin.reset(InitialState(roll=job.get("phi0_rad", 0.15)))
     dt, n = 0.01, int(job.get("duration_s", 6.0) / 0.01)
     t, phi = np.empty(n + 1), np.empty(n + 1)
@@ -55,9 +72,17 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
         omega_n, zeta = fit.omega_n, fit.zeta
     except ValueError:
         omega_n = zeta = float("nan")
-    return {"case": job["case"], "pressure_kpa": p, "modulus_pa": m, "dissipation_s_per_m": d,
-            "omega_n": omega_n, "zeta": zeta, "zeta_curve": float(base.zeta(p)),
-            "omega_n_curve": float(base.omega_n(p)), "time_step_s": twin.config.time_step_s}
+    return {
+        "case": job["case"],
+        "pressure_kpa": p,
+        "modulus_pa": m,
+        "dissipation_s_per_m": d,
+        "omega_n": omega_n,
+        "zeta": zeta,
+        "zeta_curve": float(base.zeta(p)),
+        "omega_n_curve": float(base.omega_n(p)),
+        "time_step_s": twin.config.time_step_s,
+    }
 
 
 def sweep(
@@ -70,10 +95,20 @@ def sweep(
     cases: Sequence[tuple[str, float, float]] = CASES,
 ) -> list[dict[str, Any]]:
     """Run every (pressure, case); returns rows with ζ, its change vs control [%] and error vs ζ(p) [%]."""
-    jobs = [{"calibration": None if calibration is None else str(calibration), "pressure_kpa": float(p),
-             "modulus_scale": ms, "dissipation_scale": ds, "phi0_rad": phi0_rad, "duration_s": duration_s,
-             "time_step_s": time_step_s, "case": name}
-            for p in pressures_kpa for name, ms, ds in cases]
+    jobs = [
+        {
+            "calibration": None if calibration is None else str(calibration),
+            "pressure_kpa": float(p),
+            "modulus_scale": ms,
+            "dissipation_scale": ds,
+            "phi0_rad": phi0_rad,
+            "duration_s": duration_s,
+            "time_step_s": time_step_s,
+            "case": name,
+        }
+        for p in pressures_kpa
+        for name, ms, ds in cases
+    ]
     rows = run_parallel(decay_case, jobs, workers)
     control = {r["pressure_kpa"]: r["zeta"] for r in rows if r["case"] == "control"}
     for r in rows:
@@ -85,13 +120,21 @@ def sweep(
 
 def sensitivity_table(rows: Sequence[Mapping[str, Any]]) -> str:
     """A Markdown table of :func:`sweep`'s rows."""
-    return markdown_table(rows, [
-        ("pressure_kpa", "p [kPa]", "{:.2f}"), ("case", "case", ""), ("modulus_pa", "modulus [Pa]", "{:.3g}"),
-        ("dissipation_s_per_m", "dissipation [s/m]", "{:.3f}"), ("omega_n", "ω_n [rad/s]", "{:.3f}"),
-        ("zeta", "ζ sim", "{:.3f}"), ("zeta_curve", "ζ curve", "{:.3f}"),
-        ("zeta_change_pct", "Δζ vs control [%]", "{:+.1f}"),
-        ("zeta_error_vs_curve_pct", "ζ error vs curve [%]", "{:+.1f}"),
-    ], align="rlrrrrrrr")
+    return markdown_table(
+        rows,
+        [
+            ("pressure_kpa", "p [kPa]", "{:.2f}"),
+            ("case", "case", ""),
+            ("modulus_pa", "modulus [Pa]", "{:.3g}"),
+            ("dissipation_s_per_m", "dissipation [s/m]", "{:.3f}"),
+            ("omega_n", "ω_n [rad/s]", "{:.3f}"),
+            ("zeta", "ζ sim", "{:.3f}"),
+            ("zeta_curve", "ζ curve", "{:.3f}"),
+            ("zeta_change_pct", "Δζ vs control [%]", "{:+.1f}"),
+            ("zeta_error_vs_curve_pct", "ζ error vs curve [%]", "{:+.1f}"),
+        ],
+        align="rlrrrrrrr",
+    )
 
 
 def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
@@ -113,10 +156,16 @@ def plot_sweep(path: str | Path, rows: Sequence[Mapping[str, Any]]) -> Path:
     return save_figure(fig, path, dpi=110)
 
 
-def match_dissipation(calibration: str | Path | None, pressure_kpa: float, target_zeta: float | None = None,
-                      scale_bracket: tuple[float, float] = (0.05, 3.0), duration_s: float = 6.0,
-                      phi0_rad: float = 0.15, xtol: float = 0.01,
-                      time_step_s: float | None = None) -> dict[str, float]:
+def match_dissipation(
+    calibration: str | Path | None,
+    pressure_kpa: float,
+    target_zeta: float | None = None,
+    scale_bracket: tuple[float, float] = (0.05, 3.0),
+    duration_s: float = 6.0,
+    phi0_rad: float = 0.15,
+    xtol: float = 0.01,
+    time_step_s: float | None = None,
+) -> dict[str, float]:
     """Find the Hunt–Crossley dissipation d [s/m] at which the hydroelastic ``locked_steer`` free decay
     has the damping ratio ``target_zeta`` (default: the calibration's ζ(p)); returns d, k_d = d / C_inject
     and ``time_step_s``, the plant step [s] the decays ran at (None: the twin's default step).
@@ -138,19 +187,33 @@ def match_dissipation(calibration: str | Path | None, pressure_kpa: float, targe
     _, c_inject = shell.injected_gains(p)
 
     def zeta_at(scale: float) -> float:
-        job = {"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
-               "modulus_scale": 1.0, "dissipation_scale": scale, "phi0_rad": phi0_rad,
-               "duration_s": duration_s, "time_step_s": step, "case": "match"}
+        job = {
+            "calibration": None if calibration is None else str(calibration),
+            "pressure_kpa": p,
+            "modulus_scale": 1.0,
+            "dissipation_scale": scale,
+            "phi0_rad": phi0_rad,
+            "duration_s": duration_s,
+            "time_step_s": step,
+            "case": "match",
+        }
         return decay_case(job)["zeta"] - target
 
     scale = brentq(zeta_at, *scale_bracket, xtol=xtol)
     d = d0 * scale
-    return {"pressure_kpa": p, "target_zeta": target, "dissipation_s_per_m": d, "k_d": d / c_inject,
-            "zeta_sim": zeta_at(scale) + target, "time_step_s": step}
+    return {
+        "pressure_kpa": p,
+        "target_zeta": target,
+        "dissipation_s_per_m": d,
+        "k_d": d / c_inject,
+        "zeta_sim": zeta_at(scale) + target,
+        "time_step_s": step,
+    }
 
 
-def match_dissipation_at_step(calibration: str | Path | None, time_step_s: float,
-                              pressure_kpa: float | None = None, **kwargs: Any) -> dict[str, float]:
+def match_dissipation_at_step(
+    calibration: str | Path | None, time_step_s: float, pressure_kpa: float | None = None, **kwargs: Any
+) -> dict[str, float]:
     """k_d for another plant step: the Hunt–Crossley dissipation at which the locked-steer decay at
     ``time_step_s`` has the damping ratio the calibration's own k_d gives at its
     ``fitted_time_step_s`` (at ``pressure_kpa``, default the nominal). Drake's discrete contact adds
@@ -160,16 +223,26 @@ def match_dissipation_at_step(calibration: str | Path | None, time_step_s: float
     """
     base = ShellCalibration.load(calibration)
     if base.fitted_time_step_s is None:
-        raise ValueError(f"calibration file {base.source!r}: field 'hydroelastic.fitted_time_step_s' is missing: "
-                         "the step its k_d holds at is needed as the reference")
+        raise ValueError(
+            f"calibration file {base.source!r}: field 'hydroelastic.fitted_time_step_s' is missing: "
+            "the step its k_d holds at is needed as the reference"
+        )
     from sphere_env.params import check as check_param
 
     step = check_param("time_step_s", time_step_s)
     p = base.nominal_pressure_kpa if pressure_kpa is None else base.check_pressure(pressure_kpa)
-    ref = decay_case({"calibration": None if calibration is None else str(calibration), "pressure_kpa": p,
-                      "modulus_scale": 1.0, "dissipation_scale": 1.0, "phi0_rad": kwargs.get("phi0_rad", 0.15),
-                      "duration_s": kwargs.get("duration_s", 6.0), "time_step_s": base.fitted_time_step_s,
-                      "case": "reference"})
+    ref = decay_case(
+        {
+            "calibration": None if calibration is None else str(calibration),
+            "pressure_kpa": p,
+            "modulus_scale": 1.0,
+            "dissipation_scale": 1.0,
+            "phi0_rad": kwargs.get("phi0_rad", 0.15),
+            "duration_s": kwargs.get("duration_s", 6.0),
+            "time_step_s": base.fitted_time_step_s,
+            "case": "reference",
+        }
+    )
     out = match_dissipation(calibration, p, target_zeta=ref["zeta"], time_step_s=step, **kwargs)
     return dict(out, reference_time_step_s=base.fitted_time_step_s, reference_zeta=ref["zeta"])
 
@@ -186,9 +259,9 @@ def default_k_d_pressures(cal: ShellCalibration) -> list[float]:
     return sorted({round(float(q), 4) for q in points})
 
 
-def match_dissipation_by_pressure(calibration: str | Path | None, time_step_s: float,
-                                  pressures_kpa: Sequence[float] | None = None,
-                                  **kwargs: Any) -> list[dict[str, float]]:
+def match_dissipation_by_pressure(
+    calibration: str | Path | None, time_step_s: float, pressures_kpa: Sequence[float] | None = None, **kwargs: Any
+) -> list[dict[str, float]]:
     """k_d against pressure at one plant step: at each pressure, the k_d at which the locked-steer
     hydroelastic decay at ``time_step_s`` has the calibration's ζ(p) (:func:`match_dissipation`, one
     root find per pressure; default pressures :func:`default_k_d_pressures`). With one k_d the

@@ -49,8 +49,9 @@ from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.schemas import Schema, _as_tuple, allowed, checker, validate
 
 
-def pressure_for_modulus(modulus_pa: float, robot: RobotParameters | None = None,
-                         bracket_kpa: tuple[float, float] = (0.2, 200.0)) -> float:
+def pressure_for_modulus(
+    modulus_pa: float, robot: RobotParameters | None = None, bracket_kpa: tuple[float, float] = (0.2, 200.0)
+) -> float:
     """The gauge pressure [kPa] at which the membrane estimate gives m_hydro = f_n / V(p) = ``modulus_pa``."""
     r = robot or RobotParameters.from_urdf()
     f = lambda p: r.weight_n / membrane_contact_volume_m3(p, r.weight_n, r.radius_m) - modulus_pa  # noqa: E731
@@ -78,18 +79,27 @@ def calibration_at(
     raw = copy.deepcopy(dict(base.raw))
     p0 = float(pressure_kpa)
     if omega_n is not None:
-        raw["omega_n"] = {"model": "linear", "intercept_rad_s": float(omega_n - base.omega_n_slope * p0),
-                          "slope_rad_s_per_kpa": base.omega_n_slope}
+        raw["omega_n"] = {
+            "model": "linear",
+            "intercept_rad_s": float(omega_n - base.omega_n_slope * p0),
+            "slope_rad_s_per_kpa": base.omega_n_slope,
+        }
     if zeta is not None:
-        raw["zeta"] = {"model": "exponential", "scale": float(zeta * math.exp(-base.zeta_rate * p0)),
-                       "rate_per_kpa": base.zeta_rate}
+        raw["zeta"] = {
+            "model": "exponential",
+            "scale": float(zeta * math.exp(-base.zeta_rate * p0)),
+            "rate_per_kpa": base.zeta_rate,
+        }
     if modulus_pa is not None:
         lo, hi = base.pressure_range_kpa
         grid = np.unique(np.concatenate([np.linspace(lo, hi, table_points), [p0]]))
         v_base = np.array([base.volume_m3(p, r.weight_n, r.radius_m) for p in grid])
         factor = (r.weight_n / modulus_pa) / base.volume_m3(p0, r.weight_n, r.radius_m)
-        raw["contact_volume"] = {"model": "table", "pressure_kpa": [float(x) for x in grid],
-                                 "volume_m3": [float(v) for v in v_base * factor]}
+        raw["contact_volume"] = {
+            "model": "table",
+            "pressure_kpa": [float(x) for x in grid],
+            "volume_m3": [float(v) for v in v_base * factor],
+        }
     if dissipation_s_per_m is not None:
         cal = ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
         _, c_inject = cal.bind(r).injected_gains(p0)
@@ -121,27 +131,57 @@ class ShellFit:
     unidentified: dict[str, str] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"model": self.model, "form": self.form, "pressure_kpa": self.pressure_kpa, "params": self.params,
-                "rmse_rad": self.rmse, "ci95": {k: list(v) for k, v in self.ci95.items()},
-                "unidentified": dict(self.unidentified), "nfev": self.nfev}
+        return {
+            "model": self.model,
+            "form": self.form,
+            "pressure_kpa": self.pressure_kpa,
+            "params": self.params,
+            "rmse_rad": self.rmse,
+            "ci95": {k: list(v) for k, v in self.ci95.items()},
+            "unidentified": dict(self.unidentified),
+            "nfev": self.nfev,
+        }
 
 
-def fixture_twin(fixture: str, model: str, steer_friction: Any = "majd_steer", calibration: Any = None,
-                 pressure_kpa: float | None = None, time_step_s: float = 0.005,
-                 drive_friction: Any = "majd_drive") -> Twin:
+def fixture_twin(
+    fixture: str,
+    model: str,
+    steer_friction: Any = "majd_steer",
+    calibration: Any = None,
+    pressure_kpa: float | None = None,
+    time_step_s: float = 0.005,
+    drive_friction: Any = "majd_drive",
+) -> Twin:
     """A twin for replaying free-motion segments of ``fixture`` (the drive has no friction when locked)."""
-    return Twin(TwinConfig(fixture=fixture, shell_model=model, steer_friction=steer_friction,
-                           drive_friction="none" if fixture in ("steer_plane", "stand") else drive_friction,
-                           calibration=calibration, pressure_kpa=pressure_kpa, time_step_s=time_step_s))
+    return Twin(
+        TwinConfig(
+            fixture=fixture,
+            shell_model=model,
+            steer_friction=steer_friction,
+            drive_friction="none" if fixture in ("steer_plane", "stand") else drive_friction,
+            calibration=calibration,
+            pressure_kpa=pressure_kpa,
+            time_step_s=time_step_s,
+        )
+    )
 
 
 class TwinPool:
     """One twin per fixture for one shell model, built on first use and re-calibrated in place."""
 
-    def __init__(self, model: str, steer_friction: Any = "majd_steer", time_step_s: float = 0.005,
-                 drive_friction: Any = "majd_drive"):
+    def __init__(
+        self,
+        model: str,
+        steer_friction: Any = "majd_steer",
+        time_step_s: float = 0.005,
+        drive_friction: Any = "majd_drive",
+    ):
         self.model, self.steer_friction, self.time_step_s, self.drive_friction = (
-            model, steer_friction, time_step_s, drive_friction)
+            model,
+            steer_friction,
+            time_step_s,
+            drive_friction,
+        )
         self.twins: dict[str, Twin] = {}
         self._cal: tuple[ShellCalibration, float] | None = None
 
@@ -153,8 +193,9 @@ class TwinPool:
     def get(self, fixture: str) -> Twin:
         twin = self.twins.get(fixture)
         if twin is None:
-            twin = fixture_twin(fixture, self.model, self.steer_friction, None, None, self.time_step_s,
-                                self.drive_friction)
+            twin = fixture_twin(
+                fixture, self.model, self.steer_friction, None, None, self.time_step_s, self.drive_friction
+            )
             self.twins[fixture] = twin
             if self._cal is not None:
                 twin.set_calibration(*self._cal)
@@ -174,17 +215,26 @@ def trial_rmse(twin: Twin | TwinPool, logs: Sequence[RobotLog]) -> dict[str, dic
 # ---- parameters of each model and form --------------------------------------------------------------
 # name -> (lower bound, upper bound); ω_n, ζ at p₀; the amplitude terms in the file's units.
 _BOUNDS = {
-    "omega_n": (0.5, 8.0), "zeta": (0.0, 0.95), "rest_angle_rad": (-0.2, 0.2),
-    "amplitude_stiffness_nm_per_rad": (-60.0, 400.0), "amplitude_scale_rad": (0.03, 1.5),
+    "omega_n": (0.5, 8.0),
+    "zeta": (0.0, 0.95),
+    "rest_angle_rad": (-0.2, 0.2),
+    "amplitude_stiffness_nm_per_rad": (-60.0, 400.0),
+    "amplitude_scale_rad": (0.03, 1.5),
     "quadratic_stiffness_nm_per_rad2": (-40.0, 120.0),
-    "couple_stiffness_factor": (0.0, 3.0), "couple_damping_factor": (0.0, 3.0),
-    "log10_modulus_pa": (4.0, 7.0), "dissipation_s_per_m": (0.0, 20.0),
+    "couple_stiffness_factor": (0.0, 3.0),
+    "couple_damping_factor": (0.0, 3.0),
+    "log10_modulus_pa": (4.0, 7.0),
+    "dissipation_s_per_m": (0.0, 20.0),
 }
 HYDRO_PARAMS = ("couple_stiffness_factor", "couple_damping_factor")
 
 
-Form = Annotated[Literal[tuple(STEER_LAW_FORMS)], Field(  # type: ignore[valid-type]
-    json_schema_extra=allowed(str(list(STEER_LAW_FORMS))))]
+Form = Annotated[
+    Literal[tuple(STEER_LAW_FORMS)],
+    Field(  # type: ignore[valid-type]
+        json_schema_extra=allowed(str(list(STEER_LAW_FORMS)))
+    ),
+]
 _FORM = checker(Form)
 
 
@@ -194,7 +244,8 @@ class ShellFitOptions(Schema):
     model: Literal["injected", "hydroelastic"] = Field(json_schema_extra=allowed("['injected', 'hydroelastic']"))
     form: Form | None = None
     params: Annotated[tuple[Literal[tuple(_BOUNDS)], ...], BeforeValidator(_as_tuple)] | None = Field(  # type: ignore[valid-type]
-        None, json_schema_extra=allowed(f"names from {sorted(_BOUNDS)}"))
+        None, json_schema_extra=allowed(f"names from {sorted(_BOUNDS)}")
+    )
 
 
 def law_params(form: str) -> tuple[str, ...]:
@@ -214,16 +265,31 @@ def _start(name: str, base: ShellCalibration, p0: float, robot: RobotParameters)
         return base.bind(robot).hydroelastic(p0)[1]
     if name in HYDRO_PARAMS:
         return getattr(base, name) or 1.0
-    defaults = {"amplitude_stiffness_nm_per_rad": 0.0, "amplitude_scale_rad": 0.2, "quadratic_stiffness_nm_per_rad2": 0.0}
+    defaults = {
+        "amplitude_stiffness_nm_per_rad": 0.0,
+        "amplitude_scale_rad": 0.2,
+        "quadratic_stiffness_nm_per_rad2": 0.0,
+    }
     return float(getattr(law, name)) if law.form != "linear" or name == "rest_angle_rad" else defaults[name]
 
 
-def calibration_with(base: ShellCalibration, p0: float, values: Mapping[str, float], form: str | None = None,
-                     robot: RobotParameters | None = None) -> dict[str, Any]:
+def calibration_with(
+    base: ShellCalibration,
+    p0: float,
+    values: Mapping[str, float],
+    form: str | None = None,
+    robot: RobotParameters | None = None,
+) -> dict[str, Any]:
     """``base`` as a mapping with the named fitted values set at p₀ (see :func:`fit_shell` for names)."""
-    raw = calibration_at(base, p0, omega_n=values.get("omega_n"), zeta=values.get("zeta"),
-                         modulus_pa=10 ** values["log10_modulus_pa"] if "log10_modulus_pa" in values else None,
-                         dissipation_s_per_m=values.get("dissipation_s_per_m"), robot=robot)
+    raw = calibration_at(
+        base,
+        p0,
+        omega_n=values.get("omega_n"),
+        zeta=values.get("zeta"),
+        modulus_pa=10 ** values["log10_modulus_pa"] if "log10_modulus_pa" in values else None,
+        dissipation_s_per_m=values.get("dissipation_s_per_m"),
+        robot=robot,
+    )
     raw["nominal_pressure_kpa"] = float(p0)
     if form is not None or any(k in values for k in ("rest_angle_rad", *sum(STEER_LAW_FORMS.values(), ()))):
         law = dict(base.steer_law.as_dict())
@@ -258,8 +324,12 @@ def omega_n_floor(base: ShellCalibration, p0: float, robot: RobotParameters, mar
     return w_min + max(base.omega_n_slope * (p0 - lo), base.omega_n_slope * (p0 - hi), 0.0)
 
 
-def unidentified(values: Mapping[str, float], ci95: Mapping[str, tuple[float, float]],
-                 bounds: Mapping[str, tuple[float, float]], at_bound_frac: float = 1e-3) -> dict[str, str]:
+def unidentified(
+    values: Mapping[str, float],
+    ci95: Mapping[str, tuple[float, float]],
+    bounds: Mapping[str, tuple[float, float]],
+    at_bound_frac: float = 1e-3,
+) -> dict[str, str]:
     """The fitted parameters the data do not pin down, name -> reason: a 95 % interval wider than
     |value| (the data cannot tell the value from one of twice its size or from none), an interval
     that could not be computed, or a value within ``at_bound_frac`` of its search range from a bound
@@ -324,11 +394,15 @@ def fit_shell(
             if not log.has(ch):
                 raise FitError(f"log {log.path!r}: trial {log.name!r} needs a {ch} channel for a shell fit")
         if log.fixture not in ("steer_plane", "free"):
-            raise FitError(f"log {log.path!r}: trial {log.name!r} has fixture {log.fixture!r}; "
-                           "a shell fit needs 'steer_plane' or 'free' segments")
+            raise FitError(
+                f"log {log.path!r}: trial {log.name!r} has fixture {log.fixture!r}; "
+                "a shell fit needs 'steer_plane' or 'free' segments"
+            )
         if not _moving(log):
-            raise FitError(f"log {log.path!r}: trial {log.name!r}: no free motion to fit (phi and theta move "
-                           f"less than 0.02 rad over {log.t_s[-1]:.2f} s)")
+            raise FitError(
+                f"log {log.path!r}: trial {log.name!r}: no free motion to fit (phi and theta move "
+                f"less than 0.02 rad over {log.t_s[-1]:.2f} s)"
+            )
     base = base or ShellCalibration.load()
     robot = RobotParameters.from_urdf()
     p0 = base.check_pressure(pressure_kpa)
@@ -368,12 +442,15 @@ def fit_shell(
             parts += [w * (tr["phi"] - log["phi"]), theta_weight * w * (tr["theta"] - log["theta"])]
         return np.concatenate(parts)
 
-    res = least_squares(residuals, x0, bounds=(lo, hi), diff_step=1e-3, x_scale="jac", max_nfev=max_nfev,
-                        xtol=1e-6, ftol=1e-8)
+    res = least_squares(
+        residuals, x0, bounds=(lo, hi), diff_step=1e-3, x_scale="jac", max_nfev=max_nfev, xtol=1e-6, ftol=1e-8
+    )
     where = f"shell fit of {model!r} (form {form!r}) on {[log.name for log in logs]}"
     if require_convergence and res.status <= 0:
-        raise FitError(f"{where}: did not converge after {res.nfev} evaluations ({res.message}); "
-                       "raise max_nfev, start closer or fit fewer parameters. Nothing written.")
+        raise FitError(
+            f"{where}: did not converge after {res.nfev} evaluations ({res.message}); "
+            "raise max_nfev, start closer or fit fewer parameters. Nothing written."
+        )
     if not np.all(np.isfinite(res.x)) or not np.isfinite(res.cost):
         raise FitError(f"{where}: the optimum is not finite ({res.x}). Nothing written.")
     cal = cal_for(res.x)
@@ -401,13 +478,14 @@ def fit_shell(
     poor = unidentified(values, ci, {k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)})
     if "log10_modulus_pa" in values:
         values["modulus_pa"] = 10 ** values["log10_modulus_pa"]
-        ci["modulus_pa"] = tuple(10 ** c for c in ci["log10_modulus_pa"])
+        ci["modulus_pa"] = tuple(10**c for c in ci["log10_modulus_pa"])
     if "dissipation_s_per_m" in values:
         values["k_d"] = float(raw["hydroelastic"]["k_d"])
     K, C = cal.bind(robot).injected_gains(p0)
     values.update(K_inject=K, C_inject=C)
-    return ShellFit(model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev,
-                    poor)
+    return ShellFit(
+        model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev, poor
+    )
 
 
 def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None) -> RobotLog:
@@ -416,5 +494,10 @@ def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None)
     if keep.sum() < 3:
         raise FitError(f"log {log.path!r}: window [{start_s}, {end_s}] s of {log.name!r} has fewer than 3 samples")
     t = log.t_s[keep]
-    return dataclasses.replace(log, name=name or f"{log.name}[{start_s:g}:{end_s:g}]", t_s=t - t[0],
-                               channels={k: v[keep] for k, v in log.channels.items()}, meta=dict(log.meta))
+    return dataclasses.replace(
+        log,
+        name=name or f"{log.name}[{start_s:g}:{end_s:g}]",
+        t_s=t - t[0],
+        channels={k: v[keep] for k, v in log.channels.items()},
+        meta=dict(log.meta),
+    )

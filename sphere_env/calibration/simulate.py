@@ -11,8 +11,17 @@ from sphere_env.analysis.metrics import pme_percent, rmse  # noqa: F401  (re-exp
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.physics.twin import InitialState, Twin
 
-SIM_CHANNELS = ("theta", "theta_dot", "phi", "phi_dot", "omega_d", "drive_angle", "drive_rate",
-                "pendulum_pitch", "pendulum_pitch_rate")
+SIM_CHANNELS = (
+    "theta",
+    "theta_dot",
+    "phi",
+    "phi_dot",
+    "omega_d",
+    "drive_angle",
+    "drive_rate",
+    "pendulum_pitch",
+    "pendulum_pitch_rate",
+)
 
 
 def initial_rate(t: np.ndarray, x: np.ndarray, window_s: float = 0.1) -> float:
@@ -82,9 +91,14 @@ def initial_state_from_log(log: RobotLog, theta_offset_rad: float = 0.0, radius_
             if fixture == "locked_steer":
                 kw.pop("theta", None), kw.pop("theta_dot", None)
             w_shell = w_pc - qd_dot * y_pc
-            kw.update(roll=roll, pitch=pitch, heading=yaw, drive_rate=qd_dot,
-                      angular_velocity_rad_s=tuple(float(x) for x in w_pc),
-                      velocity_m_s=(radius_m * float(w_shell[1]), -radius_m * float(w_shell[0]), 0.0))
+            kw.update(
+                roll=roll,
+                pitch=pitch,
+                heading=yaw,
+                drive_rate=qd_dot,
+                angular_velocity_rad_s=tuple(float(x) for x in w_pc),
+                velocity_m_s=(radius_m * float(w_shell[1]), -radius_m * float(w_shell[0]), 0.0),
+            )
         else:
             kw["roll"] = phi
             if fixture == "steer_plane":
@@ -120,9 +134,7 @@ def simulate_log(
     Simulated θ is reported in the log's frame: θ_model + ``theta_offset_rad``.
     """
     if log.fixture is not None and twin.config.fixture != log.fixture:
-        raise ValueError(
-            f"fixture: twin has {twin.config.fixture!r} but log {log.name!r} needs {log.fixture!r}"
-        )
+        raise ValueError(f"fixture: twin has {twin.config.fixture!r} but log {log.name!r} needs {log.fixture!r}")
     init = initial or initial_state_from_log(log, theta_offset_rad, twin.robot.radius_m)
     s = twin.reset(init, pressure_kpa=pressure_kpa)
     n = len(log.t_s)

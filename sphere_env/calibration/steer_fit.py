@@ -56,9 +56,22 @@ def cross_validate(
         edges = np.linspace(0.0, float(lg.t_s[-1]), blocks + 1)
         parts = [window(lg, a, b, f"{lg.name}[{a:.2f}-{b:.2f} s]") for a, b in zip(edges[:-1], edges[1:])]
         folds = [([p for j, p in enumerate(parts) if j != i], [parts[i]]) for i in range(blocks)]
-    jobs = [{"train": train, "test": test, "form": form, "models": tuple(models), "base": dict(base.raw),
-             "source": base.source, "pressure_kpa": pressure_kpa, "steer_friction": steer_friction,
-             "drive_friction": drive_friction, "max_nfev": max_nfev} for form in forms for train, test in folds]
+    jobs = [
+        {
+            "train": train,
+            "test": test,
+            "form": form,
+            "models": tuple(models),
+            "base": dict(base.raw),
+            "source": base.source,
+            "pressure_kpa": pressure_kpa,
+            "steer_friction": steer_friction,
+            "drive_friction": drive_friction,
+            "max_nfev": max_nfev,
+        }
+        for form in forms
+        for train, test in folds
+    ]
     return [row for rows in run_parallel(_fold_job, jobs, workers=workers) for row in rows]
 
 
@@ -72,17 +85,37 @@ def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
         where = {"model": model, "form": form, "fit_on": [t.name for t in train]}
         pool = TwinPool(model, job["steer_friction"], drive_friction=job["drive_friction"])
         try:
-            fit = fit_shell(train, model, p0, steer_friction=job["steer_friction"], base=cur,
-                            form=form if model == "injected" else None, max_nfev=job["max_nfev"], pool=pool,
-                            require_convergence=False, drive_friction=job["drive_friction"])
+            fit = fit_shell(
+                train,
+                model,
+                p0,
+                steer_friction=job["steer_friction"],
+                base=cur,
+                form=form if model == "injected" else None,
+                max_nfev=job["max_nfev"],
+                pool=pool,
+                require_convergence=False,
+                drive_friction=job["drive_friction"],
+            )
         except FitError as err:  # this model and every one fitted on top of it are refused
-            return rows + [dict(where, model=m, test=lg.name, rmse_phi_rad=math.inf, rmse_theta_rad=math.inf,
-                                refused=str(err)) for m in models[i:] for lg in test]
+            return rows + [
+                dict(where, model=m, test=lg.name, rmse_phi_rad=math.inf, rmse_theta_rad=math.inf, refused=str(err))
+                for m in models[i:]
+                for lg in test
+            ]
         cur = ShellCalibration.from_dict(fit.calibration, source="<cv>")
         pool.install(cur, p0)
         for name, r in trial_rmse(pool, test).items():
-            rows.append(dict(where, test=name, rmse_phi_rad=r["phi"], rmse_theta_rad=r["theta"],
-                             train_rmse_rad=fit.rmse, params=fit.params))
+            rows.append(
+                dict(
+                    where,
+                    test=name,
+                    rmse_phi_rad=r["phi"],
+                    rmse_theta_rad=r["theta"],
+                    train_rmse_rad=fit.rmse,
+                    params=fit.params,
+                )
+            )
     return rows
 
 
@@ -127,44 +160,80 @@ def steer_fit(
     form = forms[0]
     form_rows: list[dict[str, Any]] = []
     if "injected" in models and len(forms) > 1:
-        form_rows = cross_validate(logs, forms, pressure_kpa, base=base, steer_friction=steer_friction,
-                                   max_nfev=max_nfev, drive_friction=drive_friction, workers=workers)
+        form_rows = cross_validate(
+            logs,
+            forms,
+            pressure_kpa,
+            base=base,
+            steer_friction=steer_friction,
+            max_nfev=max_nfev,
+            drive_friction=drive_friction,
+            workers=workers,
+        )
         form, mean = choose_form(form_rows)
         say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
         for r in form_rows:
-            say(f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
-                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}")
+            say(
+                f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}"
+            )
         say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> form {form!r}")
         record["form_cross_validation"] = [_cv_row(r) for r in form_rows]
     raw = dict(base.raw)
     for model in models:
         cur = ShellCalibration.from_dict(raw, source=base.source)
         pool = TwinPool(model, steer_friction, drive_friction=drive_friction)
-        fit = fit_shell(logs, model, pressure_kpa, steer_friction=steer_friction, base=cur, pool=pool,
-                        form=form if model == "injected" else None, max_nfev=max_nfev,
-                        drive_friction=drive_friction)
+        fit = fit_shell(
+            logs,
+            model,
+            pressure_kpa,
+            steer_friction=steer_friction,
+            base=cur,
+            pool=pool,
+            form=form if model == "injected" else None,
+            max_nfev=max_nfev,
+            drive_friction=drive_friction,
+        )
         raw = fit.calibration
-        say(f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:")
+        say(
+            f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:"
+        )
         for k, v in fit.params.items():
             ci = fit.ci95.get(k)
-            say(f"  {k} = {v:.5g}" + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
-                + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else ""))
+            say(
+                f"  {k} = {v:.5g}"
+                + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
+                + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else "")
+            )
         record["models"][model] = dict(fit.as_dict(), pool=pool)
     if hold_out_windows and len(logs) >= 2:
         if tuple(models) == ("injected",) and form_rows:
             rows = [r for r in form_rows if r["form"] == form]
         else:
-            rows = cross_validate(logs, [form], pressure_kpa, base=base, steer_friction=steer_friction,
-                                  max_nfev=max_nfev, models=models, drive_friction=drive_friction, workers=workers)
+            rows = cross_validate(
+                logs,
+                [form],
+                pressure_kpa,
+                base=base,
+                steer_friction=steer_friction,
+                max_nfev=max_nfev,
+                models=models,
+                drive_friction=drive_friction,
+                workers=workers,
+            )
         say(f"leave-one-window-out (form {form!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
         for r in rows:
-            say(f"  {r['model']:12s} {'+'.join(r['fit_on'])} -> {r['test']}: "
-                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}" + (" (refused)" if r.get("refused") else ""))
+            say(
+                f"  {r['model']:12s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}" + (" (refused)" if r.get("refused") else "")
+            )
         record["leave_one_window_out"] = [_cv_row(r) for r in rows]
         for model in models:
             rec = record["models"][model]
             mine = [r for r in rows if r["model"] == model]
-            rec["held_out_rmse_rad"] = {r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in mine}
+            rec["held_out_rmse_rad"] = {
+                r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in mine
+            }
             folds = [r["params"] for r in mine if "params" in r]
             if len(folds) == len(mine) >= 2:
                 fitted = {k: v for k, v in rec["params"].items() if k in rec["ci95"]}
@@ -173,9 +242,12 @@ def steer_fit(
                 for k, (lo, hi) in ci.items():
                     if k not in rec["unidentified"] and hi - lo > abs(fitted[k]):
                         rec["unidentified"][k] = (
-                            f"95 % interval over windows [{lo:.4g}, {hi:.4g}] wider than |value| {abs(fitted[k]):.4g}")
-                say(f"{model}: 95 % intervals over windows (jackknife over the {len(folds)} leave-one-window-out fits): "
-                    + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in ci.items()))
+                            f"95 % interval over windows [{lo:.4g}, {hi:.4g}] wider than |value| {abs(fitted[k]):.4g}"
+                        )
+                say(
+                    f"{model}: 95 % intervals over windows (jackknife over the {len(folds)} leave-one-window-out fits): "
+                    + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in ci.items())
+                )
     return raw, record
 
 
@@ -200,5 +272,6 @@ def jackknife_ci95(full: Mapping[str, float], folds: Sequence[Mapping[str, float
 
 def _cv_row(row: Mapping[str, Any]) -> dict[str, Any]:
     """A cross-validation row as recorded in a calibration file (no fitted mappings, the refusal kept)."""
-    return {k: row[k] for k in ("model", "form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad", "refused")
-            if k in row}
+    return {
+        k: row[k] for k in ("model", "form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad", "refused") if k in row
+    }

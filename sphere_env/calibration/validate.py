@@ -54,20 +54,30 @@ class ValidationRow:
     window_s: tuple[float, float] | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        return {"trial": self.trial, "model": self.model, "fixture": self.fixture,
-                "rmse": self.rmse, "pme_percent": self.pme_percent}
+        return {
+            "trial": self.trial,
+            "model": self.model,
+            "fixture": self.fixture,
+            "rmse": self.rmse,
+            "pme_percent": self.pme_percent,
+        }
 
     def record(self) -> dict[str, Any]:
         """The machine-readable record of ``validate --json``: a metric appears only where it was
         compared (``rmse_omega_d_rad_s`` where ω_d is logged, ``pme_percent`` on ramp trials,
         ``rmse_pendulum_pitch_rad`` on free windows); ``rmse_phi_rad``/``rmse_theta_rad`` are
         always present (null when the log lacks the channel)."""
+
         def val(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
 
-        out: dict[str, Any] = {"trial": self.trial, "model": self.model, "fixture": self.fixture,
-                               "rmse_phi_rad": val(self.rmse.get("phi", math.nan)),
-                               "rmse_theta_rad": val(self.rmse.get("theta", math.nan))}
+        out: dict[str, Any] = {
+            "trial": self.trial,
+            "model": self.model,
+            "fixture": self.fixture,
+            "rmse_phi_rad": val(self.rmse.get("phi", math.nan)),
+            "rmse_theta_rad": val(self.rmse.get("theta", math.nan)),
+        }
         if math.isfinite(self.rmse.get("omega_d", math.nan)):
             out["rmse_omega_d_rad_s"] = self.rmse["omega_d"]
             if "omega_d" in self.derived:
@@ -89,8 +99,16 @@ def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> Va
     enough = len(log.t_s) >= MIN_COMPARED_SAMPLES
     if not enough:
         nan = float("nan")
-        return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture,
-                             {ch: nan for ch in METRICS}, nan, None, dict(log.derived), log.window_s)
+        return ValidationRow(
+            log.name,
+            twin.config.shell_model,
+            twin.config.fixture,
+            {ch: nan for ch in METRICS},
+            nan,
+            None,
+            dict(log.derived),
+            log.window_s,
+        )
     # A free window starts from the logged state (the log's θ, θ̇, φ, φ̇, α, α̇, q̇_d at the
     # window start): simulate_log builds it with simulate.initial_state_from_log.
     tr = simulate_log(twin, log, theta_offset_rad, pressure_kpa=log.pressure_kpa)
@@ -104,8 +122,9 @@ def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> Va
     if enough and log.has("omega_d") and win is not None:  # PME only on ramp trials
         mask = (log.t_s >= win[0]) & (log.t_s <= win[1])
         pme = pme_percent(log["omega_d"], tr["omega_d"], mask)
-    return ValidationRow(log.name, twin.config.shell_model, twin.config.fixture, out, pme, tr,
-                         dict(log.derived), log.window_s)
+    return ValidationRow(
+        log.name, twin.config.shell_model, twin.config.fixture, out, pme, tr, dict(log.derived), log.window_s
+    )
 
 
 _TWINS: dict[tuple, Twin] = {}  # per process: one twin per configuration, reused across jobs
@@ -142,8 +161,14 @@ def validate(
     for model in models:
         for log in logs:
             p = log.pressure_kpa if log.pressure_kpa is not None else default_pressure_kpa
-            config = dict(fixture=log.fixture or "free", shell_model=model, steer_friction=steer_friction,
-                          drive_friction=drive_friction, calibration=calibration, pressure_kpa=p)
+            config = dict(
+                fixture=log.fixture or "free",
+                shell_model=model,
+                steer_friction=steer_friction,
+                drive_friction=drive_friction,
+                calibration=calibration,
+                pressure_kpa=p,
+            )
             if time_step_s is not None:
                 config["time_step_s"] = time_step_s
             jobs.append({"config": config, "log": log})
@@ -192,8 +217,9 @@ def parse_tolerances(items: Sequence[str] | None) -> dict[str, float]:
     return {key: getattr(spec, key) for key in given}
 
 
-def tolerance_failures(rows: Sequence[ValidationRow], tol: Mapping[str, float],
-                       models: Iterable[str] | None = None) -> list[str]:
+def tolerance_failures(
+    rows: Sequence[ValidationRow], tol: Mapping[str, float], models: Iterable[str] | None = None
+) -> list[str]:
     """Messages for every (trial, model, metric) above its tolerance, and for every one the
     tolerance could not be checked on (channel not logged, too few samples, PME off a ramp);
     only ``models`` if given. An empty list means every requested limit was checked and met."""
@@ -206,8 +232,11 @@ def tolerance_failures(rows: Sequence[ValidationRow], tol: Mapping[str, float],
         for key, lim in tol.items():
             val = abs(r.pme_percent) if key == "pme" else r.rmse.get(key, float("nan"))
             if not math.isfinite(val):
-                why = ("PME is computed on ramp trials only (manifest 'ramp_window_s')" if key == "pme"
-                       else f"the log has no {key!r} channel or fewer than {MIN_COMPARED_SAMPLES} samples")
+                why = (
+                    "PME is computed on ramp trials only (manifest 'ramp_window_s')"
+                    if key == "pme"
+                    else f"the log has no {key!r} channel or fewer than {MIN_COMPARED_SAMPLES} samples"
+                )
                 bad.append(f"{r.trial} / {r.model}: {key} not compared ({why})")
             elif val > lim:
                 bad.append(f"{r.trial} / {r.model}: {key} = {val:.4g} exceeds tolerance {lim:.4g}")
@@ -220,13 +249,33 @@ def tolerance_failures(rows: Sequence[ValidationRow], tol: Mapping[str, float],
 
 def validation_table(rows: Sequence[ValidationRow]) -> str:
     """A Markdown table of the rows (RMSE in rad or rad/s, PME in %)."""
-    table = [{"trial": r.trial, "fixture": r.fixture, "model": r.model, "phi": r.rmse["phi"], "theta": r.rmse["theta"],
-              "omega_d": r.rmse["omega_d"], "alpha": r.rmse.get("pendulum_pitch", math.nan), "pme": r.pme_percent}
-             for r in rows]
-    return markdown_table(table, [("trial", "trial", ""), ("fixture", "fixture", ""), ("model", "model", ""),
-                                  ("phi", "RMSE φ [rad]", number), ("theta", "RMSE θ [rad]", number),
-                                  ("omega_d", "RMSE ω_d [rad/s]", number), ("alpha", "RMSE α [rad]", number),
-                                  ("pme", "PME [%]", lambda x: number(x, 1))], align="lllrrrrr")
+    table = [
+        {
+            "trial": r.trial,
+            "fixture": r.fixture,
+            "model": r.model,
+            "phi": r.rmse["phi"],
+            "theta": r.rmse["theta"],
+            "omega_d": r.rmse["omega_d"],
+            "alpha": r.rmse.get("pendulum_pitch", math.nan),
+            "pme": r.pme_percent,
+        }
+        for r in rows
+    ]
+    return markdown_table(
+        table,
+        [
+            ("trial", "trial", ""),
+            ("fixture", "fixture", ""),
+            ("model", "model", ""),
+            ("phi", "RMSE φ [rad]", number),
+            ("theta", "RMSE θ [rad]", number),
+            ("omega_d", "RMSE ω_d [rad/s]", number),
+            ("alpha", "RMSE α [rad]", number),
+            ("pme", "PME [%]", lambda x: number(x, 1)),
+        ],
+        align="lllrrrrr",
+    )
 
 
 def plot_overlays(path: str | Path, logs: Sequence[RobotLog], rows: Sequence[ValidationRow]) -> Path:

@@ -107,8 +107,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._randomization = self._check_randomization(kw.randomization, steer_check=False)
         self.observe_pressure = observe_pressure = kw.observe_pressure
         self.observe_shell_model = observe_shell_model = kw.observe_shell_model
-        self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) \
-            if observe_shell_model else ()
+        self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) if observe_shell_model else ()
         self.observation_noise_scale = kw.observation_noise_scale
         self._noise_std = task.observation_layout().noise_std()  # × the episode's observation_noise_scale
         self.incline_deg = kw.incline_deg
@@ -189,9 +188,12 @@ class SphereEnv(gym.Env, EzPickle):
     def _event_manager(self, spec: RandomizationSpec) -> EventManager:
         """The :class:`~sphere_env.tasks.events.EventManager` of ``spec`` for this environment."""
         space = self.parameter_space
-        nominal = {"shell_model": self.shell_model,
-                   **{name: space.nominal(name) for name in TWIN_PARAMETERS + ENV_PARAMETERS},
-                   "incline_deg": self.incline_deg, "observation_noise_scale": self.observation_noise_scale}
+        nominal = {
+            "shell_model": self.shell_model,
+            **{name: space.nominal(name) for name in TWIN_PARAMETERS + ENV_PARAMETERS},
+            "incline_deg": self.incline_deg,
+            "observation_noise_scale": self.observation_noise_scale,
+        }
         return EventManager(spec, nominal, space, self._quantize_pressure, {"incline_deg": self._snap_incline})
 
     @property
@@ -223,13 +225,21 @@ class SphereEnv(gym.Env, EzPickle):
         """The twin for a shell model (default: the env's) and an incline (:class:`TwinCache`)."""
         return self._twin_cache.get(incline_deg, shell_model)
 
-    def _build_twin(self, incline_deg: float, inclines_deg: tuple[float, ...] = (),
-                    shell_model: str | None = None) -> Twin:
+    def _build_twin(
+        self, incline_deg: float, inclines_deg: tuple[float, ...] = (), shell_model: str | None = None
+    ) -> Twin:
         cfg = TwinConfig(
-            fixture="free", shell_model=shell_model or self.shell_model, steer_friction=self._steer_friction,
-            drive_friction=self._drive_friction, incline_deg=incline_deg, ramp_length_m=self.ramp_length_m,
-            time_step_s=self.time_step_s, ground_friction=1.0, calibration=self._calibration_path,
-            inclines_deg=inclines_deg, pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
+            fixture="free",
+            shell_model=shell_model or self.shell_model,
+            steer_friction=self._steer_friction,
+            drive_friction=self._drive_friction,
+            incline_deg=incline_deg,
+            ramp_length_m=self.ramp_length_m,
+            time_step_s=self.time_step_s,
+            ground_friction=1.0,
+            calibration=self._calibration_path,
+            inclines_deg=inclines_deg,
+            pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
         )
         return Twin(cfg, meshcat=self.meshcat)
 
@@ -287,7 +297,8 @@ class SphereEnv(gym.Env, EzPickle):
                 fixed[name] = val
         if "steer_friction_scale" in fixed or "drive_friction_scale" in fixed:
             problem = self.twin.explicit_stability_problem(
-                fixed.get("steer_friction_scale", 1.0), fixed.get("drive_friction_scale", 1.0))
+                fixed.get("steer_friction_scale", 1.0), fixed.get("drive_friction_scale", 1.0)
+            )
             if problem:
                 raise ValueError(f"options: {problem}")
         init = given.get("initial_state")
@@ -356,7 +367,9 @@ class SphereEnv(gym.Env, EzPickle):
         self._tau[:] = 0.0
         self._action_history[:] = 0.0
         self._obs_history_empty = True  # filled with the first observation
-        self.task.reset(state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m))
+        self.task.reset(
+            state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m)
+        )
         obs = self._observe(state)
         info = step_info(self.task, state, {}, False, self._params, self._tau, self._fired, self._reward_keys)
         if self.render_mode == "human":
@@ -438,8 +451,12 @@ class SphereEnv(gym.Env, EzPickle):
         if scale > 0.0:
             noise = self.np_random.normal(0.0, self._noise_std * scale)
         obs = assemble_observation(
-            state, self.task.command(state), self._params["pressure_kpa"] if self.observe_pressure else None, noise,
-            self._extra_names, self._shell_one_hot,
+            state,
+            self.task.command(state),
+            self._params["pressure_kpa"] if self.observe_pressure else None,
+            noise,
+            self._extra_names,
+            self._shell_one_hot,
         )
         if self.observation_history_steps:
             own = obs[self.observation_layout.own]
@@ -447,8 +464,9 @@ class SphereEnv(gym.Env, EzPickle):
             if self._obs_history_empty:  # at reset: the robot has been where it starts
                 hist[:] = own
                 self._obs_history_empty = False
-            obs = np.concatenate([own, hist.ravel(), self._action_history.ravel(),
-                                  obs[self.observation_layout.own.stop:]])
+            obs = np.concatenate(
+                [own, hist.ravel(), self._action_history.ravel(), obs[self.observation_layout.own.stop :]]
+            )
             hist[1:] = hist[:-1]
             hist[0] = own
         self._obs = obs
@@ -499,4 +517,3 @@ class SphereEnv(gym.Env, EzPickle):
         mid = state.pop("_mid_episode", False)
         EzPickle.__setstate__(self, state)
         self._copied_mid_episode = mid
-

@@ -19,8 +19,9 @@ from sphere_env.tasks.ramp_descent import RampDescentKwargs, RampDescentTask
 from sphere_env.tasks.roll import RollKwargs, RollTask
 
 
-def _split(schema: type[Schema], task_schema: type[Schema], name: str,
-           kwargs: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+def _split(
+    schema: type[Schema], task_schema: type[Schema], name: str, kwargs: dict[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """(task kwargs, env kwargs) of ``kwargs``, once they loaded through ``schema`` (the task's
     kwargs are the fields of ``task_schema``). The values pass on as given: each constructor loads
     its own, and a copy of the env (pickle) is rebuilt from them."""

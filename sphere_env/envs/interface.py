@@ -41,8 +41,16 @@ def zero_terms(task: Task) -> dict[str, float]:
     return {f"reward_{k}": 0.0 for k in task.reward_terms}
 
 
-def step_info(task: Task, state, terms: Mapping[str, float], success: bool, params: Mapping[str, Any],
-              tau_nm: np.ndarray, fired: list[str], reward_keys: Mapping[str, str]) -> dict[str, Any]:
+def step_info(
+    task: Task,
+    state,
+    terms: Mapping[str, float],
+    success: bool,
+    params: Mapping[str, Any],
+    tau_nm: np.ndarray,
+    fired: list[str],
+    reward_keys: Mapping[str, str],
+) -> dict[str, Any]:
     """The ``info`` of a reset or step: the reward terms (``reward_<term>``), the episode's
     parameters, the state's main angles and rates, the applied motor torques [N m], the events
     fired and the task's own values."""
@@ -63,13 +71,19 @@ def step_info(task: Task, state, terms: Mapping[str, float], success: bool, para
     return info
 
 
-def failed_info(task: Task, params: Mapping[str, Any], reason: str, tau_nm: np.ndarray,
-                fired: list[str]) -> dict[str, Any]:
+def failed_info(
+    task: Task, params: Mapping[str, Any], reason: str, tau_nm: np.ndarray, fired: list[str]
+) -> dict[str, Any]:
     """The ``info`` of a step truncated by a physics failure (``truncation_reason``)."""
     info = zero_terms(task)
     info.update(
-        shell_model=params["shell_model"], pressure_kpa=params["pressure_kpa"], is_success=False,
-        truncation_reason=reason, motor_torque_nm=tau_nm.copy(), params=dict(params), events=fired,
+        shell_model=params["shell_model"],
+        pressure_kpa=params["pressure_kpa"],
+        is_success=False,
+        truncation_reason=reason,
+        motor_torque_nm=tau_nm.copy(),
+        params=dict(params),
+        events=fired,
     )
     info.update(task.info())
     return info
@@ -78,12 +92,24 @@ def failed_info(task: Task, params: Mapping[str, Any], reason: str, tau_nm: np.n
 def action_layout(steer_torque_limit_nm: float, drive_torque_limit_nm: float) -> list[dict[str, Any]]:
     """The action components as the environment applies them (:meth:`SphereEnv.action_layout`)."""
     return [
-        {"index": 0, "name": "steer", "range": [-1.0, 1.0], "torque_limit_nm": float(steer_torque_limit_nm),
-         "joint": "steer", "joint_torque_sign": 1.0,
-         "meaning": "steer motor torque / limit; +1 leans the pendulum toward +θ (URDF steer axis +x_PC), "
-                    "which turns the robot left (heading ψ increases)"},
-        {"index": 1, "name": "drive", "range": [-1.0, 1.0], "torque_limit_nm": float(drive_torque_limit_nm),
-         "joint": "drive", "joint_torque_sign": -1.0,
-         "meaning": "drive motor torque / limit; +1 drives forward (ω_d > 0); the URDF drive axis is −y_PC, "
-                    "so the joint torque is −a · limit"},
+        {
+            "index": 0,
+            "name": "steer",
+            "range": [-1.0, 1.0],
+            "torque_limit_nm": float(steer_torque_limit_nm),
+            "joint": "steer",
+            "joint_torque_sign": 1.0,
+            "meaning": "steer motor torque / limit; +1 leans the pendulum toward +θ (URDF steer axis +x_PC), "
+            "which turns the robot left (heading ψ increases)",
+        },
+        {
+            "index": 1,
+            "name": "drive",
+            "range": [-1.0, 1.0],
+            "torque_limit_nm": float(drive_torque_limit_nm),
+            "joint": "drive",
+            "joint_torque_sign": -1.0,
+            "meaning": "drive motor torque / limit; +1 drives forward (ω_d > 0); the URDF drive axis is −y_PC, "
+            "so the joint torque is −a · limit",
+        },
     ]

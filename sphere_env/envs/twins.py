@@ -126,8 +126,13 @@ class TwinCache:
     :param incline_deg: the env's own incline, where the shared twin starts.
     """
 
-    def __init__(self, build: Callable[[float, tuple[float, ...], str], Twin], shell_model: str,
-                 shared: tuple[float, ...] = (), incline_deg: float = 0.0):
+    def __init__(
+        self,
+        build: Callable[[float, tuple[float, ...], str], Twin],
+        shell_model: str,
+        shared: tuple[float, ...] = (),
+        incline_deg: float = 0.0,
+    ):
         self._build, self.shell_model = build, shell_model
         self._twins: OrderedDict[tuple[str, float], Twin] = OrderedDict()
         self._shared = build(float(incline_deg), shared, shell_model) if len(shared) > 1 else None

@@ -138,5 +138,13 @@ def _friction_name(presets: tuple[str, ...], joint: str) -> Callable[[Any, str],
     (``majd`` -> ``majd_<joint>``) or ``none``."""
     suffix = f"_{joint}"
     names = sorted({*presets, *(p.removesuffix(suffix) for p in presets if p.endswith(suffix)), "none"})
-    return checker(Annotated[Literal[tuple(names)], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
-        f"a preset or law name {names}, a {{law, params}} mapping or a FrictionModel"))])
+    return checker(
+        Annotated[
+            Literal[tuple(names)],
+            Field(
+                json_schema_extra=allowed(  # type: ignore[valid-type]
+                    f"a preset or law name {names}, a {{law, params}} mapping or a FrictionModel"
+                )
+            ),
+        ]
+    )

@@ -137,9 +137,7 @@ class RobotParameters:
     @property
     def omega_stand_rad_s(self) -> float:
         """Small-swing pendulum frequency in the stand, √(m_p g r_p / (I_p,xx + m_p r_p²)) [rad/s]."""
-        return math.sqrt(
-            self.m_p * GRAVITY_M_S2 * self.r_p / self._ixx_about_centre("pendulum")
-        )
+        return math.sqrt(self.m_p * GRAVITY_M_S2 * self.r_p / self._ixx_about_centre("pendulum"))
 
     @property
     def com_below_centre_m(self) -> float:
@@ -168,7 +166,10 @@ class RobotParameters:
         def rhs(_t, y):
             beta, beta_dot = y
             J = I_G + m * (R * R + d * d - 2 * R * d * np.cos(beta - incline_rad))
-            acc = (m * g * (R * np.sin(incline_rad) - d * np.sin(beta)) - m * R * d * np.sin(beta - incline_rad) * beta_dot**2) / J
+            acc = (
+                m * g * (R * np.sin(incline_rad) - d * np.sin(beta))
+                - m * R * d * np.sin(beta - incline_rad) * beta_dot**2
+            ) / J
             return [beta_dot, acc]
 
         return rhs

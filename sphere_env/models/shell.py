@@ -130,8 +130,9 @@ def steer_torque(phi, phi_dot, K, C, rest, amp_torque, amp_inv_scale, quad, m=NU
     return -K * d - amp_torque * m.tanh(amp_inv_scale * d) - quad * d * m.abs(d) - C * phi_dot
 
 
-def injected_torques(phi, phi_dot, omega_d, K, C_steer, C_drive, rest=0.0, amp_torque=0.0,
-                     amp_inv_scale=1.0, quad=0.0, m=NUMPY):
+def injected_torques(
+    phi, phi_dot, omega_d, K, C_steer, C_drive, rest=0.0, amp_torque=0.0, amp_inv_scale=1.0, quad=0.0, m=NUMPY
+):
     """Injected shell torques (eq. 9 and §IV) [N m]: (τ_φ, τ_d).
 
     Steer direction: :func:`steer_torque`. Drive direction: τ_d = −C_drive ω_d (the paper drops
@@ -250,8 +251,9 @@ class ShellCalibration:
         return cls.from_schema(check_calibration(data, source), data, source, check_stand_still)
 
     @classmethod
-    def from_schema(cls, spec: CalibrationFile, data: Mapping[str, Any], source: str,
-                    check_stand_still: bool = True) -> "ShellCalibration":
+    def from_schema(
+        cls, spec: CalibrationFile, data: Mapping[str, Any], source: str, check_stand_still: bool = True
+    ) -> "ShellCalibration":
         """The calibration of a validated file (``data``: the mapping as written, kept as ``raw``)."""
         hyd, vol = spec.hydroelastic, spec.contact_volume
         mesh = hyd.low_pressure_mesh
@@ -277,8 +279,9 @@ class ShellCalibration:
             low_pressure_mesh=None if mesh is None else (mesh.below_kpa, mesh.resolution_hint_m),
             k_d_by_time_step=tuple((e.time_step_s, e.k_d) for e in steps),
             k_d_by_pressure=table_pairs(hyd.k_d_by_pressure),
-            k_d_by_pressure_at_steps=tuple((e.time_step_s, table_pairs(e.k_d_by_pressure))
-                                           for e in steps if e.k_d_by_pressure),
+            k_d_by_pressure_at_steps=tuple(
+                (e.time_step_s, table_pairs(e.k_d_by_pressure)) for e in steps if e.k_d_by_pressure
+            ),
         )
         if check_stand_still:
             cal.check_stand_still(_default_robot())
@@ -294,8 +297,11 @@ class ShellCalibration:
         if margin_kpa <= 0.0:
             return self
         lo, hi = self.calibrated_range_kpa or self.pressure_range_kpa
-        return replace(self, pressure_range_kpa=(max(lo - margin_kpa, MIN_EXTRAPOLATED_KPA), hi + margin_kpa),
-                       calibrated_range_kpa=(lo, hi))
+        return replace(
+            self,
+            pressure_range_kpa=(max(lo - margin_kpa, MIN_EXTRAPOLATED_KPA), hi + margin_kpa),
+            calibrated_range_kpa=(lo, hi),
+        )
 
     # ---- parameters ------------------------------------------------------------------------------
     def parameter_space(self) -> ParameterSpace:
@@ -346,16 +352,26 @@ class ShellCalibration:
                     others.append((fitted, self.k_d))
                     if self.k_d_by_pressure:
                         tables[fitted] = self.k_d_by_pressure
-                entries = [dict({"time_step_s": s, "k_d": k},
-                                **({"k_d_by_pressure": _table_raw(tables[s])} if s in tables else {}))
-                           for s, k in others]
+                entries = [
+                    dict(
+                        {"time_step_s": s, "k_d": k},
+                        **({"k_d_by_pressure": _table_raw(tables[s])} if s in tables else {}),
+                    )
+                    for s, k in others
+                ]
                 hyd = {key: v for key, v in self.raw["hydroelastic"].items() if key != "k_d_by_pressure"}
                 hyd.update(k_d=k_d, fitted_time_step_s=step, k_d_by_time_step=entries)
                 if table:
                     hyd["k_d_by_pressure"] = _table_raw(table)
-                return replace(self, k_d=k_d, fitted_time_step_s=step, k_d_by_time_step=tuple(others),
-                               k_d_by_pressure=table, k_d_by_pressure_at_steps=tuple(tables.items()),
-                               raw=dict(self.raw, hydroelastic=hyd))
+                return replace(
+                    self,
+                    k_d=k_d,
+                    fitted_time_step_s=step,
+                    k_d_by_time_step=tuple(others),
+                    k_d_by_pressure=table,
+                    k_d_by_pressure_at_steps=tuple(tables.items()),
+                    raw=dict(self.raw, hydroelastic=hyd),
+                )
         return self
 
     def resolution_hint_at(self, pressure_kpa: float) -> float:
@@ -406,9 +422,13 @@ class ShellCalibration:
                     f"ground ({model} model at {p:g} kPa): total rocking stiffness {total[j]:.3g} N m/rad <= 0 at "
                     f"phi = {phi[j]:+.2f} rad (K_inject = {K:.3g} N m/rad, form {law.form!r}); it must stay > 0 "
                     f"for |phi| <= {PHI_REACH_RAD} rad"
-                    + (f"; omega_n({p:g} kPa) = {float(self.omega_n(p)):.3g} rad/s is below the point-contact "
-                       f"{math.sqrt(robot.K_eq / robot.M_eq):.3g} rad/s (omega_n is in rad/s: a value in Hz is "
-                       "2π too small)" if K < 0 and field == "omega_n" else "")
+                    + (
+                        f"; omega_n({p:g} kPa) = {float(self.omega_n(p)):.3g} rad/s is below the point-contact "
+                        f"{math.sqrt(robot.K_eq / robot.M_eq):.3g} rad/s (omega_n is in rad/s: a value in Hz is "
+                        "2π too small)"
+                        if K < 0 and field == "omega_n"
+                        else ""
+                    )
                 )
 
     def bind(self, robot) -> "BoundShell":
@@ -472,15 +492,24 @@ class BoundShell:
         """The shell model's parameters at a pressure, units in the keys."""
         cal = self.calibration
         K, C = self.injected_gains(pressure_kpa)
-        out: dict[str, Any] = {"pressure_kpa": float(pressure_kpa), "omega_n_rad_s": float(cal.omega_n(pressure_kpa)),
-                               "zeta": float(cal.zeta(pressure_kpa)), "K_inject_Nm_per_rad": K,
-                               "C_inject_Nms_per_rad": C, "steer_law": cal.steer_law.as_dict()}
+        out: dict[str, Any] = {
+            "pressure_kpa": float(pressure_kpa),
+            "omega_n_rad_s": float(cal.omega_n(pressure_kpa)),
+            "zeta": float(cal.zeta(pressure_kpa)),
+            "K_inject_Nm_per_rad": K,
+            "C_inject_Nms_per_rad": C,
+            "steer_law": cal.steer_law.as_dict(),
+        }
         if shell_model == "hydroelastic":
             m, d = self.hydroelastic(pressure_kpa)
-            out.update(hydroelastic_modulus_pa=m, hunt_crossley_dissipation_s_per_m=d, k_d=cal.k_d_at(pressure_kpa),
-                       resolution_hint_m=cal.resolution_hint_at(pressure_kpa),
-                       couple_stiffness_factor=cal.couple_stiffness_factor,
-                       couple_damping_factor=cal.couple_damping_factor)
+            out.update(
+                hydroelastic_modulus_pa=m,
+                hunt_crossley_dissipation_s_per_m=d,
+                k_d=cal.k_d_at(pressure_kpa),
+                resolution_hint_m=cal.resolution_hint_at(pressure_kpa),
+                couple_stiffness_factor=cal.couple_stiffness_factor,
+                couple_damping_factor=cal.couple_damping_factor,
+            )
         return out
 
 

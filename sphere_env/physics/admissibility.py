@@ -79,9 +79,11 @@ class ExplicitStability:
         dt = self.config.time_step_s
         if self.omega_n is not None and self.omega_n * dt > INJECTED_OMEGA_DT_LIMIT:
             lo, hi = self.calibration.pressure_range_kpa
-            return (f"calibration: omega_n reaches {self.omega_n:.4g} rad/s over [{lo:g}, {hi:g}] kPa; the injected "
-                    f"shell torques are explicit and diverge for omega_n·time_step_s > {INJECTED_OMEGA_DT_LIMIT:g}; "
-                    f"allowed at time_step_s={dt:g} s: omega_n <= {INJECTED_OMEGA_DT_LIMIT / dt:.4g} rad/s")
+            return (
+                f"calibration: omega_n reaches {self.omega_n:.4g} rad/s over [{lo:g}, {hi:g}] kPa; the injected "
+                f"shell torques are explicit and diverge for omega_n·time_step_s > {INJECTED_OMEGA_DT_LIMIT:g}; "
+                f"allowed at time_step_s={dt:g} s: omega_n <= {INJECTED_OMEGA_DT_LIMIT / dt:.4g} rad/s"
+            )
         for joint, scale in (("steer", steer_friction_scale), ("drive", drive_friction_scale)):
             slope, idx = self.joints[joint]
             if idx is None:
@@ -92,8 +94,10 @@ class ExplicitStability:
             if ratio > EXPLICIT_DAMPING_LIMIT:
                 allowed = EXPLICIT_DAMPING_LIMIT / (dt * self.minv[idx])
                 extra = f" + injected C_inject {self.C:.4g}" if joint == "drive" and self.C is not None else ""
-                return (f"friction_model: {joint} joint damping {damping:.4g} N m s/rad (friction law "
-                        f"{getattr(self.config, joint + '_friction').law!r} peak slope {slope:.4g} × "
-                        f"{joint}_friction_scale {scale:g}{extra}) diverges at time_step_s={dt:g} s: explicit "
-                        f"torques need damping·dt/inertia <= {EXPLICIT_DAMPING_LIMIT:g}; allowed: <= {allowed:.4g} N m s/rad")
+                return (
+                    f"friction_model: {joint} joint damping {damping:.4g} N m s/rad (friction law "
+                    f"{getattr(self.config, joint + '_friction').law!r} peak slope {slope:.4g} × "
+                    f"{joint}_friction_scale {scale:g}{extra}) diverges at time_step_s={dt:g} s: explicit "
+                    f"torques need damping·dt/inertia <= {EXPLICIT_DAMPING_LIMIT:g}; allowed: <= {allowed:.4g} N m s/rad"
+                )
         return None

@@ -102,8 +102,9 @@ def shell_properties(config: TwinConfig, shell: BoundShell, pressure_kpa: float)
     return props
 
 
-def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, shell_props: ProximityProperties,
-                  meshcat=None) -> TwinDiagram:
+def build_diagram(
+    config: TwinConfig, robot: RobotParameters, terrain: Terrain, shell_props: ProximityProperties, meshcat=None
+) -> TwinDiagram:
     """Build plant + scene graph (+ friction/injected-shell systems, + Meshcat visualizer)."""
     cfg = config
     hydro = cfg.shell_model == "hydroelastic"
@@ -128,12 +129,8 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
         # Planar joint in the world y–z plane, rotating about world x: frame F has
         # x_F = y_W, y_F = z_W, z_F = x_W, so planar coords are (y_W, z_W, φ).
         R_WF = RotationMatrix(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]))
-        F = plant.AddFrame(
-            FixedOffsetFrame("steer_plane_F", world, RigidTransform(R_WF))
-        )
-        M = plant.AddFrame(
-            FixedOffsetFrame("steer_plane_M", pc.body_frame(), RigidTransform(R_WF))
-        )
+        F = plant.AddFrame(FixedOffsetFrame("steer_plane_F", world, RigidTransform(R_WF)))
+        M = plant.AddFrame(FixedOffsetFrame("steer_plane_M", pc.body_frame(), RigidTransform(R_WF)))
         planar = plant.AddJoint(PlanarJoint("steer_plane", F, M, damping=np.zeros(3)))
 
     # Contact geometry.
@@ -154,9 +151,7 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
         ground_ids = terrain.register(plant, ground_props, ground)
     (shell_geometry,) = plant.GetCollisionGeometriesForBody(body("bedliner"))
     shell_source_id = plant.get_source_id()
-    scene_graph.AssignRole(
-        shell_source_id, shell_geometry, shell_props, RoleAssign.kReplace
-    )
+    scene_graph.AssignRole(shell_source_id, shell_geometry, shell_props, RoleAssign.kReplace)
     plant.Finalize()
 
     # Joint bookkeeping.
@@ -170,9 +165,15 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     else:
         bq = bv = None
     layout = dict(
-        nq=nq, nv=nv, base=base, base_q=bq, base_v=bv,
-        steer_q=steer.position_start(), steer_v=steer.velocity_start(),
-        drive_q=drive.position_start(), drive_v=drive.velocity_start(),
+        nq=nq,
+        nv=nv,
+        base=base,
+        base_q=bq,
+        base_v=bv,
+        steer_q=steer.position_start(),
+        steer_v=steer.velocity_start(),
+        drive_q=drive.position_start(),
+        drive_v=drive.velocity_start(),
         steer_locked=cfg.fixture == "locked_steer",
         drive_locked=cfg.fixture in ("steer_plane", "stand"),
     )
@@ -183,7 +184,10 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     kinematics_ports: dict = {}
     if not cfg.bare_plant:
         x, g, out, kinematics = build_force_expressions(
-            layout, cfg.steer_friction, cfg.drive_friction, cfg.shell_model in ("injected", "hydroelastic"),
+            layout,
+            cfg.steer_friction,
+            cfg.drive_friction,
+            cfg.shell_model in ("injected", "hydroelastic"),
             terrain.normal_at,
         )
         # The gains are the force system's numeric parameter (set in its context by the twin), so
@@ -199,8 +203,10 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
         if len(k):
             # Stage 2: φ, φ̇ and the rocking axis from stage 1's projections (ŷ and ω_d pass on).
             p, p_exprs, _, k_exprs = kinematics
-            angles = builder.AddNamedSystem("shell_pipe_angle", SymbolicVectorSystem(
-                input=np.concatenate([p, x[x_idx]]), output=np.concatenate([k_exprs, x[x_idx]])))
+            angles = builder.AddNamedSystem(
+                "shell_pipe_angle",
+                SymbolicVectorSystem(input=np.concatenate([p, x[x_idx]]), output=np.concatenate([k_exprs, x[x_idx]])),
+            )
             builder.Connect(angles.get_output_port(), forces.get_input_port())
         if len(k) and len(cfg.inclines_deg) > 1:
             # One stage-1 system per incline (the ground normal is a constant of the expressions,
@@ -212,18 +218,22 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
                     x_i, p_exprs_i = x, p_exprs
                 else:
                     x_i, _, _, kin_i = build_force_expressions(
-                        layout, cfg.steer_friction, cfg.drive_friction, True, Terrain(inc, cfg.ramp_length_m).normal_at)
+                        layout, cfg.steer_friction, cfg.drive_friction, True, Terrain(inc, cfg.ramp_length_m).normal_at
+                    )
                     p_exprs_i = kin_i[1]
-                kin = builder.AddNamedSystem(f"shell_kinematics_{inc:g}deg", SymbolicVectorSystem(
-                    input=x_i, output=np.concatenate([p_exprs_i, x_i[x_idx]])))
+                kin = builder.AddNamedSystem(
+                    f"shell_kinematics_{inc:g}deg",
+                    SymbolicVectorSystem(input=x_i, output=np.concatenate([p_exprs_i, x_i[x_idx]])),
+                )
                 builder.Connect(plant.get_state_output_port(), kin.get_input_port())
                 port = switch.DeclareInputPort(f"incline_{inc:g}deg")
                 builder.Connect(kin.get_output_port(), port)
                 kinematics_ports[inc] = port.get_index()
             builder.Connect(switch.get_output_port(), angles.get_input_port())
         elif len(k):  # stage 1: ŷ·n, ŷ×n, ẏ·n, ŷ, ω_d computed once per step
-            kin = builder.AddNamedSystem("shell_kinematics", SymbolicVectorSystem(
-                input=x, output=np.concatenate([p_exprs, x[x_idx]])))
+            kin = builder.AddNamedSystem(
+                "shell_kinematics", SymbolicVectorSystem(input=x, output=np.concatenate([p_exprs, x[x_idx]]))
+            )
             builder.Connect(plant.get_state_output_port(), kin.get_input_port())
             builder.Connect(kin.get_output_port(), angles.get_input_port())
         else:
@@ -252,10 +262,28 @@ def build_diagram(config: TwinConfig, robot: RobotParameters, terrain: Terrain, 
     forces_context = None if forces is None else forces.GetMyMutableContextFromRoot(context)
     motor_port = diagram.get_input_port(0)
     return TwinDiagram(
-        diagram=diagram, simulator=simulator, context=context, plant=plant, scene_graph=scene_graph,
-        plant_context=plant_context, sg_context=sg_context, model_instance=model_instance, pc=pc, pipe=pipe,
-        pendulum=pendulum, planar=planar, steer=steer, drive=drive, shell_geometry=shell_geometry,
-        shell_source_id=shell_source_id, layout=layout, forces=forces, forces_context=forces_context,
-        motor_port=motor_port, visualizer=visualizer, ground_ids=ground_ids, kinematics_ports=kinematics_ports,
+        diagram=diagram,
+        simulator=simulator,
+        context=context,
+        plant=plant,
+        scene_graph=scene_graph,
+        plant_context=plant_context,
+        sg_context=sg_context,
+        model_instance=model_instance,
+        pc=pc,
+        pipe=pipe,
+        pendulum=pendulum,
+        planar=planar,
+        steer=steer,
+        drive=drive,
+        shell_geometry=shell_geometry,
+        shell_source_id=shell_source_id,
+        layout=layout,
+        forces=forces,
+        forces_context=forces_context,
+        motor_port=motor_port,
+        visualizer=visualizer,
+        ground_ids=ground_ids,
+        kinematics_ports=kinematics_ports,
         kinematics_switch=switch,
     )

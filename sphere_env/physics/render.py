@@ -55,8 +55,9 @@ class RgbCamera:
 
     def _set_size(self, width: int, height: int) -> None:
         if (width, height) != self.size:
-            core = RenderCameraCore(RENDERER_NAME, CameraInfo(width, height, math.pi / 3),
-                                    ClippingRange(0.05, 60.0), RigidTransform())
+            core = RenderCameraCore(
+                RENDERER_NAME, CameraInfo(width, height, math.pi / 3), ClippingRange(0.05, 60.0), RigidTransform()
+            )
             self.camera = ColorRenderCamera(core, False)
             self.size = (width, height)
 

@@ -43,8 +43,11 @@ class ShellCache:
     def store(self, key: Hashable, ground_mu: float, incline_deg: float, size: int) -> None:
         """Snapshot the context's current GeometryState as ``key``, with the ground μ and incline it
         holds; the least recently used snapshots beyond ``size`` are dropped."""
-        self._entries[key] = (self.sg_context.get_abstract_parameter(self._state_index()).Clone(),
-                              ground_mu, incline_deg)
+        self._entries[key] = (
+            self.sg_context.get_abstract_parameter(self._state_index()).Clone(),
+            ground_mu,
+            incline_deg,
+        )
         while len(self._entries) > size:
             self._entries.popitem(last=False)
 

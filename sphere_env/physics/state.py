@@ -20,8 +20,9 @@ from sphere_env.physics.forces import cross3, pipe_angle_expressions
 from sphere_env.physics.terrain import Terrain
 
 
-def read_state(positions_velocities: np.ndarray, layout: Mapping[str, Any], terrain: Terrain, time_s: float,
-               pressure_kpa: float) -> TwinState:
+def read_state(
+    positions_velocities: np.ndarray, layout: Mapping[str, Any], terrain: Terrain, time_s: float, pressure_kpa: float
+) -> TwinState:
     """θ, φ, ω_d, heading, pose and rates from the plant's [q; v] (names and signs: docs/design.md),
     indexed by the diagram's ``layout``; ``time_s`` and ``pressure_kpa`` are passed through.
 

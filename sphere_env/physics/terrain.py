@@ -23,8 +23,9 @@ GRID_RGBA = np.array([0.22, 0.2, 0.18, 1.0])
 _GRID_LINE_HEIGHT_M = 0.004  # a thin box whose lower half is inside the ground slab
 
 
-def grid_geometries(R_WS: RotationMatrix, p_WSo: np.ndarray, x_range_m: tuple[float, float],
-                    y_range_m: tuple[float, float], name: str) -> list[tuple[str, RigidTransform, object, np.ndarray]]:
+def grid_geometries(
+    R_WS: RotationMatrix, p_WSo: np.ndarray, x_range_m: tuple[float, float], y_range_m: tuple[float, float], name: str
+) -> list[tuple[str, RigidTransform, object, np.ndarray]]:
     """Visual grid lines on a flat surface patch, as (name, X_WG, shape, rgba): frame S (rotation
     ``R_WS``, origin ``p_WSo`` on the surface, z_S its normal), lines along x_S and y_S every
     :data:`GRID_SPACING_M` over ``x_range_m`` × ``y_range_m`` (in S) [m]. Lines at multiples of the
@@ -34,10 +35,14 @@ def grid_geometries(R_WS: RotationMatrix, p_WSo: np.ndarray, x_range_m: tuple[fl
     out = []
     for k in range(math.ceil(x0 / s), math.floor(x1 / s) + 1):  # lines across x_S (along y_S)
         p_S = np.array([k * s, (y0 + y1) / 2, 0.0])
-        out.append((f"{name}_grid_x{len(out)}", RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(w, y1 - y0, h), GRID_RGBA))
+        out.append(
+            (f"{name}_grid_x{len(out)}", RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(w, y1 - y0, h), GRID_RGBA)
+        )
     for k in range(math.ceil(y0 / s), math.floor(y1 / s) + 1):  # lines along x_S
         p_S = np.array([(x0 + x1) / 2, k * s, 0.0])
-        out.append((f"{name}_grid_y{len(out)}", RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(x1 - x0, w, h), GRID_RGBA))
+        out.append(
+            (f"{name}_grid_y{len(out)}", RigidTransform(R_WS, p_WSo + R_WS @ p_S), Box(x1 - x0, w, h), GRID_RGBA)
+        )
     return out
 
 
@@ -71,8 +76,10 @@ class Terrain:
         if isinstance(p_W[0], (Expression, Variable)):  # symbolic state variables are Variables
             # A component the ramp and the run-out share (n_y = 0) is a constant: no branch to
             # evaluate, and its products drop out of the expressions that use it.
-            return tuple(nr if nr == nz else if_then_else(p_W[0] < self._x_runout, nr, nz)
-                         for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0)))
+            return tuple(
+                nr if nr == nz else if_then_else(p_W[0] < self._x_runout, nr, nz)
+                for nr, nz in zip(self._n_ramp, (0.0, 0.0, 1.0))
+            )
         return self._n_ramp if p_W[0] < self._x_runout else (0.0, 0.0, 1.0)
 
     def geometries(self) -> list[tuple[str, RigidTransform, object, np.ndarray | None]]:
@@ -92,8 +99,12 @@ class Terrain:
         return [
             ("ramp", RigidTransform(HalfSpace.MakePose(self.n_ramp, np.zeros(3))), HalfSpace(), None),
             ("runout", RigidTransform(end), HalfSpace(), None),
-            ("ramp_vis", RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2),
-             Box(L + margin, 6, thick), GROUND_RGBA),
+            (
+                "ramp_vis",
+                RigidTransform(self.R_WG, self.t_ramp * (L - margin) / 2 - self.n_ramp * thick / 2),
+                Box(L + margin, 6, thick),
+                GROUND_RGBA,
+            ),
             ("runout_vis", RigidTransform(end + np.array([15.0, 0.0, -thick / 2])), Box(30, 6, thick), RUNOUT_RGBA),
             # Grid lines: the ramp's measured along the slope from its top, the run-out's from its start.
             *grid_geometries(self.R_WG, np.zeros(3), (-margin, L), (-3.0, 3.0), "ramp"),

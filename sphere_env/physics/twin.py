@@ -40,8 +40,15 @@ from sphere_env.physics.state import read_state
 from sphere_env.physics.terrain import Terrain
 
 # MAX_INITIAL_PENETRATION_M and ground_clearance_m stay importable from here (the env imports them).
-__all__ = ["FIXTURES", "MAX_INITIAL_PENETRATION_M", "InitialState", "Twin", "TwinConfig", "TwinState",
-           "ground_clearance_m"]
+__all__ = [
+    "FIXTURES",
+    "MAX_INITIAL_PENETRATION_M",
+    "InitialState",
+    "Twin",
+    "TwinConfig",
+    "TwinState",
+    "ground_clearance_m",
+]
 
 _log = logging.getLogger("sphere_env")
 
@@ -58,8 +65,11 @@ class Twin:
         config = replace(config, **kwargs) if config is not None and kwargs else (config or TwinConfig(**kwargs))
         self.config = config
         # k_d refitted at this step, if the calibration has one (Drake's contact damping depends on it)
-        self.calibration = (ShellCalibration.load(config.calibration).for_time_step(config.time_step_s)
-                            .extrapolated(config.pressure_extrapolation_kpa))
+        self.calibration = (
+            ShellCalibration.load(config.calibration)
+            .for_time_step(config.time_step_s)
+            .extrapolated(config.pressure_extrapolation_kpa)
+        )
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
         self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
         # Every context parameter (TWIN_PARAMETERS), in one dict: nominal values from the parameter
@@ -77,7 +87,8 @@ class Twin:
                 "was fitted; Drake's numerical contact damping depends on the step, so the shell's damping "
                 "ratio will differ (see evaluation/results/timestep_study.md). Refit k_d at this step "
                 "(hydroelastic.k_d_by_time_step; python -m sphere_env.calibration kd-step).",
-                config.time_step_s, fitted,
+                config.time_step_s,
+                fitted,
             )
         self.meshcat = meshcat
         self._build()
@@ -97,8 +108,9 @@ class Twin:
         self.visualizer = d.visualizer
         self._ground_ids = d.ground_ids
         self._kinematics_ports, self._kinematics_switch = d.kinematics_ports, d.kinematics_switch
-        self._switch_context = (None if d.kinematics_switch is None
-                                else d.kinematics_switch.GetMyMutableContextFromRoot(self.context))
+        self._switch_context = (
+            None if d.kinematics_switch is None else d.kinematics_switch.GetMyMutableContextFromRoot(self.context)
+        )
         self._ground_geometries: dict[float, list] = {}  # incline -> Terrain.geometries(), built once
         # The ground in the context: its incline and μ. Setters change the targets (config
         # incline, the ground_friction parameter) and mark it dirty; _sync_ground brings the context there
@@ -140,8 +152,10 @@ class Twin:
         """
         inc = self.calibration.parameter_space().check("incline_deg", incline_deg)
         if inc not in self.inclines_deg:
-            raise ValueError(f"incline_deg: value {incline_deg!r} is not one this twin was built for; allowed: "
-                             f"{list(self.inclines_deg)} (TwinConfig.inclines_deg)")
+            raise ValueError(
+                f"incline_deg: value {incline_deg!r} is not one this twin was built for; allowed: "
+                f"{list(self.inclines_deg)} (TwinConfig.inclines_deg)"
+            )
         if inc == self.incline_deg:
             return
         self.config = replace(self.config, incline_deg=inc)
@@ -167,14 +181,15 @@ class Twin:
         # ChangeShape re-adds the geometry to the proximity engine without the filter that keeps
         # geometries of one body from colliding with each other: declare it again.
         self.scene_graph.collision_filter_manager(self.sg_context).Apply(
-            CollisionFilterDeclaration().ExcludeWithin(GeometrySet(list(self._ground_ids.values()))))
+            CollisionFilterDeclaration().ExcludeWithin(GeometrySet(list(self._ground_ids.values())))
+        )
         self._ground_incline = inc
 
     def _select_kinematics(self) -> None:
         if self._kinematics_switch is not None:
             self._kinematics_switch.get_port_selector_input_port().FixValue(
-                self._switch_context, self._kinematics_ports[self.incline_deg])
-
+                self._switch_context, self._kinematics_ports[self.incline_deg]
+            )
 
     # ---- parameters: pressure, friction, payload ---------------------------------------------------
     GEOMETRY_CACHE_SIZE = 24  # hydroelastic shells kept per twin, one per distinct pressure
@@ -274,8 +289,11 @@ class Twin:
             self._ground_dirty = True
             return
         self.scene_graph.AssignRole(
-            self.sg_context, self.shell_source_id, self.shell_geometry,
-            shell_properties(self.config, self.shell, p), RoleAssign.kReplace,
+            self.sg_context,
+            self.shell_source_id,
+            self.shell_geometry,
+            shell_properties(self.config, self.shell, p),
+            RoleAssign.kReplace,
         )
         self._shells.store(key, self._ground_mu_in_context, self._ground_incline, self.GEOMETRY_CACHE_SIZE)
 
@@ -323,7 +341,9 @@ class Twin:
         self._shells.clear()
 
     # ---- numerical admissibility ------------------------------------------------------------------
-    def explicit_stability_problem(self, steer_friction_scale: float = 1.0, drive_friction_scale: float = 1.0) -> str | None:
+    def explicit_stability_problem(
+        self, steer_friction_scale: float = 1.0, drive_friction_scale: float = 1.0
+    ) -> str | None:
         """Why this twin's explicit torques would diverge at its time step, or ``None``.
 
         Checks the joint friction slopes (× the given scales) against
@@ -335,8 +355,9 @@ class Twin:
         """
         stability = self.__dict__.get("_stability")
         if stability is None:
-            stability = self._stability = ExplicitStability(self.plant, self._layout, self.config, self.calibration,
-                                                             self.shell)
+            stability = self._stability = ExplicitStability(
+                self.plant, self._layout, self.config, self.calibration, self.shell
+            )
         return stability.problem(steer_friction_scale, drive_friction_scale)
 
     # ---- state -----------------------------------------------------------------------------------
@@ -367,7 +388,9 @@ class Twin:
             p = np.asarray(initial.position_m, float) if initial.position_m is not None else R * self.terrain.n_ramp
             R_WPC = RotationMatrix(RollPitchYaw(initial.roll, initial.pitch, initial.heading))
             plant.SetFreeBodyPose(pc, self.pc, RigidTransform(R_WPC, p))
-            V = SpatialVelocity(np.asarray(initial.angular_velocity_rad_s, float), np.asarray(initial.velocity_m_s, float))
+            V = SpatialVelocity(
+                np.asarray(initial.angular_velocity_rad_s, float), np.asarray(initial.velocity_m_s, float)
+            )
             plant.SetFreeBodySpatialVelocity(pc, self.pc, V)
         elif lay["base"] == "planar":
             p = np.asarray(initial.position_m, float) if initial.position_m is not None else np.array([0.0, 0.0, R])
@@ -402,8 +425,13 @@ class Twin:
     def state(self) -> TwinState:
         """Read θ, φ, ω_d, heading, pose and rates from the plant state (names and signs: docs/design.md;
         the math: :func:`~sphere_env.physics.state.read_state`)."""
-        return read_state(self.plant.GetPositionsAndVelocities(self.plant_context), self._layout, self.terrain,
-                          self.context.get_time(), self.pressure_kpa)
+        return read_state(
+            self.plant.GetPositionsAndVelocities(self.plant_context),
+            self._layout,
+            self.terrain,
+            self.context.get_time(),
+            self.pressure_kpa,
+        )
 
     def advance_unchecked(self, duration_s: float, motor_torque_nm: np.ndarray) -> None:
         """:meth:`advance` without input validation; ``motor_torque_nm`` must be a finite float64 (2,)."""

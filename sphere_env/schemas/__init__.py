@@ -77,32 +77,46 @@ def fixed_tuple(item: Any, size: int, words: str) -> Any:
 
 
 #: A finite real number (an int or a numpy number is one; a bool or a string is not).
-Finite = Annotated[float, BeforeValidator(_real), Field(allow_inf_nan=False, json_schema_extra=allowed("a finite number"))]
+Finite = Annotated[
+    float, BeforeValidator(_real), Field(allow_inf_nan=False, json_schema_extra=allowed("a finite number"))
+]
 
 
-def number(*, gt: float | None = None, ge: float | None = None, lt: float | None = None,
-           le: float | None = None, words: str | None = None) -> Any:
+def number(
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+    words: str | None = None,
+) -> Any:
     """A finite real number within the given bounds, its allowed range stated in words (``words``,
     else the bounds)."""
     parts = [f"{op} {v:g}" for op, v in ((">", gt), (">=", ge), ("<", lt), ("<=", le)) if v is not None]
     words = words or "a finite number" + (" " + " and ".join(parts) if parts else "")
-    return Annotated[float, BeforeValidator(_real), Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False,
-                                                          json_schema_extra=allowed(words))]
+    return Annotated[
+        float,
+        BeforeValidator(_real),
+        Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False, json_schema_extra=allowed(words)),
+    ]
 
 
 def _ordered(strict: bool) -> Callable[[tuple[Any, Any]], tuple[Any, Any]]:
     """An after-validator of a pair (low, high) of numbers or of equal-length vectors (each
     component): low <= high (``strict``: low < high)."""
+
     def check(pair: tuple[Any, Any]) -> tuple[Any, Any]:
         low, high = np.asarray(pair[0], dtype=float), np.asarray(pair[1], dtype=float)
         if np.any(low > high) or (strict and np.any(low == high)):
             raise ValueError(f"low {pair[0]!r} is {'not below' if strict else 'above'} high {pair[1]!r}")
         return pair
+
     return check
 
 
-def ordered_pair(low: float | None, high: float | None, unit: str, strict: bool = False,
-                 words: str | None = None) -> Any:
+def ordered_pair(
+    low: float | None, high: float | None, unit: str, strict: bool = False, words: str | None = None
+) -> Any:
     """A pair (low, high) of finite numbers with ``low`` <= low <= high <= ``high`` [``unit``]
     (``low``/``high`` None: unbounded on that side; ``strict``: low < high), its allowed values in
     ``words`` (default: the bounds)."""
@@ -111,8 +125,12 @@ def ordered_pair(low: float | None, high: float | None, unit: str, strict: bool 
         right = "" if high is None else f" <= {high:g}"
         words = f"a pair (low, high) with {left}low {'<' if strict else '<='} high{right} {unit}"
     item = number(ge=low, le=high)
-    return Annotated[tuple[item, item], AfterValidator(_ordered(strict)), BeforeValidator(_as_tuple),
-                     Field(json_schema_extra=allowed(words))]
+    return Annotated[
+        tuple[item, item],
+        AfterValidator(_ordered(strict)),
+        BeforeValidator(_as_tuple),
+        Field(json_schema_extra=allowed(words)),
+    ]
 
 
 def _as_path(value: Any) -> Any:
@@ -150,18 +168,35 @@ def _output_file(file: Path) -> Path:
 
 
 #: A folder to write into: created when missing; no parent a file, and writable where it will be made.
-OutputFolder = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_folder), Field(
-    json_schema_extra=allowed("a folder path (created when missing) in a writable place, none of its parents a "
-                              "file"))]
+OutputFolder = Annotated[
+    Path,
+    BeforeValidator(_as_path),
+    AfterValidator(_output_folder),
+    Field(
+        json_schema_extra=allowed(
+            "a folder path (created when missing) in a writable place, none of its parents a file"
+        )
+    ),
+]
 #: A file to write: not a folder, in a writable folder (created when missing), no parent a file.
-OutputFile = Annotated[Path, BeforeValidator(_as_path), AfterValidator(_output_file), Field(
-    json_schema_extra=allowed("a file path in a writable folder, none of its parents a file"))]
+OutputFile = Annotated[
+    Path,
+    BeforeValidator(_as_path),
+    AfterValidator(_output_file),
+    Field(json_schema_extra=allowed("a file path in a writable folder, none of its parents a file")),
+]
 #: A file to read (its contents are checked by the reader).
 InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]
 
 
-def validate(schema: type[S], data: Any, where: str = "", error: type[Exception] = ValueError,
-             root: str = "", context: Mapping[str, Any] | None = None) -> S:
+def validate(
+    schema: type[S],
+    data: Any,
+    where: str = "",
+    error: type[Exception] = ValueError,
+    root: str = "",
+    context: Mapping[str, Any] | None = None,
+) -> S:
     """``data`` as ``schema``, or ``error`` with one line naming the first problem (an unknown key
     before any other): ``<where>: field '<root>.<dotted.path>' = <value>: <problem>; allowed:
     <allowed>`` (``where``: the input, such as a file; ``root``: the mapping's own name;
@@ -169,8 +204,9 @@ def validate(schema: type[S], data: Any, where: str = "", error: type[Exception]
     head = f"{where}: " if where else ""
     if not isinstance(data, Mapping):
         name = f"field {root!r}" if root else "the input"  # its type only: never echo a file's contents
-        raise error(f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: "
-                    f"{sorted(schema.model_fields)}")
+        raise error(
+            f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: {sorted(schema.model_fields)}"
+        )
     try:
         return schema.model_validate(dict(data), context=context)
     except ValidationError as err:
@@ -320,15 +356,22 @@ def cli_type(annotation: Any, parse: Callable[[str], Any] = float, name: str = "
     word ends the command with argparse's one-line error naming the flag, the value and what is
     allowed."""
     adapter = TypeAdapter(annotation)
-    words = next((m.json_schema_extra["allowed"] for m in get_args(annotation)[1:]
-                  if isinstance(m, FieldInfo) and isinstance(m.json_schema_extra, dict)), "")
+    words = next(
+        (
+            m.json_schema_extra["allowed"]
+            for m in get_args(annotation)[1:]
+            if isinstance(m, FieldInfo) and isinstance(m.json_schema_extra, dict)
+        ),
+        "",
+    )
 
     def read(text: str) -> Any:
         try:
             value = parse(text)
         except ValueError:
-            raise ArgumentTypeError(f"{text!r} is not {'an integer' if parse is int else 'a number'}; "
-                                    f"allowed: {words}") from None
+            raise ArgumentTypeError(
+                f"{text!r} is not {'an integer' if parse is int else 'a number'}; allowed: {words}"
+            ) from None
         try:
             return adapter.validate_python(value)
         except ValidationError as err:

@@ -49,11 +49,25 @@ _H_LO, _H_HI = RESOLUTION_HINT_RANGE_M
 _T_LO, _T_HI = FITTED_TIME_STEP_RANGE_S
 
 NonNegative = number(ge=0.0)
-Pressure = Annotated[float, Field(ge=_P_LO, le=_P_HI, json_schema_extra=allowed(
-    f"a gauge pressure in kPa within [{_P_LO}, {_P_HI}] (Pa or MPa values fall outside)"))]
-ResolutionHint = Annotated[float, Field(ge=_H_LO, le=_H_HI, json_schema_extra=allowed(
-    f"[{_H_LO}, {_H_HI}] m (a mesh edge length on a shell of radius ~0.3 m)"))]
-TimeStep = Annotated[float, Field(ge=_T_LO, le=_T_HI, json_schema_extra=allowed(f"[{_T_LO}, {_T_HI}] s (a plant time step)"))]
+Pressure = Annotated[
+    float,
+    Field(
+        ge=_P_LO,
+        le=_P_HI,
+        json_schema_extra=allowed(f"a gauge pressure in kPa within [{_P_LO}, {_P_HI}] (Pa or MPa values fall outside)"),
+    ),
+]
+ResolutionHint = Annotated[
+    float,
+    Field(
+        ge=_H_LO,
+        le=_H_HI,
+        json_schema_extra=allowed(f"[{_H_LO}, {_H_HI}] m (a mesh edge length on a shell of radius ~0.3 m)"),
+    ),
+]
+TimeStep = Annotated[
+    float, Field(ge=_T_LO, le=_T_HI, json_schema_extra=allowed(f"[{_T_LO}, {_T_HI}] s (a plant time step)"))
+]
 #: Free-form records a file may carry for readers and tools (confidence intervals, provenance, notes).
 Notes = Any
 
@@ -83,8 +97,15 @@ class ContactVolume(Schema):
 
     model: Literal["membrane", "table"]
     pressure_kpa: list[Finite] | None = None
-    volume_m3: list[Annotated[float, Field(gt=0.0, lt=MAX_CONTACT_VOLUME_M3, json_schema_extra=allowed(
-        f"(0, {MAX_CONTACT_VOLUME_M3}) m³"))]] | None = None
+    volume_m3: (
+        list[
+            Annotated[
+                float,
+                Field(gt=0.0, lt=MAX_CONTACT_VOLUME_M3, json_schema_extra=allowed(f"(0, {MAX_CONTACT_VOLUME_M3}) m³")),
+            ]
+        ]
+        | None
+    ) = None
     notes: Notes = None
 
     @model_validator(mode="after")
@@ -93,8 +114,10 @@ class ContactVolume(Schema):
             return self
         pk, vm = self.pressure_kpa, self.volume_m3
         if pk is None or vm is None or len(pk) != len(vm) or len(pk) < 2 or any(b <= a for a, b in zip(pk, pk[1:])):
-            raise ValueError(f"field 'pressure_kpa' = {pk!r}, 'volume_m3' = {vm!r}: a table needs increasing "
-                             "'pressure_kpa' and 'volume_m3' lists of equal length >= 2")
+            raise ValueError(
+                f"field 'pressure_kpa' = {pk!r}, 'volume_m3' = {vm!r}: a table needs increasing "
+                "'pressure_kpa' and 'volume_m3' lists of equal length >= 2"
+            )
         return self
 
 
@@ -105,8 +128,12 @@ class KdPoint(Schema):
     k_d: NonNegative
 
 
-KdTable = Annotated[list[KdPoint], Field(min_length=2, json_schema_extra=allowed(
-    "a list of at least 2 {pressure_kpa, k_d} spanning pressure_range_kpa"))]
+KdTable = Annotated[
+    list[KdPoint],
+    Field(
+        min_length=2, json_schema_extra=allowed("a list of at least 2 {pressure_kpa, k_d} spanning pressure_range_kpa")
+    ),
+]
 
 
 class KdStep(Schema):
@@ -157,22 +184,32 @@ class SteerLawSection(Schema):
             if key in own and getattr(self, key) is None:
                 raise ValueError(f"field {key!r} is missing (form {self.form!r} needs {list(own)})")
             if key not in own and getattr(self, key) is not None:
-                raise ValueError(f"field {key!r} is not used by form {self.form!r}; allowed: "
-                                 f"{sorted(['form', 'rest_angle_rad', *own])}")
+                raise ValueError(
+                    f"field {key!r} is not used by form {self.form!r}; allowed: "
+                    f"{sorted(['form', 'rest_angle_rad', *own])}"
+                )
         return self
 
     def parameters(self) -> dict[str, Any]:
         """The law's numbers: form, rest angle and the form's own parameters."""
-        return {"form": self.form, "rest_angle_rad": self.rest_angle_rad,
-                **{k: getattr(self, k) for k in STEER_LAW_FORMS[self.form]}}
+        return {
+            "form": self.form,
+            "rest_angle_rad": self.rest_angle_rad,
+            **{k: getattr(self, k) for k in STEER_LAW_FORMS[self.form]},
+        }
 
 
 class CalibrationFile(Schema):
     """A shell calibration file."""
 
     name: str | None = None
-    pressure_range_kpa: ordered_pair(_P_LO, _P_HI, "kPa", strict=True, words=(
-        f"[low, high] with {_P_LO} <= low < high <= {_P_HI} kPa (gauge; Pa or MPa fall outside)"))
+    pressure_range_kpa: ordered_pair(
+        _P_LO,
+        _P_HI,
+        "kPa",
+        strict=True,
+        words=(f"[low, high] with {_P_LO} <= low < high <= {_P_HI} kPa (gauge; Pa or MPa fall outside)"),
+    )
     nominal_pressure_kpa: Finite | None = None
     omega_n: OmegaN
     zeta: Zeta
@@ -200,13 +237,17 @@ class CalibrationFile(Schema):
             wn = self.omega_n.intercept_rad_s + self.omega_n.slope_rad_s_per_kpa * q
             z = self.zeta.scale * math.exp(self.zeta.rate_per_kpa * q)
             if wn <= 0 or not 0 <= z < 1:
-                raise ValueError(f"field 'omega_n', 'zeta': the curves give omega_n={wn:.3g} rad/s, zeta={z:.3g} at "
-                                 f"{q} kPa; need omega_n > 0 and 0 <= zeta < 1 over the range")
+                raise ValueError(
+                    f"field 'omega_n', 'zeta': the curves give omega_n={wn:.3g} rad/s, zeta={z:.3g} at "
+                    f"{q} kPa; need omega_n > 0 and 0 <= zeta < 1 over the range"
+                )
         hyd = self.hydroelastic
         mesh = hyd.low_pressure_mesh
         if mesh is not None and not lo < mesh.below_kpa <= hi:
-            raise ValueError(f"field 'hydroelastic.low_pressure_mesh.below_kpa' = {mesh.below_kpa!r} must lie in "
-                             f"({lo}, {hi}] kPa (inside pressure_range_kpa, else the low-pressure mesh is never used)")
+            raise ValueError(
+                f"field 'hydroelastic.low_pressure_mesh.below_kpa' = {mesh.below_kpa!r} must lie in "
+                f"({lo}, {hi}] kPa (inside pressure_range_kpa, else the low-pressure mesh is never used)"
+            )
         _check_table(hyd.k_d_by_pressure, "hydroelastic.k_d_by_pressure", (lo, hi))
         if hyd.k_d_by_pressure:
             _check_k_d_at_nominal(hyd.k_d, hyd.k_d_by_pressure, self.nominal_kpa, "hydroelastic")
@@ -214,8 +255,10 @@ class CalibrationFile(Schema):
         for i, entry in enumerate(hyd.k_d_by_time_step or ()):
             at = f"hydroelastic.k_d_by_time_step[{i}]"
             if any(math.isclose(entry.time_step_s, s, rel_tol=1e-9) for s in taken):
-                raise ValueError(f"field '{at}.time_step_s' = {entry.time_step_s!r} has a k_d already "
-                                 "(hydroelastic.fitted_time_step_s or an earlier entry); one k_d per step")
+                raise ValueError(
+                    f"field '{at}.time_step_s' = {entry.time_step_s!r} has a k_d already "
+                    "(hydroelastic.fitted_time_step_s or an earlier entry); one k_d per step"
+                )
             taken.append(entry.time_step_s)
             _check_table(entry.k_d_by_pressure, f"{at}.k_d_by_pressure", (lo, hi))
             if entry.k_d_by_pressure:
@@ -240,21 +283,27 @@ def _check_table(table: list[KdPoint] | None, where: str, pressure_range_kpa: tu
     for i in range(1, len(table)):
         q, prev = table[i].pressure_kpa, table[i - 1].pressure_kpa
         if not q > prev:
-            raise ValueError(f"field '{where}[{i}].pressure_kpa' = {q!r} must be greater than the previous point's "
-                             f"{prev!r} kPa (pressures increasing)")
+            raise ValueError(
+                f"field '{where}[{i}].pressure_kpa' = {q!r} must be greater than the previous point's "
+                f"{prev!r} kPa (pressures increasing)"
+            )
     lo, hi = pressure_range_kpa
     first, last = table[0].pressure_kpa, table[-1].pressure_kpa
     if first > lo or last < hi:
-        raise ValueError(f"field '{where}' covers [{first!r}, {last!r}] kPa; it must span pressure_range_kpa "
-                         f"[{lo}, {hi}] kPa (k_d is not extrapolated)")
+        raise ValueError(
+            f"field '{where}' covers [{first!r}, {last!r}] kPa; it must span pressure_range_kpa "
+            f"[{lo}, {hi}] kPa (k_d is not extrapolated)"
+        )
 
 
 def _check_k_d_at_nominal(k_d: float, table: list[KdPoint], nominal_kpa: float, where: str) -> None:
     """A step's single k_d beside its pressure table must be the table's value at the nominal pressure."""
     expected = interpolate_k_d(table_pairs(table), nominal_kpa)
     if not math.isclose(k_d, expected, rel_tol=K_D_NOMINAL_REL_TOL):
-        raise ValueError(f"field '{where}.k_d' = {k_d!r} must equal its k_d_by_pressure at nominal_pressure_kpa "
-                         f"{nominal_kpa:g} kPa ({expected:.5g}, within {100 * K_D_NOMINAL_REL_TOL:g}%)")
+        raise ValueError(
+            f"field '{where}.k_d' = {k_d!r} must equal its k_d_by_pressure at nominal_pressure_kpa "
+            f"{nominal_kpa:g} kPa ({expected:.5g}, within {100 * K_D_NOMINAL_REL_TOL:g}%)"
+        )
 
 
 def shipped_calibrations() -> list[str]:
@@ -278,11 +327,21 @@ def calibration_ref() -> Callable[[Any, str], Any]:
     """The check of a calibration reference (:func:`~sphere_env.schemas.checker`): the path of a
     calibration YAML, the name of a shipped one (:func:`shipped_calibrations`) or None."""
     names = tuple(shipped_calibrations())
-    return checker(Annotated[Union[Annotated[Literal[names], Tag("name")],  # type: ignore[valid-type]
-                                   Annotated[str | Path | None, Tag("path")]],
-                             Discriminator(calibration_form), Field(json_schema_extra=allowed(
-                                 f"the path of a calibration YAML file, the name of a shipped one {list(names)}, "
-                                 "or None (the shipped default)"))])
+    return checker(
+        Annotated[
+            Union[
+                Annotated[Literal[names], Tag("name")],  # type: ignore[valid-type]
+                Annotated[str | Path | None, Tag("path")],
+            ],
+            Discriminator(calibration_form),
+            Field(
+                json_schema_extra=allowed(
+                    f"the path of a calibration YAML file, the name of a shipped one {list(names)}, "
+                    "or None (the shipped default)"
+                )
+            ),
+        ]
+    )
 
 
 def check_calibration(data: Any, source: str = "<dict>") -> CalibrationFile:

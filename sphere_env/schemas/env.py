@@ -88,10 +88,16 @@ class EnvKwargs(Schema):
     """
 
     shell_model: Literal[SHELL_MODELS] = "injected"  # type: ignore[valid-type]
-    friction_model: Any = Field("majd", validate_default=True, json_schema_extra=allowed(
-        "a friction law or preset name, a {law, params} mapping, or {steer: ..., drive: ...}"))
-    calibration: str | Path | None = Field(None, json_schema_extra=allowed(
-        "the path of a shell calibration YAML, the name of a shipped one, or None"))
+    friction_model: Any = Field(
+        "majd",
+        validate_default=True,
+        json_schema_extra=allowed(
+            "a friction law or preset name, a {law, params} mapping, or {steer: ..., drive: ...}"
+        ),
+    )
+    calibration: str | Path | None = Field(
+        None, json_schema_extra=allowed("the path of a shell calibration YAML, the name of a shipped one, or None")
+    )
     control_frequency_hz: parameter("control_frequency_hz") = PARAMETERS["control_frequency_hz"].nominal
     time_step_s: parameter("time_step_s") = DEFAULT_TIME_STEP_S
     steer_torque_limit_nm: parameter("steer_torque_limit_nm") = PARAMETERS["steer_torque_limit_nm"].nominal
@@ -106,9 +112,13 @@ class EnvKwargs(Schema):
     render_mode: Literal[RENDER_MODES] | None = None  # type: ignore[valid-type]
     meshcat: Any = False
     record_replay: bool = False
-    render_size: fixed_tuple(count(*RENDER_SIZE_PX), 2, f"(width, height) within {list(RENDER_SIZE_PX)} px") = (480, 360)
-    hydroelastic_pressure_step_kpa: number(ge=0.0, le=MAX_PRESSURE_STEP_KPA,
-                                           words=f"[0, {MAX_PRESSURE_STEP_KPA:g}] kPa") = 0.5
+    render_size: fixed_tuple(count(*RENDER_SIZE_PX), 2, f"(width, height) within {list(RENDER_SIZE_PX)} px") = (
+        480,
+        360,
+    )
+    hydroelastic_pressure_step_kpa: number(
+        ge=0.0, le=MAX_PRESSURE_STEP_KPA, words=f"[0, {MAX_PRESSURE_STEP_KPA:g}] kPa"
+    ) = 0.5
     pressure_extrapolation_kpa: parameter("pressure_extrapolation_kpa") = 0.0
 
     @field_validator("friction_model")
@@ -126,8 +136,10 @@ class EnvKwargs(Schema):
     def _control_period(self) -> "EnvKwargs":
         ratio = (1.0 / self.control_frequency_hz) / self.time_step_s
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
-            raise ValueError(f"field 'control_frequency_hz' = {self.control_frequency_hz!r} must make the control "
-                             f"period an integer multiple of time_step_s = {self.time_step_s} s")
+            raise ValueError(
+                f"field 'control_frequency_hz' = {self.control_frequency_hz!r} must make the control "
+                f"period an integer multiple of time_step_s = {self.time_step_s} s"
+            )
         return self
 
 
@@ -177,8 +189,9 @@ class ResetOptions(Schema):
     randomization parameter (a fixed value for this episode, read by the env's
     ``RandomizationSpec.parse``) and the task's command values."""
 
-    initial_state: InitialStateOption | None = Field(None, json_schema_extra=allowed(
-        "an InitialState or a mapping of its fields"))
+    initial_state: InitialStateOption | None = Field(
+        None, json_schema_extra=allowed("an InitialState or a mapping of its fields")
+    )
     pressure_rate_kpa_per_s: Finite = Field(0.0, json_schema_extra=allowed("a finite number [kPa/s]"))
 
 
@@ -205,9 +218,14 @@ def _distinct(models: list[str]) -> list[str]:
 class ShellModelMixtureKwargs(Schema):
     """The kwargs of :class:`sphere_env.wrappers.ShellModelMixture`."""
 
-    shell_models: Annotated[list[Literal[SHELL_MODELS]], AfterValidator(_distinct), BeforeValidator(  # type: ignore[valid-type]
-        lambda v: list(v) if isinstance(v, tuple) else v), Field(min_length=1, json_schema_extra=allowed(
-            f"a non-empty list of distinct names from {list(SHELL_MODELS)}"))] = ["point", "injected"]
+    shell_models: Annotated[
+        list[Literal[SHELL_MODELS]],
+        AfterValidator(_distinct),
+        BeforeValidator(  # type: ignore[valid-type]
+            lambda v: list(v) if isinstance(v, tuple) else v
+        ),
+        Field(min_length=1, json_schema_extra=allowed(f"a non-empty list of distinct names from {list(SHELL_MODELS)}")),
+    ] = ["point", "injected"]
 
 
 class ResidualKwargs(Schema):

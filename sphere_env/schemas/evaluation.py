@@ -25,11 +25,21 @@ from sphere_env.params import SHELL_MODELS
 from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, validate
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
-GRID_KWARGS = {"shell_model": "--shell-models", "friction_model": "--friction", "randomization": "off",
-               "record_replay": "--replay"}
+GRID_KWARGS = {
+    "shell_model": "--shell-models",
+    "friction_model": "--friction",
+    "randomization": "off",
+    "record_replay": "--replay",
+}
 #: Env kwargs the enjoy command sets itself (refused in ``--env-kwargs``) and the option for each.
-ENJOY_KWARGS = {"shell_model": "--shell-model", "friction_model": "the run's config", "randomization": "off",
-                "render_mode": "--meshcat / --video", "meshcat": "--meshcat", "record_replay": "not used by enjoy"}
+ENJOY_KWARGS = {
+    "shell_model": "--shell-model",
+    "friction_model": "the run's config",
+    "randomization": "off",
+    "render_mode": "--meshcat / --video",
+    "meshcat": "--meshcat",
+    "record_replay": "not used by enjoy",
+}
 #: Episodes of one sweep at the most: every episode's trace (12 channels per control step, ~60 kB) is
 #: held in memory until traces.npz is written.
 MAX_SWEEP_EPISODES = 100_000
@@ -83,10 +93,19 @@ def _registered(env_id: str) -> str:
     return env_id
 
 
-EnvId = Annotated[str, AfterValidator(_registered), Field(json_schema_extra=allowed(
-    "a registered env id, such as sphere_env/RampDescent-v3"))]
-ShellModel = Annotated[Literal[SHELL_MODELS], Field(json_schema_extra=allowed(  # type: ignore[valid-type]
-    f"one of {list(SHELL_MODELS)}"))]
+EnvId = Annotated[
+    str,
+    AfterValidator(_registered),
+    Field(json_schema_extra=allowed("a registered env id, such as sphere_env/RampDescent-v3")),
+]
+ShellModel = Annotated[
+    Literal[SHELL_MODELS],
+    Field(
+        json_schema_extra=allowed(  # type: ignore[valid-type]
+            f"one of {list(SHELL_MODELS)}"
+        )
+    ),
+]
 
 
 def _friction(name: str) -> str:
@@ -103,11 +122,13 @@ Friction = Annotated[str, AfterValidator(_friction)]
 def _env_kwargs_without(own: Mapping[str, str], command: str):
     """An after-validator refusing env kwargs that ``command`` sets itself (``own``: kwarg -> the
     option that sets it)."""
+
     def check(value: dict[str, Any]) -> dict[str, Any]:
         for k in value:
             if k in own:
                 raise ValueError(f"field {k!r} is set by {command} itself ({own[k]}); not allowed in --env-kwargs")
         return value
+
     return check
 
 
@@ -129,8 +150,15 @@ class ControllerSpec(Schema):
     :func:`sphere_env.evaluation.controller_specs.split_label`) or a mapping ``{label, spec}``."""
 
     label: Annotated[str, Field(pattern=r"^[^,]+$", json_schema_extra=allowed("a non-empty name without ','"))]
-    spec: Annotated[str, AfterValidator(_controller_form), Field(json_schema_extra=allowed(
-        "zero | pd | pretrained | <run folder>[@best|@<checkpoint steps>] | module:function"))]
+    spec: Annotated[
+        str,
+        AfterValidator(_controller_form),
+        Field(
+            json_schema_extra=allowed(
+                "zero | pd | pretrained | <run folder>[@best|@<checkpoint steps>] | module:function"
+            )
+        ),
+    ]
 
     @model_validator(mode="before")
     @classmethod
@@ -150,19 +178,29 @@ class SweepFields(Loaded):
     """A grid to evaluate (see ``SweepSpec``): every controller × shell model × friction preset ×
     pressure [kPa] × seed."""
 
-    controllers: list[ControllerSpec] = Field(min_length=1, json_schema_extra=allowed(
-        "at least one controller, each label once"))
+    controllers: list[ControllerSpec] = Field(
+        min_length=1, json_schema_extra=allowed("at least one controller, each label once")
+    )
     env_id: EnvId = "sphere_env/RampDescent-v3"
-    pressures_kpa: list[Finite] = Field([3.0, 8.5, 14.0], min_length=1, json_schema_extra=allowed(
-        "at least one pressure [kPa] inside the calibrated range"))
-    shell_models: list[ShellModel] = Field(list(SHELL_MODELS), min_length=1, json_schema_extra=allowed(
-        f"a non-empty list of {list(SHELL_MODELS)}"))
-    frictions: list[Friction] = Field(["majd"], min_length=1, json_schema_extra=allowed(
-        "at least one friction preset or law (majd, viscous, coulomb, none, ...)"))
-    seeds: list[Seed] = Field([0, 1, 2], min_length=1, json_schema_extra=allowed(
-        f"at least one integer within [0, {MAX_SEED}]"))
+    pressures_kpa: list[Finite] = Field(
+        [3.0, 8.5, 14.0],
+        min_length=1,
+        json_schema_extra=allowed("at least one pressure [kPa] inside the calibrated range"),
+    )
+    shell_models: list[ShellModel] = Field(
+        list(SHELL_MODELS), min_length=1, json_schema_extra=allowed(f"a non-empty list of {list(SHELL_MODELS)}")
+    )
+    frictions: list[Friction] = Field(
+        ["majd"],
+        min_length=1,
+        json_schema_extra=allowed("at least one friction preset or law (majd, viscous, coulomb, none, ...)"),
+    )
+    seeds: list[Seed] = Field(
+        [0, 1, 2], min_length=1, json_schema_extra=allowed(f"at least one integer within [0, {MAX_SEED}]")
+    )
     env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(GRID_KWARGS, "the sweep"))] = Field(
-        default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
+        default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs")
+    )
     allow_env_mismatch: bool = False  # evaluate a policy on an env id it was not trained on
 
     @field_validator("controllers")
@@ -180,8 +218,10 @@ class SweepFields(Loaded):
         axes = ("controllers", "shell_models", "frictions", "pressures_kpa", "seeds")
         sizes = [len(getattr(self, a)) for a in axes]
         if math.prod(sizes) > MAX_SWEEP_EPISODES:
-            raise ValueError(f"field '{' × '.join(axes)}' = {' × '.join(map(str, sizes))} = {math.prod(sizes)} "
-                             f"episodes; allowed: at most {MAX_SWEEP_EPISODES} per sweep")
+            raise ValueError(
+                f"field '{' × '.join(axes)}' = {' × '.join(map(str, sizes))} = {math.prod(sizes)} "
+                f"episodes; allowed: at most {MAX_SWEEP_EPISODES} per sweep"
+            )
         cal = ShellCalibration.load(self.env_kwargs.get("calibration"))
         for i, p in enumerate(self.pressures_kpa):
             cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
@@ -220,23 +260,29 @@ class ReplayCell(Schema):
     seed: Seed | None = Field(None, json_schema_extra=allowed(f"an integer within [0, {MAX_SEED}]"))
 
 
-Replay = Annotated[ReplayCell, BeforeValidator(_replay_parts), Field(json_schema_extra=allowed(
-    "controller,shell_model,pressure_kpa,seed (blank parts: the grid's)"))]
+Replay = Annotated[
+    ReplayCell,
+    BeforeValidator(_replay_parts),
+    Field(json_schema_extra=allowed("controller,shell_model,pressure_kpa,seed (blank parts: the grid's)")),
+]
 
 
 class EvaluateOptions(Schema):
     """The sweep's options besides the grid (:func:`sphere_env.evaluation.evaluate.evaluate`)."""
 
     out: OutputFolder
-    workers: count(1, MAX_WORKERS) | None = Field(None, json_schema_extra=allowed(
-        f"an integer within [1, {MAX_WORKERS}], or none for every usable core"))
-    ray_address: Annotated[str, Field(min_length=1)] | None = Field(None, json_schema_extra=allowed(
-        "local, auto or ray://host:port"))
+    workers: count(1, MAX_WORKERS) | None = Field(
+        None, json_schema_extra=allowed(f"an integer within [1, {MAX_WORKERS}], or none for every usable core")
+    )
+    ray_address: Annotated[str, Field(min_length=1)] | None = Field(
+        None, json_schema_extra=allowed("local, auto or ray://host:port")
+    )
     replays: list[Replay] = Field(default_factory=lambda: [ReplayCell()])
     pme_log: InputFile | None = None
     pme_log_pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed("a finite pressure [kPa]"))
     pme_reference: Literal[(*SHELL_MODELS, "log")] = Field(  # type: ignore[valid-type]
-        "hydroelastic", json_schema_extra=allowed(f"one of {[*SHELL_MODELS, 'log']}"))
+        "hydroelastic", json_schema_extra=allowed(f"one of {[*SHELL_MODELS, 'log']}")
+    )
     plots: bool = True
     progress: bool = False
     extra_report: str = ""
@@ -245,8 +291,10 @@ class EvaluateOptions(Schema):
     @model_validator(mode="after")
     def _video_local(self) -> "EvaluateOptions":
         if self.video is not None and self.ray_address is not None:
-            raise ValueError(f"field 'video' = {str(self.video)!r}: not available with --ray-address (Ray workers "
-                             "may not share this file system); record videos with the local process pool")
+            raise ValueError(
+                f"field 'video' = {str(self.video)!r}: not available with --ray-address (Ray workers "
+                "may not share this file system); record videos with the local process pool"
+            )
         return self
 
 
@@ -259,9 +307,14 @@ def _run_folder(run: str) -> str:
     return run
 
 
-RunText = Annotated[str, AfterValidator(_run_folder), Field(pattern=r"^[^@]*(?:@(?:best|model))?$",
-                                                            json_schema_extra=allowed(
-    "a training run folder or pretrained, optionally @best"))]
+RunText = Annotated[
+    str,
+    AfterValidator(_run_folder),
+    Field(
+        pattern=r"^[^@]*(?:@(?:best|model))?$",
+        json_schema_extra=allowed("a training run folder or pretrained, optionally @best"),
+    ),
+]
 
 
 class EnjoyFields(Loaded):
@@ -270,17 +323,18 @@ class EnjoyFields(Loaded):
 
     run: RunText
     episodes: count(1, MAX_ENJOY_EPISODES) = 1
-    pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed(
-        "a pressure [kPa] inside the calibrated range"))
+    pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed("a pressure [kPa] inside the calibrated range"))
     shell_model: ShellModel | None = None
     seed: Seed = 0
     deterministic: bool = True
     env_id: EnvId | None = None
     allow_env_mismatch: bool = False
-    env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(ENJOY_KWARGS, "the enjoy command"))] = \
+    env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(ENJOY_KWARGS, "the enjoy command"))] = (
         Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
-    label: Annotated[str, Field(min_length=1)] | None = Field(None, json_schema_extra=allowed(
-        "a non-empty name (default: the run folder's)"))
+    )
+    label: Annotated[str, Field(min_length=1)] | None = Field(
+        None, json_schema_extra=allowed("a non-empty name (default: the run folder's)")
+    )
 
 
 class ViewOptions(Schema):
@@ -288,8 +342,9 @@ class ViewOptions(Schema):
 
     meshcat: bool = False
     video: OutputFolder | None = None
-    realtime_rate: number(ge=0.0) = Field(1.0, json_schema_extra=allowed(
-        "a finite number >= 0 (simulated s per wall-clock s; 0: as fast as possible)"))
+    realtime_rate: number(ge=0.0) = Field(
+        1.0, json_schema_extra=allowed("a finite number >= 0 (simulated s per wall-clock s; 0: as fast as possible)")
+    )
 
 
 class ExportOptions(Schema):
@@ -298,7 +353,8 @@ class ExportOptions(Schema):
 
     run: RunText
     format: Literal[tuple(EXPORT_FORMATS)] = Field(  # type: ignore[valid-type]
-        "onnx", json_schema_extra=allowed(f"one of {list(EXPORT_FORMATS)}"))
+        "onnx", json_schema_extra=allowed(f"one of {list(EXPORT_FORMATS)}")
+    )
     out: OutputFolder
     tol: number(gt=0.0) = 1e-5
     env_id: EnvId | None = None
@@ -321,8 +377,9 @@ class DemoOptions(Schema):
 
     train_steps: count(1, 10**9)
     seed: Seed
-    seeds: list[Seed] = Field(min_length=1, max_length=100, json_schema_extra=allowed(
-        "1 to 100 integer seeds in [0, 2**32 - 1]"))
+    seeds: list[Seed] = Field(
+        min_length=1, max_length=100, json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1]")
+    )
     out: OutputFolder
     run_dir: OutputFolder | None = None
     workers: count(1, MAX_WORKERS) | None = None

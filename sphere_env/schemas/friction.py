@@ -49,7 +49,10 @@ class MajdParams(Schema):
 
 #: parameter schema by law name (the laws of sphere_env.models.friction.FRICTION_LAWS)
 LAW_PARAMS: dict[str, type[Schema]] = {
-    "none": NoParams, "viscous": ViscousParams, "coulomb": CoulombParams, "majd": MajdParams,
+    "none": NoParams,
+    "viscous": ViscousParams,
+    "coulomb": CoulombParams,
+    "majd": MajdParams,
 }
 
 LawName = Literal["none", "viscous", "coulomb", "majd"]
@@ -59,12 +62,12 @@ class FrictionSpec(Schema):
     """One joint's friction: a law and its parameters (checked by the law's schema)."""
 
     law: LawName = Field("none", json_schema_extra=allowed(str(sorted(LAW_PARAMS))))
-    params: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed(
-        "a mapping of the law's parameters"))
+    params: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of the law's parameters"))
 
 
 class FrictionPresetFile(Schema):
     """A friction preset file: ``presets: {<name>: {law: ..., params: {...}}}``."""
 
-    presets: dict[str, FrictionSpec] = Field(min_length=1, json_schema_extra=allowed(
-        "a non-empty mapping of preset name -> {law, params}"))
+    presets: dict[str, FrictionSpec] = Field(
+        min_length=1, json_schema_extra=allowed("a non-empty mapping of preset name -> {law, params}")
+    )

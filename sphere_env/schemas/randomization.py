@@ -39,8 +39,12 @@ from sphere_env.schemas import Schema, _integral, _ordered, allowed, number, val
 #: The preset names: a whole spec, or the ``base`` a mapping starts from.
 PRESETS = ("off", "default", "full")
 #: The fields each distribution takes.
-DISTRIBUTIONS: dict[str, tuple[str, ...]] = {"fixed": ("value",), "uniform": ("low", "high"), "normal": ("mean", "std"),
-                                             "choice": ("values",)}
+DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
+    "fixed": ("value",),
+    "uniform": ("low", "high"),
+    "normal": ("mean", "std"),
+    "choice": ("values",),
+}
 MODES = ("reset", "interval", "schedule")
 #: Parameters whose uniform distribution may leave out both bounds: those whose bounds come from a
 #: context (``bounds_from``; the pressure: the shell calibration's range), filled in by
@@ -56,8 +60,13 @@ def preset(name: str, ramp: bool) -> dict[str, Any]:
         return {}
     out: dict[str, Any] = {"pressure_kpa": {"distribution": "uniform"}}
     if name == "full":
-        out |= {"steer_friction_scale": [0.8, 1.2], "drive_friction_scale": [0.8, 1.2], "ground_friction": [0.7, 1.3],
-                "payload_mass_kg": [0.0, 3.0], "payload_com_offset_m": [[-0.02] * 3, [0.02] * 3]}
+        out |= {
+            "steer_friction_scale": [0.8, 1.2],
+            "drive_friction_scale": [0.8, 1.2],
+            "ground_friction": [0.7, 1.3],
+            "payload_mass_kg": [0.0, 3.0],
+            "payload_com_offset_m": [[-0.02] * 3, [0.02] * 3],
+        }
         if ramp:
             out["incline_deg"] = [12.0, 20.0]
         out["pressure_schedule"] = {"rate_kpa_per_s": [-0.2, 0.0]}
@@ -98,8 +107,11 @@ def _words(rec: Parameter) -> str:
 def fixed_value(rec: Parameter) -> Any:
     """The type of one fixed value of ``rec`` (a ``reset`` option): a value as an entry's value form
     gives it (a tuple, a numpy array or numpy numbers read as plain data), never a distribution."""
-    return Annotated[_value(rec, _scalar(rec)), BeforeValidator(_plain), Field(json_schema_extra=allowed(
-        f"a fixed value: {_words(rec)}"))]
+    return Annotated[
+        _value(rec, _scalar(rec)),
+        BeforeValidator(_plain),
+        Field(json_schema_extra=allowed(f"a fixed value: {_words(rec)}")),
+    ]
 
 
 #: The uniform distribution's bounds: low <= high (each component of a vector).
@@ -123,8 +135,10 @@ class Draw(Schema):
             if not given and data.get("mode") == "schedule" and "mode" in cls.model_fields:
                 return data  # no draw: the schedule starts from the nominal value (or a reset option)
             if len(given) > 1:
-                raise ValueError(f"field 'distribution' is missing: the fields given belong to {given}; allowed: "
-                                 "the fields of one distribution, or 'distribution' naming it")
+                raise ValueError(
+                    f"field 'distribution' is missing: the fields given belong to {given}; allowed: "
+                    "the fields of one distribution, or 'distribution' naming it"
+                )
             data = {**data, "distribution": given[0] if given else "fixed"}
         return data
 
@@ -137,8 +151,10 @@ class Draw(Schema):
         others = {k for fields in DISTRIBUTIONS.values() for k in fields} - set(takes)
         for key in sorted(others):
             if getattr(self, key, None) is not None:
-                raise ValueError(f"field {key!r} is not used by distribution {kind!r}; allowed: "
-                                 f"{sorted(set(type(self).model_fields) - others)}")
+                raise ValueError(
+                    f"field {key!r} is not used by distribution {kind!r}; allowed: "
+                    f"{sorted(set(type(self).model_fields) - others)}"
+                )
         if kind == "uniform" and self.low is None and self.high is None and self.natural_range:
             return self  # the calibration's range
         for key in takes:
@@ -162,18 +178,22 @@ class Entry(Draw):
         if mode == "interval" and self.interval_s is None:
             raise ValueError("field 'interval_s' is missing: mode 'interval' needs a period > 0 s")
         if mode == "schedule" and self.rate_per_s is None:
-            raise ValueError("field 'rate_per_s' is missing: mode 'schedule' needs a rate of change, drawn once per "
-                             "episode")
+            raise ValueError(
+                "field 'rate_per_s' is missing: mode 'schedule' needs a rate of change, drawn once per episode"
+            )
         for key, owner in (("interval_s", "interval"), ("rate_per_s", "schedule"), ("delay_s", "schedule")):
             if mode != owner and getattr(self, key) is not None:
                 value = getattr(self, key)
                 if isinstance(value, Draw):  # as given: a number, or the distribution's mapping
                     value = value.value if value.distribution == "fixed" else value.model_dump(exclude_none=True)
-                raise ValueError(f"field {key!r} = {value!r} is only for mode {owner!r}; allowed: "
-                                 f"leave it out for mode {mode!r}")
+                raise ValueError(
+                    f"field {key!r} = {value!r} is only for mode {owner!r}; allowed: leave it out for mode {mode!r}"
+                )
         if self.distribution is None and mode != "schedule":
-            raise ValueError(f"field 'distribution' = None: only mode 'schedule' may leave out the draw; allowed: "
-                             f"{list(DISTRIBUTIONS)}")
+            raise ValueError(
+                f"field 'distribution' = None: only mode 'schedule' may leave out the draw; allowed: "
+                f"{list(DISTRIBUTIONS)}"
+            )
         return self
 
 
@@ -184,8 +204,10 @@ def draw_model(rec: Parameter, entry: bool = True) -> type[Draw]:
     fields: dict[str, Any] = {
         "distribution": (Literal[kinds], Field(json_schema_extra=allowed(str(list(kinds))))),  # type: ignore[valid-type]
         "value": (value | None, Field(None, json_schema_extra=allowed(words))),
-        "values": (Annotated[list[value], Field(min_length=1)] | None, Field(None, json_schema_extra=allowed(
-            f"a non-empty list, each {words}"))),
+        "values": (
+            Annotated[list[value], Field(min_length=1)] | None,
+            Field(None, json_schema_extra=allowed(f"a non-empty list, each {words}")),
+        ),
     }
     if not rec.choices:
         free = _value(rec, _scalar(rec, bounded=False))
@@ -193,23 +215,46 @@ def draw_model(rec: Parameter, entry: bool = True) -> type[Draw]:
         fields |= {
             "low": (value | None, Field(None, json_schema_extra=allowed(words))),
             "high": (value | None, Field(None, json_schema_extra=allowed(words))),
-            "mean": (free | None, Field(None, json_schema_extra=allowed(
-                f"{rec.size} finite numbers" if rec.size > 1 else "a finite number"))),
-            "std": (std | None, Field(None, json_schema_extra=allowed(
-                f"{rec.size} numbers >= 0" if rec.size > 1 else "a finite number >= 0"))),
+            "mean": (
+                free | None,
+                Field(
+                    None, json_schema_extra=allowed(f"{rec.size} finite numbers" if rec.size > 1 else "a finite number")
+                ),
+            ),
+            "std": (
+                std | None,
+                Field(
+                    None,
+                    json_schema_extra=allowed(f"{rec.size} numbers >= 0" if rec.size > 1 else "a finite number >= 0"),
+                ),
+            ),
         }
     if entry:
         modes, why = modes_of(rec)
         rate = schedule_rate(rec.name)
         fields |= {
             # left out (None) only by a schedule without a draw of its own: the nominal value at reset
-            "distribution": (Optional[Literal[kinds]], Field(None, json_schema_extra=allowed(  # type: ignore[valid-type]
-                str(list(kinds))))),
+            "distribution": (
+                Optional[Literal[kinds]],
+                Field(
+                    None,
+                    json_schema_extra=allowed(  # type: ignore[valid-type]
+                        str(list(kinds))
+                    ),
+                ),
+            ),
             "mode": (Literal[modes], Field("reset", json_schema_extra=allowed(f"{list(modes)}{why}"))),  # type: ignore[valid-type]
             "interval_s": (number(gt=0.0) | None, Field(None, json_schema_extra=allowed("a period > 0 s"))),
-            "rate_per_s": (Optional[parameter_field(rate, entry=False)], Field(None, json_schema_extra=allowed(
-                f"a number [{rate.unit}] (fixed), [low, high] (uniform) or {{distribution: "
-                f"{'|'.join(DISTRIBUTIONS)}, ...}}, drawn once per episode"))),
+            "rate_per_s": (
+                Optional[parameter_field(rate, entry=False)],
+                Field(
+                    None,
+                    json_schema_extra=allowed(
+                        f"a number [{rate.unit}] (fixed), [low, high] (uniform) or {{distribution: "
+                        f"{'|'.join(DISTRIBUTIONS)}, ...}}, drawn once per episode"
+                    ),
+                ),
+            ),
             "delay_s": (number(ge=0.0) | None, Field(None, json_schema_extra=allowed("a time >= 0 s"))),
         }
     model = create_model(f"{rec.name}_entry", __base__=Entry if entry else Draw, **fields)
@@ -251,37 +296,58 @@ def parameter_field(rec: Parameter, entry: bool = True) -> Any:
             return "list-form"
         return "value-form"
 
-    listed = (Annotated[list[value], Field(min_length=1), AfterValidator(choice)] if rec.choices else
-              Annotated[list[value], Field(min_length=2, max_length=2), AfterValidator(_low_high),
-                        AfterValidator(uniform)])
-    return Annotated[Union[Annotated[value, AfterValidator(fixed), Tag("value-form")],
-                           Annotated[listed, Tag("list-form")],
-                           Annotated[full, Tag("full-form")]], Discriminator(form)]
+    listed = (
+        Annotated[list[value], Field(min_length=1), AfterValidator(choice)]
+        if rec.choices
+        else Annotated[
+            list[value], Field(min_length=2, max_length=2), AfterValidator(_low_high), AfterValidator(uniform)
+        ]
+    )
+    return Annotated[
+        Union[
+            Annotated[value, AfterValidator(fixed), Tag("value-form")],
+            Annotated[listed, Tag("list-form")],
+            Annotated[full, Tag("full-form")],
+        ],
+        Discriminator(form),
+    ]
 
 
 def _entry_words(rec: Parameter) -> str:
     if rec.choices:
-        return (f"a name (fixed), a non-empty list of names (choice) or {{distribution: fixed|choice, value|values}}; "
-                f"names: {rec.allowed}")
+        return (
+            f"a name (fixed), a non-empty list of names (choice) or {{distribution: fixed|choice, value|values}}; "
+            f"names: {rec.allowed}"
+        )
     pair = "[[low...], [high...]]" if rec.size > 1 else "[low, high]"
     timing = "mode, interval_s, rate_per_s, delay_s" if rec.schedulable else "mode, interval_s"
-    return (f"{_words(rec)} (fixed), {pair} (uniform) or {{distribution: {'|'.join(DISTRIBUTIONS)}, "
-            f"value|low,high|mean,std|values, {timing}}}")
+    return (
+        f"{_words(rec)} (fixed), {pair} (uniform) or {{distribution: {'|'.join(DISTRIBUTIONS)}, "
+        f"value|low,high|mean,std|values, {timing}}}"
+    )
 
 
 # ---- the whole spec --------------------------------------------------------------------------------
 class Schedule(Schema):
     """Pressure within an episode: a rate drawn per episode [kPa/s], after a delay [s]."""
 
-    rate_kpa_per_s: parameter_field(REGISTRY[RATE], entry=False) = Field(json_schema_extra=allowed(  # type: ignore[valid-type]
-        "a number [kPa/s] (< 0: a leak), [low, high] or {distribution: fixed|uniform|normal|choice, ...}"))
+    rate_kpa_per_s: parameter_field(REGISTRY[RATE], entry=False) = Field(
+        json_schema_extra=allowed(  # type: ignore[valid-type]
+            "a number [kPa/s] (< 0: a leak), [low, high] or {distribution: fixed|uniform|normal|choice, ...}"
+        )
+    )
     delay_s: number(ge=0.0) = Field(0.0, json_schema_extra=allowed("a time >= 0 s"))
 
 
 #: One optional field per randomizable parameter, typed from its registry record.
-ParameterEntries = create_model("ParameterEntries", __base__=Schema, **{
-    name: (parameter_field(REGISTRY[name]), Field(None, json_schema_extra=allowed(_entry_words(REGISTRY[name]))))
-    for name in RANDOMIZABLE})
+ParameterEntries = create_model(
+    "ParameterEntries",
+    __base__=Schema,
+    **{
+        name: (parameter_field(REGISTRY[name]), Field(None, json_schema_extra=allowed(_entry_words(REGISTRY[name]))))
+        for name in RANDOMIZABLE
+    },
+)
 
 
 def _plain(x: Any) -> Any:
@@ -300,10 +366,15 @@ class SpecInput(ParameterEntries):
     """A spec as a mapping: a preset to start from (``base``), parameter entries over it and the
     pressure schedule (``null``: none, also over a preset's)."""
 
-    base: Literal[PRESETS] = Field("off", json_schema_extra=allowed(  # type: ignore[valid-type]
-        f"a preset name {list(PRESETS)}: the whole spec, or the mapping's base"))
-    pressure_schedule: Schedule | None = Field(None, json_schema_extra=allowed(
-        "{rate_kpa_per_s: <entry>, delay_s: <s>} or null"))
+    base: Literal[PRESETS] = Field(
+        "off",
+        json_schema_extra=allowed(  # type: ignore[valid-type]
+            f"a preset name {list(PRESETS)}: the whole spec, or the mapping's base"
+        ),
+    )
+    pressure_schedule: Schedule | None = Field(
+        None, json_schema_extra=allowed("{rate_kpa_per_s: <entry>, delay_s: <s>} or null")
+    )
     _order: tuple[str, ...] = PrivateAttr(())
 
     @model_validator(mode="wrap")
@@ -317,9 +388,11 @@ class SpecInput(ParameterEntries):
             pressure = data.get("pressure_kpa")
             if isinstance(pressure, Mapping) and pressure.get("mode") == "schedule":
                 if data.get("pressure_schedule") is not None:
-                    raise ValueError(f"field 'pressure_schedule' = {data['pressure_schedule']!r}: 'pressure_kpa' has "
-                                     "mode 'schedule' already; allowed: one pressure schedule (null here, or another "
-                                     "mode for 'pressure_kpa')")
+                    raise ValueError(
+                        f"field 'pressure_schedule' = {data['pressure_schedule']!r}: 'pressure_kpa' has "
+                        "mode 'schedule' already; allowed: one pressure schedule (null here, or another "
+                        "mode for 'pressure_kpa')"
+                    )
                 data = {**data, "pressure_schedule": None}  # replaces a preset's
             data = {**preset(data.get("base", "off"), ramp), **data}
         out = handler(data)
@@ -330,8 +403,10 @@ class SpecInput(ParameterEntries):
     def _incline_needs_a_ramp(self, info: ValidationInfo) -> "SpecInput":
         entry = self.incline_deg
         if not (info.context or {}).get("ramp", True) and entry is not None and entry.distribution != "fixed":
-            raise ValueError(f"field 'incline_deg.distribution' = {entry.distribution!r}: this environment has no "
-                             "ramp, so the incline cannot be randomized; allowed: 'fixed'")
+            raise ValueError(
+                f"field 'incline_deg.distribution' = {entry.distribution!r}: this environment has no "
+                "ramp, so the incline cannot be randomized; allowed: 'fixed'"
+            )
         return self
 
     def entries(self) -> list[tuple[str, Entry]]:
@@ -345,7 +420,8 @@ def load_spec(data: Any, ramp: bool, kwarg: str) -> SpecInput:
     if isinstance(data, str):
         data = {"base": data}
     if not isinstance(data, Mapping):
-        raise ValueError(f"{kwarg}: value {data!r} ({type(data).__name__}) is not a spec; allowed: None, a preset name "
-                         f"{list(PRESETS)}, a mapping of parameters to entries or a RandomizationSpec")
+        raise ValueError(
+            f"{kwarg}: value {data!r} ({type(data).__name__}) is not a spec; allowed: None, a preset name "
+            f"{list(PRESETS)}, a mapping of parameters to entries or a RandomizationSpec"
+        )
     return validate(SpecInput, data, kwarg, context={"ramp": ramp})
-

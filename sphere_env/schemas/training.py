@@ -42,8 +42,7 @@ MAX_N_ENVS = 256
 MAX_ENV_PROCESSES = 64  # one process per env (n_workers: null with SubprocVecEnv)
 MAX_N_TIMESTEPS = 10**10
 #: Activation names a configuration may give (rl-zoo3 writes ``nn.ReLU``), by torch.nn class.
-ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
-               "silu": "SiLU"}
+ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU", "silu": "SiLU"}
 
 
 #: A number > 0 written as text: at most 15 digits before the point (after leading zeros), at most
@@ -68,12 +67,17 @@ def activation_class_name(name: str) -> str:
 
 #: An activation: optionally ``nn.``, then a lower-case name of :data:`ACTIVATIONS` in any case, or
 #: a class name as torch spells it.
-ACTIVATION_PATTERN = (r"^(?:nn\.)?(?:(?i:" + "|".join(ACTIVATIONS) + ")|"
-                      + "|".join(c for c in ACTIVATIONS.values() if c.lower() not in ACTIVATIONS) + ")$")
+ACTIVATION_PATTERN = (
+    r"^(?:nn\.)?(?:(?i:"
+    + "|".join(ACTIVATIONS)
+    + ")|"
+    + "|".join(c for c in ACTIVATIONS.values() if c.lower() not in ACTIVATIONS)
+    + ")$"
+)
 
 
 #: A positive number or rl-zoo3's linear schedule ``lin_<x>`` (x → 0 over training).
-Schedule = (number(gt=0.0) | Annotated[str, Field(pattern=LIN_PATTERN)])
+Schedule = number(gt=0.0) | Annotated[str, Field(pattern=LIN_PATTERN)]
 PositiveSchedule = Annotated[Schedule, Field(json_schema_extra=allowed("a number > 0 or 'lin_<number > 0>'"))]
 Layers = list[count(1, 65536)]
 
@@ -89,12 +93,15 @@ class NetArch(Schema):
 class PolicyKwargs(Schema):
     """SB3 policy keyword arguments a configuration may set."""
 
-    net_arch: Layers | NetArch | None = Field(None, json_schema_extra=allowed(
-        "a list of layer sizes >= 1, or {pi: [...], vf: [...]}"))
-    activation_fn: Annotated[str, Field(pattern=ACTIVATION_PATTERN)] | None = Field(None, json_schema_extra=allowed(
-        f"one of {sorted(ACTIVATIONS.values())} (as nn.<Name> or a lower-case name)"))
-    log_std_init: Finite | list[Finite] | None = Field(None, json_schema_extra=allowed(
-        "a number, or one per action component"))
+    net_arch: Layers | NetArch | None = Field(
+        None, json_schema_extra=allowed("a list of layer sizes >= 1, or {pi: [...], vf: [...]}")
+    )
+    activation_fn: Annotated[str, Field(pattern=ACTIVATION_PATTERN)] | None = Field(
+        None, json_schema_extra=allowed(f"one of {sorted(ACTIVATIONS.values())} (as nn.<Name> or a lower-case name)")
+    )
+    log_std_init: Finite | list[Finite] | None = Field(
+        None, json_schema_extra=allowed("a number, or one per action component")
+    )
     ortho_init: bool | None = None
     squash_output: bool | None = None
     full_std: bool | None = None
@@ -134,8 +141,9 @@ def parse_dict_call(text: str, field_name: str, names: tuple[str, ...] = ()) -> 
     try:
         out = value(ast.parse(text.strip(), mode="eval").body)
     except (SyntaxError, ValueError, TypeError) as err:
-        raise ValueError(f"{head}cannot read {text!r} as data: {err}; allowed: dict(key=value, ...) with "
-                         "literal values") from None
+        raise ValueError(
+            f"{head}cannot read {text!r} as data: {err}; allowed: dict(key=value, ...) with literal values"
+        ) from None
     if not isinstance(out, dict):
         raise ValueError(f"{head}{text!r} must be a dict(...) of keyword arguments")
     return out
@@ -143,8 +151,10 @@ def parse_dict_call(text: str, field_name: str, names: tuple[str, ...] = ()) -> 
 
 def _dict_text(names: tuple[str, ...] = ()):
     """A before-validator reading rl-zoo3's ``"dict(...)"`` text as a mapping."""
+
     def read(value: Any) -> Any:
         return parse_dict_call(value, "", names) if isinstance(value, str) else value
+
     return read
 
 
@@ -204,8 +214,10 @@ def _wrapper_entry(value: Any) -> Any:
 #: One wrapper: ``{module.Class: kwargs}`` (kwargs null: none), read as ``{path: {kwargs}}``.
 WrapperEntry = Annotated[
     dict[Annotated[str, AfterValidator(_wrapper_path)], dict[str, Any] | None],
-    BeforeValidator(_wrapper_entry), Field(min_length=1, max_length=1),
-    AfterValidator(lambda entry: {path: dict(kwargs or {}) for path, kwargs in entry.items()})]
+    BeforeValidator(_wrapper_entry),
+    Field(min_length=1, max_length=1),
+    AfterValidator(lambda entry: {path: dict(kwargs or {}) for path, kwargs in entry.items()}),
+]
 Layout = count(1, MAX_N_ENVS) | Literal["auto"] | None
 
 
@@ -220,9 +232,12 @@ class Section(Schema):
     normalize: bool | Annotated[NormalizeArgs, BeforeValidator(_dict_text())] | None = False
     env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
     env_wrapper: Annotated[list[WrapperEntry], BeforeValidator(_wrapper_list)] = Field(
-        default_factory=list, json_schema_extra=allowed(
+        default_factory=list,
+        json_schema_extra=allowed(
             "a gymnasium.Wrapper class path 'module.Class' (such as 'sphere_env.wrappers.PDResidualAction'), "
-            "{path: {kwargs}} with a mapping of kwargs, or a list of these (the first innermost)"))
+            "{path: {kwargs}} with a mapping of kwargs, or a list of these (the first innermost)"
+        ),
+    )
     # arguments PPO and SAC share
     learning_rate: PositiveSchedule = 3e-4
     gamma: number(gt=0.0, le=1.0) = 0.99
@@ -242,10 +257,13 @@ class Section(Schema):
                 raise ValueError(
                     f"field {key!r}: a top-level key (in the file's section or --hyperparams); it moved to {now} "
                     f"(rl-zoo3's layout, which passes env_kwargs to gymnasium.make): in a YAML section write "
-                    f"'env_kwargs: {{{key}: ...}}', on the command line '--env-kwargs {key}:...'")
+                    f"'env_kwargs: {{{key}: ...}}', on the command line '--env-kwargs {key}:...'"
+                )
             if key in ZOO_ONLY_KEYS:
-                raise ValueError(f"field {key!r}: an rl-zoo3 key this trainer does not implement; train with "
-                                 "python -m rl_zoo3.train for it, or remove it")
+                raise ValueError(
+                    f"field {key!r}: an rl-zoo3 key this trainer does not implement; train with "
+                    "python -m rl_zoo3.train for it, or remove it"
+                )
         return data
 
     @model_validator(mode="before")
@@ -264,11 +282,15 @@ class Section(Schema):
             if isinstance(v, int) and v > self.n_envs:
                 raise ValueError(f"field {key!r} = {v} must be <= n_envs={self.n_envs} (or 'auto')")
         if self.n_threads is not None and self.n_workers is not None:
-            raise ValueError(f"field 'n_threads' = {self.n_threads!r} cannot be combined with n_workers="
-                             f"{self.n_workers!r}; set one of them to null (threads in this process, or worker processes)")
+            raise ValueError(
+                f"field 'n_threads' = {self.n_threads!r} cannot be combined with n_workers="
+                f"{self.n_workers!r}; set one of them to null (threads in this process, or worker processes)"
+            )
         if self.n_threads is None and self.n_workers is None and self.n_envs > MAX_ENV_PROCESSES:
-            raise ValueError(f"field 'n_envs' = {self.n_envs} with n_workers: null starts one process per env; allowed: "
-                             f"at most {MAX_ENV_PROCESSES} (or set n_workers to step blocks of envs per process)")
+            raise ValueError(
+                f"field 'n_envs' = {self.n_envs} with n_workers: null starts one process per env; allowed: "
+                f"at most {MAX_ENV_PROCESSES} (or set n_workers to step blocks of envs per process)"
+            )
         return self
 
 
@@ -294,13 +316,16 @@ class SACSection(Section):
     buffer_size: count(1) = 1_000_000
     learning_starts: count(0) = 100
     tau: number(gt=0.0, le=1.0) = 0.005
-    train_freq: count(1) | tuple[count(1), Literal["step", "episode"]] = Field(1, json_schema_extra=allowed(
-        "an integer >= 1 or [n, 'step'|'episode']"))
-    gradient_steps: count(1) | Literal[-1] = Field(1, json_schema_extra=allowed(
-        "an integer >= 1 or -1 (as many as env steps)"))
+    train_freq: count(1) | tuple[count(1), Literal["step", "episode"]] = Field(
+        1, json_schema_extra=allowed("an integer >= 1 or [n, 'step'|'episode']")
+    )
+    gradient_steps: count(1) | Literal[-1] = Field(
+        1, json_schema_extra=allowed("an integer >= 1 or -1 (as many as env steps)")
+    )
     n_steps: count(1) = 1
     ent_coef: number(ge=0.0) | Literal["auto"] | Annotated[str, Field(pattern=rf"^auto_{POSITIVE_TEXT}$")] = Field(
-        "auto", json_schema_extra=allowed("a number >= 0, 'auto' or 'auto_<number > 0>'"))
+        "auto", json_schema_extra=allowed("a number >= 0, 'auto' or 'auto_<number > 0>'")
+    )
     target_update_interval: count(1) = 1
     target_entropy: Finite | Literal["auto"] = "auto"
     use_sde_at_warmup: bool = False
@@ -344,6 +369,8 @@ def check_section(algo: str, section: Any, where: str = "") -> Section:
 
 #: Evaluation episodes per evaluation at the most.
 MAX_EVAL_EPISODES = 10_000
+
+
 def _period_value(value: Any) -> Any:
     """rl-zoo3's "off" (0 or a negative number) as 0; an integer-valued float as an int."""
     if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
@@ -352,8 +379,11 @@ def _period_value(value: Any) -> Any:
 
 
 #: Steps between evaluations or checkpoints (<= 0: none).
-Period = Annotated[int, BeforeValidator(_period_value), Field(ge=0, le=MAX_N_TIMESTEPS, json_schema_extra=allowed(
-    "an integer number of env steps (<= 0: none)"))]
+Period = Annotated[
+    int,
+    BeforeValidator(_period_value),
+    Field(ge=0, le=MAX_N_TIMESTEPS, json_schema_extra=allowed("an integer number of env steps (<= 0: none)")),
+]
 
 
 def _registered_env(env_id: str) -> str:
@@ -396,18 +426,19 @@ def check_algo(algo: Any) -> str:
 class RunOptions(Schema):
     """The trainer's own options (command line or :func:`~sphere_env.training.config.resolve_config`)."""
 
-    env_id: Annotated[str, AfterValidator(_registered_env)] = Field(json_schema_extra=allowed(
-        "a registered env id such as 'sphere_env/RampDescent-v3'"))
+    env_id: Annotated[str, AfterValidator(_registered_env)] = Field(
+        json_schema_extra=allowed("a registered env id such as 'sphere_env/RampDescent-v3'")
+    )
     device: Annotated[str, Field(pattern=r"^(?:auto|cpu|cuda(?::[0-9]+)?)$"), AfterValidator(_cuda_here)] = Field(
-        "cpu", json_schema_extra=allowed("'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"))
+        "cpu", json_schema_extra=allowed("'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'")
+    )
     seed: count(0)
     eval_freq: Period | None = None
     eval_episodes: count(1, MAX_EVAL_EPISODES) = 6
     checkpoint_freq: Period | None = None
     torch_threads: count(1, 1024) = 1
     env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
-    eval_env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed(
-        "a mapping of env kwargs"))
+    eval_env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
     eval_pressures_kpa: list[Finite] | None = Field(None, json_schema_extra=allowed("a list of pressures [kPa]"))
     tensorboard_log: OutputFolder | None = None
 
@@ -442,15 +473,17 @@ def _distinct(seeds: list[int]) -> list[int]:
 
 
 def _not_in_sweep(flag: str) -> Any:
-    return Field(None, json_schema_extra=allowed(f"none: a sweep does not take {flag} (each trial writes its "
-                                                 "own run folder)"))
+    return Field(
+        None, json_schema_extra=allowed(f"none: a sweep does not take {flag} (each trial writes its own run folder)")
+    )
 
 
 class SweepOptions(Schema):
     """The command line of a sweep (``--seeds``, ``--trial``): one run folder per trial and seed."""
 
-    seeds: Annotated[list[int], AfterValidator(_distinct)] = Field(json_schema_extra=allowed(
-        "distinct integer seeds (-1: draw one)"))
+    seeds: Annotated[list[int], AfterValidator(_distinct)] = Field(
+        json_schema_extra=allowed("distinct integer seeds (-1: draw one)")
+    )
     trained_agent: None = _not_in_sweep("-i/--trained-agent")
     tensorboard_log: None = _not_in_sweep("--tensorboard-log")
 

@@ -30,8 +30,15 @@ def parameter(name: str) -> Any:
     unit quoted by error messages)."""
     rec = PARAMETERS[name]
     bounds = {("gt" if rec.low_open else "ge"): rec.low, ("lt" if rec.high_open else "le"): rec.high}
-    return Annotated[float, BeforeValidator(_real), Field(**{k: v for k, v in bounds.items() if v is not None},
-                                                          allow_inf_nan=False, json_schema_extra=allowed(rec.allowed))]
+    return Annotated[
+        float,
+        BeforeValidator(_real),
+        Field(
+            **{k: v for k, v in bounds.items() if v is not None},
+            allow_inf_nan=False,
+            json_schema_extra=allowed(rec.allowed),
+        ),
+    ]
 
 
 def joint_friction(spec: Any, joint: str) -> Any:
@@ -60,15 +67,18 @@ class TwinConfigFields(Schema):
     ramp_length_m: parameter("ramp_length_m") | None = None
     time_step_s: parameter("time_step_s") = DEFAULT_TIME_STEP_S
     ground_friction: parameter("ground_friction") = PARAMETERS["ground_friction"].nominal
-    calibration: str | Path | None = Field(None, json_schema_extra=allowed(
-        "the path of a shell calibration YAML, the name of a shipped one, or None"))
+    calibration: str | Path | None = Field(
+        None, json_schema_extra=allowed("the path of a shell calibration YAML, the name of a shipped one, or None")
+    )
     urdf: str | Path | None = Field(None, json_schema_extra=allowed("the path of a URDF, or None"))
     resolution_hint_m: number(gt=0.0) | None = None
     contact_approximation: Literal[CONTACT_APPROXIMATIONS] | None = None  # type: ignore[valid-type]
     bare_plant: bool = False
-    inclines_deg: Annotated[tuple[Incline, ...], BeforeValidator(_as_tuple),
-                            Field(json_schema_extra=allowed(
-                                f"a sequence of inclines within {PARAMETERS['incline_deg'].allowed}"))] = ()
+    inclines_deg: Annotated[
+        tuple[Incline, ...],
+        BeforeValidator(_as_tuple),
+        Field(json_schema_extra=allowed(f"a sequence of inclines within {PARAMETERS['incline_deg'].allowed}")),
+    ] = ()
     pressure_extrapolation_kpa: parameter("pressure_extrapolation_kpa") = 0.0
 
     @field_validator("steer_friction", "drive_friction")
@@ -80,11 +90,14 @@ class TwinConfigFields(Schema):
     def _level_fixtures(self) -> "TwinConfigFields":
         if self.fixture in LEVEL_FIXTURES:
             if self.incline_deg != 0.0:
-                raise ValueError(f"field 'incline_deg' = {self.incline_deg!r} not allowed for fixture "
-                                 f"{self.fixture!r}; allowed: 0")
+                raise ValueError(
+                    f"field 'incline_deg' = {self.incline_deg!r} not allowed for fixture {self.fixture!r}; allowed: 0"
+                )
             if set(self.inclines_deg) - {0.0}:
-                raise ValueError(f"field 'inclines_deg' = {self.inclines_deg!r} not allowed for fixture "
-                                 f"{self.fixture!r}; allowed: () or (0,)")
+                raise ValueError(
+                    f"field 'inclines_deg' = {self.inclines_deg!r} not allowed for fixture "
+                    f"{self.fixture!r}; allowed: () or (0,)"
+                )
         if self.inclines_deg:
             object.__setattr__(self, "inclines_deg", tuple(sorted(set(self.inclines_deg) | {self.incline_deg})))
         return self

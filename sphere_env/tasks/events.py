@@ -53,9 +53,14 @@ class EventManager:
         environment snaps inclines to its terrain grid).
     """
 
-    def __init__(self, spec: RandomizationSpec, nominal: Mapping[str, Any], space: ParameterSpace,
-                 quantize_pressure: Callable[[float, Mapping[str, Any]], float] = lambda p, params: p,
-                 quantizers: Mapping[str, Callable[[Any], Any]] | None = None):
+    def __init__(
+        self,
+        spec: RandomizationSpec,
+        nominal: Mapping[str, Any],
+        space: ParameterSpace,
+        quantize_pressure: Callable[[float, Mapping[str, Any]], float] = lambda p, params: p,
+        quantizers: Mapping[str, Callable[[Any], Any]] | None = None,
+    ):
         self.spec = spec
         self._nominal = dict(nominal)
         self._space = space
@@ -64,8 +69,11 @@ class EventManager:
         self._intervals = [t for t in spec.terms if t.mode == "interval"]
         #: (parameter, the name of its rate in the parameter set, the rate's distribution, delay [s]) of
         #: every schedule, in the order their rates are drawn: the terms', then ``pressure_schedule``'s
-        self._schedules = [(t.parameter, schedule_rate(t.parameter).name, t.rate_per_s, t.delay_s)
-                           for t in spec.terms if t.mode == "schedule"]
+        self._schedules = [
+            (t.parameter, schedule_rate(t.parameter).name, t.rate_per_s, t.delay_s)
+            for t in spec.terms
+            if t.mode == "schedule"
+        ]
         if spec.pressure_schedule is not None:
             sched = spec.pressure_schedule
             self._schedules.append(("pressure_kpa", PRESSURE_RATE, sched.rate_kpa_per_s, sched.delay_s))
@@ -81,16 +89,25 @@ class EventManager:
 
     def describe(self) -> list[dict[str, Any]]:
         """The events as data: name, mode, parameter (and interval, or schedule delay)."""
+
         def timing(t) -> dict[str, Any]:
             if t.mode == "interval":
                 return {"interval_s": t.interval_s}
             return {"delay_s": t.delay_s} if t.mode == "schedule" else {}
 
-        out = [{"name": f"{t.mode}:{t.parameter}", "mode": t.mode, "parameter": t.parameter, **timing(t)}
-               for t in self.spec.terms]
+        out = [
+            {"name": f"{t.mode}:{t.parameter}", "mode": t.mode, "parameter": t.parameter, **timing(t)}
+            for t in self.spec.terms
+        ]
         if self.spec.pressure_schedule is not None:
-            out.append({"name": "schedule:pressure_kpa", "mode": "schedule", "parameter": "pressure_kpa",
-                        "delay_s": self.spec.pressure_schedule.delay_s})
+            out.append(
+                {
+                    "name": "schedule:pressure_kpa",
+                    "mode": "schedule",
+                    "parameter": "pressure_kpa",
+                    "delay_s": self.spec.pressure_schedule.delay_s,
+                }
+            )
         return out
 
     def draw(self, rng: np.random.Generator, fixed: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -121,8 +138,11 @@ class EventManager:
         self._delay_s = self._pressure_delay_s
         self._next_s = {t.parameter: t.interval_s for t in self._intervals}
         self._start_values = {name: self.params[name] for name, _, _ in self._ramps}
-        self.active = (bool(self._intervals) or self.params[PRESSURE_RATE] != 0.0
-                       or any(self.params[rate] != 0.0 for _, rate, _ in self._ramps))
+        self.active = (
+            bool(self._intervals)
+            or self.params[PRESSURE_RATE] != 0.0
+            or any(self.params[rate] != 0.0 for _, rate, _ in self._ramps)
+        )
 
     def step(self, time_s: float, rng: np.random.Generator) -> tuple[dict[str, Any], list[str]]:
         """Events due at sim time ``time_s`` [s]: (the parameters that changed, with their new

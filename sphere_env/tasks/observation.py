@@ -35,8 +35,12 @@ N_MEASURED = len(MEASURED_COMPONENTS)
 #: Measured components a task may add after its command: (name, unit, meaning, default 1-σ noise).
 #: The name is the :class:`~sphere_env.physics.TwinState` attribute it reads.
 EXTRA_COMPONENTS: dict[str, tuple[str, str, float]] = {
-    "pendulum_pitch": ("rad", "pendulum pitch α against the vertical, + = lifted backward (IMU on the "
-                       "pendulum, pitch_joint); the PD baseline's β = −α", 0.005),
+    "pendulum_pitch": (
+        "rad",
+        "pendulum pitch α against the vertical, + = lifted backward (IMU on the "
+        "pendulum, pitch_joint); the PD baseline's β = −α",
+        0.005,
+    ),
     "pendulum_pitch_rate": ("rad/s", "pendulum pitch rate α̇ (pitch_joint.velocity)", 0.05),
 }
 #: Unit and meaning of the task command components and the privileged pressure, by name (a task
@@ -60,8 +64,14 @@ MEASURED_INDEX: dict[str, int] = {c[0]: i for i, c in enumerate(MEASURED_COMPONE
 
 
 #: Names of extra measured components a task may observe (the keys of :data:`EXTRA_COMPONENTS`).
-_EXTRA_NAMES = checker(Annotated[tuple[Literal[tuple(EXTRA_COMPONENTS)], ...], Field(  # type: ignore[valid-type]
-    json_schema_extra=allowed(f"names from {list(EXTRA_COMPONENTS)}"))])
+_EXTRA_NAMES = checker(
+    Annotated[
+        tuple[Literal[tuple(EXTRA_COMPONENTS)], ...],
+        Field(  # type: ignore[valid-type]
+            json_schema_extra=allowed(f"names from {list(EXTRA_COMPONENTS)}")
+        ),
+    ]
+)
 
 
 class ObservationLayout:
@@ -77,14 +87,21 @@ class ObservationLayout:
     policy's actor can drop (asymmetric actor-critic).
     """
 
-    def __init__(self, command_names: tuple[str, ...] = (), observe_pressure: bool = False,
-                 extra_names: tuple[str, ...] = (), observe_shell_model: bool = False, history_steps: int = 0):
+    def __init__(
+        self,
+        command_names: tuple[str, ...] = (),
+        observe_pressure: bool = False,
+        extra_names: tuple[str, ...] = (),
+        observe_shell_model: bool = False,
+        history_steps: int = 0,
+    ):
         self.command_names = tuple(command_names)
         self.extra_names = _EXTRA_NAMES(tuple(extra_names), "field 'extra_names'")
         own = tuple(c[0] for c in MEASURED_COMPONENTS) + self.command_names + self.extra_names
         self.history_steps = history_steps
         self.names: tuple[str, ...] = (
-            own + history_names(own, history_steps)
+            own
+            + history_names(own, history_steps)
             + (("pressure_kpa",) if observe_pressure else ())
             + (SHELL_ONE_HOT if observe_shell_model else ())
         )
@@ -121,8 +138,12 @@ class ObservationLayout:
     def describe(self) -> list[dict[str, Any]]:
         """One record per component in observation order: ``index``, ``name``, ``unit`` (None when
         the task's command is not in :data:`OTHER_COMPONENTS`; see the task's docstring) and ``meaning``."""
-        known = ({c[0]: (c[1], c[2]) for c in MEASURED_COMPONENTS} | {n: (c[0], c[1]) for n, c in EXTRA_COMPONENTS.items()}
-                 | OTHER_COMPONENTS | ACTION_NAMES)
+        known = (
+            {c[0]: (c[1], c[2]) for c in MEASURED_COMPONENTS}
+            | {n: (c[0], c[1]) for n, c in EXTRA_COMPONENTS.items()}
+            | OTHER_COMPONENTS
+            | ACTION_NAMES
+        )
         out = []
         for i, n in enumerate(self.names):
             base, _, ago = n.partition("@-")
@@ -132,6 +153,7 @@ class ObservationLayout:
                 meaning = f"{meaning}; {when} {ago} control step{'s' if ago != '1' else ''} earlier"
             out.append({"index": i, "name": n, "unit": unit, "meaning": meaning})
         return out
+
 
 #: The actions a history holds (``observation_history_steps``): name -> (unit, meaning).
 ACTION_NAMES: dict[str, tuple[str, str]] = {
@@ -143,8 +165,9 @@ ACTION_NAMES: dict[str, tuple[str, str]] = {
 def history_names(own: tuple[str, ...], steps: int) -> tuple[str, ...]:
     """Names of a ``steps``-long history: each earlier observation of the ``own`` components, most
     recent first (``omega_d@-1``: one control step ago), then each earlier action the same way."""
-    return (tuple(f"{n}@-{j}" for j in range(1, steps + 1) for n in own)
-            + tuple(f"{a}@-{j}" for j in range(1, steps + 1) for a in ACTION_NAMES))
+    return tuple(f"{n}@-{j}" for j in range(1, steps + 1) for n in own) + tuple(
+        f"{a}@-{j}" for j in range(1, steps + 1) for a in ACTION_NAMES
+    )
 
 
 #: Default 1-σ measurement noise per measured component, in the component's unit. Scaled by the
@@ -205,4 +228,3 @@ def assemble_observation(
         values.append(pressure_kpa)
     values += shell_one_hot
     return np.array(values, dtype=np.float32)
-

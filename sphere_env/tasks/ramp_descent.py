@@ -34,8 +34,9 @@ class RampDescentKwargs(Schema):
     observe_tracking_state: bool = False
     step_reward_per: Literal["time", "distance"] = "time"
     # after step_reward_per, whose weights it overrides
-    reward_weights: Any = Field(None, validate_default=True, json_schema_extra=allowed(
-        "a mapping term -> weight, or None"))
+    reward_weights: Any = Field(
+        None, validate_default=True, json_schema_extra=allowed("a mapping term -> weight, or None")
+    )
 
     @field_validator("reward_weights")
     @classmethod
@@ -48,8 +49,10 @@ class RampDescentKwargs(Schema):
         lo, hi = self.omega_ref_range_rad_s
         change = self.omega_ref_change_min_rad_s
         if change is not None and change > hi - lo:
-            raise ValueError(f"field 'omega_ref_change_min_rad_s' = {change!r} exceeds the width {hi - lo:g} rad/s of "
-                             f"omega_ref_range_rad_s {self.omega_ref_range_rad_s}; allowed: (0, {hi - lo:g}]")
+            raise ValueError(
+                f"field 'omega_ref_change_min_rad_s' = {change!r} exceeds the width {hi - lo:g} rad/s of "
+                f"omega_ref_range_rad_s {self.omega_ref_range_rad_s}; allowed: (0, {hi - lo:g}]"
+            )
         return self
 
 
@@ -208,12 +211,15 @@ class RampDescentTask(Task):
         self.step_reward_per = kw.step_reward_per
         extended_observation, observe_tracking_state = kw.extended_observation, kw.observe_tracking_state
         self._x_prev_m = 0.0
-        self.command_options = ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
+        self.command_options = (
+            ("omega_ref",) if self.omega_ref_change_min_rad_s is None else ("omega_ref", "omega_ref_after")
+        )
         self.extra_names = ("pendulum_pitch", "pendulum_pitch_rate") if extended_observation else ()
         self._observe_lateral = extended_observation
         self._observe_tracking = observe_tracking_state
-        self.command_names = (("omega_ref", "heading_error", "lateral_error") if extended_observation else (
-            "omega_ref", "heading_error")) + (("speed_error_integral", "omega_d_rate") if observe_tracking_state else ())
+        self.command_names = (
+            ("omega_ref", "heading_error", "lateral_error") if extended_observation else ("omega_ref", "heading_error")
+        ) + (("speed_error_integral", "omega_d_rate") if observe_tracking_state else ())
         self.omega_ref = self.omega_ref_start = self.omega_ref_after = 0.0
         self.ramp_end_x_m = float("inf")
         self.control_period_s = 0.0
@@ -291,14 +297,25 @@ class RampDescentTask(Task):
             scale = (x - self._x_prev_m) / self.ramp_end_x_m
             self._x_prev_m = x
         terms = ramp_descent_terms(
-            self.reward_weights, scale, state.omega_d, self.omega_ref,
-            float(state.position_m[1]), state.heading, action, False, off,
+            self.reward_weights,
+            scale,
+            state.omega_d,
+            self.omega_ref,
+            float(state.position_m[1]),
+            state.heading,
+            action,
+            False,
+            off,
         )
         if self.tracking_tolerance_rad_s is None:
             success = reached
         else:
-            success = reached and not off and self._n_judged > 0 and (
-                self.tracking_rmse_rad_s() <= self.tracking_tolerance_rad_s)
+            success = (
+                reached
+                and not off
+                and self._n_judged > 0
+                and (self.tracking_rmse_rad_s() <= self.tracking_tolerance_rad_s)
+            )
         if success:
             terms["success"] = self.reward_weights.success
         if not self._changed and float(state.position_m[0]) >= self._change_x_m:
@@ -318,10 +335,11 @@ class RampDescentTask(Task):
 
     def info(self) -> dict[str, Any]:
         return {
-            "omega_ref": self.omega_ref, "omega_ref_start": self.omega_ref_start,
-            "omega_ref_after": self.omega_ref_after, "reached_runout": self._reached,
+            "omega_ref": self.omega_ref,
+            "omega_ref_start": self.omega_ref_start,
+            "omega_ref_after": self.omega_ref_after,
+            "reached_runout": self._reached,
             # 0.0 until the first judged sample (info values stay comparable: no NaN)
             "tracking_rmse_rad_s": self.tracking_rmse_rad_s() if self._n_judged else 0.0,
             "tracking_samples": self._n_judged,
         }
-

@@ -164,14 +164,24 @@ def _from_schema(spec: SpecInput) -> RandomizationSpec:
     """A validated spec as the dataclasses the event manager reads (vectors as tuples)."""
     sched = spec.pressure_schedule
     return RandomizationSpec(
-        tuple(Term(name, None if entry.distribution is None else _distribution(entry), entry.mode, entry.interval_s,
-                   None if entry.rate_per_s is None else _distribution(entry.rate_per_s), entry.delay_s or 0.0)
-              for name, entry in spec.entries()),
-        None if sched is None else PressureSchedule(_distribution(sched.rate_kpa_per_s), sched.delay_s))
+        tuple(
+            Term(
+                name,
+                None if entry.distribution is None else _distribution(entry),
+                entry.mode,
+                entry.interval_s,
+                None if entry.rate_per_s is None else _distribution(entry.rate_per_s),
+                entry.delay_s or 0.0,
+            )
+            for name, entry in spec.entries()
+        ),
+        None if sched is None else PressureSchedule(_distribution(sched.rate_kpa_per_s), sched.delay_s),
+    )
 
 
 def _distribution(draw) -> Distribution:
     """A validated draw (:class:`sphere_env.schemas.randomization.Draw`) as a :class:`Distribution`."""
+
     def frozen(v):
         return tuple(v) if isinstance(v, list) else v
 
@@ -204,20 +214,24 @@ def _draw_data(d: Any) -> Any:
     """A :class:`Distribution` as its mapping (only the fields it sets); anything else unchanged."""
     if not isinstance(d, Distribution):
         return d
-    fields = {"value": d.value, "low": d.low, "high": d.high, "mean": d.mean, "std": d.std,
-              "values": d.values if d.values or d.kind == "choice" else None}
+    fields = {
+        "value": d.value,
+        "low": d.low,
+        "high": d.high,
+        "mean": d.mean,
+        "std": d.std,
+        "values": d.values if d.values or d.kind == "choice" else None,
+    }
     return {"distribution": d.kind, **{k: v for k, v in fields.items() if v is not None}}
 
 
-def schedule_value(name: str, v0: float, rate_per_s: float, delay_s: float, t_s: float,
-                   space: ParameterSpace) -> float:
+def schedule_value(name: str, v0: float, rate_per_s: float, delay_s: float, t_s: float, space: ParameterSpace) -> float:
     """value(t) of a schedule of ``name``: ``v0`` + rate · max(t − delay_s, 0), clipped to the
     bounds of ``name`` in ``space``."""
     return space.clip(name, v0 + rate_per_s * max(t_s - delay_s, 0.0))
 
 
-def schedule_pressure(p0_kpa: float, rate_kpa_per_s: float, delay_s: float, t_s: float,
-                      space: ParameterSpace) -> float:
+def schedule_pressure(p0_kpa: float, rate_kpa_per_s: float, delay_s: float, t_s: float, space: ParameterSpace) -> float:
     """p(t) of a :class:`PressureSchedule` [kPa], clipped to the pressure's bounds in ``space``
     (the calibration range)."""
     return schedule_value("pressure_kpa", p0_kpa, rate_kpa_per_s, delay_s, t_s, space)

@@ -25,8 +25,9 @@ class RollKwargs(Schema):
     yaw_rate_range_rad_s: ordered_pair(-5.0, 5.0, "rad/s") = (-0.5, 0.5)
     command_mode: Literal[COMMAND_MODES] = "heading"  # type: ignore[valid-type]
     command_resample_s: number(gt=0.0) | None = None
-    reward_weights: Any = Field(None, validate_default=True, json_schema_extra=allowed(
-        "a mapping term -> weight, or None"))
+    reward_weights: Any = Field(
+        None, validate_default=True, json_schema_extra=allowed("a mapping term -> weight, or None")
+    )
 
     @field_validator("reward_weights")
     @classmethod
@@ -97,8 +98,11 @@ class RollTask(Task):
     reward_terms = ("speed", "heading", "ctrl")
     #: ω_ref and ψ̇_ref within the bounds of their ranges; ψ_ref within ±2π (a sampled ψ_ref is
     #: the start heading in (−π, π] plus at most ±π).
-    command_option_bounds = {"omega_ref": (-30.0, 30.0), "heading_ref": (-2 * math.pi, 2 * math.pi),
-                             "yaw_rate_ref": (-5.0, 5.0)}
+    command_option_bounds = {
+        "omega_ref": (-30.0, 30.0),
+        "heading_ref": (-2 * math.pi, 2 * math.pi),
+        "yaw_rate_ref": (-5.0, 5.0),
+    }
 
     def __init__(self, **kwargs: Any):
         kw = validate(RollKwargs, kwargs, "Roll kwargs")
@@ -145,7 +149,9 @@ class RollTask(Task):
             err, yaw_mode = wrap_angle(self.heading_ref - state.heading), False
         else:
             err, yaw_mode = state.heading_rate - self.yaw_rate_ref, True
-        terms = roll_terms(self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref, err, action, yaw_mode)
+        terms = roll_terms(
+            self.reward_weights, self.control_period_s, state.omega_d, self.omega_ref, err, action, yaw_mode
+        )
         w = self.reward_weights
         tracking = abs(state.omega_d - self.omega_ref) <= w.speed_width and abs(err) <= (
             w.yaw_rate_width if yaw_mode else w.heading_width

@@ -54,13 +54,15 @@ class Task:
     extra_names: tuple[str, ...] = ()
 
     # ---- layout ---------------------------------------------------------------------------------
-    def observation_layout(self, observe_pressure: bool = False, observe_shell_model: bool = False,
-                           history_steps: int = 0) -> ObservationLayout:
+    def observation_layout(
+        self, observe_pressure: bool = False, observe_shell_model: bool = False, history_steps: int = 0
+    ) -> ObservationLayout:
         """The observation's components in order: measured, then this task's command and extra
         measured components, then ``history_steps`` earlier observations and actions, then the
         privileged pressure and shell one-hot if observed."""
-        return ObservationLayout(self.command_names, observe_pressure, self.extra_names, observe_shell_model,
-                                 history_steps)
+        return ObservationLayout(
+            self.command_names, observe_pressure, self.extra_names, observe_shell_model, history_steps
+        )
 
     # ---- episode --------------------------------------------------------------------------------
     def initial_state(self) -> dict[str, Any]:
@@ -77,12 +79,12 @@ class Task:
         """The command part of the observation for ``state``."""
         raise NotImplementedError
 
-    def step(self, state: Any, action: tuple[float, float],
-             rng: np.random.Generator) -> tuple[dict[str, float], bool, bool]:
+    def step(
+        self, state: Any, action: tuple[float, float], rng: np.random.Generator
+    ) -> tuple[dict[str, float], bool, bool]:
         """After a control step: (reward terms, terminated, success)."""
         raise NotImplementedError
 
     def info(self) -> dict[str, Any]:
         """Task values for ``info`` (e.g. the current command)."""
         return {}
-

@@ -23,9 +23,16 @@ def ramp_status(position_m, ramp_end_x_m: float, lane_half_width_m: float) -> tu
 def physics_failure(state: Any) -> str | None:
     """A reason string if the state is non-finite or implausible (a diverged solve), else None."""
     values = (
-        state.theta, state.theta_dot, state.drive_angle, state.drive_rate, state.phi,
-        state.phi_dot, state.omega_d, state.heading_rate,
-        *state.position_m.tolist(), *state.velocity_m_s.tolist(),
+        state.theta,
+        state.theta_dot,
+        state.drive_angle,
+        state.drive_rate,
+        state.phi,
+        state.phi_dot,
+        state.omega_d,
+        state.heading_rate,
+        *state.position_m.tolist(),
+        *state.velocity_m_s.tolist(),
     )
     if not math.isfinite(sum(values)):  # any NaN or inf makes the sum non-finite
         return "physics_failure: non-finite state"

@@ -50,9 +50,11 @@ def test_rmse_and_pme():
 
 
 def test_analysis_layer_does_not_import_drake_or_calibration():
-    code = ("import sys, sphere_env.analysis; "
-            "bad = [m for m in sys.modules if m.startswith(('pydrake', 'sphere_env.calibration', 'sphere_env.physics'))]; "
-            "print(bad); sys.exit(1 if bad else 0)")
+    code = (
+        "import sys, sphere_env.analysis; "
+        "bad = [m for m in sys.modules if m.startswith(('pydrake', 'sphere_env.calibration', 'sphere_env.physics'))]; "
+        "print(bad); sys.exit(1 if bad else 0)"
+    )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert res.returncode == 0, res.stdout + res.stderr
 

@@ -24,9 +24,16 @@ def write_calibration(path: Path, data: dict = SYNTH_CAL) -> Path:
     return path
 
 
-def record(twin: Twin, initial: InitialState, duration_s: float, dt_s: float = 0.02,
-           channels=("theta", "theta_dot", "phi", "phi_dot"), noise_rad: float = 0.0, seed: int = 0,
-           pressure_kpa: float | None = None) -> tuple[np.ndarray, dict]:
+def record(
+    twin: Twin,
+    initial: InitialState,
+    duration_s: float,
+    dt_s: float = 0.02,
+    channels=("theta", "theta_dot", "phi", "phi_dot"),
+    noise_rad: float = 0.0,
+    seed: int = 0,
+    pressure_kpa: float | None = None,
+) -> tuple[np.ndarray, dict]:
     """Run the twin from ``initial`` and sample ``channels`` every ``dt_s`` (+ Gaussian noise on angles)."""
     rng = np.random.default_rng(seed)
     twin.reset(initial, pressure_kpa=pressure_kpa)

@@ -14,19 +14,25 @@ from .conftest import synth_log, write_manifest
 @pytest.fixture(scope="module")
 def group(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("xv")
-    twin = Twin(TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer",
-                           drive_friction="none"))
+    twin = Twin(
+        TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer", drive_friction="none")
+    )
     synth_log(tmp / "a.csv", twin, InitialState(theta=0.38, roll=-0.37), 1.5)
     synth_log(tmp / "b.csv", twin, InitialState(theta=0.30, roll=-0.30), 1.5)
-    man = write_manifest(tmp / "m.yaml", [{"name": n, "file": f"{n}.csv", "fixture": "steer_plane", "group": "g"}
-                                          for n in ("a", "b")])
+    man = write_manifest(
+        tmp / "m.yaml", [{"name": n, "file": f"{n}.csv", "fixture": "steer_plane", "group": "g"} for n in ("a", "b")]
+    )
     return [t.load() for t in load_manifest(man).trials]
 
 
 def test_fit_on_one_validate_on_the_other(group):
-    res = cross_validate({"g": group}, ("point", "injected"), steer_friction="majd_steer", drive_friction="none",
-                         fit=lambda tr, m, p, b, sf: fit_calibration(tr, m, p, b, sf, max_nfev=3,
-                                                                  forms=(b.steer_law.form,)))
+    res = cross_validate(
+        {"g": group},
+        ("point", "injected"),
+        steer_friction="majd_steer",
+        drive_friction="none",
+        fit=lambda tr, m, p, b, sf: fit_calibration(tr, m, p, b, sf, max_nfev=3, forms=(b.steer_law.form,)),
+    )
     # point: one baseline run; injected: one fit per segment, each validated on both.
     assert [(x["model"], x["fit_on"]) for x in res] == [("point", None), ("injected", "a"), ("injected", "b")]
     for x in res[1:]:
@@ -47,7 +53,8 @@ def test_a_failing_fit_is_reported_not_fatal(group):
     def refuse(*_):
         raise ValueError("fit did not converge")
 
-    res = cross_validate({"g": group[:1]}, ("injected",), steer_friction="majd_steer", drive_friction="none",
-                         fit=refuse)
+    res = cross_validate(
+        {"g": group[:1]}, ("injected",), steer_friction="majd_steer", drive_friction="none", fit=refuse
+    )
     assert res[0]["error"] == "fit did not converge" and res[0]["records"] == []
     assert "fit failed: fit did not converge" in crossval_table(res)

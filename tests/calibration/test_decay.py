@@ -33,14 +33,30 @@ def test_damped_sinusoid_fit_and_log_decrement():
 def test_shell_command_recovers_twin_parameters(tmp_path):
     cal_path = write_calibration(tmp_path / "truth.yaml")
     truth = ShellCalibration.load(cal_path)
-    twin = Twin(TwinConfig(fixture="locked_steer", shell_model="injected", steer_friction="none",
-                           drive_friction="none", calibration=cal_path))
+    twin = Twin(
+        TwinConfig(
+            fixture="locked_steer",
+            shell_model="injected",
+            steer_friction="none",
+            drive_friction="none",
+            calibration=cal_path,
+        )
+    )
     trials = []
     for i, p in enumerate(PRESSURES):
-        synth_log(tmp_path / f"p{p}.csv", twin, InitialState(roll=0.12), 8.0, channels=("phi",),
-                  noise_rad=1e-3, seed=i, pressure_kpa=p)
-        trials.append({"name": f"p{p}", "file": f"p{p}.csv", "fixture": "locked_steer", "group": "decay",
-                       "pressure_kpa": p})
+        synth_log(
+            tmp_path / f"p{p}.csv",
+            twin,
+            InitialState(roll=0.12),
+            8.0,
+            channels=("phi",),
+            noise_rad=1e-3,
+            seed=i,
+            pressure_kpa=p,
+        )
+        trials.append(
+            {"name": f"p{p}", "file": f"p{p}.csv", "fixture": "locked_steer", "group": "decay", "pressure_kpa": p}
+        )
     man = write_manifest(tmp_path / "m.yaml", trials)
     out, plot = tmp_path / "fitted.yaml", tmp_path / "fig10.png"
     assert main(["shell", "--manifest", str(man), "--group", "decay", "--out", str(out), "--plot", str(plot)]) == 0
@@ -62,6 +78,7 @@ def test_shell_command_recovers_twin_parameters(tmp_path):
 def test_pressure_curves_need_three_pressures():
     with pytest.raises(ValueError, match="3 distinct pressures"):
         fit_pressure_curves([4, 4, 8], [2, 2, 3], [0.2, 0.2, 0.1])
-    fit = fit_pressure_curves([3, 6, 9, 12], [2.5 + 0.1 * p for p in (3, 6, 9, 12)],
-                              [0.3 * math.exp(-0.05 * p) for p in (3, 6, 9, 12)])
+    fit = fit_pressure_curves(
+        [3, 6, 9, 12], [2.5 + 0.1 * p for p in (3, 6, 9, 12)], [0.3 * math.exp(-0.05 * p) for p in (3, 6, 9, 12)]
+    )
     assert fit.omega_n_slope == pytest.approx(0.1) and fit.zeta_rate == pytest.approx(-0.05)

@@ -31,71 +31,156 @@ def _variant(**changes):
     return d
 
 
-@pytest.mark.parametrize("changes, field", [
-    ({"omega_n__intercept_rad_s": BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi),
-      "omega_n__slope_rad_s_per_kpa": 0.0}, "omega_n"),
-    ({"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [float("nan"), 1e-3]}},
-     "contact_volume"),
-    ({"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [True, 1e-3]}}, "contact_volume"),
-    ({"pressure_range_kpa": [3000.0, 14000.0], "nominal_pressure_kpa": 4310.0}, "pressure_range_kpa"),
-    ({"pressure_range_kpa": [0.003, 0.014], "nominal_pressure_kpa": 0.005}, "pressure_range_kpa"),
-    ({"pressure_range_kpa": [True, 14]}, "pressure_range_kpa"),
-    ({"nominal_pressure_kpa": True}, "nominal_pressure_kpa"),
-    ({"hydroelastic__fitted_time_step_s": -0.005}, "hydroelastic.fitted_time_step_s"),
-    ({"hydroelastic__resolution_hint_m": 1e6}, "hydroelastic.resolution_hint_m"),
-    ({"hydroelastic__k_d_by_time_step": {"time_step_s": 0.01, "k_d": 0.2}}, "hydroelastic.k_d_by_time_step"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 10.0, "k_d": 0.2}]},
-     r"hydroelastic.k_d_by_time_step\[0\].time_step_s"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": -0.2}]},
-     r"hydroelastic.k_d_by_time_step\[0\].k_d"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "kd": 0.2}]},
-     r"hydroelastic.k_d_by_time_step\[0\].kd"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.005, "k_d": 0.2}]},  # the fitted step's k_d is k_d
-     r"hydroelastic.k_d_by_time_step\[0\].time_step_s"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2}, {"time_step_s": 0.01, "k_d": 0.3}]},
-     r"hydroelastic.k_d_by_time_step\[1\].time_step_s"),
-    ({"hydroelastic__low_pressure_mesh": 0.1}, "hydroelastic.low_pressure_mesh"),
-    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 20.0, "resolution_hint_m": 0.1}},
-     "hydroelastic.low_pressure_mesh.below_kpa"),
-    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 3.0, "resolution_hint_m": 0.1}},
-     "hydroelastic.low_pressure_mesh.below_kpa"),
-    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 1e6}},
-     "hydroelastic.low_pressure_mesh.resolution_hint_m"),
-    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0}}, "hydroelastic.low_pressure_mesh.resolution_hint_m"),
-    ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 0.1, "hint_m": 0.1}},
-     "hydroelastic.low_pressure_mesh.hint_m"),
-    ({"hydroelastic__k_d_by_pressure": 0.3}, "hydroelastic.k_d_by_pressure"),
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.319}]}, "hydroelastic.k_d_by_pressure"),
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.319}, {"pressure_kpa": 10.0, "k_d": 0.319}]},
-     r"hydroelastic.k_d_by_pressure' covers \[3.0, 10.0\] kPa"),  # would be extrapolated to 14 kPa
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 14.0, "k_d": 0.319}, {"pressure_kpa": 3.0, "k_d": 0.319}]},
-     r"hydroelastic.k_d_by_pressure\[1\].pressure_kpa"),
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3000.0, "k_d": 0.319}, {"pressure_kpa": 14000.0, "k_d": 0.3}]},
-     r"hydroelastic.k_d_by_pressure\[0\].pressure_kpa"),  # Pa, not kPa
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": -0.1}, {"pressure_kpa": 14.0, "k_d": 0.319}]},
-     r"hydroelastic.k_d_by_pressure\[0\].k_d"),
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "kd": 0.3}, {"pressure_kpa": 14.0, "k_d": 0.319}]},
-     r"hydroelastic.k_d_by_pressure\[0\].kd"),
-    ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.2}, {"pressure_kpa": 14.0, "k_d": 0.4}]},
-     r"hydroelastic.k_d' = 0.319 must equal its k_d_by_pressure at nominal_pressure_kpa 4.31 kPa \(0.2238"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2, "k_d_by_pressure": [
-        {"pressure_kpa": 3.0, "k_d": 0.1}, {"pressure_kpa": 14.0, "k_d": 0.3}]}]},
-     r"hydroelastic.k_d_by_time_step\[0\].k_d' = 0.2 must equal"),
-    ({"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2, "k_d_by_pressure": [
-        {"pressure_kpa": 4.0, "k_d": 0.2}, {"pressure_kpa": 14.0, "k_d": 0.2}]}]},
-     r"hydroelastic.k_d_by_time_step\[0\].k_d_by_pressure' covers"),
-    ({"nominal_pressure_kpaa": 6.0}, "nominal_pressure_kpaa"),
-    ({"hydroelastic__k_dd": 0.3}, "hydroelastic.k_dd"),
-    ({"omega_n__slope": 0.03}, "omega_n.slope"),
-])
+@pytest.mark.parametrize(
+    "changes, field",
+    [
+        (
+            {
+                "omega_n__intercept_rad_s": BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi),
+                "omega_n__slope_rad_s_per_kpa": 0.0,
+            },
+            "omega_n",
+        ),
+        (
+            {"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [float("nan"), 1e-3]}},
+            "contact_volume",
+        ),
+        (
+            {"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [True, 1e-3]}},
+            "contact_volume",
+        ),
+        ({"pressure_range_kpa": [3000.0, 14000.0], "nominal_pressure_kpa": 4310.0}, "pressure_range_kpa"),
+        ({"pressure_range_kpa": [0.003, 0.014], "nominal_pressure_kpa": 0.005}, "pressure_range_kpa"),
+        ({"pressure_range_kpa": [True, 14]}, "pressure_range_kpa"),
+        ({"nominal_pressure_kpa": True}, "nominal_pressure_kpa"),
+        ({"hydroelastic__fitted_time_step_s": -0.005}, "hydroelastic.fitted_time_step_s"),
+        ({"hydroelastic__resolution_hint_m": 1e6}, "hydroelastic.resolution_hint_m"),
+        ({"hydroelastic__k_d_by_time_step": {"time_step_s": 0.01, "k_d": 0.2}}, "hydroelastic.k_d_by_time_step"),
+        (
+            {"hydroelastic__k_d_by_time_step": [{"time_step_s": 10.0, "k_d": 0.2}]},
+            r"hydroelastic.k_d_by_time_step\[0\].time_step_s",
+        ),
+        (
+            {"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": -0.2}]},
+            r"hydroelastic.k_d_by_time_step\[0\].k_d",
+        ),
+        (
+            {"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "kd": 0.2}]},
+            r"hydroelastic.k_d_by_time_step\[0\].kd",
+        ),
+        (
+            {"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.005, "k_d": 0.2}]},  # the fitted step's k_d is k_d
+            r"hydroelastic.k_d_by_time_step\[0\].time_step_s",
+        ),
+        (
+            {"hydroelastic__k_d_by_time_step": [{"time_step_s": 0.01, "k_d": 0.2}, {"time_step_s": 0.01, "k_d": 0.3}]},
+            r"hydroelastic.k_d_by_time_step\[1\].time_step_s",
+        ),
+        ({"hydroelastic__low_pressure_mesh": 0.1}, "hydroelastic.low_pressure_mesh"),
+        (
+            {"hydroelastic__low_pressure_mesh": {"below_kpa": 20.0, "resolution_hint_m": 0.1}},
+            "hydroelastic.low_pressure_mesh.below_kpa",
+        ),
+        (
+            {"hydroelastic__low_pressure_mesh": {"below_kpa": 3.0, "resolution_hint_m": 0.1}},
+            "hydroelastic.low_pressure_mesh.below_kpa",
+        ),
+        (
+            {"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 1e6}},
+            "hydroelastic.low_pressure_mesh.resolution_hint_m",
+        ),
+        ({"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0}}, "hydroelastic.low_pressure_mesh.resolution_hint_m"),
+        (
+            {"hydroelastic__low_pressure_mesh": {"below_kpa": 5.0, "resolution_hint_m": 0.1, "hint_m": 0.1}},
+            "hydroelastic.low_pressure_mesh.hint_m",
+        ),
+        ({"hydroelastic__k_d_by_pressure": 0.3}, "hydroelastic.k_d_by_pressure"),
+        ({"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.319}]}, "hydroelastic.k_d_by_pressure"),
+        (
+            {
+                "hydroelastic__k_d_by_pressure": [
+                    {"pressure_kpa": 3.0, "k_d": 0.319},
+                    {"pressure_kpa": 10.0, "k_d": 0.319},
+                ]
+            },
+            r"hydroelastic.k_d_by_pressure' covers \[3.0, 10.0\] kPa",
+        ),  # would be extrapolated to 14 kPa
+        (
+            {
+                "hydroelastic__k_d_by_pressure": [
+                    {"pressure_kpa": 14.0, "k_d": 0.319},
+                    {"pressure_kpa": 3.0, "k_d": 0.319},
+                ]
+            },
+            r"hydroelastic.k_d_by_pressure\[1\].pressure_kpa",
+        ),
+        (
+            {
+                "hydroelastic__k_d_by_pressure": [
+                    {"pressure_kpa": 3000.0, "k_d": 0.319},
+                    {"pressure_kpa": 14000.0, "k_d": 0.3},
+                ]
+            },
+            r"hydroelastic.k_d_by_pressure\[0\].pressure_kpa",
+        ),  # Pa, not kPa
+        (
+            {
+                "hydroelastic__k_d_by_pressure": [
+                    {"pressure_kpa": 3.0, "k_d": -0.1},
+                    {"pressure_kpa": 14.0, "k_d": 0.319},
+                ]
+            },
+            r"hydroelastic.k_d_by_pressure\[0\].k_d",
+        ),
+        (
+            {"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "kd": 0.3}, {"pressure_kpa": 14.0, "k_d": 0.319}]},
+            r"hydroelastic.k_d_by_pressure\[0\].kd",
+        ),
+        (
+            {"hydroelastic__k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.2}, {"pressure_kpa": 14.0, "k_d": 0.4}]},
+            r"hydroelastic.k_d' = 0.319 must equal its k_d_by_pressure at nominal_pressure_kpa 4.31 kPa \(0.2238",
+        ),
+        (
+            {
+                "hydroelastic__k_d_by_time_step": [
+                    {
+                        "time_step_s": 0.01,
+                        "k_d": 0.2,
+                        "k_d_by_pressure": [{"pressure_kpa": 3.0, "k_d": 0.1}, {"pressure_kpa": 14.0, "k_d": 0.3}],
+                    }
+                ]
+            },
+            r"hydroelastic.k_d_by_time_step\[0\].k_d' = 0.2 must equal",
+        ),
+        (
+            {
+                "hydroelastic__k_d_by_time_step": [
+                    {
+                        "time_step_s": 0.01,
+                        "k_d": 0.2,
+                        "k_d_by_pressure": [{"pressure_kpa": 4.0, "k_d": 0.2}, {"pressure_kpa": 14.0, "k_d": 0.2}],
+                    }
+                ]
+            },
+            r"hydroelastic.k_d_by_time_step\[0\].k_d_by_pressure' covers",
+        ),
+        ({"nominal_pressure_kpaa": 6.0}, "nominal_pressure_kpaa"),
+        ({"hydroelastic__k_dd": 0.3}, "hydroelastic.k_dd"),
+        ({"omega_n__slope": 0.03}, "omega_n.slope"),
+    ],
+)
 def test_impossible_calibration_refused_naming_the_field(changes, field):
     with pytest.raises(ValueError, match=rf"field '{field}"):
         ShellCalibration.from_dict(_variant(**changes), source="bad.yaml")
 
 
 def test_low_pressure_mesh_applies_below_its_pressure_only():
-    cal = ShellCalibration.from_dict(_variant(hydroelastic__resolution_hint_m=0.05,
-                                              hydroelastic__low_pressure_mesh={"below_kpa": 5.0, "resolution_hint_m": 0.1}))
+    cal = ShellCalibration.from_dict(
+        _variant(
+            hydroelastic__resolution_hint_m=0.05,
+            hydroelastic__low_pressure_mesh={"below_kpa": 5.0, "resolution_hint_m": 0.1},
+        )
+    )
     assert [cal.resolution_hint_at(p) for p in (3.0, 4.99, 5.0, 14.0)] == [0.1, 0.1, 0.05, 0.05]
     plain = copy.deepcopy(BASE)
     plain["hydroelastic"].pop("low_pressure_mesh", None)
@@ -104,8 +189,13 @@ def test_low_pressure_mesh_applies_below_its_pressure_only():
 
 
 def test_k_d_refit_at_a_time_step_is_used_at_that_step_only():
-    cal = ShellCalibration.from_dict(_variant(hydroelastic__k_d=0.3, hydroelastic__fitted_time_step_s=0.005,
-                                              hydroelastic__k_d_by_time_step=[{"time_step_s": 0.01, "k_d": 0.2}]))
+    cal = ShellCalibration.from_dict(
+        _variant(
+            hydroelastic__k_d=0.3,
+            hydroelastic__fitted_time_step_s=0.005,
+            hydroelastic__k_d_by_time_step=[{"time_step_s": 0.01, "k_d": 0.2}],
+        )
+    )
     at_10 = cal.for_time_step(0.01)
     assert (at_10.k_d, at_10.fitted_time_step_s) == (0.2, 0.01)
     assert cal.for_time_step(0.005) is cal and cal.for_time_step(0.002) is cal  # no refit there: unchanged
@@ -117,8 +207,9 @@ def test_k_d_refit_at_a_time_step_is_used_at_that_step_only():
 
 def test_k_d_by_pressure_is_interpolated_at_its_step_and_moves_with_it():
     table = [{"pressure_kpa": 3.0, "k_d": 0.2}, {"pressure_kpa": 4.31, "k_d": 0.25}, {"pressure_kpa": 14.0, "k_d": 0.6}]
-    cal = ShellCalibration.from_dict(_variant(hydroelastic__k_d_by_time_step=[
-        {"time_step_s": 0.01, "k_d": 0.25, "k_d_by_pressure": table}]))
+    cal = ShellCalibration.from_dict(
+        _variant(hydroelastic__k_d_by_time_step=[{"time_step_s": 0.01, "k_d": 0.25, "k_d_by_pressure": table}])
+    )
     assert [cal.k_d_at(p) for p in (3.0, 8.5, 14.0)] == [0.319] * 3  # at its fitted 5 ms: one k_d
     at_10 = cal.for_time_step(0.01)
     assert at_10.k_d == 0.25
@@ -150,8 +241,11 @@ def test_default_calibration_has_one_k_d_at_every_pressure():
 def test_calibration_by_shipped_name():
     assert ShellCalibration.load("hydroelastic_fast").source == str(asset_path("calibration", "hydroelastic_fast.yaml"))
     assert ShellCalibration.load("default").raw == ShellCalibration.load().raw
-    with pytest.raises(ValueError, match=r"^calibration = 'hydroelastic_fst': .*; allowed: the path of a calibration "
-                                         r"YAML file, the name of a shipped one \[.*'hydroelastic_fast'"):
+    with pytest.raises(
+        ValueError,
+        match=r"^calibration = 'hydroelastic_fst': .*; allowed: the path of a calibration "
+        r"YAML file, the name of a shipped one \[.*'hydroelastic_fast'",
+    ):
         ShellCalibration.load("hydroelastic_fst")
 
 
@@ -162,8 +256,9 @@ def _robot():
 
 
 def test_hz_message_says_rad_per_s():
-    bad = _variant(omega_n__intercept_rad_s=BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi),
-                   omega_n__slope_rad_s_per_kpa=0.0)
+    bad = _variant(
+        omega_n__intercept_rad_s=BASE["omega_n"]["intercept_rad_s"] / (2 * math.pi), omega_n__slope_rad_s_per_kpa=0.0
+    )
     with pytest.raises(ValueError, match="a value in Hz is 2π too small"):
         ShellCalibration.from_dict(bad)
 
@@ -177,8 +272,10 @@ def test_shipped_calibrations_still_load():
 def test_calibration_that_is_not_a_path_is_a_named_error(value):
     with pytest.raises(ValueError, match=re.escape(f"calibration = {value!r}: ")) as err:
         ShellCalibration.load(value)
-    assert ("; allowed: the path of a calibration YAML file, the name of a shipped one ['default', "
-            "'free_robot', 'hydroelastic_fast', 'v0_linear'], or None") in str(err.value)
+    assert (
+        "; allowed: the path of a calibration YAML file, the name of a shipped one ['default', "
+        "'free_robot', 'hydroelastic_fast', 'v0_linear'], or None"
+    ) in str(err.value)
 
 
 def test_env_with_calibration_123_is_a_named_error():
@@ -192,16 +289,33 @@ def test_env_with_calibration_123_is_a_named_error():
 
 def test_fitted_curves_in_hz_are_not_turned_into_a_calibration(tmp_path):
     """calibration_dict (what `calibration shell` writes) refuses ω_n curves in Hz."""
-    hz = PressureFit(omega_n_intercept=0.45, omega_n_slope=0.005, zeta_scale=0.17, zeta_rate=-0.05, ci={},
-                     pressures_kpa=(3.0, 8.0, 14.0), confidence=0.95)
+    hz = PressureFit(
+        omega_n_intercept=0.45,
+        omega_n_slope=0.005,
+        zeta_scale=0.17,
+        zeta_rate=-0.05,
+        ci={},
+        pressures_kpa=(3.0, 8.0, 14.0),
+        confidence=0.95,
+    )
     with pytest.raises(ValueError, match="omega_n"):
         calibration_dict(hz)
 
 
 def test_shell_command_with_pressures_in_pa_writes_nothing(tmp_path, capsys):
-    man = write_manifest(tmp_path / "m.yaml", [
-        {"name": f"t{p}", "file": f"t{p}.csv", "fixture": "locked_steer", "group": "locked_steer", "pressure_kpa": p}
-        for p in (4000, 8000, 12000)])
+    man = write_manifest(
+        tmp_path / "m.yaml",
+        [
+            {
+                "name": f"t{p}",
+                "file": f"t{p}.csv",
+                "fixture": "locked_steer",
+                "group": "locked_steer",
+                "pressure_kpa": p,
+            }
+            for p in (4000, 8000, 12000)
+        ],
+    )
     out = tmp_path / "cal.yaml"
     assert main(["shell", "--manifest", str(man), "--out", str(out)]) == 2
     assert "pressure_kpa" in capsys.readouterr().err

@@ -59,16 +59,18 @@ def test_rates_in_deg_per_s_refused(tmp_path):
 
 def test_microsecond_timestamps_read_as_ns_refused(tmp_path):
     p = tmp_path / "us.csv"
-    p.write_text("timestamp,roll_joint.position\n" + "".join(f"{i * 20000},{0.1 * np.sin(i / 5):.5f}\n"
-                                                              for i in range(50)))
+    p.write_text(
+        "timestamp,roll_joint.position\n" + "".join(f"{i * 20000},{0.1 * np.sin(i / 5):.5f}\n" for i in range(50))
+    )
     with pytest.raises(LogError, match=r"median sample period 2e-05 s with unit 'ns' is implausible"):
         load_log(p)
 
 
 @pytest.mark.parametrize("pressure", [4000, 12000, 0.008, -3, True])
 def test_manifest_pressure_outside_a_shell_gauge_range_refused(tmp_path, pressure):
-    man = write_manifest(tmp_path / "m.yaml", [{"name": "a", "file": "a.csv", "fixture": "steer_plane",
-                                                "pressure_kpa": pressure}])
+    man = write_manifest(
+        tmp_path / "m.yaml", [{"name": "a", "file": "a.csv", "fixture": "steer_plane", "pressure_kpa": pressure}]
+    )
     with pytest.raises(LogError, match=r"field 'trials\[0\].pressure_kpa' = .* within \[0.5, 100.0\]"):
         load_manifest(man)
 
@@ -119,8 +121,9 @@ def test_every_shared_log_loads_as_recorded(roboball_dir):
 def test_a_gap_in_the_log_is_refused_with_its_time(tmp_path):
     t_ns = np.r_[np.arange(50) * 20_000_000, 3600e9 + np.arange(50) * 20_000_000]
     p = tmp_path / "gap.csv"
-    p.write_text("timestamp,roll_joint.position\n" + "".join(f"{int(t)},{0.1 * np.sin(i / 5):.5f}\n"
-                                                              for i, t in enumerate(t_ns)))
+    p.write_text(
+        "timestamp,roll_joint.position\n" + "".join(f"{int(t)},{0.1 * np.sin(i / 5):.5f}\n" for i, t in enumerate(t_ns))
+    )
     with pytest.raises(LogError, match=r"line 52, column 'timestamp': a gap of 3599 s at t = 0.980 s"):
         load_log(p)
 
@@ -132,7 +135,8 @@ def test_a_multi_turn_encoder_in_degrees_is_refused_by_its_jumps(tmp_path):
     p.write_text("timestamp,drive_shaft.position\n" + "".join(f"{int(x * 1e9)},{d:.6f}\n" for x, d in zip(t, drive)))
     assert load_log(p)["drive_angle"][-1] == pytest.approx(-1.5 * t[-1])
     deg = tmp_path / "deg.csv"
-    deg.write_text("timestamp,drive_shaft.position\n"
-                   + "".join(f"{int(x * 1e9)},{np.degrees(d):.6f}\n" for x, d in zip(t, drive)))
+    deg.write_text(
+        "timestamp,drive_shaft.position\n" + "".join(f"{int(x * 1e9)},{np.degrees(d):.6f}\n" for x, d in zip(t, drive))
+    )
     with pytest.raises(LogError, match=r"drive_angle jumps by .* allowed: at most 60 rad/s between samples"):
         load_log(deg)

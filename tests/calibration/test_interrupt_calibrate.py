@@ -38,8 +38,12 @@ def _assert_interrupted(proc: subprocess.Popen, err: str, workers: set[int]) -> 
 
 def test_sigterm_on_the_sensitivity_sweep_stops_its_pool_and_writes_no_plot(tmp_path):
     plot = tmp_path / "sensitivity.png"
-    proc = subprocess.Popen([*CALIBRATE, "sensitivity", "--workers", "2", "--duration-s", "30", "--plot", str(plot)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [*CALIBRATE, "sensitivity", "--workers", "2", "--duration-s", "30", "--plot", str(plot)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     workers, err = _terminate_when(proc, lambda seen: len(seen) >= 2)
     assert workers, "the sweep never started its pool"
     _assert_interrupted(proc, err, workers)
@@ -50,9 +54,12 @@ def test_sigterm_on_the_report_leaves_the_earlier_report_as_it_was(tmp_path, rob
     out = tmp_path / "report"
     out.mkdir()
     (out / "README.md").write_text("the earlier report\n")
-    proc = subprocess.Popen([*CALIBRATE, "report", "--data-root", str(roboball_dir), "--out", str(out),
-                             "--workers", "2", "--starts", "1"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [*CALIBRATE, "report", "--data-root", str(roboball_dir), "--out", str(out), "--workers", "2", "--starts", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     staged_at: list[float] = []
 
     def ready(_seen: set[int]) -> bool:  # the staging folder exists and the checks have run a while

@@ -34,9 +34,14 @@ def test_pipe_roll_alias(tmp_path):
 
 def test_user_mapping_degrees_and_ms(tmp_path):
     m = tmp_path / "map.yaml"
-    m.write_text(yaml.safe_dump({"time": {"column": "t_ms", "unit": "ms"},
-                                 "channels": {"theta": {"column": "pend", "unit": "deg"},
-                                              "omega_d": {"column": "wheel", "unit": "rpm"}}}))
+    m.write_text(
+        yaml.safe_dump(
+            {
+                "time": {"column": "t_ms", "unit": "ms"},
+                "channels": {"theta": {"column": "pend", "unit": "deg"}, "omega_d": {"column": "wheel", "unit": "rpm"}},
+            }
+        )
+    )
     p = _csv(tmp_path / "c.csv", "t_ms,pend,wheel\n100,90,60\n120,45,30\n140,0,0\n")
     log = load_log(p, m)
     assert np.allclose(log.t_s, [0, 0.02, 0.04])
@@ -54,13 +59,21 @@ BAD = {
     "missing_time": ("time,roll_joint.position\n0,1\n1,2\n", (), "time column 'timestamp' missing"),
     "non_monotonic": ("timestamp,roll_joint.position\n0,0\n40000000,0\n20000000,0\n", (), "line 4, column 'timestamp'"),
     "duplicate_time": ("timestamp,roll_joint.position\n0,0\n20000000,0\n20000000,0\n", (), "duplicate time"),
-    "nan_run": ("timestamp,roll_joint.position\n0,0\n1,\n2,\n3,\n4,0\n".replace("\n1,", "\n20000000,")
-                .replace("\n2,", "\n40000000,").replace("\n3,", "\n60000000,").replace("\n4,", "\n80000000,"),
-                (), "lines 3-5, column 'roll_joint.position': NaN run"),
+    "nan_run": (
+        "timestamp,roll_joint.position\n0,0\n1,\n2,\n3,\n4,0\n".replace("\n1,", "\n20000000,")
+        .replace("\n2,", "\n40000000,")
+        .replace("\n3,", "\n60000000,")
+        .replace("\n4,", "\n80000000,"),
+        (),
+        "lines 3-5, column 'roll_joint.position': NaN run",
+    ),
     "empty_file": ("", (), "file is empty"),
     "header_only": ("timestamp,roll_joint.position\n", (), "no data rows"),
-    "degrees_as_radians": ("timestamp,roll_joint.position\n0,10\n20000000,200\n40000000,400\n", (),
-                           "line 3, column 'roll_joint.position': theta spans"),
+    "degrees_as_radians": (
+        "timestamp,roll_joint.position\n0,10\n20000000,200\n40000000,400\n",
+        (),
+        "line 3, column 'roll_joint.position': theta spans",
+    ),
     "seconds_as_ns": ("timestamp,roll_joint.position\n0,0\n0.02,0\n0.04,0\n", (), "median sample period"),
     "not_a_number": ("timestamp,roll_joint.position\n0,0\n20000000,abc\n", (), "line 3, column 'roll_joint.position'"),
 }
@@ -78,7 +91,11 @@ def test_bad_input_refused_with_named_error(tmp_path, case):
 
 def test_bad_mapping_unit(tmp_path):
     m = tmp_path / "map.yaml"
-    m.write_text(yaml.safe_dump({"time": {"column": "t", "unit": "s"}, "channels": {"theta": {"column": "x", "unit": "furlong"}}}))
+    m.write_text(
+        yaml.safe_dump(
+            {"time": {"column": "t", "unit": "s"}, "channels": {"theta": {"column": "x", "unit": "furlong"}}}
+        )
+    )
     with pytest.raises(LogError, match=r"map.yaml.*channels.theta.unit.*furlong"):
         ColumnMapping.load(m)
 
@@ -92,18 +109,34 @@ def _manifest(tmp_path, trials, root="."):
 def test_manifest_and_transient(tmp_path):
     t = np.arange(100) * 0.02
     write_log_csv(tmp_path / "x.csv", t, {"theta": np.sin(t)})
-    man = load_manifest(_manifest(tmp_path, [{"name": "x", "file": "x.csv", "fixture": "stand", "group": "g",
-                                              "pressure_kpa": None, "transient_s": 0.5}]))
+    man = load_manifest(
+        _manifest(
+            tmp_path,
+            [
+                {
+                    "name": "x",
+                    "file": "x.csv",
+                    "fixture": "stand",
+                    "group": "g",
+                    "pressure_kpa": None,
+                    "transient_s": 0.5,
+                }
+            ],
+        )
+    )
     log = man.group("g")[0].load()
     assert log.fixture == "stand" and log.pressure_kpa is None
     assert log.t_s[0] == 0 and np.isclose(log["theta"][0], np.sin(0.5))
 
 
-@pytest.mark.parametrize("entry, needle", [
-    ({"file": "x.csv", "fixture": "table"}, "field 'trials[0].fixture' = 'table'"),
-    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": -3}, "field 'trials[0].pressure_kpa' = -3"),
-    ({"fixture": "stand"}, "field 'trials[0].file' is missing"),
-])
+@pytest.mark.parametrize(
+    "entry, needle",
+    [
+        ({"file": "x.csv", "fixture": "table"}, "field 'trials[0].fixture' = 'table'"),
+        ({"file": "x.csv", "fixture": "stand", "pressure_kpa": -3}, "field 'trials[0].pressure_kpa' = -3"),
+        ({"fixture": "stand"}, "field 'trials[0].file' is missing"),
+    ],
+)
 def test_bad_manifest(tmp_path, entry, needle):
     with pytest.raises(LogError, match=re.escape(needle)):
         load_manifest(_manifest(tmp_path, [entry]))
@@ -133,13 +166,19 @@ def test_report_without_logs_writes_nothing(tmp_path, capsys):
     assert not out.exists() and "not found" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("entry, needle", [
-    ({"file": "x.csv", "fixture": "stand", "windw_s": [0, 1]}, "unknown field 'trials[0].windw_s'; allowed: ["),
-    ({"file": "x.csv", "fixture": "stand", "pressure_kpa": "4.0"}, "field 'trials[0].pressure_kpa' = '4.0': Input should be a valid number"),
-    ({"file": "x.csv", "fixture": "stand", "transient_s": True}, "field 'trials[0].transient_s' = True"),
-    ({"file": 3, "fixture": "stand"}, "field 'trials[0].file' = 3: Input should be a valid string"),
-    ({"file": "x.csv", "fixture": "stand", "time_unit": "fortnight"}, "field 'trials[0].time_unit' = 'fortnight'"),
-])
+@pytest.mark.parametrize(
+    "entry, needle",
+    [
+        ({"file": "x.csv", "fixture": "stand", "windw_s": [0, 1]}, "unknown field 'trials[0].windw_s'; allowed: ["),
+        (
+            {"file": "x.csv", "fixture": "stand", "pressure_kpa": "4.0"},
+            "field 'trials[0].pressure_kpa' = '4.0': Input should be a valid number",
+        ),
+        ({"file": "x.csv", "fixture": "stand", "transient_s": True}, "field 'trials[0].transient_s' = True"),
+        ({"file": 3, "fixture": "stand"}, "field 'trials[0].file' = 3: Input should be a valid string"),
+        ({"file": "x.csv", "fixture": "stand", "time_unit": "fortnight"}, "field 'trials[0].time_unit' = 'fortnight'"),
+    ],
+)
 def test_manifest_unknown_keys_and_wrong_types_are_refused_by_name(tmp_path, entry, needle):
     with pytest.raises(LogError, match=re.escape(needle)):
         load_manifest(_manifest(tmp_path, [entry]))

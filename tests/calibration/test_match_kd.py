@@ -29,7 +29,9 @@ def test_kd_step_refuses_a_bad_step_and_writes_nothing(tmp_path, capsys):
     with pytest.raises(SystemExit) as refused:  # argparse's one-line error, exit status 2
         main(["kd-step", "--time-step-s", "0", "--out", str(out)])
     assert refused.value.code == 2
-    assert "argument --time-step-s: '0': Input should be greater than 0; allowed: (0, 0.05] s" in capsys.readouterr().err
+    assert (
+        "argument --time-step-s: '0': Input should be greater than 0; allowed: (0, 0.05] s" in capsys.readouterr().err
+    )
     assert not out.exists()
 
 
@@ -46,8 +48,13 @@ def test_kd_step_writes_a_calibration_whose_k_d_at_that_step_keeps_the_damping(t
     cal = ShellCalibration.load(out)
     ((step, k_d),) = cal.k_d_by_time_step
     assert step == 0.008 and k_d < cal.k_d  # coarser step: more numerical damping, less k_d
-    job = {"calibration": str(out), "pressure_kpa": cal.nominal_pressure_kpa, "modulus_scale": 1.0,
-           "dissipation_scale": 1.0, "case": "check"}
+    job = {
+        "calibration": str(out),
+        "pressure_kpa": cal.nominal_pressure_kpa,
+        "modulus_scale": 1.0,
+        "dissipation_scale": 1.0,
+        "case": "check",
+    }
     zeta = {dt: decay_case(dict(job, time_step_s=dt))["zeta"] for dt in (0.005, 0.008)}
     assert zeta[0.008] == pytest.approx(zeta[0.005], rel=0.03)
 
@@ -72,8 +79,23 @@ def test_kd_pressure_writes_a_table_whose_decays_follow_zeta_curve(tmp_path):
     base = tmp_path / "base.yaml"
     base.write_text(yaml.safe_dump(src))
     out = tmp_path / "table.yaml"
-    assert main(["kd-pressure", "--calibration", str(base), "--time-step-s", "0.008", "--pressure-kpa", "3", "14",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "kd-pressure",
+                "--calibration",
+                str(base),
+                "--time-step-s",
+                "0.008",
+                "--pressure-kpa",
+                "3",
+                "14",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     cal = ShellCalibration.load(out)
     ((step, k_d),) = cal.k_d_by_time_step
     ((table_step, table),) = cal.k_d_by_pressure_at_steps
@@ -81,8 +103,14 @@ def test_kd_pressure_writes_a_table_whose_decays_follow_zeta_curve(tmp_path):
     assert k_d == pytest.approx(cal.for_time_step(0.008).k_d_at(cal.nominal_pressure_kpa), rel=1e-4)
     assert table[1][1] > table[0][1]  # more k_d at high pressure: one k_d lets ζ fall too fast
     for p in (3.0, 14.0):
-        job = {"calibration": str(out), "pressure_kpa": p, "modulus_scale": 1.0, "dissipation_scale": 1.0,
-               "time_step_s": 0.008, "case": "check"}
+        job = {
+            "calibration": str(out),
+            "pressure_kpa": p,
+            "modulus_scale": 1.0,
+            "dissipation_scale": 1.0,
+            "time_step_s": 0.008,
+            "case": "check",
+        }
         row = decay_case(job)
         assert row["zeta"] == pytest.approx(row["zeta_curve"], rel=0.02), p
 

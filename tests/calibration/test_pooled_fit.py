@@ -20,8 +20,16 @@ def _steer_log(tmp_path, name: str, cal: ShellCalibration, duration_s: float, th
     """A steer_plane log of ``duration_s`` made by the twin with calibration ``cal``."""
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(dict(cal.raw)))
-    twin = Twin(TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer",
-                           drive_friction="none", calibration=path, pressure_kpa=P))
+    twin = Twin(
+        TwinConfig(
+            fixture="steer_plane",
+            shell_model="injected",
+            steer_friction="majd_steer",
+            drive_friction="none",
+            calibration=path,
+            pressure_kpa=P,
+        )
+    )
     t, data = record(twin, InitialState(theta=theta0, roll=-0.37), duration_s, channels=("theta", "phi"))
     return RobotLog(name, f"<{name}>", t, data, fixture="steer_plane")
 

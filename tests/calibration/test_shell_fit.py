@@ -16,10 +16,19 @@ def test_injected_fit_recovers_omega_and_zeta(tmp_path):
     cal_path = write_calibration(tmp_path / "truth.yaml")
     truth = ShellCalibration.load(cal_path)
     p = 6.0
-    twin = Twin(TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer",
-                           drive_friction="none", calibration=cal_path, pressure_kpa=p))
-    synth_log(tmp_path / "a.csv", twin, InitialState(theta=0.38, roll=-0.37), 5.0, channels=("theta", "phi"),
-              noise_rad=2e-3)
+    twin = Twin(
+        TwinConfig(
+            fixture="steer_plane",
+            shell_model="injected",
+            steer_friction="majd_steer",
+            drive_friction="none",
+            calibration=cal_path,
+            pressure_kpa=p,
+        )
+    )
+    synth_log(
+        tmp_path / "a.csv", twin, InitialState(theta=0.38, roll=-0.37), 5.0, channels=("theta", "phi"), noise_rad=2e-3
+    )
     man = write_manifest(tmp_path / "m.yaml", [{"name": "a", "file": "a.csv", "fixture": "steer_plane"}])
     logs = [t.load() for t in load_manifest(man).trials]
     start = ShellCalibration.from_dict(calibration_at(truth, p, omega_n=2.6, zeta=0.1))  # a wrong start
@@ -43,20 +52,36 @@ def test_calibration_at_expresses_modulus_and_dissipation():
 
 @pytest.mark.slow
 def test_hydroelastic_sweep_direction_parallel():
-    rows = sweep([6.0], workers=2, duration_s=4.0,
-                 cases=(("control", 1.0, 1.0), ("dissipation -50%", 1.0, 0.5), ("dissipation +50%", 1.0, 1.5)))
+    rows = sweep(
+        [6.0],
+        workers=2,
+        duration_s=4.0,
+        cases=(("control", 1.0, 1.0), ("dissipation -50%", 1.0, 0.5), ("dissipation +50%", 1.0, 1.5)),
+    )
     z = {r["case"]: r["zeta"] for r in rows}
     assert z["dissipation -50%"] < z["control"] < z["dissipation +50%"]  # paper Fig. 11 direction
     assert all(abs(r["zeta_error_vs_curve_pct"]) < 1e3 for r in rows)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"model": "point"}, "fit_shell: field 'model' = 'point': Input should be 'injected' or 'hydroelastic'; "
-                         "allowed: ['injected', 'hydroelastic']"),
-    ({"form": "cubic"}, "fit_shell: field 'form' = 'cubic': Input should be 'linear', 'saturating' or 'quadratic'; "
-                        "allowed: ['linear', 'saturating', 'quadratic']"),
-    ({"params": ["omega_n", "stiffness"]}, "fit_shell: field 'params[1]' = 'stiffness': Input should be 'omega_n', "),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            {"model": "point"},
+            "fit_shell: field 'model' = 'point': Input should be 'injected' or 'hydroelastic'; "
+            "allowed: ['injected', 'hydroelastic']",
+        ),
+        (
+            {"form": "cubic"},
+            "fit_shell: field 'form' = 'cubic': Input should be 'linear', 'saturating' or 'quadratic'; "
+            "allowed: ['linear', 'saturating', 'quadratic']",
+        ),
+        (
+            {"params": ["omega_n", "stiffness"]},
+            "fit_shell: field 'params[1]' = 'stiffness': Input should be 'omega_n', ",
+        ),
+    ],
+)
 def test_bad_model_form_or_parameter_is_refused_before_any_fit(kwargs, message):
     with pytest.raises(ValueError) as err:
         fit_shell([], **{"model": "injected", "pressure_kpa": 6.0, **kwargs})
@@ -67,5 +92,7 @@ def test_bad_model_form_or_parameter_is_refused_before_any_fit(kwargs, message):
 
 def test_law_params_refuses_an_unknown_form():
     assert law_params("linear") == ("omega_n", "zeta", "rest_angle_rad")
-    with pytest.raises(ValueError, match=r"^field 'form' = 'cubic': .*; allowed: \['linear', 'saturating', 'quadratic'\]"):
+    with pytest.raises(
+        ValueError, match=r"^field 'form' = 'cubic': .*; allowed: \['linear', 'saturating', 'quadratic'\]"
+    ):
         law_params("cubic")

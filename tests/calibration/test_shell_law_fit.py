@@ -20,8 +20,16 @@ P = 6.0
 
 
 def free_twin(cal, model="injected"):
-    return Twin(TwinConfig(fixture="free", shell_model=model, steer_friction="majd_steer", drive_friction="majd_drive",
-                           calibration=cal, pressure_kpa=P))
+    return Twin(
+        TwinConfig(
+            fixture="free",
+            shell_model=model,
+            steer_friction="majd_steer",
+            drive_friction="majd_drive",
+            calibration=cal,
+            pressure_kpa=P,
+        )
+    )
 
 
 def record_free(twin, initial, duration_s, dt_s=0.01, torque_until_s=0.0, torque=(0.0, 0.0), name="synth"):
@@ -69,8 +77,13 @@ def test_initial_state_from_a_free_window_reproduces_the_twin_state(truth_path):
 
 
 def test_steer_plane_initial_state_is_unchanged():
-    log = RobotLog("sp", "<sp>", np.arange(0, 1, 0.02), {"theta": np.full(50, 0.3), "phi": np.linspace(-0.3, -0.2, 50)},
-                   fixture="steer_plane")
+    log = RobotLog(
+        "sp",
+        "<sp>",
+        np.arange(0, 1, 0.02),
+        {"theta": np.full(50, 0.3), "phi": np.linspace(-0.3, -0.2, 50)},
+        fixture="steer_plane",
+    )
     init = initial_state_from_log(log, radius_m=0.3)
     assert init.roll == pytest.approx(-0.3) and init.angular_velocity_rad_s[0] == pytest.approx(0.1 / 0.98, rel=1e-3)
     assert init.velocity_m_s[1] == pytest.approx(-0.3 * init.angular_velocity_rad_s[0])
@@ -82,8 +95,9 @@ def test_fit_recovers_the_stiffness_from_a_free_window(truth_path):
     twin = free_twin(truth_path)
     log = record_free(twin, InitialState(theta=0.7, roll=-0.3), 2.5, dt_s=0.02)
     log.channels["phi"] = log["phi"] + np.random.default_rng(0).normal(0, 2e-3, len(log.t_s))
-    start = ShellCalibration.from_dict(calibration_with(truth, P, {"omega_n": 2.6, "zeta": 0.25, "rest_angle_rad": 0.0},
-                                                        form="linear"))
+    start = ShellCalibration.from_dict(
+        calibration_with(truth, P, {"omega_n": 2.6, "zeta": 0.25, "rest_angle_rad": 0.0}, form="linear")
+    )
     fit = fit_shell([log], "injected", P, base=start, form="linear", twin=twin)
     K_true, _ = truth.bind(twin.robot).injected_gains(P)
     assert fit.params["omega_n"] == pytest.approx(float(truth.omega_n(P)), rel=0.05)
@@ -97,8 +111,9 @@ def test_fit_recovers_the_stiffness_from_a_free_window(truth_path):
 
 def test_a_window_without_free_motion_is_refused():
     t = np.arange(0, 2, 0.02)
-    log = RobotLog("still", "still.csv", t, {"theta": np.full(len(t), 0.01), "phi": np.full(len(t), -0.002)},
-                   fixture="free")
+    log = RobotLog(
+        "still", "still.csv", t, {"theta": np.full(len(t), 0.01), "phi": np.full(len(t), -0.002)}, fixture="free"
+    )
     with pytest.raises(FitError, match=r"still.csv.*'still': no free motion"):
         fit_shell([log], "injected", P, base=ShellCalibration.from_dict(TRUTH))
 
@@ -119,15 +134,41 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
     twin = free_twin(truth_path)
     log = record_free(twin, InitialState(theta=0.7, roll=-0.3), 2.0, dt_s=0.02)
     write_log_csv(tmp_path / "push.csv", log.t_s, {k: log[k] for k in ("theta", "theta_dot", "phi", "phi_dot")})
-    (tmp_path / "m.yaml").write_text(yaml.safe_dump({"data_root": ".", "trials": [
-        {"name": "push", "group": "pushes", "file": "push.csv", "fixture": "free"}]}))
+    (tmp_path / "m.yaml").write_text(
+        yaml.safe_dump(
+            {"data_root": ".", "trials": [{"name": "push", "group": "pushes", "file": "push.csv", "fixture": "free"}]}
+        )
+    )
     out = tmp_path / "fitted.yaml"
     start = tmp_path / "start.yaml"
-    start.write_text(yaml.safe_dump(calibration_with(ShellCalibration.from_dict(TRUTH), P,
-                                                     {"omega_n": 2.7, "rest_angle_rad": 0.0}, form="linear")))
-    rc = main(["steer-fit", "--manifest", str(tmp_path / "m.yaml"), "--group", "pushes", "--fit-on", "push",
-               "--models", "injected", "--forms", "linear", "--pressure-kpa", str(P), "--base", str(start),
-               "--out", str(out)])
+    start.write_text(
+        yaml.safe_dump(
+            calibration_with(
+                ShellCalibration.from_dict(TRUTH), P, {"omega_n": 2.7, "rest_angle_rad": 0.0}, form="linear"
+            )
+        )
+    )
+    rc = main(
+        [
+            "steer-fit",
+            "--manifest",
+            str(tmp_path / "m.yaml"),
+            "--group",
+            "pushes",
+            "--fit-on",
+            "push",
+            "--models",
+            "injected",
+            "--forms",
+            "linear",
+            "--pressure-kpa",
+            str(P),
+            "--base",
+            str(start),
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     cal = ShellCalibration.load(out)
     assert float(cal.omega_n(P)) == pytest.approx(float(ShellCalibration.from_dict(TRUTH).omega_n(P)), rel=0.05)
@@ -136,9 +177,27 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
     assert lo <= float(cal.omega_n(P)) <= hi
     # a refused fit writes nothing
     out2 = tmp_path / "refused.yaml"
-    rc = main(["steer-fit", "--manifest", str(tmp_path / "m.yaml"), "--group", "pushes", "--models", "injected",
-               "--forms", "linear", "--pressure-kpa", str(P), "--base", str(start), "--max-nfev", "2",
-               "--out", str(out2)])
+    rc = main(
+        [
+            "steer-fit",
+            "--manifest",
+            str(tmp_path / "m.yaml"),
+            "--group",
+            "pushes",
+            "--models",
+            "injected",
+            "--forms",
+            "linear",
+            "--pressure-kpa",
+            str(P),
+            "--base",
+            str(start),
+            "--max-nfev",
+            "2",
+            "--out",
+            str(out2),
+        ]
+    )
     assert rc == 2 and not out2.exists()
 
 
@@ -146,14 +205,19 @@ def test_form_choice_uses_held_out_error_and_skips_refused_forms():
     from sphere_env.calibration.steer_fit import choose_form
 
     rows = [
-        {"form": "linear", "rmse_phi_rad": 0.05}, {"form": "linear", "rmse_phi_rad": 0.07},
-        {"form": "saturating", "rmse_phi_rad": 0.04}, {"form": "saturating", "rmse_phi_rad": 0.06},
-        {"form": "quadratic", "rmse_phi_rad": 0.01}, {"form": "quadratic", "rmse_phi_rad": math.inf,
-                                                      "refused": "cannot stand still"},
+        {"form": "linear", "rmse_phi_rad": 0.05},
+        {"form": "linear", "rmse_phi_rad": 0.07},
+        {"form": "saturating", "rmse_phi_rad": 0.04},
+        {"form": "saturating", "rmse_phi_rad": 0.06},
+        {"form": "quadratic", "rmse_phi_rad": 0.01},
+        {"form": "quadratic", "rmse_phi_rad": math.inf, "refused": "cannot stand still"},
     ]
     form, mean = choose_form(rows)
     assert form == "saturating" and mean["linear"] == pytest.approx(0.06) and math.isinf(mean["quadratic"])
     # a tie at 0.1 mrad goes to the form with fewer parameters
-    assert choose_form([{"form": "linear", "rmse_phi_rad": 0.05}, {"form": "saturating", "rmse_phi_rad": 0.04996}])[0] == "linear"
+    assert (
+        choose_form([{"form": "linear", "rmse_phi_rad": 0.05}, {"form": "saturating", "rmse_phi_rad": 0.04996}])[0]
+        == "linear"
+    )
     with pytest.raises(FitError, match="no steer-law form could be fitted"):
         choose_form([{"form": "quadratic", "rmse_phi_rad": math.inf, "refused": "x"}])

@@ -91,8 +91,9 @@ def test_free_robot_law_fitted_on_the_pushes_predicts_the_release(roboball_dir, 
     man = load_manifest(MANIFEST, data_root=roboball_dir)
     pushes = [man.by_name(f"push_{i}").load(required=("phi", "theta")) for i in (1, 2, 3)]
     base = ShellCalibration.load(DEFAULT)
-    raw, _ = steer_fit(pushes, ["injected"], base.nominal_pressure_kpa, base, forms=("saturating",),
-                       hold_out_windows=False)
+    raw, _ = steer_fit(
+        pushes, ["injected"], base.nominal_pressure_kpa, base, forms=("saturating",), hold_out_windows=False
+    )
     cal = tmp_path / "pushes.yaml"
     cal.write_text(yaml.safe_dump(dict(raw)))
     release = man.by_name("free_release").load(required=("phi", "theta"))

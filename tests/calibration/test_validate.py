@@ -15,11 +15,13 @@ from .conftest import synth_log, write_manifest
 @pytest.fixture(scope="module")
 def steer_log(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("val")
-    twin = Twin(TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer",
-                           drive_friction="none"))
+    twin = Twin(
+        TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer", drive_friction="none")
+    )
     synth_log(tmp / "sf.csv", twin, InitialState(theta=0.38, roll=-0.37), 3.0)
-    return write_manifest(tmp / "m.yaml", [{"name": "sf", "file": "sf.csv", "fixture": "steer_plane",
-                                            "group": "steer_free"}])
+    return write_manifest(
+        tmp / "m.yaml", [{"name": "sf", "file": "sf.csv", "fixture": "steer_plane", "group": "steer_free"}]
+    )
 
 
 def test_twin_against_its_own_log_has_zero_rmse(steer_log):
@@ -52,15 +54,21 @@ def test_tolerances_load_as_named_limits():
     assert parse_tolerances(None) == {}
 
 
-@pytest.mark.parametrize("item, message", [
-    ("bogus=1", "--tol: unknown field 'bogus'; allowed: ['omega_d', 'pendulum_pitch', 'phi', 'pme', 'theta']"),
-    ("theta=abc", "--tol: field 'theta' = 'abc': Input should be a valid number; allowed: NAME=LIMIT with LIMIT a "
-                  "finite number > 0"),
-    ("phi", "--tol: field 'phi' = '': Input should be a valid number; allowed: NAME=LIMIT"),
-    ("phi=0", "--tol: field 'phi' = 0.0: Input should be greater than 0; allowed: NAME=LIMIT"),
-    ("pme=-5", "--tol: field 'pme' = -5.0: Input should be greater than 0; allowed: NAME=LIMIT"),
-    ("omega_d=inf", "--tol: field 'omega_d' = inf: not a finite number; allowed: NAME=LIMIT"),
-])
+@pytest.mark.parametrize(
+    "item, message",
+    [
+        ("bogus=1", "--tol: unknown field 'bogus'; allowed: ['omega_d', 'pendulum_pitch', 'phi', 'pme', 'theta']"),
+        (
+            "theta=abc",
+            "--tol: field 'theta' = 'abc': Input should be a valid number; allowed: NAME=LIMIT with LIMIT a "
+            "finite number > 0",
+        ),
+        ("phi", "--tol: field 'phi' = '': Input should be a valid number; allowed: NAME=LIMIT"),
+        ("phi=0", "--tol: field 'phi' = 0.0: Input should be greater than 0; allowed: NAME=LIMIT"),
+        ("pme=-5", "--tol: field 'pme' = -5.0: Input should be greater than 0; allowed: NAME=LIMIT"),
+        ("omega_d=inf", "--tol: field 'omega_d' = inf: not a finite number; allowed: NAME=LIMIT"),
+    ],
+)
 def test_bad_tolerance_is_refused_by_name(item, message):
     with pytest.raises(ValueError) as err:
         parse_tolerances(["phi=1", item])

@@ -17,8 +17,9 @@ from .conftest import synth_log, write_manifest
 @pytest.fixture(scope="module")
 def logs_dir(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("vj")
-    twin = Twin(TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer",
-                           drive_friction="none"))
+    twin = Twin(
+        TwinConfig(fixture="steer_plane", shell_model="injected", steer_friction="majd_steer", drive_friction="none")
+    )
     synth_log(tmp / "sf.csv", twin, InitialState(theta=0.38, roll=-0.37), 2.0)
     synth_log(tmp / "phi_only.csv", twin, InitialState(theta=0.3, roll=-0.3), 2.0, channels=("phi",))
     (tmp / "one.csv").write_text("timestamp,ball_roll.position,roll_joint.position\n0,-0.3,0.3\n")
@@ -26,15 +27,32 @@ def logs_dir(tmp_path_factory):
 
 
 def _manifest(d, names):
-    return write_manifest(d / f"m_{'_'.join(names)}.yaml",
-                          [{"name": n, "file": f"{n}.csv", "fixture": "steer_plane", "group": "g"} for n in names])
+    return write_manifest(
+        d / f"m_{'_'.join(names)}.yaml",
+        [{"name": n, "file": f"{n}.csv", "fixture": "steer_plane", "group": "g"} for n in names],
+    )
 
 
 def test_json_records_have_the_named_fields_and_no_pme_on_flat_ground(logs_dir, tmp_path):
     man = _manifest(logs_dir, ["sf"])
     out = tmp_path / "sub" / "v.json"
-    assert main(["validate", "--manifest", str(man), "--models", "point", "injected", "--drive-friction", "none",
-                 "--json", str(out)]) == 0
+    assert (
+        main(
+            [
+                "validate",
+                "--manifest",
+                str(man),
+                "--models",
+                "point",
+                "injected",
+                "--drive-friction",
+                "none",
+                "--json",
+                str(out),
+            ]
+        )
+        == 0
+    )
     recs = json.loads(out.read_text())
     assert [(r["trial"], r["model"]) for r in recs] == [("sf", "point"), ("sf", "injected")]
     for r in recs:
@@ -81,9 +99,15 @@ def test_record_keeps_optional_metrics_only_where_computed():
     nan = math.nan
     flat = ValidationRow("a", "injected", "steer_plane", {"phi": 0.1, "theta": 0.2, "omega_d": nan}, nan)
     assert set(flat.record()) == {"trial", "model", "fixture", "rmse_phi_rad", "rmse_theta_rad"}
-    free = ValidationRow("b", "hydroelastic", "free", {"phi": 0.1, "theta": 0.2, "omega_d": 0.3,
-                                                       "pendulum_pitch": 0.01}, nan,
-                         derived={"omega_d": "pendulum_pitch_rate - drive_rate"}, window_s=(32.81, 35.81))
+    free = ValidationRow(
+        "b",
+        "hydroelastic",
+        "free",
+        {"phi": 0.1, "theta": 0.2, "omega_d": 0.3, "pendulum_pitch": 0.01},
+        nan,
+        derived={"omega_d": "pendulum_pitch_rate - drive_rate"},
+        window_s=(32.81, 35.81),
+    )
     r = free.record()
     assert r["rmse_pendulum_pitch_rad"] == 0.01 and r["rmse_omega_d_rad_s"] == 0.3 and "pme_percent" not in r
     assert r["omega_d_derived_from"] == "pendulum_pitch_rate - drive_rate" and r["window_s"] == [32.81, 35.81]
@@ -99,8 +123,24 @@ def test_free_release_window_validates_to_records(roboball_dir, tmp_path):
 
     repo = Path(__file__).resolve().parents[2]
     out = tmp_path / "free.json"
-    assert main(["validate", "--manifest", str(repo / "assets" / "logs" / "roboball.yaml"), "--data-root",
-                 str(roboball_dir), "--trial", "free_release", "--models", "injected", "--json", str(out)]) == 0
+    assert (
+        main(
+            [
+                "validate",
+                "--manifest",
+                str(repo / "assets" / "logs" / "roboball.yaml"),
+                "--data-root",
+                str(roboball_dir),
+                "--trial",
+                "free_release",
+                "--models",
+                "injected",
+                "--json",
+                str(out),
+            ]
+        )
+        == 0
+    )
     (rec,) = json.loads(out.read_text())
     assert rec["trial"] == "free_release" and rec["fixture"] == "free" and rec["window_s"] == [33.46, 37.21]
     assert "pme_percent" not in rec  # flat ground

@@ -35,17 +35,23 @@ def _release_log(path: Path, release_s: float = 2.0, push_s: float | None = 11.0
         tau = t[pushed] - push_s
         phi[pushed] += 0.15 * np.exp(-0.2 * 3.6 * tau) * np.sin(3.5 * tau)
     rates = {"theta_dot": np.gradient(theta, t), "phi_dot": np.gradient(phi, t)}
-    return write_log_csv(path, t, {"theta": theta, "phi": phi, "drive_angle": np.full_like(t, 13.9),
-                                   "drive_rate": np.zeros_like(t), **rates})
+    return write_log_csv(
+        path,
+        t,
+        {"theta": theta, "phi": phi, "drive_angle": np.full_like(t, 13.9), "drive_rate": np.zeros_like(t), **rates},
+    )
 
 
 # ---- windows ---------------------------------------------------------------------------------------
 def test_window_cuts_the_log_and_restarts_time(tmp_path):
     _release_log(tmp_path / "r.csv")
-    man = write_manifest(tmp_path / "m.yaml", [
-        {"name": "a", "file": "r.csv", "fixture": "free", "window_s": [2.0, 5.0]},
-        {"name": "b", "file": "r.csv", "fixture": "free", "window_s": [11.0, 14.0]},  # same file twice
-    ])
+    man = write_manifest(
+        tmp_path / "m.yaml",
+        [
+            {"name": "a", "file": "r.csv", "fixture": "free", "window_s": [2.0, 5.0]},
+            {"name": "b", "file": "r.csv", "fixture": "free", "window_s": [11.0, 14.0]},  # same file twice
+        ],
+    )
     m = load_manifest(man)
     a, b = m.by_name("a").load(), m.by_name("b").load()
     assert a.fixture == "free" and a.window_s == (2.0, 5.0)
@@ -54,17 +60,26 @@ def test_window_cuts_the_log_and_restarts_time(tmp_path):
     assert b["theta"][0] == pytest.approx(-0.05, abs=0.01)  # long after the release, θ at rest
 
 
-@pytest.mark.parametrize("window, needle", [
-    ([5.0, 2.0], "window_s' = (5.0, 2.0): low 5.0 is not below high 2.0; allowed: [start, end] in seconds from the "
-                 "log's first sample, 0 <= start < end"),
-    ([2.0, 2.0], "window_s' = (2.0, 2.0): low 2.0 is not below high 2.0; allowed: [start, end]"),
-    ([-1.0, 2.0], "window_s[0]' = -1.0: Input should be greater than or equal to 0; allowed: [start, end] in seconds "
-                  "from the log's first sample, 0 <= start < end"),
-    ([1.0, float("nan")], "window_s[1]' = nan: not a finite number; allowed: [start, end]"),
-    ([10.0, 20.0], "lies outside the log"),
-    (["a", 2.0], "allowed: [start, end]"),
-    ([1.0], "allowed: [start, end]"),
-])
+@pytest.mark.parametrize(
+    "window, needle",
+    [
+        (
+            [5.0, 2.0],
+            "window_s' = (5.0, 2.0): low 5.0 is not below high 2.0; allowed: [start, end] in seconds from the "
+            "log's first sample, 0 <= start < end",
+        ),
+        ([2.0, 2.0], "window_s' = (2.0, 2.0): low 2.0 is not below high 2.0; allowed: [start, end]"),
+        (
+            [-1.0, 2.0],
+            "window_s[0]' = -1.0: Input should be greater than or equal to 0; allowed: [start, end] in seconds "
+            "from the log's first sample, 0 <= start < end",
+        ),
+        ([1.0, float("nan")], "window_s[1]' = nan: not a finite number; allowed: [start, end]"),
+        ([10.0, 20.0], "lies outside the log"),
+        (["a", 2.0], "allowed: [start, end]"),
+        ([1.0], "allowed: [start, end]"),
+    ],
+)
 def test_bad_window_refused_by_name(tmp_path, window, needle):
     _release_log(tmp_path / "r.csv")
     man = write_manifest(tmp_path / "m.yaml", [{"name": "w", "file": "r.csv", "fixture": "free", "window_s": window}])
@@ -76,26 +91,31 @@ def test_bad_window_refused_by_name(tmp_path, window, needle):
 
 
 def test_reversed_ramp_window_refused_by_name(tmp_path):
-    man = write_manifest(tmp_path / "m.yaml", [{"name": "w", "file": "r.csv", "fixture": "free",
-                                                 "ramp_window_s": [3.0, 1.0]}])
+    man = write_manifest(
+        tmp_path / "m.yaml", [{"name": "w", "file": "r.csv", "fixture": "free", "ramp_window_s": [3.0, 1.0]}]
+    )
     with pytest.raises(LogError) as err:
         load_manifest(man)
-    assert ("field 'trials[0].ramp_window_s' = (3.0, 1.0): low 3.0 is not below high 1.0; allowed: [start, end] "
-            "seconds, start < end") in str(err.value)
+    assert (
+        "field 'trials[0].ramp_window_s' = (3.0, 1.0): low 3.0 is not below high 1.0; allowed: [start, end] "
+        "seconds, start < end"
+    ) in str(err.value)
 
 
 def test_window_without_motion_refused(tmp_path):
     _release_log(tmp_path / "r.csv", push_s=None)
-    man = write_manifest(tmp_path / "m.yaml", [{"name": "still", "file": "r.csv", "fixture": "free",
-                                                 "window_s": [0.0, 1.9]}])
+    man = write_manifest(
+        tmp_path / "m.yaml", [{"name": "still", "file": "r.csv", "fixture": "free", "window_s": [0.0, 1.9]}]
+    )
     with pytest.raises(LogError, match=r"r.csv.*'still'.*window_s.*no free motion to fit.*below 0.02 rad"):
         load_manifest(man).by_name("still").load()
 
 
 def test_bad_window_makes_the_cli_exit_2_and_write_nothing(tmp_path):
     _release_log(tmp_path / "r.csv")
-    man = write_manifest(tmp_path / "m.yaml", [{"name": "w", "file": "r.csv", "fixture": "free",
-                                                 "window_s": [3.0, 99.0]}])
+    man = write_manifest(
+        tmp_path / "m.yaml", [{"name": "w", "file": "r.csv", "fixture": "free", "window_s": [3.0, 99.0]}]
+    )
     out = tmp_path / "v.json"
     assert main(["validate", "--manifest", str(man), "--models", "point", "--json", str(out)]) == 2
     assert not out.exists()
@@ -124,8 +144,11 @@ def test_driven_motion_and_monotonic_ramps_are_not_events(tmp_path):
     assert find_events(load_log(p)) == []
     # The same swing as a release, but with the drive joint turning: driven, not free.
     swing = np.where(t > 2.0, damped_sinusoid(np.clip(t - 2.0, 0, None), 0.5, 0.2, 3.6, 0.0, 0.0), 0.5)
-    p = write_log_csv(tmp_path / "driven.csv", t, {"phi": swing, "phi_dot": np.gradient(swing, t),
-                                                   "drive_angle": 0.3 * t, "drive_rate": np.full_like(t, 0.3)})
+    p = write_log_csv(
+        tmp_path / "driven.csv",
+        t,
+        {"phi": swing, "phi_dot": np.gradient(swing, t), "drive_angle": 0.3 * t, "drive_rate": np.full_like(t, 0.3)},
+    )
     assert find_events(load_log(p)) == []
     out = tmp_path / "none.yaml"
     assert main(["events", str(p), "--write-manifest", str(out)]) == 1 and not out.exists()
@@ -138,7 +161,9 @@ def test_events_command_writes_loadable_manifest_atomically(tmp_path):
     m = load_manifest(man)
     assert [s.fixture for s in m.trials] == ["free", "free"] and {s.group for s in m.trials} == {"g"}
     first = m.trials[0]
-    assert first.window_s[0] == pytest.approx(2.83, abs=0.02) and first.window_s[1] - first.window_s[0] == pytest.approx(3.0)
+    assert first.window_s[0] == pytest.approx(2.83, abs=0.02) and first.window_s[1] - first.window_s[
+        0
+    ] == pytest.approx(3.0)
     assert first.load().t_s[-1] == pytest.approx(3.0, abs=0.011)
     assert m.trials[1].window_s[0] == pytest.approx(11.39, abs=0.02)  # both windows start free
     before = man.read_text()
@@ -203,8 +228,7 @@ def test_free_robot_events_include_the_release(free_robot):
 
 @pytest.mark.realdata
 def test_manifest_free_release_entry(roboball_dir):
-    m = load_manifest(Path(__file__).resolve().parents[2] / "assets" / "logs" / "roboball.yaml",
-                      data_root=roboball_dir)
+    m = load_manifest(Path(__file__).resolve().parents[2] / "assets" / "logs" / "roboball.yaml", data_root=roboball_dir)
     spec = m.by_name("free_release")
     assert spec.group == "free_robot" and spec.fixture == "free"
     log = spec.load()
@@ -245,8 +269,7 @@ def test_pushes_log_has_three_pushes_two_one_way_one_the_other(roboball_dir):
 @pytest.mark.realdata
 def test_manifest_push_windows_start_where_events_say_the_robot_is_free(roboball_dir):
     ev = find_events(load_log(roboball_dir / PUSHES))
-    m = load_manifest(Path(__file__).resolve().parents[2] / "assets" / "logs" / "roboball.yaml",
-                      data_root=roboball_dir)
+    m = load_manifest(Path(__file__).resolve().parents[2] / "assets" / "logs" / "roboball.yaml", data_root=roboball_dir)
     specs = [m.by_name(f"push_{i}") for i in (1, 2, 3)]
     assert {s.name for s in m.group("free_robot")} == {"free_release", "push_1", "push_2", "push_3"}
     for spec, e in zip(specs, ev):

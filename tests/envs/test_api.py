@@ -85,8 +85,14 @@ def test_reset_reuses_diagram_and_explicit_options(make):
     u = env.unwrapped
     env.reset(seed=0)
     diagram = u.twin.diagram
-    obs, info = env.reset(options={"pressure_kpa": 6.5, "omega_ref": 1.2, "heading_ref": 0.3,
-                                   "initial_state": {"theta": 0.2, "drive_rate": 1.0}})
+    obs, info = env.reset(
+        options={
+            "pressure_kpa": 6.5,
+            "omega_ref": 1.2,
+            "heading_ref": 0.3,
+            "initial_state": {"theta": 0.2, "drive_rate": 1.0},
+        }
+    )
     assert u.twin.diagram is diagram
     assert info["pressure_kpa"] == 6.5 and u.twin.pressure_kpa == 6.5
     assert obs[0] == pytest.approx(0.2) and obs[3] == pytest.approx(1.0) and obs[11] == pytest.approx(1.2)

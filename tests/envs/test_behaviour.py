@@ -68,7 +68,9 @@ def test_pressure_schedule_changes_pressure_and_dynamics(make):
 
 
 def test_interval_randomization_changes_within_episode(make):
-    spec = {"ground_friction": {"distribution": "uniform", "low": 0.3, "high": 1.5, "mode": "interval", "interval_s": 0.2}}
+    spec = {
+        "ground_friction": {"distribution": "uniform", "low": 0.3, "high": 1.5, "mode": "interval", "interval_s": 0.2}
+    }
     env = make("sphere_env/Roll-v0", shell_model="point", randomization=spec)
     steps = rollout(env, 30, seed=0)
     values = {s[-1]["params"]["ground_friction"] for s in steps}
@@ -109,36 +111,42 @@ def test_physics_failure_truncates_with_reason(make, monkeypatch):
     assert np.all(np.isfinite(obs))
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(shell_model="rubber"), "shell_model"),
-    (dict(friction_model="sticky"), "friction_model"),
-    (dict(calibration="/nonexistent.yaml"), "calibration"),
-    (dict(control_frequency_hz=-5), "control_frequency_hz"),
-    (dict(control_frequency_hz=33), "control_frequency_hz"),
-    (dict(time_step_s=0.0), "time_step_s"),
-    (dict(steer_torque_limit_nm=float("nan")), "steer_torque_limit_nm"),
-    (dict(drive_torque_limit_nm=0), "drive_torque_limit_nm"),
-    (dict(randomization={"pressure": 5}), "randomization"),
-    (dict(observation_noise_scale=-1), "observation_noise_scale"),
-    (dict(observe_pressure="yes"), "observe_pressure"),
-    (dict(incline_deg=60), "incline_deg"),
-    (dict(render_mode="vr"), "render_mode"),
-    (dict(lane_half_width_m=0), "lane_half_width_m"),
-    (dict(omega_ref_range_rad_s=(3, 1)), "omega_ref_range_rad_s"),
-    (dict(reward_weights={"fun": 1}), "reward_weights"),
-    (dict(no_such_kwarg=1), "no_such_kwarg"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(shell_model="rubber"), "shell_model"),
+        (dict(friction_model="sticky"), "friction_model"),
+        (dict(calibration="/nonexistent.yaml"), "calibration"),
+        (dict(control_frequency_hz=-5), "control_frequency_hz"),
+        (dict(control_frequency_hz=33), "control_frequency_hz"),
+        (dict(time_step_s=0.0), "time_step_s"),
+        (dict(steer_torque_limit_nm=float("nan")), "steer_torque_limit_nm"),
+        (dict(drive_torque_limit_nm=0), "drive_torque_limit_nm"),
+        (dict(randomization={"pressure": 5}), "randomization"),
+        (dict(observation_noise_scale=-1), "observation_noise_scale"),
+        (dict(observe_pressure="yes"), "observe_pressure"),
+        (dict(incline_deg=60), "incline_deg"),
+        (dict(render_mode="vr"), "render_mode"),
+        (dict(lane_half_width_m=0), "lane_half_width_m"),
+        (dict(omega_ref_range_rad_s=(3, 1)), "omega_ref_range_rad_s"),
+        (dict(reward_weights={"fun": 1}), "reward_weights"),
+        (dict(no_such_kwarg=1), "no_such_kwarg"),
+    ],
+)
 def test_bad_kwargs_raise_naming_the_kwarg(make, kwargs, name):
     with pytest.raises(ValueError, match=name):
         make("sphere_env/RampDescent-v0", **kwargs)
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(command_mode="spin"), "command_mode"),
-    (dict(heading_range_rad=7), "heading_range_rad"),
-    (dict(command_resample_s=0), "command_resample_s"),
-    (dict(randomization={"incline_deg": [10, 12]}), "incline"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(command_mode="spin"), "command_mode"),
+        (dict(heading_range_rad=7), "heading_range_rad"),
+        (dict(command_resample_s=0), "command_resample_s"),
+        (dict(randomization={"incline_deg": [10, 12]}), "incline"),
+    ],
+)
 def test_bad_roll_kwargs(make, kwargs, name):
     with pytest.raises(ValueError, match=name):
         make("sphere_env/Roll-v0", **kwargs)
@@ -154,9 +162,16 @@ def test_roll_yaw_rate_mode_and_resampling(make):
 
 
 def test_randomized_parameters_reach_the_physics(make):
-    env = make("sphere_env/RampDescent-v0", shell_model="point",
-               randomization={"incline_deg": 12.0, "payload_mass_kg": 3.0, "ground_friction": 0.8,
-                              "drive_friction_scale": 1.5})
+    env = make(
+        "sphere_env/RampDescent-v0",
+        shell_model="point",
+        randomization={
+            "incline_deg": 12.0,
+            "payload_mass_kg": 3.0,
+            "ground_friction": 0.8,
+            "drive_friction_scale": 1.5,
+        },
+    )
     obs, info = env.reset(seed=0)
     twin = env.unwrapped.twin
     assert twin.config.incline_deg == 12.0 and info["params"]["incline_deg"] == 12.0

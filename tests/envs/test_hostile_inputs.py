@@ -34,32 +34,54 @@ def _same(a, b):
 
 
 # ---- pressure-schedule distributions are refused at gym.make --------------------------------------
-@pytest.mark.parametrize("rate", [[0.1, -0.1], {"distribution": "normal", "mean": 0.0, "std": -1.0},
-                                  {"distribution": "uniform"}, {"distribution": "choice", "values": []}])
+@pytest.mark.parametrize(
+    "rate",
+    [
+        [0.1, -0.1],
+        {"distribution": "normal", "mean": 0.0, "std": -1.0},
+        {"distribution": "uniform"},
+        {"distribution": "choice", "values": []},
+    ],
+)
 def test_bad_pressure_schedule_is_refused_at_make(rate):
     with pytest.raises(ValueError, match=r"^randomization: field 'pressure_schedule\.rate_kpa_per_s"):
         gym.make(ROLL, randomization={"pressure_schedule": {"rate_kpa_per_s": rate}})
 
 
 # ---- kwargs load through the id's schema before anything is built ---------------------------------
-@pytest.mark.parametrize("env_id, kwargs, message", [
-    (ROLL, {"time_step_s": "0.005"}, "field 'time_step_s' = '0.005': Input should be a valid number; allowed: (0, 0.05] s"),
-    (ROLL, {"steer_torque_limit_nm": True}, "field 'steer_torque_limit_nm' = True: Input should be a valid number"),
-    (ROLL, {"observation_noise_scale": np.bool_(True)}, "field 'observation_noise_scale' = np.True_: a bool is not a number"),
-    (ROLL, {"hydroelastic_pressure_step_kpa": "0.5"}, "field 'hydroelastic_pressure_step_kpa' = '0.5'"),
-    (ROLL, {"render_size": (640, "480")}, "field 'render_size[1]' = '480'"),
-    (ROLL, {"render_size": (640, 480, 3)}, "field 'render_size' = (640, 480, 3)"),
-    (ROLL, {"observe_shell_model": "yes"}, "field 'observe_shell_model' = 'yes'"),
-    (ROLL, {"calibration": 3}, "field 'calibration' = 3"),
-    (ROLL, {"heading_range_rad": "1"}, "field 'heading_range_rad' = '1'"),
-    (ROLL, {"lane_half_width_m": 1.0}, "Roll kwargs: unknown field 'lane_half_width_m'; allowed: ["),  # RampDescent's
-    (RAMP, {"command_mode": "heading"}, "RampDescent kwargs: unknown field 'command_mode'; allowed: ["),  # Roll's
-    (RAMP, {"incline_deg": "16"}, "field 'incline_deg' = '16'"),
-    (RAMP, {"settle_time_s": False}, "field 'settle_time_s' = False"),
-    (RAMP, {"omega_ref_range_rad_s": ("2", 4.5)}, "field 'omega_ref_range_rad_s[0]' = '2'"),
-    (RAMP, {"reward_weights": {"speed": "1"}}, "field 'reward_weights.speed' = '1'"),
-    (RAMP, {"reward_weights": {"speed": True}}, "field 'reward_weights.speed' = True"),
-])
+@pytest.mark.parametrize(
+    "env_id, kwargs, message",
+    [
+        (
+            ROLL,
+            {"time_step_s": "0.005"},
+            "field 'time_step_s' = '0.005': Input should be a valid number; allowed: (0, 0.05] s",
+        ),
+        (ROLL, {"steer_torque_limit_nm": True}, "field 'steer_torque_limit_nm' = True: Input should be a valid number"),
+        (
+            ROLL,
+            {"observation_noise_scale": np.bool_(True)},
+            "field 'observation_noise_scale' = np.True_: a bool is not a number",
+        ),
+        (ROLL, {"hydroelastic_pressure_step_kpa": "0.5"}, "field 'hydroelastic_pressure_step_kpa' = '0.5'"),
+        (ROLL, {"render_size": (640, "480")}, "field 'render_size[1]' = '480'"),
+        (ROLL, {"render_size": (640, 480, 3)}, "field 'render_size' = (640, 480, 3)"),
+        (ROLL, {"observe_shell_model": "yes"}, "field 'observe_shell_model' = 'yes'"),
+        (ROLL, {"calibration": 3}, "field 'calibration' = 3"),
+        (ROLL, {"heading_range_rad": "1"}, "field 'heading_range_rad' = '1'"),
+        (
+            ROLL,
+            {"lane_half_width_m": 1.0},
+            "Roll kwargs: unknown field 'lane_half_width_m'; allowed: [",
+        ),  # RampDescent's
+        (RAMP, {"command_mode": "heading"}, "RampDescent kwargs: unknown field 'command_mode'; allowed: ["),  # Roll's
+        (RAMP, {"incline_deg": "16"}, "field 'incline_deg' = '16'"),
+        (RAMP, {"settle_time_s": False}, "field 'settle_time_s' = False"),
+        (RAMP, {"omega_ref_range_rad_s": ("2", 4.5)}, "field 'omega_ref_range_rad_s[0]' = '2'"),
+        (RAMP, {"reward_weights": {"speed": "1"}}, "field 'reward_weights.speed' = '1'"),
+        (RAMP, {"reward_weights": {"speed": True}}, "field 'reward_weights.speed' = True"),
+    ],
+)
 def test_strings_bools_and_unknown_kwargs_are_refused_before_anything_is_built(monkeypatch, env_id, kwargs, message):
     def no_twin(*args, **kw):
         raise AssertionError("a twin was built for refused kwargs")
@@ -81,21 +103,27 @@ def test_sphere_env_loads_its_kwargs_through_the_schema():
 
 
 # ---- a reset that raises changes nothing ------------------------------------------------------------
-@pytest.mark.parametrize("options, field", [
-    ({"pressure_kpa": 12.0, "initial_state": {"roll": math.nan}}, "initial_state.roll"),
-    ({"pressure_kpa": 12.0, "omega_ref": math.nan}, "options.omega_ref"),
-    ({"ground_friction": 0.5, "omega_ref": 1e9}, "field 'options.omega_ref' = 1000000000.0: Input should be less than or equal to 30; allowed: [-30, 30]"),
-    ({"pressure_kpa": 12.0, "omega_ref": True}, "field 'options.omega_ref' = True"),  # a bool is not a number
-    ({"pressure_kpa": 12.0, "omega_ref": "1.0"}, "field 'options.omega_ref' = '1.0'"),  # nor is a string
-    ({"pressure_kpa": 12.0, "initial_state": {"theta": True}}, "field 'options.initial_state.theta' = True"),
-    ({"pressure_kpa": 12.0, "heading_ref": "north"}, "options.heading_ref"),
-    ({"pressure_kpa": 12.0, "pressure_rate_kpa_per_s": [1.0]}, "options.pressure_rate_kpa_per_s"),
-    ({"pressure_kpa": 12.0, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
-    ({"pressure_kpa": 12.0, "initial_state": {"spin": 1.0}}, "options.initial_state"),
-    ({"pressure_kpa": 99.0}, "options: field 'pressure_kpa' = 99.0"),
-    ([("pressure_kpa", 12.0)], "field 'options' is a list, not a mapping"),
-    ("pressure_kpa=12", "field 'options' is a str, not a mapping"),
-])
+@pytest.mark.parametrize(
+    "options, field",
+    [
+        ({"pressure_kpa": 12.0, "initial_state": {"roll": math.nan}}, "initial_state.roll"),
+        ({"pressure_kpa": 12.0, "omega_ref": math.nan}, "options.omega_ref"),
+        (
+            {"ground_friction": 0.5, "omega_ref": 1e9},
+            "field 'options.omega_ref' = 1000000000.0: Input should be less than or equal to 30; allowed: [-30, 30]",
+        ),
+        ({"pressure_kpa": 12.0, "omega_ref": True}, "field 'options.omega_ref' = True"),  # a bool is not a number
+        ({"pressure_kpa": 12.0, "omega_ref": "1.0"}, "field 'options.omega_ref' = '1.0'"),  # nor is a string
+        ({"pressure_kpa": 12.0, "initial_state": {"theta": True}}, "field 'options.initial_state.theta' = True"),
+        ({"pressure_kpa": 12.0, "heading_ref": "north"}, "options.heading_ref"),
+        ({"pressure_kpa": 12.0, "pressure_rate_kpa_per_s": [1.0]}, "options.pressure_rate_kpa_per_s"),
+        ({"pressure_kpa": 12.0, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
+        ({"pressure_kpa": 12.0, "initial_state": {"spin": 1.0}}, "options.initial_state"),
+        ({"pressure_kpa": 99.0}, "options: field 'pressure_kpa' = 99.0"),
+        ([("pressure_kpa", 12.0)], "field 'options' is a list, not a mapping"),
+        ("pressure_kpa=12", "field 'options' is a str, not a mapping"),
+    ],
+)
 def test_a_failed_reset_leaves_the_running_episode_unchanged(make, options, field):
     env, ref = make(ROLL, randomization="full"), make(ROLL, randomization="full")
     for e in (env, ref):
@@ -132,10 +160,13 @@ def test_fresh_env_with_failed_first_reset_says_reset_is_needed(make):
 
 
 # ---- physics edge cases --------------------------------------------------------------------------
-@pytest.mark.parametrize("friction_model, joint", [
-    ({"law": "viscous", "params": {"c": 300.0}}, "steer"),
-    ({"drive": {"law": "viscous", "params": {"c": 300.0}}}, "drive"),
-])
+@pytest.mark.parametrize(
+    "friction_model, joint",
+    [
+        ({"law": "viscous", "params": {"c": 300.0}}, "steer"),
+        ({"drive": {"law": "viscous", "params": {"c": 300.0}}}, "drive"),
+    ],
+)
 def test_friction_that_diverges_at_the_time_step_is_refused(friction_model, joint):
     with pytest.raises(ValueError, match=f"friction_model: {joint} joint damping 30[0-9.]* N m s/rad .*allowed: <="):
         gym.make(ROLL, friction_model=friction_model)
@@ -165,7 +196,9 @@ def test_injected_shell_too_stiff_for_the_step_is_refused(tmp_path):
     data["omega_n"].update(intercept_rad_s=300.0, slope_rad_s_per_kpa=0.0)
     path = tmp_path / "stiff.yaml"
     path.write_text(yaml.safe_dump(data))
-    with pytest.raises(ValueError, match=r"calibration: omega_n reaches 300 .*allowed at time_step_s=0.005 s: omega_n <= 200"):
+    with pytest.raises(
+        ValueError, match=r"calibration: omega_n reaches 300 .*allowed at time_step_s=0.005 s: omega_n <= 200"
+    ):
         gym.make(ROLL, shell_model="injected", calibration=str(path))
     gym.make(ROLL, shell_model="point", calibration=str(path)).close()  # point contact ignores ω_n
 
@@ -185,12 +218,21 @@ def test_initial_position_inside_the_ground_is_refused(make):
         env.reset(options={"initial_state": {"position_m": (0.0, 0.0, -0.5)}})
 
 
-@pytest.mark.parametrize("init", [{"angular_velocity_rad_s": (0.0, 5e3, 0.0)}, {"velocity_m_s": (0.0, 0.0, -1e300)},
-                                  {"theta_dot": 501.0}, {"drive_rate": -1e150}])
+@pytest.mark.parametrize(
+    "init",
+    [
+        {"angular_velocity_rad_s": (0.0, 5e3, 0.0)},
+        {"velocity_m_s": (0.0, 0.0, -1e300)},
+        {"theta_dot": 501.0},
+        {"drive_rate": -1e150},
+    ],
+)
 def test_initial_rates_beyond_the_failure_limits_are_refused(make, init):
     env = make(ROLL)
     env.reset(seed=0)
-    with pytest.raises(ValueError, match=fr"field 'options.initial_state.{next(iter(init))}(\[\d\])?' = .*allowed: .*physics failure"):
+    with pytest.raises(
+        ValueError, match=rf"field 'options.initial_state.{next(iter(init))}(\[\d\])?' = .*allowed: .*physics failure"
+    ):
         env.reset(options={"initial_state": init})
 
 
@@ -199,8 +241,10 @@ def test_observation_noise_scale_is_bounded():
         gym.make(ROLL, observation_noise_scale=1e40)
 
 
-@pytest.mark.parametrize("action", [np.array([0.1 + 1j, 0.0]), ["0.1", "0.2"], np.array(["1", "0"]),
-                                    [True, False], [0.1, None], "ab", {"steer": 0.1}])
+@pytest.mark.parametrize(
+    "action",
+    [np.array([0.1 + 1j, 0.0]), ["0.1", "0.2"], np.array(["1", "0"]), [True, False], [0.1, None], "ab", {"steer": 0.1}],
+)
 def test_non_real_actions_are_refused(make, action):
     env = make(ROLL)
     env.reset(seed=0)

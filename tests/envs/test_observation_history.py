@@ -7,8 +7,13 @@ import pytest
 import sphere_env  # noqa: F401
 
 ENV_ID = "sphere_env/RampDescent-v3"
-KW = dict(shell_model="point", observe_tracking_state=True, observe_pressure=True, observe_shell_model=True,
-          randomization="off")
+KW = dict(
+    shell_model="point",
+    observe_tracking_state=True,
+    observe_pressure=True,
+    observe_shell_model=True,
+    randomization="off",
+)
 
 
 def test_history_holds_the_earlier_observations_and_actions_most_recent_first():
@@ -21,8 +26,8 @@ def test_history_holds_the_earlier_observations_and_actions_most_recent_first():
     rng = np.random.default_rng(1)
     for _ in range(6):
         hist = obs[layout.history]
-        assert np.array_equal(hist[:n_own * k].reshape(k, n_own), np.array(seen[-k:][::-1]))
-        assert np.array_equal(hist[n_own * k:].reshape(k, 2), np.array(sent[-k:][::-1]))
+        assert np.array_equal(hist[: n_own * k].reshape(k, n_own), np.array(seen[-k:][::-1]))
+        assert np.array_equal(hist[n_own * k :].reshape(k, 2), np.array(sent[-k:][::-1]))
         action = rng.uniform(-0.5, 0.5, 2).astype(np.float32)
         seen.append(obs[layout.own].copy())
         sent.append(action)

@@ -51,23 +51,39 @@ ACTION_SEED = 11
 STEPS = 60
 #: Every randomized parameter (the ``full`` preset) and every sensing and actuation fault at once; the
 #: motor torque scale is drawn again every 0.3 s (interval events).
-FAULTS = {"base": "full", "observation_noise_scale": 1.0, "action_latency_steps": 1,
-          "motor_torque_scale": {"distribution": "uniform", "low": 0.8, "high": 1.0, "mode": "interval",
-                                 "interval_s": 0.3}}
+FAULTS = {
+    "base": "full",
+    "observation_noise_scale": 1.0,
+    "action_latency_steps": 1,
+    "motor_torque_scale": {"distribution": "uniform", "low": 0.8, "high": 1.0, "mode": "interval", "interval_s": 0.3},
+}
 
 
 def _cases() -> dict[str, dict[str, Any]]:
     cases = {}
     for env_id in sphere_env.ENV_IDS:
         for shell in ("point", "injected"):
-            cases[f"{env_id.split('/')[-1]}_{shell}"] = {"env_id": env_id, "kwargs": {"shell_model": shell},
-                                                         "steps": STEPS}
+            cases[f"{env_id.split('/')[-1]}_{shell}"] = {
+                "env_id": env_id,
+                "kwargs": {"shell_model": shell},
+                "steps": STEPS,
+            }
     cases["RampDescent-v3_injected_faults"] = {
-        "env_id": "sphere_env/RampDescent-v3", "steps": STEPS,
-        "kwargs": {"shell_model": "injected", "randomization": FAULTS, "observation_history_steps": 2,
-                   "observe_pressure": True, "observe_shell_model": True}}
-    cases["Roll-v1_hydroelastic"] = {"env_id": "sphere_env/Roll-v1", "kwargs": {"shell_model": "hydroelastic"},
-                                     "steps": 20}
+        "env_id": "sphere_env/RampDescent-v3",
+        "steps": STEPS,
+        "kwargs": {
+            "shell_model": "injected",
+            "randomization": FAULTS,
+            "observation_history_steps": 2,
+            "observe_pressure": True,
+            "observe_shell_model": True,
+        },
+    }
+    cases["Roll-v1_hydroelastic"] = {
+        "env_id": "sphere_env/Roll-v1",
+        "kwargs": {"shell_model": "hydroelastic"},
+        "steps": 20,
+    }
     return cases
 
 
@@ -112,15 +128,18 @@ def run_case(case: dict[str, Any]) -> dict[str, np.ndarray]:
         env.close()
     infos = [_flatten(s[5]) for s in steps]
     names = sorted(set().union(*(numeric for numeric, _ in infos)))
-    return {"action": np.array([s[0] for s in steps], dtype=np.float64),
-           "observation": np.array([s[1] for s in steps], dtype=np.float64),
-           "reward": np.array([s[2] for s in steps], dtype=np.float64),
-           "terminated": np.array([s[3] for s in steps]), "truncated": np.array([s[4] for s in steps]),
-           # an entry absent from a step's info is NaN there; which are present is in info_present
-           "info_names": np.array(names),
-           "info": np.array([[numeric.get(k, np.nan) for k in names] for numeric, _ in infos], dtype=np.float64),
-           "info_present": np.array([[k in numeric for k in names] for numeric, _ in infos]),
-           "info_other": np.array([json.dumps(other, sort_keys=True, default=str) for _, other in infos])}
+    return {
+        "action": np.array([s[0] for s in steps], dtype=np.float64),
+        "observation": np.array([s[1] for s in steps], dtype=np.float64),
+        "reward": np.array([s[2] for s in steps], dtype=np.float64),
+        "terminated": np.array([s[3] for s in steps]),
+        "truncated": np.array([s[4] for s in steps]),
+        # an entry absent from a step's info is NaN there; which are present is in info_present
+        "info_names": np.array(names),
+        "info": np.array([[numeric.get(k, np.nan) for k in names] for numeric, _ in infos], dtype=np.float64),
+        "info_present": np.array([[k in numeric for k in names] for numeric, _ in infos]),
+        "info_other": np.array([json.dumps(other, sort_keys=True, default=str) for _, other in infos]),
+    }
 
 
 def record(names: list[str]) -> None:
@@ -131,14 +150,17 @@ def record(names: list[str]) -> None:
             continue
         path = DATA / f"{name}.npz"
         np.savez_compressed(path, **run_case(case))
-        print(f"{path.relative_to(Path.cwd()) if path.is_relative_to(Path.cwd()) else path}: "
-              f"{path.stat().st_size / 1e3:.1f} kB")
+        print(
+            f"{path.relative_to(Path.cwd()) if path.is_relative_to(Path.cwd()) else path}: "
+            f"{path.stat().st_size / 1e3:.1f} kB"
+        )
 
 
 def _added_at_nominal(now: dict[str, np.ndarray], recorded: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``now`` without the ``params/<name>`` entries the recording lacks whose ``<name>`` is a
     registry parameter holding its nominal value at every step (a parameter added since the
     recording, left at its nominal value)."""
+
     def nominal(key: str, values) -> bool:
         name = key.removeprefix("params/").split("[")[0]
         if not key.startswith("params/") or name not in PARAMETERS:
@@ -156,8 +178,13 @@ def _added_at_nominal(now: dict[str, np.ndarray], recorded: dict[str, np.ndarray
         for key in [k for k in entries if k not in old_other and nominal(k, [entries[k]])]:
             del entries[key]
         other.append(json.dumps(entries, sort_keys=True))
-    return {**now, "info_names": now["info_names"][keep], "info": now["info"][:, keep],
-            "info_present": now["info_present"][:, keep], "info_other": np.array(other)}
+    return {
+        **now,
+        "info_names": now["info_names"][keep],
+        "info": now["info"][:, keep],
+        "info_present": now["info_present"][:, keep],
+        "info_other": np.array(other),
+    }
 
 
 #: What each step is compared on, in this order.
@@ -173,9 +200,12 @@ def test_an_entry_the_recording_lacks_is_left_out_only_at_its_parameters_nominal
     recorded = {"info_names": np.array(["params/pressure_kpa"]), "info_other": np.array(["{}"])}
 
     def now(offset: float) -> dict[str, np.ndarray]:
-        return {"info_names": np.array(["params/pressure_kpa", "params/steer_friction_scale", "theta"]),
-                "info": np.array([[8.0, 1.0, 0.1], [8.0, offset, 0.2]]),
-                "info_present": np.ones((2, 3), bool), "info_other": np.array(["{}", "{}"])}
+        return {
+            "info_names": np.array(["params/pressure_kpa", "params/steer_friction_scale", "theta"]),
+            "info": np.array([[8.0, 1.0, 0.1], [8.0, offset, 0.2]]),
+            "info_present": np.ones((2, 3), bool),
+            "info_other": np.array(["{}", "{}"]),
+        }
 
     assert list(_added_at_nominal(now(1.0), recorded)["info_names"]) == ["params/pressure_kpa", "theta"]
     assert list(_added_at_nominal(now(1.5), recorded)["info_names"]) == list(now(1.5)["info_names"])
@@ -191,11 +221,13 @@ def test_rollout_is_bit_identical_to_the_recording(name):
         recorded = dict(f)
     now = _added_at_nominal(run_case(case), recorded)
     where = f"{case['env_id']} with {case['kwargs']} (case {name})"
-    assert len(now["reward"]) == len(recorded["reward"]), \
+    assert len(now["reward"]) == len(recorded["reward"]), (
         f"{where}: the episode prefix has {len(now['reward']) - 1} steps, recorded {len(recorded['reward']) - 1}"
+    )
     names = list(recorded["info_names"])
-    assert list(now["info_names"]) == names, \
+    assert list(now["info_names"]) == names, (
         f"{where}: numeric info entries differ: {sorted(set(now['info_names']) ^ set(names))}"
+    )
     for t in range(len(recorded["reward"])):
         for comp in COMPONENTS:
             a, b = recorded[comp][t], now[comp][t]

@@ -32,8 +32,9 @@ def _fuzzed_action(rng):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("env_id, shell_model", [("sphere_env/RampDescent-v0", "injected"),
-                                                 ("sphere_env/Roll-v0", "point")])
+@pytest.mark.parametrize(
+    "env_id, shell_model", [("sphere_env/RampDescent-v0", "injected"), ("sphere_env/Roll-v0", "point")]
+)
 def test_fuzzed_actions_never_crash(env_id, shell_model):
     """NaN/inf actions raise ValueError naming the action; everything else is clipped and stepped,
     with finite observations and rewards."""

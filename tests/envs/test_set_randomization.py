@@ -27,10 +27,12 @@ def test_set_randomization_takes_effect_at_the_next_reset_and_bad_specs_change_n
     assert info["pressure_kpa"] == 7.5
 
     spec = env.unwrapped.randomization
-    for bad, field in (({"pressure_kpa": [1.0, 50.0]}, "randomization: field 'pressure_kpa'"),
-                       ({"ground_friction": [0.9, 0.5]}, "randomization: field 'ground_friction'"),
-                       ({"no_such_parameter": 1.0}, "randomization: unknown field 'no_such_parameter'"),
-                       ("fancy", "randomization: field 'base' = 'fancy'")):
+    for bad, field in (
+        ({"pressure_kpa": [1.0, 50.0]}, "randomization: field 'pressure_kpa'"),
+        ({"ground_friction": [0.9, 0.5]}, "randomization: field 'ground_friction'"),
+        ({"no_such_parameter": 1.0}, "randomization: unknown field 'no_such_parameter'"),
+        ("fancy", "randomization: field 'base' = 'fancy'"),
+    ):
         with pytest.raises(ValueError, match=rf"^{field}"):
             env.unwrapped.set_randomization(bad)
         assert env.unwrapped.randomization is spec
@@ -47,7 +49,9 @@ def test_randomization_kwarg_and_method_share_one_validation():
     """The same spec gives the same resolved value and the same error either way."""
     env = gym.make(RAMP, shell_model="point").unwrapped
     good = {"pressure_kpa": {"distribution": "uniform"}, "ground_friction": [0.8, 1.0]}
-    assert env.set_randomization(good) == gym.make(RAMP, shell_model="point", randomization=good).unwrapped.randomization
+    assert (
+        env.set_randomization(good) == gym.make(RAMP, shell_model="point", randomization=good).unwrapped.randomization
+    )
     bad = {"pressure_kpa": [3.0, 20.0]}
     with pytest.raises(ValueError) as from_kwarg:
         gym.make(RAMP, shell_model="point", randomization=bad)
@@ -63,8 +67,12 @@ def _vec_envs():
     from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv
 
     fns = [partial(make_env, RAMP, {"shell_model": "point"}, seed) for seed in (0, 1)]
-    return {"dummy": lambda: DummyVecEnv(fns), "threaded": lambda: ThreadedVecEnv(fns, 2),
-            "subproc": lambda: SubprocVecEnv(fns), "batched": lambda: BatchedSubprocVecEnv(fns, 2)}
+    return {
+        "dummy": lambda: DummyVecEnv(fns),
+        "threaded": lambda: ThreadedVecEnv(fns, 2),
+        "subproc": lambda: SubprocVecEnv(fns),
+        "batched": lambda: BatchedSubprocVecEnv(fns, 2),
+    }
 
 
 @pytest.mark.slow

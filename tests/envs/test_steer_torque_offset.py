@@ -54,8 +54,11 @@ def test_the_offset_is_randomized_in_every_mode():
     drawn = {_run(reset, (0.0, 0.0), n=1, seed=s)[1][0]["params"][NAME] for s in range(4)}
     assert len(drawn) == 4 and all(-2.0 <= v <= 2.0 for v in drawn)
 
-    interval = gym.make(ENV, shell_model="point", randomization={
-        NAME: {"low": -2.0, "high": 2.0, "mode": "interval", "interval_s": 0.2}})
+    interval = gym.make(
+        ENV,
+        shell_model="point",
+        randomization={NAME: {"low": -2.0, "high": 2.0, "mode": "interval", "interval_s": 0.2}},
+    )
     _, infos = _run(interval, (0.0, 0.0), n=25)
     assert len({i["params"][NAME] for i in infos}) == 3  # at reset, 0.2 s and 0.4 s
     # a step's torque takes the offset in force when it starts (before that step's events)
@@ -68,12 +71,18 @@ def test_the_offset_is_randomized_in_every_mode():
     assert "schedule:steer_torque_offset_nm" in infos[2]["events"]
 
 
-@pytest.mark.parametrize("where, value, needle", [
-    ("randomization", 6.0, "randomization: field 'steer_torque_offset_nm' = 6.0: Input should be less than or equal "
-                           "to 5; allowed:"),
-    ("randomization", [-9.0, 0.0], "randomization: field 'steer_torque_offset_nm[0]' = -9.0"),
-    ("options", -5.5, "field 'options.steer_torque_offset_nm' = -5.5: Input should be greater than or equal to -5"),
-])
+@pytest.mark.parametrize(
+    "where, value, needle",
+    [
+        (
+            "randomization",
+            6.0,
+            "randomization: field 'steer_torque_offset_nm' = 6.0: Input should be less than or equal to 5; allowed:",
+        ),
+        ("randomization", [-9.0, 0.0], "randomization: field 'steer_torque_offset_nm[0]' = -9.0"),
+        ("options", -5.5, "field 'options.steer_torque_offset_nm' = -5.5: Input should be greater than or equal to -5"),
+    ],
+)
 def test_an_offset_out_of_bounds_is_refused_by_name(where, value, needle):
     env = gym.make(ENV, shell_model="point")
     with pytest.raises(ValueError, match=re.escape(needle)):

@@ -7,8 +7,16 @@ import pytest
 
 TINY = {
     "ppo": {"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128},
-    "sac": {"n_envs": 1, "learning_starts": 32, "buffer_size": 1000, "batch_size": 32, "train_freq": 8,
-            "gradient_steps": 1, "policy_kwargs": {"net_arch": [32, 32]}, "n_timesteps": 96},
+    "sac": {
+        "n_envs": 1,
+        "learning_starts": 32,
+        "buffer_size": 1000,
+        "batch_size": 32,
+        "train_freq": 8,
+        "gradient_steps": 1,
+        "policy_kwargs": {"net_arch": [32, 32]},
+        "n_timesteps": 96,
+    },
 }
 
 
@@ -16,8 +24,12 @@ def tiny_run(tmp_path_factory, algo: str):
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
 
-    cfg = resolve_config("sphere_env/RampDescent-v2", algo,
-                         overrides={**TINY[algo], "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
+    cfg = resolve_config(
+        "sphere_env/RampDescent-v2",
+        algo,
+        overrides={**TINY[algo], "env_kwargs": {"shell_model": "point"}},
+        eval_episodes=1,
+    )
     return train(cfg, tmp_path_factory.mktemp(f"tiny_{algo}") / "run", progress_bar=False)
 
 
@@ -37,6 +49,5 @@ def tiny_recipe_run(tmp_path_factory):
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
 
-    cfg = resolve_config("sphere_env/RampDescent-v3", "ppo", overrides={**TINY["ppo"], "n_workers": 1},
-                         eval_episodes=1)
+    cfg = resolve_config("sphere_env/RampDescent-v3", "ppo", overrides={**TINY["ppo"], "n_workers": 1}, eval_episodes=1)
     return train(cfg, tmp_path_factory.mktemp("tiny_recipe") / "run", progress_bar=False)

@@ -12,7 +12,19 @@ from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import train
 
-GRID = ["--env", "sphere_env/RampDescent-v2", "--pressure-kpa", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1", "--replay"]
+GRID = [
+    "--env",
+    "sphere_env/RampDescent-v2",
+    "--pressure-kpa",
+    "8.5",
+    "--shell-models",
+    "point",
+    "--seeds",
+    "0",
+    "--workers",
+    "1",
+    "--replay",
+]
 
 
 def three_actions(obs, info=None):
@@ -35,9 +47,19 @@ class FailsLater:
 
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
-    cfg = resolve_config("sphere_env/RampDescent-v2", "ppo",
-                         overrides={"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 32,
-                                    "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
+    cfg = resolve_config(
+        "sphere_env/RampDescent-v2",
+        "ppo",
+        overrides={
+            "n_envs": 1,
+            "n_steps": 32,
+            "batch_size": 32,
+            "n_epochs": 1,
+            "n_timesteps": 32,
+            "env_kwargs": {"shell_model": "point"},
+        },
+        eval_episodes=1,
+    )
     return train(cfg, tmp_path_factory.mktemp("tiny") / "run", progress_bar=False)
 
 
@@ -51,26 +73,32 @@ def _refused(capsys, argv, *needles):
     return err
 
 
-@pytest.mark.parametrize("text, needle", [
-    ("{shell_model: point}", "env_kwargs.shell_model"),
-    ("{randomization: full}", "env_kwargs.randomization"),
-    ("{observation_noise_scale: 0.1, observation_noise_scale: 0.2}", "given twice"),
-    ("{a: [1, 2", "not valid YAML"),
-    ("[1, 2]", "must be a YAML mapping"),
-    ("{no_such_kwarg: 1}", "no_such_kwarg"),
-])
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ("{shell_model: point}", "env_kwargs.shell_model"),
+        ("{randomization: full}", "env_kwargs.randomization"),
+        ("{observation_noise_scale: 0.1, observation_noise_scale: 0.2}", "given twice"),
+        ("{a: [1, 2", "not valid YAML"),
+        ("[1, 2]", "must be a YAML mapping"),
+        ("{no_such_kwarg: 1}", "no_such_kwarg"),
+    ],
+)
 def test_bad_env_kwargs_refused(tmp_path, capsys, text, needle):
     _refused(capsys, ["--controller", "zero", "--env-kwargs", text, "--out", str(tmp_path / "o"), *GRID], needle)
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--seeds", "-1"], "seeds"),
-    (["--replay", "zero,point,99"], "field 'replays[0].pressure_kpa'"),
-    (["--replay", "zero,point,x"], "replay"),
-    (["--pme-reference", "jelly"], "pme_reference"),
-    (["--workers", "0"], "workers"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--seeds", "-1"], "seeds"),
+        (["--replay", "zero,point,99"], "field 'replays[0].pressure_kpa'"),
+        (["--replay", "zero,point,x"], "replay"),
+        (["--pme-reference", "jelly"], "pme_reference"),
+        (["--workers", "0"], "workers"),
+    ],
+)
 def test_bad_sweep_arguments_refused_before_the_sweep(tmp_path, capsys, argv, needle):
     _refused(capsys, ["--controller", "zero", "--out", str(tmp_path / "o"), *GRID, *argv], needle)
     assert not (tmp_path / "o").exists()
@@ -82,8 +110,12 @@ def test_parse_env_kwargs_accepts_a_mapping():
 
 
 def test_wrong_action_shape_refused(tmp_path, capsys):
-    _refused(capsys, ["--controller", "tests.evaluation.test_eval_cli:three_actions", "--out", str(tmp_path / "o"),
-                      *GRID], "three_actions", "shape (3,)")
+    _refused(
+        capsys,
+        ["--controller", "tests.evaluation.test_eval_cli:three_actions", "--out", str(tmp_path / "o"), *GRID],
+        "three_actions",
+        "shape (3,)",
+    )
     assert not (tmp_path / "o").exists()
 
 
@@ -117,16 +149,29 @@ def test_missing_vecnormalize_refused(tiny_run, tmp_path, capsys):
 
 
 def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys):
-    _refused(capsys, ["--controller", str(tiny_run), *GRID, "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o")],
-             "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch")
+    _refused(
+        capsys,
+        ["--controller", str(tiny_run), *GRID, "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o")],
+        "trained on 'sphere_env/RampDescent-v2'",
+        "--allow-env-mismatch",
+    )
     assert not (tmp_path / "o").exists()
-    SweepSpec(controllers=[str(tiny_run)], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
-              shell_models=["point"], seeds=[0]).check()
+    SweepSpec(
+        controllers=[str(tiny_run)],
+        env_id="sphere_env/RampDescent-v2",
+        pressures_kpa=[8.5],
+        shell_models=["point"],
+        seeds=[0],
+    ).check()
 
 
 def test_failure_after_validation_leaves_nothing(tmp_path):
-    spec = SweepSpec(controllers=["late=tests.evaluation.test_eval_cli:FailsLater"], pressures_kpa=[8.5],
-                     shell_models=["point"], seeds=[0])
+    spec = SweepSpec(
+        controllers=["late=tests.evaluation.test_eval_cli:FailsLater"],
+        pressures_kpa=[8.5],
+        shell_models=["point"],
+        seeds=[0],
+    )
     with pytest.raises(RuntimeError, match="mid-episode"):
         evaluate(spec, tmp_path / "new" / "o", workers=1, replays=[])
     assert not (tmp_path / "new").exists()
@@ -141,13 +186,21 @@ def test_failure_after_validation_leaves_nothing(tmp_path):
 
 def test_reused_out_holds_only_the_latest_sweep(tmp_path):
     out = tmp_path / "o"
-    evaluate(SweepSpec(controllers=["zero"], pressures_kpa=[8.5], shell_models=["point", "injected"], seeds=[0]),
-             out, workers=1, replays=[])
+    evaluate(
+        SweepSpec(controllers=["zero"], pressures_kpa=[8.5], shell_models=["point", "injected"], seeds=[0]),
+        out,
+        workers=1,
+        replays=[],
+    )
     assert (out / "pme.csv").exists() and (out / "plots" / "pme.png").exists()
     (out / "notes.txt").write_text("mine")  # not the sweep's: kept
     earlier = out.stat().st_ino
-    res = evaluate(SweepSpec(controllers=["pd"], pressures_kpa=[8.5], shell_models=["point"], seeds=[0]),
-                   out, workers=1, replays=[])
+    res = evaluate(
+        SweepSpec(controllers=["pd"], pressures_kpa=[8.5], shell_models=["point"], seeds=[0]),
+        out,
+        workers=1,
+        replays=[],
+    )
     # the new set came in as one folder (a swap, never file by file), and nothing is left beside it
     assert out.stat().st_ino != earlier
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o"]
@@ -160,13 +213,27 @@ def test_reused_out_holds_only_the_latest_sweep(tmp_path):
 def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baselines(tmp_path_factory):
     """A policy trained with ``observe_tracking_state`` (18 observations) is checked and run in an env
     built with its training kwargs, while the PD runs in the sweep's plain env (16)."""
-    cfg = resolve_config("sphere_env/RampDescent-v2", "ppo",
-                         overrides={"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 32,
-                                    "env_kwargs": {"shell_model": "point", "observe_tracking_state": True}},
-                         eval_episodes=1)
+    cfg = resolve_config(
+        "sphere_env/RampDescent-v2",
+        "ppo",
+        overrides={
+            "n_envs": 1,
+            "n_steps": 32,
+            "batch_size": 32,
+            "n_epochs": 1,
+            "n_timesteps": 32,
+            "env_kwargs": {"shell_model": "point", "observe_tracking_state": True},
+        },
+        eval_episodes=1,
+    )
     run = train(cfg, tmp_path_factory.mktemp("tracking") / "run", progress_bar=False)
-    spec = SweepSpec(controllers=["pd", f"ppo={run}"], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
-                     shell_models=["point"], seeds=[0])
+    spec = SweepSpec(
+        controllers=["pd", f"ppo={run}"],
+        env_id="sphere_env/RampDescent-v2",
+        pressures_kpa=[8.5],
+        shell_models=["point"],
+        seeds=[0],
+    )
     spec.check()
     res = evaluate(spec, tmp_path_factory.mktemp("o") / "o", workers=1, replays=[])
     rows = {a["controller"]: a for a in res["agg_controller"]}

@@ -27,8 +27,11 @@ def recorded_observations(env_kwargs) -> np.ndarray:
     random actions, two shell models, pressures between the calibration points."""
     out = []
     rng = np.random.default_rng(7)
-    for shell, pressure, seed, kind in (("injected", 5.5, 21, "pd"), ("hydroelastic", 11.0, 22, "random"),
-                                        ("point", 7.0, 23, "random")):
+    for shell, pressure, seed, kind in (
+        ("injected", 5.5, 21, "pd"),
+        ("hydroelastic", 11.0, 22, "random"),
+        ("point", 7.0, 23, "random"),
+    ):
         env = gym.make(ENV, shell_model=shell, randomization="off", **env_kwargs)
         pd = controller_for(env, "pd")
         obs, info = env.reset(seed=seed, options={"pressure_kpa": pressure})
@@ -76,7 +79,7 @@ def test_exported_policy_gives_the_sb3_actions(request, tmp_path, algo, fmt):
     assert got.shape == expected.shape == (len(obs), 2) and got.dtype == np.float32
     assert np.max(np.abs(got - expected)) < 1e-5
     # One observation at a time, as on the robot.
-    single = np.concatenate([run_file(res["policy"], fmt, obs[i:i + 1]) for i in range(0, len(obs), 17)])
+    single = np.concatenate([run_file(res["policy"], fmt, obs[i : i + 1]) for i in range(0, len(obs), 17)])
     assert np.max(np.abs(single - expected[::17])) < 1e-5
     # The test can fail: the actions vary, and the statistics change them (they are folded in).
     assert np.std(expected, axis=0).min() > 1e-4
@@ -91,10 +94,17 @@ def test_layout_file_describes_the_env(tiny_ppo_run, tmp_path):
     u = env.unwrapped
     assert [o["name"] for o in layout["observation"]] == list(u.observation_layout.names)
     assert all(o["unit"] for o in layout["observation"])
-    assert all(o["from_sensors"]["computation"] and o["from_sensors"]["unit"] == o["unit"] for o in layout["observation"])
+    assert all(
+        o["from_sensors"]["computation"] and o["from_sensors"]["unit"] == o["unit"] for o in layout["observation"]
+    )
     assert [a["torque_limit_nm"] for a in layout["action"]] == [u.steer_torque_limit_nm, u.drive_torque_limit_nm]
     assert layout["control_frequency_hz"] == pytest.approx(1.0 / u.control_period_s)
-    assert (layout["env_id"], layout["shell_model"], layout["algo"], layout["file"]) == (ENV, "point", "ppo", "policy.pt")
+    assert (layout["env_id"], layout["shell_model"], layout["algo"], layout["file"]) == (
+        ENV,
+        "point",
+        "ppo",
+        "policy.pt",
+    )
     with open(tiny_ppo_run / "vecnormalize.pkl", "rb") as f:
         rms = pickle.load(f).obs_rms
     assert [o["normalization_mean"] for o in layout["observation"]] == pytest.approx(rms.mean.tolist(), rel=1e-12)
@@ -107,19 +117,24 @@ def test_action_layout_is_what_step_applies():
     env.reset(seed=0)
     action = np.array([0.5, -0.25], np.float32)
     _, _, _, _, info = env.step(action)
-    expected = [rec["joint_torque_sign"] * a * rec["torque_limit_nm"] for rec, a in zip(env.unwrapped.action_layout(), action)]
+    expected = [
+        rec["joint_torque_sign"] * a * rec["torque_limit_nm"] for rec, a in zip(env.unwrapped.action_layout(), action)
+    ]
     assert info["motor_torque_nm"] == pytest.approx(expected) and expected == pytest.approx([7.5, 5.5])
     env.close()
 
 
-@pytest.mark.parametrize("case, needles", [
-    ("format", ["field 'format' = 'tflite'", "onnx", "torchscript"]),
-    ("out_file", ["field 'out'", "is a file"]),
-    ("tol", ["field 'tol' = -1"]),
-    ("tiny_tol", ["check:", "nothing written"]),
-    ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
-    ("other_env", ["env:", "--allow-env-mismatch"]),
-])
+@pytest.mark.parametrize(
+    "case, needles",
+    [
+        ("format", ["field 'format' = 'tflite'", "onnx", "torchscript"]),
+        ("out_file", ["field 'out'", "is a file"]),
+        ("tol", ["field 'tol' = -1"]),
+        ("tiny_tol", ["check:", "nothing written"]),
+        ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
+        ("other_env", ["env:", "--allow-env-mismatch"]),
+    ],
+)
 def test_bad_export_refused_with_nothing_written(tiny_ppo_run, tmp_path, capsys, case, needles):
     run = str(tiny_ppo_run)
     (tmp_path / "file").write_text("keep")
@@ -128,9 +143,14 @@ def test_bad_export_refused_with_nothing_written(tiny_ppo_run, tmp_path, capsys,
         run = str(tmp_path / "copy")
         shutil.copytree(tiny_ppo_run, run)
         (tmp_path / "copy" / "vecnormalize.pkl").unlink()
-    argv = {"format": [run, "--format", "tflite", *out], "out_file": [run, "--out", str(tmp_path / "file" / "x")],
-            "tol": [run, "--tol", "-1", *out], "tiny_tol": [run, "--tol", "1e-30", *out],
-            "no_vecnormalize": [run, *out], "other_env": [run, "--env", "sphere_env/Roll-v1", *out]}[case]
+    argv = {
+        "format": [run, "--format", "tflite", *out],
+        "out_file": [run, "--out", str(tmp_path / "file" / "x")],
+        "tol": [run, "--tol", "-1", *out],
+        "tiny_tol": [run, "--tol", "1e-30", *out],
+        "no_vecnormalize": [run, *out],
+        "other_env": [run, "--env", "sphere_env/Roll-v1", *out],
+    }[case]
     with pytest.raises(SystemExit) as exc:
         export_main(argv)
     assert exc.value.code == 2

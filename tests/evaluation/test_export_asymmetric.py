@@ -27,8 +27,13 @@ def test_the_exported_actor_takes_the_robot_observation_only(tiny_recipe_run, tm
     model = algo_class("ppo").load(tiny_recipe_run / "model.zip", device="cpu")
     with open(tiny_recipe_run / "vecnormalize.pkl", "rb") as f:
         vn = pickle.load(f)
-    env = gym.make("sphere_env/RampDescent-v3", shell_model="hydroelastic", randomization="off",
-                   observe_pressure=True, observe_shell_model=True)
+    env = gym.make(
+        "sphere_env/RampDescent-v3",
+        shell_model="hydroelastic",
+        randomization="off",
+        observe_pressure=True,
+        observe_shell_model=True,
+    )
     obs, _ = env.reset(seed=3, options={"pressure_kpa": 9.0})
     rows = [obs]
     rng = np.random.default_rng(0)
@@ -41,19 +46,25 @@ def test_the_exported_actor_takes_the_robot_observation_only(tiny_recipe_run, tm
     got = run_exported(res["policy"], fmt, full[:, : len(names)])
     np.testing.assert_allclose(got, expected, atol=1e-5)
     other = full.copy()
-    other[:, len(names):] = [3.0, 1.0, 0.0, 0.0]  # another pressure and shell: the actor ignores them
+    other[:, len(names) :] = [3.0, 1.0, 0.0, 0.0]  # another pressure and shell: the actor ignores them
     np.testing.assert_allclose(model.predict(vn.normalize_obs(other), deterministic=True)[0], expected, atol=1e-6)
 
 
 @pytest.mark.parametrize("fmt", ["torchscript", "onnx"])
-def test_a_non_finite_observation_gets_zero_torque_from_the_file_and_an_error_from_python(tiny_recipe_run, tmp_path,
-                                                                                          fmt):
+def test_a_non_finite_observation_gets_zero_torque_from_the_file_and_an_error_from_python(
+    tiny_recipe_run, tmp_path, fmt
+):
     from sphere_env.evaluation.controller_specs import PolicyController
 
     res = export(str(tiny_recipe_run), fmt, tmp_path / fmt)
     n = json.loads(res["layout"].read_text())["input"]["shape"][1]
-    env = gym.make("sphere_env/RampDescent-v3", shell_model="point", randomization="off",
-                   observe_pressure=True, observe_shell_model=True)
+    env = gym.make(
+        "sphere_env/RampDescent-v3",
+        shell_model="point",
+        randomization="off",
+        observe_pressure=True,
+        observe_shell_model=True,
+    )
     obs, _ = env.reset(seed=0)
     env.close()
     rows = np.repeat(obs[None, :n], 3, axis=0)

@@ -13,9 +13,29 @@ from tests.processes import alive, descendants
 
 def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
     out = tmp_path / "eval"
-    cmd = [sys.executable, "-m", "sphere_env.evaluation.evaluate", "--controller", "pd", "zero",
-           "--shell-models", "hydroelastic", "--pressure-kpa", "3", "8.5", "14", "--seeds", "0", "1", "2",
-           "--workers", "2", "--out", str(out), "--replay"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "sphere_env.evaluation.evaluate",
+        "--controller",
+        "pd",
+        "zero",
+        "--shell-models",
+        "hydroelastic",
+        "--pressure-kpa",
+        "3",
+        "8.5",
+        "14",
+        "--seeds",
+        "0",
+        "1",
+        "2",
+        "--workers",
+        "2",
+        "--out",
+        str(out),
+        "--replay",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     workers: set[int] = set()

@@ -46,11 +46,18 @@ def test_pme_rows_pairs_models_in_both_directions():
 
 def test_episode_metrics_hand_values():
     tr = {
-        "t_s": np.array([0.02, 0.04, 0.06]), "omega_d": np.array([1.0, 2.0, 3.0]),
-        "omega_ref": np.array([2.0, 2.0, 2.0]), "x_m": np.zeros(3), "y_m": np.array([0.0, -0.3, 0.1]),
-        "z_m": np.zeros(3), "tau_steer_nm": np.array([1.0, -2.0, 0.0]), "tau_drive_nm": np.array([0.0, 5.0, -10.0]),
-        "theta_dot": np.array([2.0, 1.0, 0.0]), "drive_rate": np.array([0.0, -1.0, 0.5]),
-        "on_ramp": np.array([1.0, 1.0, 0.0]), "reward": np.zeros(3),
+        "t_s": np.array([0.02, 0.04, 0.06]),
+        "omega_d": np.array([1.0, 2.0, 3.0]),
+        "omega_ref": np.array([2.0, 2.0, 2.0]),
+        "x_m": np.zeros(3),
+        "y_m": np.array([0.0, -0.3, 0.1]),
+        "z_m": np.zeros(3),
+        "tau_steer_nm": np.array([1.0, -2.0, 0.0]),
+        "tau_drive_nm": np.array([0.0, 5.0, -10.0]),
+        "theta_dot": np.array([2.0, 1.0, 0.0]),
+        "drive_rate": np.array([0.0, -1.0, 0.5]),
+        "on_ramp": np.array([1.0, 1.0, 0.0]),
+        "reward": np.zeros(3),
     }
     m = episode_metrics(tr, 0.02)
     assert m["tracking_rmse_rad_s"] == pytest.approx(np.sqrt(0.5))  # errors -1, 0 on the ramp

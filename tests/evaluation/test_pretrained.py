@@ -31,16 +31,28 @@ def test_the_shipped_policy_tracks_where_zero_torque_does_not():
     command; the shipped policy's tracking error is far below it in every episode."""
     kw = {"observe_pressure": True, "observe_shell_model": True}
     for seed in (0, 1, 2):
-        job = dict(controller="x", spec="pretrained", env_id="sphere_env/RampDescent-v3", shell_model="point",
-                   friction="majd", pressure_kpa=8.5, seed=seed, env_kwargs=kw)
+        job = dict(
+            controller="x",
+            spec="pretrained",
+            env_id="sphere_env/RampDescent-v3",
+            shell_model="point",
+            friction="majd",
+            pressure_kpa=8.5,
+            seed=seed,
+            env_kwargs=kw,
+        )
         policy_row, _ = rollout(job)
         zero_row, _ = rollout({**job, "spec": "zero", "controller": "zero"})
         assert policy_row["tracking_rmse_rad_s"] < 0.6 * zero_row["tracking_rmse_rad_s"]
 
 
 def test_evaluate_and_enjoy_take_the_shipped_policy_by_name(tmp_path):
-    res = evaluate(SweepSpec(controllers=["pretrained"], pressures_kpa=[8.5], shell_models=["injected"], seeds=[0]),
-                   tmp_path / "eval", workers=1, plots=False)
+    res = evaluate(
+        SweepSpec(controllers=["pretrained"], pressures_kpa=[8.5], shell_models=["injected"], seeds=[0]),
+        tmp_path / "eval",
+        workers=1,
+        plots=False,
+    )
     (row,) = res["rows"]
     assert row["controller"] == "pretrained" and np.isfinite(row["tracking_rmse_rad_s"])
     rows = enjoy(EnjoySpec(run="pretrained", episodes=1, shell_model="injected", pressure_kpa=8.5), say=lambda _: None)
@@ -48,8 +60,13 @@ def test_evaluate_and_enjoy_take_the_shipped_policy_by_name(tmp_path):
 
 
 def test_the_shipped_policy_acts_on_the_env_it_was_trained_for():
-    env = gym.make("sphere_env/RampDescent-v3", shell_model="hydroelastic", randomization="off",
-                   observe_pressure=True, observe_shell_model=True)
+    env = gym.make(
+        "sphere_env/RampDescent-v3",
+        shell_model="hydroelastic",
+        randomization="off",
+        observe_pressure=True,
+        observe_shell_model=True,
+    )
     ctrl = make_controller("pretrained", env)
     obs, info = env.reset(seed=0)
     a = ctrl(obs, info)

@@ -33,10 +33,22 @@ def chromium_screenshot(html, png, size=(800, 600)):
     exe = shutil.which("chromium") or shutil.which("chromium-browser")
     _need("chromium", exe is not None)
     profile = png.parent / "chromium-profile"
-    cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-           "--disable-background-networking", "--disable-component-update", "--disable-sync",
-           f"--user-data-dir={profile}", f"--window-size={size[0]},{size[1]}", "--virtual-time-budget=4000",
-           f"--screenshot={png}", html.resolve().as_uri()]
+    cmd = [
+        exe,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={profile}",
+        f"--window-size={size[0]},{size[1]}",
+        "--virtual-time-budget=4000",
+        f"--screenshot={png}",
+        html.resolve().as_uri(),
+    ]
     subprocess.run(cmd, capture_output=True, timeout=120, check=False)
     assert png.exists(), "chromium wrote no screenshot"
     return np.asarray(Image.open(png).convert("RGB")).astype(int)
@@ -44,8 +56,12 @@ def chromium_screenshot(html, png, size=(800, 600)):
 
 @pytest.mark.slow
 def test_sweep_writes_csv_report_plots_and_replay(tmp_path):
-    spec = SweepSpec(controllers=["zero", "pd", "user=tests.evaluation.test_sweep:half_brake"],
-                     pressures_kpa=[3.0, 14.0], shell_models=["point", "injected"], seeds=[0])
+    spec = SweepSpec(
+        controllers=["zero", "pd", "user=tests.evaluation.test_sweep:half_brake"],
+        pressures_kpa=[3.0, 14.0],
+        shell_models=["point", "injected"],
+        seeds=[0],
+    )
     res = evaluate(spec, tmp_path, workers=2, replays=["pd,injected,14"])
     with open(tmp_path / "episodes.csv") as f:
         rows = list(csv.DictReader(f))
@@ -72,7 +88,9 @@ def test_sweep_writes_csv_report_plots_and_replay(tmp_path):
 
 
 def test_bad_grids_refused():
-    with pytest.raises(ValueError, match=r"^field 'pressures_kpa\[0\]' = 99\.0: .*; allowed: \[3\.0, 14\.0\] kPa, the calibrated range"):
+    with pytest.raises(
+        ValueError, match=r"^field 'pressures_kpa\[0\]' = 99\.0: .*; allowed: \[3\.0, 14\.0\] kPa, the calibrated range"
+    ):
         SweepSpec(controllers=["zero"], pressures_kpa=[99.0]).check()
     with pytest.raises(ValueError, match=r"^field 'shell_models\[0\]' = 'jelly'"):
         SweepSpec(controllers=["zero"], shell_models=["jelly"]).check()
@@ -88,8 +106,9 @@ def test_ray_sweep_equals_process_pool(tmp_path):
         import ray  # noqa: F401
     except ImportError:
         _need("ray", False)
-    spec = SweepSpec(controllers=["zero", "pd"], pressures_kpa=[3.0, 14.0], shell_models=["point", "injected"],
-                     seeds=[0])
+    spec = SweepSpec(
+        controllers=["zero", "pd"], pressures_kpa=[3.0, 14.0], shell_models=["point", "injected"], seeds=[0]
+    )
     evaluate(spec, tmp_path / "pool", workers=2, replays=[], plots=False)
     evaluate(spec, tmp_path / "ray", workers=2, ray_address="local", replays=[], plots=False)
     a = (tmp_path / "pool" / "episodes.csv").read_text()

@@ -27,8 +27,9 @@ def n_frames(path) -> int:
 
 
 def _cell(controllers, **kw):
-    return SweepSpec(controllers=controllers, pressures_kpa=[8.5], shell_models=["point"], seeds=[0],
-                     env_kwargs=dict(SMALL), **kw)
+    return SweepSpec(
+        controllers=controllers, pressures_kpa=[8.5], shell_models=["point"], seeds=[0], env_kwargs=dict(SMALL), **kw
+    )
 
 
 @pytest.mark.slow
@@ -47,8 +48,14 @@ def test_evaluate_video_writes_one_mp4_per_episode_and_leaves_episodes_unchanged
 
 def test_evaluate_video_failure_leaves_no_video(tmp_path):
     with pytest.raises(RuntimeError, match="mid-episode"):
-        evaluate(_cell(["late=tests.evaluation.test_eval_cli:FailsLater"]), tmp_path / "o", workers=1, replays=[],
-                 plots=False, video=tmp_path / "new" / "videos")
+        evaluate(
+            _cell(["late=tests.evaluation.test_eval_cli:FailsLater"]),
+            tmp_path / "o",
+            workers=1,
+            replays=[],
+            plots=False,
+            video=tmp_path / "new" / "videos",
+        )
     assert list(tmp_path.iterdir()) == []
 
 
@@ -64,23 +71,38 @@ def test_evaluate_bad_video_folder_refused(tmp_path):
 
 @pytest.mark.slow
 def test_enjoy_records_the_evaluations_episodes(tiny_ppo_run, tmp_path):
-    rows = enjoy(EnjoySpec(run=str(tiny_ppo_run), episodes=2, pressure_kpa=8.5, seed=3, env_kwargs=dict(SMALL)),
-                 video=tmp_path / "videos", say=lambda _: None)
+    rows = enjoy(
+        EnjoySpec(run=str(tiny_ppo_run), episodes=2, pressure_kpa=8.5, seed=3, env_kwargs=dict(SMALL)),
+        video=tmp_path / "videos",
+        say=lambda _: None,
+    )
     names = sorted(p.name for p in (tmp_path / "videos").iterdir())
     assert names == ["run_point_8.5kPa_s3.mp4", "run_point_8.5kPa_s4.mp4"]
     for row, name in zip(rows, names):
         assert n_frames(tmp_path / "videos" / name) in (row["length"], row["length"] + 1)
-    ev = evaluate(SweepSpec(controllers=[str(tiny_ppo_run)], env_id="sphere_env/RampDescent-v2", pressures_kpa=[8.5],
-                            shell_models=["point"], seeds=[3, 4]),
-                  tmp_path / "eval", workers=1, replays=[], plots=False)
+    ev = evaluate(
+        SweepSpec(
+            controllers=[str(tiny_ppo_run)],
+            env_id="sphere_env/RampDescent-v2",
+            pressures_kpa=[8.5],
+            shell_models=["point"],
+            seeds=[3, 4],
+        ),
+        tmp_path / "eval",
+        workers=1,
+        replays=[],
+        plots=False,
+    )
     for mine, theirs in zip(rows, ev["rows"]):
         assert (mine["return"], mine["length"], mine["seed"]) == (theirs["return"], theirs["length"], theirs["seed"])
 
 
 def test_enjoy_stochastic_actions_are_seeded(tiny_ppo_run):
     def returns(seed, deterministic):
-        rows = enjoy(EnjoySpec(run=str(tiny_ppo_run), pressure_kpa=8.5, seed=seed, deterministic=deterministic),
-                     say=lambda _: None)
+        rows = enjoy(
+            EnjoySpec(run=str(tiny_ppo_run), pressure_kpa=8.5, seed=seed, deterministic=deterministic),
+            say=lambda _: None,
+        )
         return rows[0]["return"]
 
     assert returns(1, False) == returns(1, False)
@@ -98,22 +120,25 @@ def _broken_copy(run, tmp_path, remove=None, truncate=None):
     return str(copy)
 
 
-@pytest.mark.parametrize("case, needles", [
-    ("no_config", ["run:", "config.yaml"]),
-    ("no_model", ["run:", "model.zip", "is missing"]),
-    ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
-    ("truncated_model", ["run:", "model.zip", "truncated"]),
-    ("not_a_folder", ["field 'run'", "is not a folder"]),
-    ("bad_which", ["field 'run' = ", "@last", "@best"]),
-    ("no_best", ["run:", "best_model.zip"]),
-    ("other_env", ["env:", "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch"]),
-    ("shell", ["field 'shell_model' = 'jelly'"]),
-    ("pressure", ["pressure_kpa", "99"]),
-    ("episodes", ["field 'episodes' = 0"]),
-    ("seed", ["field 'seed' = -1"]),
-    ("env_kwargs", ["env_kwargs.randomization"]),
-    ("video_file", ["field 'video'", "is a file"]),
-])
+@pytest.mark.parametrize(
+    "case, needles",
+    [
+        ("no_config", ["run:", "config.yaml"]),
+        ("no_model", ["run:", "model.zip", "is missing"]),
+        ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
+        ("truncated_model", ["run:", "model.zip", "truncated"]),
+        ("not_a_folder", ["field 'run'", "is not a folder"]),
+        ("bad_which", ["field 'run' = ", "@last", "@best"]),
+        ("no_best", ["run:", "best_model.zip"]),
+        ("other_env", ["env:", "trained on 'sphere_env/RampDescent-v2'", "--allow-env-mismatch"]),
+        ("shell", ["field 'shell_model' = 'jelly'"]),
+        ("pressure", ["pressure_kpa", "99"]),
+        ("episodes", ["field 'episodes' = 0"]),
+        ("seed", ["field 'seed' = -1"]),
+        ("env_kwargs", ["env_kwargs.randomization"]),
+        ("video_file", ["field 'video'", "is a file"]),
+    ],
+)
 def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, needles):
     run = str(tiny_ppo_run)
     argv = {
@@ -146,5 +171,7 @@ def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, n
 def test_enjoy_on_another_env_with_another_layout_is_refused_even_when_allowed(tiny_ppo_run):
     # v0 observes 13 numbers, the v2 policy reads 16
     with pytest.raises(ValueError, match=r"controller: .*shape \(16,\).*\(13,\)"):
-        enjoy(EnjoySpec(run=str(tiny_ppo_run), env_id="sphere_env/RampDescent-v0", allow_env_mismatch=True),
-              say=lambda _: None)
+        enjoy(
+            EnjoySpec(run=str(tiny_ppo_run), env_id="sphere_env/RampDescent-v0", allow_env_mismatch=True),
+            say=lambda _: None,
+        )

@@ -13,18 +13,34 @@ pytest.importorskip("rliable")
 from sphere_env.evaluation.experiments.learning_summary import interval_estimates, recipe_rows, write_summary
 
 SHELLS = ("point", "injected", "hydroelastic")
-PD = {"success_rate": 26 / 27, "tracking_rmse_rad_s": 0.31,
-      "per_shell": {"point": 1.0, "injected": 8 / 9, "hydroelastic": 1.0}, "episodes": 27}
+PD = {
+    "success_rate": 26 / 27,
+    "tracking_rmse_rad_s": 0.31,
+    "per_shell": {"point": 1.0, "injected": 8 / 9, "hydroelastic": 1.0},
+    "episodes": 27,
+}
 
 
 def _run(seed, per_shell, rmse=0.3, steps_to_pd=None):
-    return {"method": "r", "condition": "pressure", "from_scratch": True, "seed": seed,
-            "success_rate": float(np.mean(list(per_shell.values()))), "tracking_rmse_rad_s": rmse,
-            "per_shell": dict(per_shell), "env_steps_to_pd_level": steps_to_pd,
-            "wall_clock_to_pd_level_s": None if steps_to_pd is None else steps_to_pd / 500,
-            "wall_clock_s": 100.0, "env_steps": 1000, "commit": "x", "recipe": {"note": ""},
-            "curve": [{"env_steps": 500, "per_shell": dict(per_shell), "success_rate": 0.0},
-                      {"env_steps": 1000, "per_shell": dict(per_shell), "success_rate": 0.0}]}
+    return {
+        "method": "r",
+        "condition": "pressure",
+        "from_scratch": True,
+        "seed": seed,
+        "success_rate": float(np.mean(list(per_shell.values()))),
+        "tracking_rmse_rad_s": rmse,
+        "per_shell": dict(per_shell),
+        "env_steps_to_pd_level": steps_to_pd,
+        "wall_clock_to_pd_level_s": None if steps_to_pd is None else steps_to_pd / 500,
+        "wall_clock_s": 100.0,
+        "env_steps": 1000,
+        "commit": "x",
+        "recipe": {"note": ""},
+        "curve": [
+            {"env_steps": 500, "per_shell": dict(per_shell), "success_rate": 0.0},
+            {"env_steps": 1000, "per_shell": dict(per_shell), "success_rate": 0.0},
+        ],
+    }
 
 
 def test_identical_seeds_give_a_point_interval_at_their_score():
@@ -57,15 +73,19 @@ def test_aims_are_judged_against_the_pd():
 
 
 def test_write_summary_gives_the_documented_shape(tmp_path):
-    base = {"pd": PD, "zero": {**PD, "success_rate": 1 / 27},
-            "grid": {"shells": list(SHELLS), "pressures_kpa": [3.0, 8.5, 14.0], "seeds": [0, 1, 2], "episodes": 27},
-            "commit": "abc"}
+    base = {
+        "pd": PD,
+        "zero": {**PD, "success_rate": 1 / 27},
+        "grid": {"shells": list(SHELLS), "pressures_kpa": [3.0, 8.5, 14.0], "seeds": [0, 1, 2], "episodes": 27},
+        "commit": "abc",
+    }
     (tmp_path / "baselines.json").write_text(json.dumps(base))
     folder = tmp_path / "runs" / "recipe_a"
     folder.mkdir(parents=True)
     for s in range(3):
-        (folder / f"seed{s}.json").write_text(json.dumps(_run(s, {"point": 0.5 + 0.1 * s, "injected": 1.0,
-                                                                    "hydroelastic": 0.9})))
+        (folder / f"seed{s}.json").write_text(
+            json.dumps(_run(s, {"point": 0.5 + 0.1 * s, "injected": 1.0, "hydroelastic": 0.9}))
+        )
     summary = json.loads(write_summary(tmp_path).read_text())
     assert summary["grid"]["episodes"] == 27 and summary["pd"]["success_rate"] == pytest.approx(26 / 27)
     assert [r["seed"] for r in summary["runs"]] == [0, 1, 2]
@@ -81,16 +101,24 @@ def test_selected_checkpoints_and_faults_reach_the_summary(tmp_path):
     from sphere_env.evaluation.faults import FAULTS
 
     faults = {f: {"success_rate": 0.5} for f in FAULTS}
-    base = {"pd": {**PD, "faults": faults}, "zero": {**PD, "success_rate": 1 / 27, "faults": faults},
-            "grid": {"shells": list(SHELLS), "pressures_kpa": [3.0, 8.5, 14.0], "seeds": [0, 1, 2], "episodes": 27}}
+    base = {
+        "pd": {**PD, "faults": faults},
+        "zero": {**PD, "success_rate": 1 / 27, "faults": faults},
+        "grid": {"shells": list(SHELLS), "pressures_kpa": [3.0, 8.5, 14.0], "seeds": [0, 1, 2], "episodes": 27},
+    }
     (tmp_path / "baselines.json").write_text(json.dumps(base))
     folder = tmp_path / "runs" / "recipe_a"
     folder.mkdir(parents=True)
     good = {"point": 1.0, "injected": 1.0, "hydroelastic": 1.0}
     for s in range(2):
         run = _run(s, {"point": 0.0, "injected": 1.0, "hydroelastic": 1.0})
-        run["selected"] = {"checkpoint_steps": 500, "success_rate": 1.0, "tracking_rmse_rad_s": 0.2,
-                           "per_shell": good, "validation": {"success_rate": 1.0}}
+        run["selected"] = {
+            "checkpoint_steps": 500,
+            "success_rate": 1.0,
+            "tracking_rmse_rad_s": 0.2,
+            "per_shell": good,
+            "validation": {"success_rate": 1.0},
+        }
         run["faults"] = {f: {"success_rate": 0.25 * (s + 1)} for f in FAULTS}
         (folder / f"seed{s}.json").write_text(json.dumps(run))
     summary = json.loads(write_summary(tmp_path).read_text())
@@ -113,9 +141,13 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
     low = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
     high = np.clip(0.8 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
     same = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
-    rows = study_rows({"a": {"nominal": high, "faults": np.zeros((0, 9))},
-                       "b": {"nominal": low, "faults": np.zeros((0, 9))},
-                       "c": {"nominal": same, "faults": np.zeros((0, 9))}})
+    rows = study_rows(
+        {
+            "a": {"nominal": high, "faults": np.zeros((0, 9))},
+            "b": {"nominal": low, "faults": np.zeros((0, 9))},
+            "c": {"nominal": same, "faults": np.zeros((0, 9))},
+        }
+    )
     poi = {r["condition"]: r for r in rows if "poi" in r}
     assert poi["P(a > b)"]["poi_ci"][0] > 0.5
     assert poi["P(b > c)"]["poi_ci"][0] < 0.5 < poi["P(b > c)"]["poi_ci"][1]

@@ -42,11 +42,17 @@ KWARGS = [
     ("shell_model-None", dict(shell_model=None), "shell_model"),
     ("friction_model-unknown", dict(friction_model="sticky"), "friction_model"),
     ("friction_model-int", dict(friction_model=3), "friction_model"),
-    ("friction_model-negative-viscous-c", dict(friction_model={"law": "viscous", "params": {"c": -1.0}}),
-     "friction_model"),
+    (
+        "friction_model-negative-viscous-c",
+        dict(friction_model={"law": "viscous", "params": {"c": -1.0}}),
+        "friction_model",
+    ),
     ("friction_model-viscous-c300", dict(friction_model={"law": "viscous", "params": {"c": 300.0}}), "friction_model"),
-    ("friction_model-drive-viscous-c1e4", dict(friction_model={"drive": {"law": "viscous", "params": {"c": 1e4}}}),
-     "friction_model"),
+    (
+        "friction_model-drive-viscous-c1e4",
+        dict(friction_model={"drive": {"law": "viscous", "params": {"c": 1e4}}}),
+        "friction_model",
+    ),
     ("calibration-missing-file", dict(calibration="/nonexistent/cal.yaml"), "calibration"),
     ("calibration-int", dict(calibration=123), "calibration"),
     ("control_frequency_hz-zero", dict(control_frequency_hz=0), "control_frequency_hz"),
@@ -75,8 +81,11 @@ KWARGS = [
     ("render_size-1x1", dict(render_size=(1, 1)), "render_size"),
     ("render_size-string", dict(render_size="big"), "render_size"),
     ("render_size-1e9-wide", dict(render_size=(10**9, 10)), "render_size"),
-    ("hydroelastic_pressure_step_kpa-negative", dict(hydroelastic_pressure_step_kpa=-1.0),
-     "hydroelastic_pressure_step_kpa"),
+    (
+        "hydroelastic_pressure_step_kpa-negative",
+        dict(hydroelastic_pressure_step_kpa=-1.0),
+        "hydroelastic_pressure_step_kpa",
+    ),
     ("hydroelastic_pressure_step_kpa-10", dict(hydroelastic_pressure_step_kpa=10.0), "hydroelastic_pressure_step_kpa"),
     ("unknown-kwarg", dict(bogus=1), "bogus"),
     ("omega_ref_range_rad_s-reversed", dict(omega_ref_range_rad_s=(8.0, 4.0)), "omega_ref_range_rad_s"),
@@ -87,14 +96,16 @@ KWARGS = [
     ("reward_weights-string", dict(reward_weights="x"), "reward_weights"),
 ]
 KWARGS_BY_ENV = {
-    RAMP: KWARGS + [
+    RAMP: KWARGS
+    + [
         ("ramp_length_m-zero", dict(ramp_length_m=0.0), "ramp_length_m"),
         ("ramp_length_m-1e9", dict(ramp_length_m=1e9), "ramp_length_m"),
         ("ramp_length_m-None", dict(ramp_length_m=None), "ramp_length_m"),
         ("lane_half_width_m-zero", dict(lane_half_width_m=0.0), "lane_half_width_m"),
         ("lane_half_width_m-100", dict(lane_half_width_m=100.0), "lane_half_width_m"),
     ],
-    ROLL: KWARGS + [
+    ROLL: KWARGS
+    + [
         ("ramp_length_m-on-flat-ground", dict(ramp_length_m=4.0), "ramp_length_m"),
         ("heading_range_rad-4", dict(heading_range_rad=4.0), "heading_range_rad"),
         ("heading_range_rad-string", dict(heading_range_rad="x"), "heading_range_rad"),
@@ -128,8 +139,10 @@ RANDOMIZATION = [
     ("ground_friction-unknown-distribution", {"ground_friction": {"distribution": "weird"}}),
     ("ground_friction-extra-key", {"ground_friction": {"value": 1.0, "extra": 2}}),
     ("ground_friction-interval-without-interval_s", {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "interval"}}),
-    ("ground_friction-interval-negative-interval_s",
-     {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "interval", "interval_s": -1.0}}),
+    (
+        "ground_friction-interval-negative-interval_s",
+        {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "interval", "interval_s": -1.0}},
+    ),
     ("ground_friction-unknown-mode", {"ground_friction": {"low": 0.5, "high": 1.5, "mode": "sometimes"}}),
     ("payload_mass_kg-choice-empty", {"payload_mass_kg": {"distribution": "choice", "values": []}}),
     ("payload_mass_kg-choice-not-a-list", {"payload_mass_kg": {"distribution": "choice", "values": 3}}),
@@ -150,8 +163,12 @@ RANDOMIZATION = [
     ("pressure_schedule-int", {"pressure_schedule": 5}),
 ]
 RANDOMIZATION_BY_ENV = {
-    RAMP: RANDOMIZATION + [
-        ("incline_deg-interval-mode", {"incline_deg": {"low": 10.0, "high": 20.0, "mode": "interval", "interval_s": 1.0}}),
+    RAMP: RANDOMIZATION
+    + [
+        (
+            "incline_deg-interval-mode",
+            {"incline_deg": {"low": 10.0, "high": 20.0, "mode": "interval", "interval_s": 1.0}},
+        ),
         ("incline_deg-up-to-45", {"incline_deg": [10.0, 45.0]}),
     ],
     ROLL: RANDOMIZATION + [("incline_deg-on-flat-ground", {"incline_deg": [10.0, 20.0]})],
@@ -181,11 +198,18 @@ OPTIONS = [
     ("initial_state-string", {**P, "initial_state": "upright"}, "initial_state"),
     ("initial_state-unknown-key", {**P, "initial_state": {"spin": 1.0}}, "initial_state"),
     ("initial_state-roll-nan", {**P, "initial_state": {"roll": NAN}}, "initial_state.roll"),
-    ("initial_state-below-ground", {**P, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
+    (
+        "initial_state-below-ground",
+        {**P, "initial_state": {"position_m": (0.0, 0.0, -0.5)}},
+        "initial_state.position_m",
+    ),
     ("initial_state-position-2d", {**P, "initial_state": {"position_m": (0.0, 0.0)}}, "initial_state.position_m"),
     ("initial_state-velocity-string", {**P, "initial_state": {"velocity_m_s": "fast"}}, "initial_state.velocity_m_s"),
-    ("initial_state-spin-5e3", {**P, "initial_state": {"angular_velocity_rad_s": (0.0, 5e3, 0.0)}},
-     "initial_state.angular_velocity_rad_s"),
+    (
+        "initial_state-spin-5e3",
+        {**P, "initial_state": {"angular_velocity_rad_s": (0.0, 5e3, 0.0)}},
+        "initial_state.angular_velocity_rad_s",
+    ),
     ("initial_state-theta_dot-1e300", {**P, "initial_state": {"theta_dot": 1e300}}, "initial_state.theta_dot"),
     ("omega_ref-string", {**P, "omega_ref": "abc"}, "omega_ref"),
     ("omega_ref-list", {**P, "omega_ref": [1.0, 2.0]}, "omega_ref"),
@@ -195,7 +219,8 @@ OPTIONS = [
 ]
 OPTIONS_BY_ENV = {
     RAMP: OPTIONS + [("omega_ref-negative", {**P, "omega_ref": -1.0}, "omega_ref")],
-    ROLL: OPTIONS + [
+    ROLL: OPTIONS
+    + [
         ("heading_ref-string", {**P, "heading_ref": "x"}, "heading_ref"),
         ("heading_ref-1e9", {**P, "heading_ref": 1e9}, "heading_ref"),
         ("yaw_rate_ref-in-heading-mode", {**P, "yaw_rate_ref": 1.0}, "yaw_rate_ref"),
@@ -205,20 +230,40 @@ OPTIONS_BY_ENV = {
 SEEDS = [("negative", -1), ("float", 1.5), ("string", "7"), ("bool", True), ("list", [1, 2])]
 
 ACTIONS = [
-    ("shape-3", np.zeros(3, np.float32)), ("shape-1", [0.1]), ("shape-2x1", np.zeros((2, 1))),
-    ("scalar", 0.5), ("nested-list", [[0.1, 0.2]]), ("str", "ab"), ("str-list", ["0.1", "0.2"]),
-    ("str-array", np.array(["1", "0"])), ("complex", np.array([0.1 + 1j, 0.0])), ("None", None),
-    ("None-inside", [None, 0.1]), ("dict", {"steer": 0.1}), ("bool", [True, False]),
-    ("object-array", np.array([0.1, "x"], dtype=object)), ("NaN", np.array([NAN, 0.0], np.float32)),
-    ("inf", [0.0, float("inf")]), ("float16-NaN", np.array([np.nan, 0], np.float16)),
+    ("shape-3", np.zeros(3, np.float32)),
+    ("shape-1", [0.1]),
+    ("shape-2x1", np.zeros((2, 1))),
+    ("scalar", 0.5),
+    ("nested-list", [[0.1, 0.2]]),
+    ("str", "ab"),
+    ("str-list", ["0.1", "0.2"]),
+    ("str-array", np.array(["1", "0"])),
+    ("complex", np.array([0.1 + 1j, 0.0])),
+    ("None", None),
+    ("None-inside", [None, 0.1]),
+    ("dict", {"steer": 0.1}),
+    ("bool", [True, False]),
+    ("object-array", np.array([0.1, "x"], dtype=object)),
+    ("NaN", np.array([NAN, 0.0], np.float32)),
+    ("inf", [0.0, float("inf")]),
+    ("float16-NaN", np.array([np.nan, 0], np.float16)),
 ]
 
 
 def _params(by_env: dict) -> list:
     """One pytest case per env id × shell model × case; shells other than point are ``slow``."""
-    return [pytest.param(env_id, shell_model, *case[1:], id=f"{_short(env_id)}-{shell_model}-{case[0]}",
-                         marks=() if shell_model == "point" else pytest.mark.slow)
-            for env_id in ENV_IDS for shell_model in SHELL_MODELS for case in by_env[env_id]]
+    return [
+        pytest.param(
+            env_id,
+            shell_model,
+            *case[1:],
+            id=f"{_short(env_id)}-{shell_model}-{case[0]}",
+            marks=() if shell_model == "point" else pytest.mark.slow,
+        )
+        for env_id in ENV_IDS
+        for shell_model in SHELL_MODELS
+        for case in by_env[env_id]
+    ]
 
 
 def _field(name: str) -> str:
@@ -245,8 +290,12 @@ def lockstep(env, ref, n: int = 3) -> bool:
         a = rng.uniform(-1, 1, 2).astype(np.float32)
         o1, r1, te1, tr1, i1 = env.step(a)
         o2, r2, te2, tr2, i2 = ref.step(a)
-        if not (np.array_equal(o1, o2) and r1 == r2 and i1["params"] == i2["params"]
-                and i1.get("omega_ref") == i2.get("omega_ref")):
+        if not (
+            np.array_equal(o1, o2)
+            and r1 == r2
+            and i1["params"] == i2["params"]
+            and i1.get("omega_ref") == i2.get("omega_ref")
+        ):
             return False
         if te1 or tr1:
             env.reset(seed=1)
@@ -269,8 +318,9 @@ def episode(episodes, env_id, shell_model):
     """A running episode (full randomization, seed 0) and an identical twin that never sees the input."""
     key = (env_id, shell_model)
     if key not in episodes:
-        episodes[key] = tuple(gym.make(env_id, shell_model=shell_model, randomization="full",
-                                       disable_env_checker=True) for _ in range(2))
+        episodes[key] = tuple(
+            gym.make(env_id, shell_model=shell_model, randomization="full", disable_env_checker=True) for _ in range(2)
+        )
     env, ref = episodes[key]
     for e in (env, ref):
         e.reset(seed=0)
@@ -315,8 +365,11 @@ def test_lockstep_tells_a_changed_episode_apart():
 
 # ---- ended and copied episodes ----------------------------------------------------------------------
 def _shells(env_ids=ENV_IDS, shells=SHELL_MODELS) -> list:
-    return [pytest.param(env_id, sm, id=f"{_short(env_id)}-{sm}", marks=() if sm == "point" else pytest.mark.slow)
-            for env_id in env_ids for sm in shells]
+    return [
+        pytest.param(env_id, sm, id=f"{_short(env_id)}-{sm}", marks=() if sm == "point" else pytest.mark.slow)
+        for env_id in env_ids
+        for sm in shells
+    ]
 
 
 def _run_until_the_end(env, action, max_steps):
@@ -364,8 +417,13 @@ def test_step_on_a_copy_made_mid_episode_asks_for_reset(env_id, shell_model, cop
 def test_diverging_drive_friction_truncates_and_the_next_step_asks_for_reset(env_id, shell_model):
     """Flat ground, an accepted drive friction just under the explicit-stability limit (viscous
     c = 120 N m s/rad at 5 ms, limit ≈123), full torque: the explicit update diverges within tens of steps."""
-    env = gym.make(env_id, shell_model=shell_model, randomization="off", disable_env_checker=True,
-                   friction_model={"drive": {"law": "viscous", "params": {"c": 120.0}}})
+    env = gym.make(
+        env_id,
+        shell_model=shell_model,
+        randomization="off",
+        disable_env_checker=True,
+        friction_model={"drive": {"law": "viscous", "params": {"c": 120.0}}},
+    )
     env.reset(seed=0)
     obs, _, trunc, info = _run_until_the_end(env, (-1.0, 1.0), 300)
     _assert_physics_failure_then_reset_needed(env, obs, trunc, info)

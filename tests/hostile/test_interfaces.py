@@ -55,13 +55,25 @@ TRAIN = [
     ("n_envs-zero", ["--params", "n_envs:0"], "n_envs"),
     ("n_envs-string", ["--params", "n_envs:abc"], "n_envs"),
     ("params-without-colon", ["--params", "noequals"], "params"),
-    ("env_kwargs-pressure-range-reversed", ["--env-kwargs", "randomization:{'pressure_kpa': [14, 3]}"],
-     "env_kwargs.randomization.pressure_kpa"),
-    ("env_kwargs-pressure-schedule-reversed",
-     ["--env-kwargs", "randomization:{'pressure_kpa': {'distribution': 'uniform'}, "
-                      "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}"], "env_kwargs.randomization"),
-    ("randomization-as-hyperparameter", ["--params", "randomization:'off'"],
-     "hyperparams.randomization': a top-level key"),
+    (
+        "env_kwargs-pressure-range-reversed",
+        ["--env-kwargs", "randomization:{'pressure_kpa': [14, 3]}"],
+        "env_kwargs.randomization.pressure_kpa",
+    ),
+    (
+        "env_kwargs-pressure-schedule-reversed",
+        [
+            "--env-kwargs",
+            "randomization:{'pressure_kpa': {'distribution': 'uniform'}, "
+            "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}",
+        ],
+        "env_kwargs.randomization",
+    ),
+    (
+        "randomization-as-hyperparameter",
+        ["--params", "randomization:'off'"],
+        "hyperparams.randomization': a top-level key",
+    ),
     ("env_kwargs-list", ["--params", "env_kwargs:[1, 2]"], "env_kwargs"),
     ("env_kwargs-unknown-shell", ["--env-kwargs", "shell_model:'jelly'"], "shell_model"),
     ("env_kwargs-not-a-literal", ["--params", "env_kwargs:{shell_model: jelly}"], "hyperparams.env_kwargs"),
@@ -76,8 +88,7 @@ TRAIN = [
     ("seed-string", ["--seed", "x"], "--seed"),
     ("eval_pressures_kpa-below-range", ["--eval-pressures-kpa", "2"], "eval_pressures_kpa"),
     ("trained_agent-missing", ["-i", "missing.zip"], "trained_agent"),
-    ("resume-with-bad-n_timesteps", ["--resume", f"{INPUTS}/broken_config_run", "--n-timesteps", "nan"],
-     "n_timesteps"),
+    ("resume-with-bad-n_timesteps", ["--resume", f"{INPUTS}/broken_config_run", "--n-timesteps", "nan"], "n_timesteps"),
     ("sac-ent_coef-negative-auto", ["--algo", "sac", "--params", "ent_coef:auto_-1"], "hyperparams.ent_coef"),
     ("sac-train_freq-not-a-literal", ["--algo", "sac", "--params", "train_freq:[1, hour]"], "hyperparams.train_freq"),
     ("sac-tau-zero", ["--algo", "sac", "--params", "tau:0"], "hyperparams.tau"),
@@ -92,16 +103,18 @@ TRAIN_RESUME = [
 GRID = ["--replay", "--pressure-kpa", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1"]
 EVALUATE = [
     ("controller-truncated-model", ["--controller", TRUNCATED_RUN], "model.zip"),
-    ("env_kwargs-shell_model", ["--controller", "zero", "--env-kwargs", "{shell_model: point}"],
-     "env_kwargs.shell_model"),
+    (
+        "env_kwargs-shell_model",
+        ["--controller", "zero", "--env-kwargs", "{shell_model: point}"],
+        "env_kwargs.shell_model",
+    ),
     ("env_kwargs-duplicate-key", ["--controller", "zero", "--env-kwargs", "{a: 1, a: 2}"], "env_kwargs"),
     ("env_kwargs-malformed-yaml", ["--controller", "zero", "--env-kwargs", "{a: [1"], "env_kwargs"),
     ("env_kwargs-list", ["--controller", "zero", "--env-kwargs", "[1, 2]"], "env_kwargs"),
     ("env_kwargs-unknown", ["--controller", "zero", "--env-kwargs", "{no_such_kwarg: 1}"], "no_such_kwarg"),
     ("controller-wrong-action-shape", ["--controller", f"{__name__}:bad_shape_controller"], "shape"),
     ("controller-missing-module", ["--controller", "no_such_module:f"], "controller"),
-    ("controller-trained-on-another-env", ["--controller", RUN, "--env", "sphere_env/Roll-v0"],
-     "--allow-env-mismatch"),
+    ("controller-trained-on-another-env", ["--controller", RUN, "--env", "sphere_env/Roll-v0"], "--allow-env-mismatch"),
     ("pressure_kpa-1000", ["--controller", "zero", "--pressure-kpa", "1000"], "pressure"),
     ("shell_models-unknown", ["--controller", "zero", "--shell-models", "jelly"], "shell_models"),
     ("friction-unknown", ["--controller", "zero", "--friction", "bogus"], "friction"),
@@ -122,13 +135,19 @@ CALIBRATE = [
     ("validate-tol-not-a-number", ["validate", "--manifest", GOOD, *VALIDATE, "--tol", "theta=abc"], "theta"),
     ("validate-workers-zero", ["validate", "--manifest", GOOD, *VALIDATE, "--workers", "0"], "workers"),
     ("validate-manifest-missing", ["validate", "--manifest", f"{INPUTS}/missing.yaml", *VALIDATE], "manifest"),
-    ("validate-trial-pressure-in-pa", ["validate", "--manifest", f"{INPUTS}/manifest_pa.yaml", *VALIDATE],
-     "pressure_kpa"),
+    (
+        "validate-trial-pressure-in-pa",
+        ["validate", "--manifest", f"{INPUTS}/manifest_pa.yaml", *VALIDATE],
+        "pressure_kpa",
+    ),
     ("validate-models-unknown", ["validate", "--manifest", GOOD, "--models", "jelly"], "jelly"),
     ("shell-trial-without-pressure", ["shell", "--manifest", GOOD, "--group", ""], "pressure_kpa"),
     ("sensitivity-negative-duration", ["sensitivity", "--duration-s", "-1"], "duration"),
-    ("validate-json-under-a-file", ["validate", "--manifest", GOOD, *VALIDATE, "--json", f"{INPUTS}/a_file.txt/v.json"],
-     "--json"),
+    (
+        "validate-json-under-a-file",
+        ["validate", "--manifest", GOOD, *VALIDATE, "--json", f"{INPUTS}/a_file.txt/v.json"],
+        "--json",
+    ),
     ("shell-out-is-a-folder", ["shell", "--manifest", GOOD, "--group", "", "--out", INPUTS], "--out"),
     ("events-log-missing", ["events", f"{INPUTS}/missing.csv"], "not found"),
 ]
@@ -138,21 +157,35 @@ CALIBRATE = [
 # Refused before anything runs (the demo before its training, validate before its fits), with the
 # option named, never a traceback after the work was done.
 OUTPUTS = [
-    ("train-tensorboard_log", ["train", *TINY, "--params", *TINY_PPO, "-tb", f"{UNWRITABLE}/tb", "--run-dir",
-                               f"{OUT}/run"], "tensorboard_log"),
+    (
+        "train-tensorboard_log",
+        ["train", *TINY, "--params", *TINY_PPO, "-tb", f"{UNWRITABLE}/tb", "--run-dir", f"{OUT}/run"],
+        "tensorboard_log",
+    ),
     ("train-log_folder", ["train", *TINY, "--params", *TINY_PPO, "-f", f"{UNWRITABLE}/runs"], "log_folder"),
     ("train-run_dir", ["train", *TINY, "--params", *TINY_PPO, "--run-dir", f"{UNWRITABLE}/run"], "run_dir"),
-    ("train-sweep-run_dir", ["train", *TINY, "--params", *TINY_PPO, "--seeds", "0", "1", "--run-dir",
-                             f"{UNWRITABLE}/sweep"], "run_dir"),
+    (
+        "train-sweep-run_dir",
+        ["train", *TINY, "--params", *TINY_PPO, "--seeds", "0", "1", "--run-dir", f"{UNWRITABLE}/sweep"],
+        "run_dir",
+    ),
     ("evaluate-out", ["evaluate", *GRID, "--controller", "zero", "--out", f"{UNWRITABLE}/eval"], "out"),
-    ("evaluate-video", ["evaluate", *GRID, "--controller", "zero", "--out", f"{OUT}/eval", "--video",
-                        f"{UNWRITABLE}/video"], "video"),
-    ("validate-json", ["calibrate", "validate", "--manifest", GOOD, *VALIDATE, "--json", f"{UNWRITABLE}/v.json"],
-     "--json"),
-    ("validate-plot", ["calibrate", "validate", "--manifest", GOOD, *VALIDATE, "--plot", f"{UNWRITABLE}/v.png"],
-     "--plot"),
-    ("shell-out", ["calibrate", "shell", "--manifest", GOOD, "--group", "", "--out", f"{UNWRITABLE}/c.yaml"],
-     "--out"),
+    (
+        "evaluate-video",
+        ["evaluate", *GRID, "--controller", "zero", "--out", f"{OUT}/eval", "--video", f"{UNWRITABLE}/video"],
+        "video",
+    ),
+    (
+        "validate-json",
+        ["calibrate", "validate", "--manifest", GOOD, *VALIDATE, "--json", f"{UNWRITABLE}/v.json"],
+        "--json",
+    ),
+    (
+        "validate-plot",
+        ["calibrate", "validate", "--manifest", GOOD, *VALIDATE, "--plot", f"{UNWRITABLE}/v.png"],
+        "--plot",
+    ),
+    ("shell-out", ["calibrate", "shell", "--manifest", GOOD, "--group", "", "--out", f"{UNWRITABLE}/c.yaml"], "--out"),
     ("demo-out", ["demo", "--out", f"{UNWRITABLE}/demo"], "out"),
     ("demo-run_dir", ["demo", "--out", f"{OUT}/demo", "--run-dir", f"{UNWRITABLE}/run"], "run_dir"),
     ("export-out", ["export", RUN, "--out", f"{UNWRITABLE}/export"], "out"),
@@ -183,8 +216,12 @@ LOGS = [
     ("not-a-number", "timestamp,roll_joint.position\n0,0.1\n20000000,abc\n40000000,0.1\n", "not a number"),
     ("duplicate-time", "timestamp,roll_joint.position\n0,0.1\n0,0.1\n20000000,0.1\n", "duplicate"),
     ("time-goes-back", "timestamp,roll_joint.position\n0,0.1\n40000000,0.1\n20000000,0.1\n", "increase"),
-    ("long-NaN-run", "timestamp,roll_joint.position\n"
-     + "".join(f"{i * 20000000},{'nan' if 3 <= i < 9 else 0.1}\n" for i in range(12)), "NaN"),
+    (
+        "long-NaN-run",
+        "timestamp,roll_joint.position\n"
+        + "".join(f"{i * 20000000},{'nan' if 3 <= i < 9 else 0.1}\n" for i in range(12)),
+        "NaN",
+    ),
     ("angle-1e308", "timestamp,roll_joint.position\n0,1e308\n20000000,0\n40000000,0\n", "theta"),
     ("binary-garbage", "\x00\x01\x02garbage\xff\n", "log"),
 ]
@@ -203,12 +240,21 @@ def _omega_n_in_hz(base: dict) -> dict:
 
 CALIBRATION_FILES = [
     ("omega_n-in-Hz", _omega_n_in_hz, "omega_n"),
-    ("contact-volume-nan", {"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0],
-                                               "volume_m3": [float("nan"), 0.001]}}, "volume_m3"),
-    ("pressure-range-in-Pa", {"pressure_range_kpa": [3000.0, 14000.0], "nominal_pressure_kpa": 4310.0},
-     "pressure_range_kpa"),
-    ("pressure-range-in-MPa", {"pressure_range_kpa": [0.003, 0.014], "nominal_pressure_kpa": 0.00431},
-     "pressure_range_kpa"),
+    (
+        "contact-volume-nan",
+        {"contact_volume": {"model": "table", "pressure_kpa": [3.0, 14.0], "volume_m3": [float("nan"), 0.001]}},
+        "volume_m3",
+    ),
+    (
+        "pressure-range-in-Pa",
+        {"pressure_range_kpa": [3000.0, 14000.0], "nominal_pressure_kpa": 4310.0},
+        "pressure_range_kpa",
+    ),
+    (
+        "pressure-range-in-MPa",
+        {"pressure_range_kpa": [0.003, 0.014], "nominal_pressure_kpa": 0.00431},
+        "pressure_range_kpa",
+    ),
     ("pressure-range-bool", {"pressure_range_kpa": [True, 14.0]}, "pressure_range_kpa"),
     ("fitted_time_step_s-negative", {"hydroelastic__fitted_time_step_s": -0.005}, "fitted_time_step_s"),
     ("resolution_hint_m-1e6", {"hydroelastic__resolution_hint_m": 1e6}, "resolution_hint_m"),
@@ -332,7 +378,9 @@ def _ids(cases):
 @pytest.mark.parametrize("argv, field", _ids(TRAIN))
 def test_train_refuses(argv, field, inputs, out, capsys):
     algo = argv[argv.index("--algo") + 1] if "--algo" in argv else "ppo"
-    own, extra = (argv[:argv.index("--params")], argv[argv.index("--params") + 1:]) if "--params" in argv else (argv, [])
+    own, extra = (
+        (argv[: argv.index("--params")], argv[argv.index("--params") + 1 :]) if "--params" in argv else (argv, [])
+    )
     params = [*(TINY_PPO if algo == "ppo" else []), *extra]
     # the tiny env kwargs first: a case's own --env-kwargs are merged over them
     full = [*TINY, *own, *(["--params", *params] if params else []), "--run-dir", str(out / "run")]
@@ -377,8 +425,9 @@ def unwritable(request, tmp_path):
 
 
 @pytest.mark.parametrize("argv, field", _ids(OUTPUTS))
-def test_an_output_that_cannot_be_written_is_refused_before_anything_runs(argv, field, inputs, out, unwritable,
-                                                                          capsys, request):
+def test_an_output_that_cannot_be_written_is_refused_before_anything_runs(
+    argv, field, inputs, out, unwritable, capsys, request
+):
     runs = request.getfixturevalue("tiny_run") if RUN in argv else None
     _refused(_resolve(argv, inputs, runs, unwritable=unwritable, out=out), field, capsys, out)
 
@@ -387,8 +436,22 @@ def test_an_output_that_cannot_be_written_is_refused_before_anything_runs(argv, 
 def test_calibrate_validate_refuses_a_bad_log(text, field, tmp_path, out, capsys):
     log = _write(tmp_path / "logs" / "log.csv", text)
     manifest = _manifest(tmp_path / "manifest.yaml", log)
-    _refused(["calibrate", "validate", "--manifest", str(manifest), *VALIDATE, "--json", str(out / "v.json"),
-              "--plot", str(out / "v.png")], field, capsys, out)
+    _refused(
+        [
+            "calibrate",
+            "validate",
+            "--manifest",
+            str(manifest),
+            *VALIDATE,
+            "--json",
+            str(out / "v.json"),
+            "--plot",
+            str(out / "v.png"),
+        ],
+        field,
+        capsys,
+        out,
+    )
 
 
 @pytest.mark.parametrize("changes, field", _ids(CALIBRATION_FILES))

@@ -54,8 +54,11 @@ def test_presets_load_table_one():
 @pytest.mark.parametrize(
     "spec, match",
     [
-        ("stribeck", r"joint 'steer': name = 'stribeck': .*; allowed: a preset or law name \[.*'majd', 'majd_drive', "
-                     r"'majd_steer'.*'none'.*\]"),
+        (
+            "stribeck",
+            r"joint 'steer': name = 'stribeck': .*; allowed: a preset or law name \[.*'majd', 'majd_drive', "
+            r"'majd_steer'.*'none'.*\]",
+        ),
         (5, r"joint 'steer': name = 5: .*; allowed: a preset or law name \["),
         ({"law": "majd", "params": {"f_w": 1}}, "missing"),
         ({"law": "viscous", "params": {"c": -1.0}}, r"params.c. = -1.0.*>= 0"),

@@ -50,7 +50,9 @@ def test_membrane_volume_shrinks_with_pressure_and_matches_small_flat_limit():
     p = 200.0
     a2 = r.weight_n / (p * 1e3) / math.pi
     delta = a2 / (2 * r.radius_m)
-    assert membrane_contact_volume_m3(p, r.weight_n, r.radius_m) == pytest.approx(math.pi * delta**2 * r.radius_m, rel=0.01)
+    assert membrane_contact_volume_m3(p, r.weight_n, r.radius_m) == pytest.approx(
+        math.pi * delta**2 * r.radius_m, rel=0.01
+    )
 
 
 def test_default_calibration_loads_and_gains_follow_eq_7_8():
@@ -66,7 +68,8 @@ def test_default_calibration_loads_and_gains_follow_eq_7_8():
     assert modulus == pytest.approx(r.weight_n / cal.volume_m3(p, r.weight_n, r.radius_m))  # eq. 10
     if cal.volume_model == "membrane":  # the shipped V(p) is the membrane estimate of docs/design.md §5
         assert cal.volume_m3(p, r.weight_n, r.radius_m) == pytest.approx(
-            membrane_contact_volume_m3(p, r.weight_n, r.radius_m))
+            membrane_contact_volume_m3(p, r.weight_n, r.radius_m)
+        )
     else:
         pk, vm = cal.volume_table
         assert cal.volume_m3(p, r.weight_n, r.radius_m) == pytest.approx(float(np.interp(p, pk, vm)))
@@ -85,8 +88,10 @@ def _write(tmp_path, data):
         (lambda d: d.pop("omega_n"), "'omega_n' is missing"),
         (lambda d: d["zeta"].pop("scale"), "'zeta.scale' is missing"),
         (lambda d: d.__setitem__("pressure_range_kpa", [10, 5]), "pressure_range_kpa"),
-        (lambda d: d["omega_n"].__setitem__("intercept_rad_s", "fast"),
-         "field 'omega_n.intercept_rad_s' = 'fast': Input should be a valid number"),
+        (
+            lambda d: d["omega_n"].__setitem__("intercept_rad_s", "fast"),
+            "field 'omega_n.intercept_rad_s' = 'fast': Input should be a valid number",
+        ),
         (lambda d: d["contact_volume"].__setitem__("model", "guess"), "contact_volume.model"),
         (lambda d: d["zeta"].__setitem__("scale", 5.0), "zeta"),
     ],

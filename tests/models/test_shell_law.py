@@ -44,11 +44,19 @@ def test_each_form_gives_its_documented_torque_and_stiffness():
     r = RobotParameters.from_urdf()
     p = 6.0
     K, _ = injected_gains(2.9, 0.1, r.M_eq, r.K_eq)
-    sat = ShellCalibration.from_dict(cal_with(steer_law={
-        "form": "saturating", "rest_angle_rad": 0.04, "amplitude_stiffness_nm_per_rad": 30.0,
-        "amplitude_scale_rad": 0.1}))
-    quad = ShellCalibration.from_dict(cal_with(steer_law={
-        "form": "quadratic", "rest_angle_rad": -0.02, "quadratic_stiffness_nm_per_rad2": 10.0}))
+    sat = ShellCalibration.from_dict(
+        cal_with(
+            steer_law={
+                "form": "saturating",
+                "rest_angle_rad": 0.04,
+                "amplitude_stiffness_nm_per_rad": 30.0,
+                "amplitude_scale_rad": 0.1,
+            }
+        )
+    )
+    quad = ShellCalibration.from_dict(
+        cal_with(steer_law={"form": "quadratic", "rest_angle_rad": -0.02, "quadratic_stiffness_nm_per_rad2": 10.0})
+    )
     phi = np.linspace(-1.0, 1.0, 9)
     for cal, direct in (
         (sat, lambda d: -K * d - 30.0 * 0.1 * np.tanh(d / 0.1)),
@@ -84,9 +92,12 @@ def test_symbolic_law_evaluates_like_numpy():
 
 def test_bound_shell_gains_per_model():
     r = RobotParameters.from_urdf()
-    cal = ShellCalibration.from_dict(cal_with(
-        hydroelastic={"couple_stiffness_factor": 0.8, "couple_damping_factor": 0.5},
-        steer_law={"form": "linear", "rest_angle_rad": 0.03}))
+    cal = ShellCalibration.from_dict(
+        cal_with(
+            hydroelastic={"couple_stiffness_factor": 0.8, "couple_damping_factor": 0.5},
+            steer_law={"form": "linear", "rest_angle_rad": 0.03},
+        )
+    )
     shell = cal.bind(r)
     K, C = shell.injected_gains(6.0)
     assert (K, C) == pytest.approx(injected_gains(float(cal.omega_n(6.0)), float(cal.zeta(6.0)), r.M_eq, r.K_eq))
@@ -118,10 +129,19 @@ def _can_stand(cal_dict) -> bool:
     "law, field",
     [
         # a softening quadratic: zero stiffness well inside the reachable range (the tipping robot)
-        ({"form": "quadratic", "rest_angle_rad": 0.0, "quadratic_stiffness_nm_per_rad2": -30.0},
-         "steer_law.quadratic_stiffness_nm_per_rad2"),
-        ({"form": "saturating", "rest_angle_rad": 0.0, "amplitude_stiffness_nm_per_rad": -40.0,
-          "amplitude_scale_rad": 0.2}, "steer_law.amplitude_stiffness_nm_per_rad"),
+        (
+            {"form": "quadratic", "rest_angle_rad": 0.0, "quadratic_stiffness_nm_per_rad2": -30.0},
+            "steer_law.quadratic_stiffness_nm_per_rad2",
+        ),
+        (
+            {
+                "form": "saturating",
+                "rest_angle_rad": 0.0,
+                "amplitude_stiffness_nm_per_rad": -40.0,
+                "amplitude_scale_rad": 0.2,
+            },
+            "steer_law.amplitude_stiffness_nm_per_rad",
+        ),
     ],
 )
 def test_a_law_the_robot_cannot_stand_still_with_is_refused_naming_the_field(tmp_path, law, field):
@@ -156,8 +176,10 @@ def test_stand_still_check_agrees_with_the_analytic_boundary():
     [
         ({"form": "cubic"}, "'steer_law.form' = 'cubic': .*allowed: \\['linear', 'saturating', 'quadratic'\\]"),
         ({"form": "linear", "amplitude_scale_rad": 0.1}, "not used by form 'linear'"),
-        ({"form": "saturating", "amplitude_stiffness_nm_per_rad": 5.0, "amplitude_scale_rad": 0.0},
-         "'steer_law.amplitude_scale_rad' = 0.0: Input should be greater than 0"),
+        (
+            {"form": "saturating", "amplitude_stiffness_nm_per_rad": 5.0, "amplitude_scale_rad": 0.0},
+            "'steer_law.amplitude_scale_rad' = 0.0: Input should be greater than 0",
+        ),
         ({"form": "saturating", "amplitude_stiffness_nm_per_rad": 5.0}, "'steer_law.amplitude_scale_rad' is missing"),
         ({"form": "linear", "rest_angle_rad": 0.9}, "'steer_law.rest_angle_rad' = 0.9"),
     ],
@@ -168,5 +190,7 @@ def test_bad_steer_law_fields_are_named(law, match):
 
 
 def test_negative_couple_factor_is_refused():
-    with pytest.raises(ValueError, match="'hydroelastic.couple_damping_factor' = -0.1: Input should be greater than or equal to 0"):
+    with pytest.raises(
+        ValueError, match="'hydroelastic.couple_damping_factor' = -0.1: Input should be greater than or equal to 0"
+    ):
         ShellCalibration.from_dict(cal_with(hydroelastic={"couple_damping_factor": -0.1}))

@@ -32,7 +32,9 @@ def test_stand_small_swing_frequency(make_twin):
 
 def test_locked_joints_roll_without_slip_down_16deg_ramp(make_twin):
     alpha = math.radians(16.0)
-    twin = make_twin(shell_model="point", incline_deg=16.0, steer_friction="none", drive_friction="none", time_step_s=0.001)
+    twin = make_twin(
+        shell_model="point", incline_deg=16.0, steer_friction="none", drive_friction="none", time_step_s=0.001
+    )
     twin.reset()  # pendulum hangs plumb: COM straight below the centre
     twin.lock_joints(steer=True, drive=True)
     p0 = twin.state().position_m

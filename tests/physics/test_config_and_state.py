@@ -81,8 +81,17 @@ def test_non_finite_torque_refused():
 
 def test_full_initial_state_round_trip():
     twin = Twin(TwinConfig(shell_model="point"))
-    init = InitialState(theta=0.3, drive_angle=0.7, roll=0.1, heading=0.5, theta_dot=0.2, drive_rate=-0.4,
-                        position_m=(1.0, 2.0, 0.31), angular_velocity_rad_s=(0.0, 0.0, 0.3), velocity_m_s=(0.1, 0.0, 0.0))
+    init = InitialState(
+        theta=0.3,
+        drive_angle=0.7,
+        roll=0.1,
+        heading=0.5,
+        theta_dot=0.2,
+        drive_rate=-0.4,
+        position_m=(1.0, 2.0, 0.31),
+        angular_velocity_rad_s=(0.0, 0.0, 0.3),
+        velocity_m_s=(0.1, 0.0, 0.0),
+    )
     s = twin.reset(init)
     assert (s.theta, s.theta_dot, s.drive_angle, s.drive_rate) == pytest.approx((0.3, 0.2, 0.7, -0.4))
     assert s.phi == pytest.approx(0.1)

@@ -28,19 +28,23 @@ def _polygons_at_rest(twin, pressure_kpa):
 
 
 def test_shell_is_meshed_coarser_below_the_low_pressure_mesh_pressure(make_twin, tmp_path):
-    law = _calibration(tmp_path, "law.yaml", resolution_hint_m=0.05,
-                       low_pressure_mesh={"below_kpa": 5.0, "resolution_hint_m": 0.1})
+    law = _calibration(
+        tmp_path, "law.yaml", resolution_hint_m=0.05, low_pressure_mesh={"below_kpa": 5.0, "resolution_hint_m": 0.1}
+    )
     uniform = _calibration(tmp_path, "uniform.yaml", resolution_hint_m=0.05)
     twin = make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0)
-    coarse = _polygons_at_rest(make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0,
-                                         resolution_hint_m=0.1), 3.0)
-    fine = _polygons_at_rest(make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0,
-                                       resolution_hint_m=0.05), 3.0)
+    coarse = _polygons_at_rest(
+        make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0, resolution_hint_m=0.1), 3.0
+    )
+    fine = _polygons_at_rest(
+        make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=3.0, resolution_hint_m=0.05), 3.0
+    )
     assert coarse < fine / 2  # the two meshes are told apart
     assert _polygons_at_rest(twin, 3.0) == coarse
     assert twin.shell_parameters()["resolution_hint_m"] == 0.1
-    fine_8 = _polygons_at_rest(make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=8.0,
-                                         resolution_hint_m=0.05), 8.0)
+    fine_8 = _polygons_at_rest(
+        make_twin(shell_model="hydroelastic", calibration=law, pressure_kpa=8.0, resolution_hint_m=0.05), 8.0
+    )
     assert _polygons_at_rest(twin, 8.0) == fine_8  # live pressure change re-meshes finer
     assert _polygons_at_rest(twin, 3.0) == coarse  # and back (a cached shell)
     # Another calibration with the same modulus and dissipation but another mesh is not served
@@ -65,8 +69,15 @@ def test_low_pressure_mesh_keeps_rocking_frequency(make_twin, tmp_path):
     p = below - 0.01
     w = {}
     for h in (None, 0.02):
-        twin = make_twin(fixture="locked_steer", shell_model="hydroelastic", steer_friction="none",
-                         drive_friction="none", pressure_kpa=p, resolution_hint_m=h, calibration=law)
+        twin = make_twin(
+            fixture="locked_steer",
+            shell_model="hydroelastic",
+            steer_friction="none",
+            drive_friction="none",
+            pressure_kpa=p,
+            resolution_hint_m=h,
+            calibration=law,
+        )
         twin.reset(InitialState(roll=0.15))
         t, phi = record(twin, 4.0)
         w[h] = fit_free_decay(t, phi).omega_n
@@ -118,8 +129,9 @@ def test_every_pressure_change_applies_the_k_d_of_that_pressure():
 
     import sphere_env  # noqa: F401  (registers ids)
 
-    env = gym.make("sphere_env/RampDescent-v2", shell_model="hydroelastic", time_step_s=0.01,
-                   calibration="hydroelastic_fast")
+    env = gym.make(
+        "sphere_env/RampDescent-v2", shell_model="hydroelastic", time_step_s=0.01, calibration="hydroelastic_fast"
+    )
     twin = env.unwrapped.twin
     cal = twin.calibration
     assert cal.fitted_time_step_s == 0.01 and cal.k_d_by_pressure  # the 10 ms table is in force
@@ -142,8 +154,14 @@ def test_fast_calibration_k_d_table_meets_zeta_curve_at_10_ms(make_twin):
     default.yaml) falls 15-25% short at 8.5 and 14 kPa."""
     from sphere_env.models.shell import ShellCalibration
 
-    kw = {"fixture": "locked_steer", "shell_model": "hydroelastic", "steer_friction": "none",
-          "drive_friction": "none", "time_step_s": 0.01, "calibration": "hydroelastic_fast"}
+    kw = {
+        "fixture": "locked_steer",
+        "shell_model": "hydroelastic",
+        "steer_friction": "none",
+        "drive_friction": "none",
+        "time_step_s": 0.01,
+        "calibration": "hydroelastic_fast",
+    }
     single = dict(ShellCalibration.load("hydroelastic_fast").raw)
     hyd = dict(single["hydroelastic"])
     hyd["k_d_by_time_step"] = [{"time_step_s": 0.01, "k_d": ShellCalibration.load().for_time_step(0.01).k_d}]
@@ -161,8 +179,13 @@ def _ramp_omega_d(make_twin, time_step_s: float, calibration: str, seconds: floa
     """ω_d every 20 ms over ``seconds`` from rest down the 16° ramp (Majd friction, nominal pressure)."""
     import numpy as np
 
-    twin = make_twin(shell_model="hydroelastic", incline_deg=16.0, ramp_length_m=4.0, calibration=calibration,
-                     time_step_s=time_step_s)
+    twin = make_twin(
+        shell_model="hydroelastic",
+        incline_deg=16.0,
+        ramp_length_m=4.0,
+        calibration=calibration,
+        time_step_s=time_step_s,
+    )
     twin.reset(InitialState())
     out = []
     for _ in range(round(seconds / 0.02)):

@@ -9,8 +9,13 @@ from sphere_env.physics import InitialState
 
 from .conftest import record
 
-ALL = {"steer_friction_scale": 1.3, "drive_friction_scale": 0.7, "ground_friction": 0.8,
-       "payload_mass_kg": 2.0, "payload_com_offset_m": (0.01, 0.0, -0.02)}
+ALL = {
+    "steer_friction_scale": 1.3,
+    "drive_friction_scale": 0.7,
+    "ground_friction": 0.8,
+    "payload_mass_kg": 2.0,
+    "payload_com_offset_m": (0.01, 0.0, -0.02),
+}
 
 
 def _episode(twin, change) -> np.ndarray:
@@ -56,8 +61,11 @@ def test_a_refused_value_changes_no_parameter(make_twin):
     before = twin.params
     before["pressure_kpa"] = -1.0  # a copy: the twin keeps its own
     assert twin.params["pressure_kpa"] == twin.calibration.nominal_pressure_kpa
-    with pytest.raises(ValueError, match=r"^field 'pressure_kpa' = 99\.0: .*; allowed: \[3\.0, 14\.0\] kPa, "
-                                         r"the calibrated range \(calibration "):
+    with pytest.raises(
+        ValueError,
+        match=r"^field 'pressure_kpa' = 99\.0: .*; allowed: \[3\.0, 14\.0\] kPa, "
+        r"the calibrated range \(calibration ",
+    ):
         twin.apply({**ALL, "pressure_kpa": 99.0})
     with pytest.raises(ValueError, match=r"^field 'payload_mass_kg' = 99\.0: .*; allowed: \[0, 50\] kg$"):
         twin.apply({"pressure_kpa": 5.0, "payload_mass_kg": 99.0})

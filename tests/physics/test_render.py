@@ -17,8 +17,8 @@ W, H = 160, 120
 
 def _background(frame: np.ndarray) -> np.ndarray:
     """The lower third of the frame left and right of the robot (which the camera keeps centred)."""
-    rows = frame[2 * H // 3:].astype(int)
-    return np.concatenate([rows[:, : W // 4], rows[:, -W // 4:]], axis=1)
+    rows = frame[2 * H // 3 :].astype(int)
+    return np.concatenate([rows[:, : W // 4], rows[:, -W // 4 :]], axis=1)
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +49,9 @@ def test_rolling_robot_frames_differ_in_the_background():
 
     import sphere_env  # noqa: F401
 
-    env = gym.make("sphere_env/Roll-v1", shell_model="point", randomization="off", render_mode="rgb_array",
-                   render_size=(W, H))
+    env = gym.make(
+        "sphere_env/Roll-v1", shell_model="point", randomization="off", render_mode="rgb_array", render_size=(W, H)
+    )
     try:
         env.reset(seed=0)
         frames = []

@@ -30,8 +30,12 @@ def _linear_law_calibration(tmp_path):
 
 
 def test_injected_free_decay_follows_calibration_curves(make_twin, tmp_path):
-    twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none",
-                     calibration=_linear_law_calibration(tmp_path))
+    twin = make_twin(
+        fixture="locked_steer",
+        shell_model="injected",
+        drive_friction="none",
+        calibration=_linear_law_calibration(tmp_path),
+    )
     lo, hi = twin.calibration.pressure_range_kpa
     for p in np.linspace(lo, hi, 3):
         twin.set_pressure(p)
@@ -76,8 +80,14 @@ def test_shipped_hydroelastic_mesh_is_converged(make_twin, tmp_path):
     for p in (lo, hi):
         w = {}
         for hint in (shipped, shipped / 2.5, 0.2):
-            twin = make_twin(fixture="locked_steer", shell_model="hydroelastic", drive_friction="none",
-                             resolution_hint_m=hint, pressure_kpa=p, calibration=contact_only)
+            twin = make_twin(
+                fixture="locked_steer",
+                shell_model="hydroelastic",
+                drive_friction="none",
+                resolution_hint_m=hint,
+                pressure_kpa=p,
+                calibration=contact_only,
+            )
             w[hint] = _decay(twin, roll=0.1, seconds=4.0).omega_n
         assert w[shipped] == pytest.approx(w[shipped / 2.5], rel=0.03), (p, w)
     assert abs(w[0.2] / w[shipped / 2.5] - 1) > 0.05, w  # the test can tell a bad mesh
@@ -86,8 +96,12 @@ def test_shipped_hydroelastic_mesh_is_converged(make_twin, tmp_path):
 def test_set_pressure_mid_run_changes_injected_frequency(make_twin, tmp_path):
     """Pump up in the middle of a free decay (no reset): the rest of the decay rocks at the high
     pressure's ω_n and ζ; the same run without the change keeps the low pressure's."""
-    twin = make_twin(fixture="locked_steer", shell_model="injected", drive_friction="none",
-                     calibration=_linear_law_calibration(tmp_path))
+    twin = make_twin(
+        fixture="locked_steer",
+        shell_model="injected",
+        drive_friction="none",
+        calibration=_linear_law_calibration(tmp_path),
+    )
     lo, hi = twin.calibration.pressure_range_kpa
     cal = twin.calibration
     assert abs(cal.omega_n(hi) / cal.omega_n(lo) - 1) > 0.08  # the two pressures are distinguishable

@@ -51,7 +51,9 @@ def test_motor_saturation_caps_the_torque_like_a_clipped_action():
     acts = _actions(20, seed=1)
     env = gym.make(ENV, shell_model="point", randomization={"motor_torque_scale": 0.4})
     capped, tau = _run(env, acts)
-    plain, tau_plain = _run(gym.make(ENV, shell_model="point", randomization="off"), np.clip(acts.astype(np.float64), -0.4, 0.4))
+    plain, tau_plain = _run(
+        gym.make(ENV, shell_model="point", randomization="off"), np.clip(acts.astype(np.float64), -0.4, 0.4)
+    )
     assert np.max(np.abs(tau[:, 0])) <= 0.4 * 20.0 + 1e-12 and np.max(np.abs(tau[:, 1])) <= 0.4 * 22.0 + 1e-12
     np.testing.assert_array_equal(tau, tau_plain)
     np.testing.assert_allclose(capped[:, :11], plain[:, :11], rtol=0, atol=1e-9)
@@ -70,9 +72,11 @@ def test_observation_noise_as_a_parameter_has_the_drawn_scale():
 
 
 def test_events_report_what_fired_and_the_schedule_moves_pressure():
-    spec = {"pressure_kpa": 8.0, "ground_friction": {"distribution": "uniform", "low": 0.8, "high": 1.2,
-                                                     "mode": "interval", "interval_s": 0.5},
-            "pressure_schedule": {"rate_kpa_per_s": -2.0}}
+    spec = {
+        "pressure_kpa": 8.0,
+        "ground_friction": {"distribution": "uniform", "low": 0.8, "high": 1.2, "mode": "interval", "interval_s": 0.5},
+        "pressure_schedule": {"rate_kpa_per_s": -2.0},
+    }
     env = gym.make(ENV, randomization=spec)
     _, info = env.reset(seed=0)
     names = {"reset:pressure_kpa", "interval:ground_friction", "schedule:pressure_kpa"}
@@ -90,8 +94,9 @@ def test_events_report_what_fired_and_the_schedule_moves_pressure():
 
 
 def test_draw_changes_nothing_until_started():
-    spec = RandomizationSpec.parse({"pressure_kpa": [3.0, 14.0], "action_latency_steps": {"distribution": "choice",
-                                                                                          "values": [0, 1, 2]}})
+    spec = RandomizationSpec.parse(
+        {"pressure_kpa": [3.0, 14.0], "action_latency_steps": {"distribution": "choice", "values": [0, 1, 2]}}
+    )
     nominal = {"pressure_kpa": 4.0, "action_latency_steps": 0, "observation_noise_scale": 0.0}
     mgr = EventManager(spec, nominal, ParameterSpace.for_calibration(3.0, 14.0))
     a = mgr.draw(np.random.default_rng(1))
@@ -102,14 +107,19 @@ def test_draw_changes_nothing_until_started():
     assert mgr.params == a
 
 
-@pytest.mark.parametrize("spec, field", [
-    ({"action_latency_steps": 2.5}, "randomization: field 'action_latency_steps' = 2.5"),
-    ({"action_latency_steps": 9}, "randomization: field 'action_latency_steps' = 9"),
-    ({"action_latency_steps": {"distribution": "choice", "values": [1], "mode": "interval", "interval_s": 1}},
-     "randomization: field 'action_latency_steps.mode' = 'interval'"),
-    ({"motor_torque_scale": 0.0}, "randomization: field 'motor_torque_scale' = 0.0"),
-    ({"motor_torque_scale": [0.5, 1.5]}, "randomization: field 'motor_torque_scale[1]' = 1.5"),
-])
+@pytest.mark.parametrize(
+    "spec, field",
+    [
+        ({"action_latency_steps": 2.5}, "randomization: field 'action_latency_steps' = 2.5"),
+        ({"action_latency_steps": 9}, "randomization: field 'action_latency_steps' = 9"),
+        (
+            {"action_latency_steps": {"distribution": "choice", "values": [1], "mode": "interval", "interval_s": 1}},
+            "randomization: field 'action_latency_steps.mode' = 'interval'",
+        ),
+        ({"motor_torque_scale": 0.0}, "randomization: field 'motor_torque_scale' = 0.0"),
+        ({"motor_torque_scale": [0.5, 1.5]}, "randomization: field 'motor_torque_scale[1]' = 1.5"),
+    ],
+)
 def test_bad_fault_specs_are_refused_naming_the_field(spec, field):
     env = gym.make(ENV)
     with pytest.raises(ValueError, match=re.escape(field)):
@@ -119,7 +129,10 @@ def test_bad_fault_specs_are_refused_naming_the_field(spec, field):
 @pytest.mark.parametrize("shell_model", ["point", "injected", "hydroelastic"])
 def test_pressures_beyond_the_calibrated_range_need_extrapolation_and_run(shell_model):
     env = gym.make(ENV, shell_model=shell_model, randomization="off")
-    with pytest.raises(ValueError, match=r"^options: field 'pressure_kpa' = 1\.5: .*; allowed: \[3\.0, 14\.0\] kPa, the calibrated range"):
+    with pytest.raises(
+        ValueError,
+        match=r"^options: field 'pressure_kpa' = 1\.5: .*; allowed: \[3\.0, 14\.0\] kPa, the calibrated range",
+    ):
         env.reset(seed=0, options={"pressure_kpa": 1.5})
     env = gym.make(ENV, shell_model=shell_model, randomization="off", pressure_extrapolation_kpa=3.5)
     for p in (1.5, 17.5):
@@ -162,14 +175,21 @@ def test_a_reset_option_picks_the_shell_and_hydroelastic_pressures_snap_to_its_g
     assert info["shell_model"] == "injected" and info["pressure_kpa"] == 5.2
 
 
-@pytest.mark.parametrize("spec, needle", [
-    ({"shell_model": "rubber"}, "randomization: field 'shell_model' = 'rubber': Input should be 'point', 'injected' "
-                                "or 'hydroelastic'"),
-    ({"shell_model": ["point", "jelly"]}, "randomization: field 'shell_model[1]' = 'jelly'"),
-    ({"shell_model": {"distribution": "uniform", "values": ["point"]}},
-     "randomization: field 'shell_model.distribution' = 'uniform': Input should be 'fixed' or 'choice'"),
-    ({"shell_model": 3}, "randomization: field 'shell_model' = 3"),
-])
+@pytest.mark.parametrize(
+    "spec, needle",
+    [
+        (
+            {"shell_model": "rubber"},
+            "randomization: field 'shell_model' = 'rubber': Input should be 'point', 'injected' or 'hydroelastic'",
+        ),
+        ({"shell_model": ["point", "jelly"]}, "randomization: field 'shell_model[1]' = 'jelly'"),
+        (
+            {"shell_model": {"distribution": "uniform", "values": ["point"]}},
+            "randomization: field 'shell_model.distribution' = 'uniform': Input should be 'fixed' or 'choice'",
+        ),
+        ({"shell_model": 3}, "randomization: field 'shell_model' = 3"),
+    ],
+)
 def test_bad_shell_model_specs_are_refused_naming_the_field(spec, needle):
     with pytest.raises(ValueError, match=re.escape(needle)):
         gym.make(ENV).unwrapped.set_randomization(spec)

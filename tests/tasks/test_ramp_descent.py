@@ -51,7 +51,9 @@ def test_success_needs_tracking_after_settling_not_only_the_run_out():
     _drive(task, 2.1, 0.5, 2.99, 50)
     _drive(task, 2.0, 3.0, 3.2, 25)  # just after the change: not judged
     _drive(task, 3.9, 3.2, 5.9, 50)
-    assert task.tracking_rmse_rad_s() == pytest.approx(0.1, rel=0.02)  # the crossing sample is judged against the old command
+    assert task.tracking_rmse_rad_s() == pytest.approx(
+        0.1, rel=0.02
+    )  # the crossing sample is judged against the old command
     terms, done, success = _drive(task, 3.9, 6.1, 6.1, 1)
     assert done and success and terms["success"] > 0 and task.info()["reached_runout"]
     # Coasting at one speed reaches the run-out too, but misses the second command: no success.
@@ -69,14 +71,17 @@ def test_success_needs_tracking_after_settling_not_only_the_run_out():
     assert fresh.info()["tracking_rmse_rad_s"] == 0.0 and fresh.info()["tracking_samples"] == 0
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(omega_ref_change_min_rad_s=3.0), "omega_ref_change_min_rad_s"),
-    (dict(omega_ref_change_min_rad_s=-1.0), "omega_ref_change_min_rad_s"),
-    (dict(settle_time_s=math.nan), "settle_time_s"),
-    (dict(settle_time_s=-1), "settle_time_s"),
-    (dict(tracking_tolerance_rad_s=0.0), "tracking_tolerance_rad_s"),
-    (dict(tracking_tolerance_rad_s="abc"), "tracking_tolerance_rad_s"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(omega_ref_change_min_rad_s=3.0), "omega_ref_change_min_rad_s"),
+        (dict(omega_ref_change_min_rad_s=-1.0), "omega_ref_change_min_rad_s"),
+        (dict(settle_time_s=math.nan), "settle_time_s"),
+        (dict(settle_time_s=-1), "settle_time_s"),
+        (dict(tracking_tolerance_rad_s=0.0), "tracking_tolerance_rad_s"),
+        (dict(tracking_tolerance_rad_s="abc"), "tracking_tolerance_rad_s"),
+    ],
+)
 def test_bad_ramp_kwargs_name_the_field(kwargs, name):
     with pytest.raises(ValueError, match=name):
         gym.make("sphere_env/RampDescent-v2", **kwargs)

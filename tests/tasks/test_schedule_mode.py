@@ -33,8 +33,16 @@ def _episode(env, n, seed, action=(0.0, 0.0)):
 
 
 def test_a_friction_scale_schedule_moves_the_twins_parameter_as_the_formula_says():
-    spec = {"steer_friction_scale": {"distribution": "uniform", "low": 0.9, "high": 1.1, "mode": "schedule",
-                                     "rate_per_s": [-1.0, -0.5], "delay_s": 0.2}}
+    spec = {
+        "steer_friction_scale": {
+            "distribution": "uniform",
+            "low": 0.9,
+            "high": 1.1,
+            "mode": "schedule",
+            "rate_per_s": [-1.0, -0.5],
+            "delay_s": 0.2,
+        }
+    }
     env = gym.make(ENV, shell_model="point", randomization=spec)
     _, info = env.reset(seed=3)
     p = info["params"]
@@ -68,10 +76,13 @@ def test_the_same_seed_gives_the_same_schedule_and_another_seed_another():
 
 
 def test_schedules_clip_to_the_bounds_and_draw_after_every_terms_value():
-    spec = RandomizationSpec.parse({
-        "payload_mass_kg": {"mode": "schedule", "value": 1.0, "rate_per_s": 100.0},
-        "ground_friction": {"mode": "schedule", "rate_per_s": [5.0, 6.0], "delay_s": 0.1},
-        "drive_friction_scale": [0.8, 1.2]})
+    spec = RandomizationSpec.parse(
+        {
+            "payload_mass_kg": {"mode": "schedule", "value": 1.0, "rate_per_s": 100.0},
+            "ground_friction": {"mode": "schedule", "rate_per_s": [5.0, 6.0], "delay_s": 0.1},
+            "drive_friction_scale": [0.8, 1.2],
+        }
+    )
     nominal = {name: SPACE.nominal(name) for name in PARAMETERS if PARAMETERS[name].applied_by}
     mgr = EventManager(spec, nominal, SPACE)
     rng = np.random.default_rng(4)
@@ -90,10 +101,17 @@ def test_schedules_clip_to_the_bounds_and_draw_after_every_terms_value():
     assert changed["ground_friction"] == math.nextafter(2.0, 0.0)  # an open bound: the nearest float inside
     assert fired == ["schedule:payload_mass_kg", "schedule:ground_friction"]
     assert mgr.step(1.2, rng) == ({}, [])  # at the bounds: nothing changes any more
-    assert [e["name"] for e in mgr.describe()] == ["schedule:payload_mass_kg", "schedule:ground_friction",
-                                                     "reset:drive_friction_scale"]
-    assert mgr.describe()[1] == {"name": "schedule:ground_friction", "mode": "schedule",
-                                 "parameter": "ground_friction", "delay_s": 0.1}
+    assert [e["name"] for e in mgr.describe()] == [
+        "schedule:payload_mass_kg",
+        "schedule:ground_friction",
+        "reset:drive_friction_scale",
+    ]
+    assert mgr.describe()[1] == {
+        "name": "schedule:ground_friction",
+        "mode": "schedule",
+        "parameter": "ground_friction",
+        "delay_s": 0.1,
+    }
 
 
 def test_an_env_parameter_schedule_acts_where_the_env_applies_it():
@@ -117,48 +135,81 @@ def test_pressure_kpa_with_mode_schedule_is_the_pressure_schedule():
     for spec in (old, new):
         env = gym.make(ENV, shell_model="injected", randomization=spec)
         runs.append([(i["params"], i["events"][-1:], i["theta"]) for i in _episode(env, 30, seed=11)[1:]])
-        assert env.unwrapped.events[-1] == {"name": "schedule:pressure_kpa", "mode": "schedule",
-                                            "parameter": "pressure_kpa", "delay_s": 0.1}
+        assert env.unwrapped.events[-1] == {
+            "name": "schedule:pressure_kpa",
+            "mode": "schedule",
+            "parameter": "pressure_kpa",
+            "delay_s": 0.1,
+        }
     assert runs[0] == runs[1]
     assert runs[0][-1][0]["pressure_kpa"] < runs[0][0][0]["pressure_kpa"]
     assert schedule_rate("pressure_kpa").name == "pressure_rate_kpa_per_s"
 
 
-@pytest.mark.parametrize("spec, needle", [
-    ({"shell_model": {"value": "point", "mode": "schedule", "rate_per_s": 1.0}},
-     "randomization: field 'shell_model.mode' = 'schedule': Input should be 'reset'; allowed: ['reset'] "
-     "(shell_model changes only between episodes)"),
-    ({"payload_com_offset_m": {"mode": "schedule", "rate_per_s": 0.1}},
-     "randomization: field 'payload_com_offset_m.mode' = 'schedule': Input should be 'reset' or 'interval'; "
-     "allowed: ['reset', 'interval'] (payload_com_offset_m is a vector: no schedule)"),
-    ({"action_latency_steps": {"mode": "schedule", "rate_per_s": 1.0}},
-     "randomization: field 'action_latency_steps.mode' = 'schedule': Input should be 'reset'"),
-    ({"time_step_s": {"mode": "schedule", "rate_per_s": 1.0}}, "randomization: unknown field 'time_step_s'"),
-    ({"pressure_rate_kpa_per_s": {"mode": "schedule", "rate_per_s": 1.0}},
-     "randomization: unknown field 'pressure_rate_kpa_per_s'"),
-    ({"ground_friction": {"mode": "schedule", "rate_per_s": 0.1, "delay_s": -1.0}},
-     "randomization: field 'ground_friction.delay_s' = -1.0: Input should be greater than or equal to 0"),
-    ({"ground_friction": {"mode": "schedule", "rate_per_s": "fast"}},
-     "randomization: field 'ground_friction.rate_per_s' = 'fast'"),
-    ({"ground_friction": {"mode": "schedule", "rate_per_s": [0.2, 0.1]}},
-     "randomization: field 'ground_friction.rate_per_s' = [0.2, 0.1]"),
-    ({"ground_friction": {"mode": "schedule"}},
-     "randomization: field 'ground_friction.rate_per_s' is missing: mode 'schedule' needs a rate of change"),
-    ({"ground_friction": {"value": 1.0, "rate_per_s": 0.1}},
-     "randomization: field 'ground_friction.rate_per_s' = 0.1 is only for mode 'schedule'; allowed: leave it out for "
-     "mode 'reset'"),
-    ({"ground_friction": {"value": 1.0, "mode": "interval", "interval_s": 1.0, "delay_s": 1.0}},
-     "randomization: field 'ground_friction.delay_s' = 1.0 is only for mode 'schedule'; allowed: leave it out for "
-     "mode 'interval'"),
-    ({"ground_friction": {"value": 1.0, "mode": "schedule", "rate_per_s": 0.1, "interval_s": 1.0}},
-     "randomization: field 'ground_friction.interval_s' = 1.0 is only for mode 'interval'; allowed: leave it out for "
-     "mode 'schedule'"),
-    ({"ground_friction": {"distribution": None}},
-     "randomization: field 'ground_friction.distribution' = None: only mode 'schedule' may leave out the draw"),
-    ({"pressure_kpa": {"mode": "schedule", "rate_per_s": -0.1}, "pressure_schedule": {"rate_kpa_per_s": -0.1}},
-     "randomization: field 'pressure_schedule' = {'rate_kpa_per_s': -0.1}: 'pressure_kpa' has mode 'schedule' "
-     "already; allowed: one pressure schedule"),
-])
+@pytest.mark.parametrize(
+    "spec, needle",
+    [
+        (
+            {"shell_model": {"value": "point", "mode": "schedule", "rate_per_s": 1.0}},
+            "randomization: field 'shell_model.mode' = 'schedule': Input should be 'reset'; allowed: ['reset'] "
+            "(shell_model changes only between episodes)",
+        ),
+        (
+            {"payload_com_offset_m": {"mode": "schedule", "rate_per_s": 0.1}},
+            "randomization: field 'payload_com_offset_m.mode' = 'schedule': Input should be 'reset' or 'interval'; "
+            "allowed: ['reset', 'interval'] (payload_com_offset_m is a vector: no schedule)",
+        ),
+        (
+            {"action_latency_steps": {"mode": "schedule", "rate_per_s": 1.0}},
+            "randomization: field 'action_latency_steps.mode' = 'schedule': Input should be 'reset'",
+        ),
+        ({"time_step_s": {"mode": "schedule", "rate_per_s": 1.0}}, "randomization: unknown field 'time_step_s'"),
+        (
+            {"pressure_rate_kpa_per_s": {"mode": "schedule", "rate_per_s": 1.0}},
+            "randomization: unknown field 'pressure_rate_kpa_per_s'",
+        ),
+        (
+            {"ground_friction": {"mode": "schedule", "rate_per_s": 0.1, "delay_s": -1.0}},
+            "randomization: field 'ground_friction.delay_s' = -1.0: Input should be greater than or equal to 0",
+        ),
+        (
+            {"ground_friction": {"mode": "schedule", "rate_per_s": "fast"}},
+            "randomization: field 'ground_friction.rate_per_s' = 'fast'",
+        ),
+        (
+            {"ground_friction": {"mode": "schedule", "rate_per_s": [0.2, 0.1]}},
+            "randomization: field 'ground_friction.rate_per_s' = [0.2, 0.1]",
+        ),
+        (
+            {"ground_friction": {"mode": "schedule"}},
+            "randomization: field 'ground_friction.rate_per_s' is missing: mode 'schedule' needs a rate of change",
+        ),
+        (
+            {"ground_friction": {"value": 1.0, "rate_per_s": 0.1}},
+            "randomization: field 'ground_friction.rate_per_s' = 0.1 is only for mode 'schedule'; allowed: leave it out for "
+            "mode 'reset'",
+        ),
+        (
+            {"ground_friction": {"value": 1.0, "mode": "interval", "interval_s": 1.0, "delay_s": 1.0}},
+            "randomization: field 'ground_friction.delay_s' = 1.0 is only for mode 'schedule'; allowed: leave it out for "
+            "mode 'interval'",
+        ),
+        (
+            {"ground_friction": {"value": 1.0, "mode": "schedule", "rate_per_s": 0.1, "interval_s": 1.0}},
+            "randomization: field 'ground_friction.interval_s' = 1.0 is only for mode 'interval'; allowed: leave it out for "
+            "mode 'schedule'",
+        ),
+        (
+            {"ground_friction": {"distribution": None}},
+            "randomization: field 'ground_friction.distribution' = None: only mode 'schedule' may leave out the draw",
+        ),
+        (
+            {"pressure_kpa": {"mode": "schedule", "rate_per_s": -0.1}, "pressure_schedule": {"rate_kpa_per_s": -0.1}},
+            "randomization: field 'pressure_schedule' = {'rate_kpa_per_s': -0.1}: 'pressure_kpa' has mode 'schedule' "
+            "already; allowed: one pressure schedule",
+        ),
+    ],
+)
 def test_bad_schedule_specs_are_refused_by_name_and_change_nothing(spec, needle):
     env = gym.make(ENV, shell_model="point")
     before = env.unwrapped.randomization
@@ -170,9 +221,13 @@ def test_bad_schedule_specs_are_refused_by_name_and_change_nothing(spec, needle)
 
 
 def test_a_schedule_round_trips_through_the_spec_object_and_replaces_a_presets_pressure_schedule():
-    spec = RandomizationSpec.parse({"base": "full", "steer_friction_scale": {"mode": "schedule", "rate_per_s": 0.1},
-                                    "pressure_kpa": {"distribution": "uniform", "mode": "schedule",
-                                                     "rate_per_s": [-0.2, 0.0]}})
+    spec = RandomizationSpec.parse(
+        {
+            "base": "full",
+            "steer_friction_scale": {"mode": "schedule", "rate_per_s": 0.1},
+            "pressure_kpa": {"distribution": "uniform", "mode": "schedule", "rate_per_s": [-0.2, 0.0]},
+        }
+    )
     assert spec.pressure_schedule is None
     assert RandomizationSpec.parse(spec) == spec
     term = next(t for t in spec.terms if t.parameter == "steer_friction_scale")
@@ -185,10 +240,13 @@ def test_a_schedule_that_can_raise_friction_is_checked_for_stability_at_the_boun
     from sphere_env.envs.twins import largest
 
     with pytest.raises(ValueError, match=r"steer_friction_scale 10\) diverges"):
-        gym.make(ENV, shell_model="point", randomization={"steer_friction_scale": {"mode": "schedule",
-                                                                                   "rate_per_s": 0.1}})
+        gym.make(
+            ENV, shell_model="point", randomization={"steer_friction_scale": {"mode": "schedule", "rate_per_s": 0.1}}
+        )
 
-    rise = RandomizationSpec.parse({"steer_friction_scale": {"value": 1.0, "mode": "schedule", "rate_per_s": [-0.1, 0.1]}})
+    rise = RandomizationSpec.parse(
+        {"steer_friction_scale": {"value": 1.0, "mode": "schedule", "rate_per_s": [-0.1, 0.1]}}
+    )
     fall = RandomizationSpec.parse({"steer_friction_scale": {"value": 1.2, "mode": "schedule", "rate_per_s": -0.1}})
     assert largest(rise, "steer_friction_scale") == PARAMETERS["steer_friction_scale"].high
     assert largest(fall, "steer_friction_scale") == 1.2

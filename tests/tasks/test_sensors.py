@@ -28,7 +28,7 @@ def _samples(roboball_dir) -> list[dict[str, float]]:
         pytest.skip(f"{path} not present")
     d = pd.read_csv(path)
     k = int(np.argmax(np.abs(d["drive_shaft.velocity"].to_numpy())))
-    rows = d.iloc[max(k - STEPS, 0): max(k - STEPS, 0) + 2 * STEPS: 2]
+    rows = d.iloc[max(k - STEPS, 0) : max(k - STEPS, 0) + 2 * STEPS : 2]
     return [dict(r) for _, r in rows.iterrows()]
 
 
@@ -40,14 +40,22 @@ def _state_of(sample, encoder0: float, y_m: float) -> InitialState:
     rx = np.array([[1, 0, 0], [0, math.cos(phi), -math.sin(phi)], [0, math.sin(phi), math.cos(phi)]])
     ry = np.array([[math.cos(alpha), 0, math.sin(alpha)], [0, 1, 0], [-math.sin(alpha), 0, math.cos(alpha)]])
     R = rz @ rx @ ry
-    w = (channel(sample, "shell_yaw.velocity") * np.array([0, 0, 1.0]) + channel(sample, "pipe_roll.velocity") * rz[:, 0]
-         + channel(sample, "pitch_joint.velocity") * (rz @ rx)[:, 1])
+    w = (
+        channel(sample, "shell_yaw.velocity") * np.array([0, 0, 1.0])
+        + channel(sample, "pipe_roll.velocity") * rz[:, 0]
+        + channel(sample, "pitch_joint.velocity") * (rz @ rx)[:, 1]
+    )
     return InitialState(
-        theta=channel(sample, "roll_joint.position"), theta_dot=channel(sample, "roll_joint.velocity"),
+        theta=channel(sample, "roll_joint.position"),
+        theta_dot=channel(sample, "roll_joint.velocity"),
         drive_angle=-(channel(sample, "drive_shaft.position") - encoder0),
         drive_rate=-channel(sample, "drive_shaft.velocity"),
-        roll=math.atan2(R[2, 1], R[2, 2]), pitch=math.asin(-R[2, 0]), heading=math.atan2(R[1, 0], R[0, 0]),
-        position_m=(1.0, y_m, 5.0), angular_velocity_rad_s=tuple(float(x) for x in w))
+        roll=math.atan2(R[2, 1], R[2, 2]),
+        pitch=math.asin(-R[2, 0]),
+        heading=math.atan2(R[1, 0], R[0, 0]),
+        position_m=(1.0, y_m, 5.0),
+        angular_velocity_rad_s=tuple(float(x) for x in w),
+    )
 
 
 @pytest.mark.parametrize("incline_deg", [0.0, 16.0])

@@ -67,8 +67,10 @@ def test_the_distance_weighted_speed_return_peaks_at_the_command():
         returns[lag] = total
         assert total == pytest.approx(w.speed * gaussian_tolerance(-lag, w.speed_width), rel=1e-9)
     assert max(returns, key=returns.get) == 0.0
-    per_second = {lag: (omega_ref / (omega_ref - lag)) * gaussian_tolerance(-lag, RampRewardWeights().speed_width)
-                  for lag in (0.0, 0.5, 1.0)}
+    per_second = {
+        lag: (omega_ref / (omega_ref - lag)) * gaussian_tolerance(-lag, RampRewardWeights().speed_width)
+        for lag in (0.0, 0.5, 1.0)
+    }
     assert max(per_second, key=per_second.get) == 1.0  # v2's bias, from the same formula
 
 

@@ -16,9 +16,22 @@ SPACE = ParameterSpace.for_calibration(3.0, 14.0)
 
 
 def fake_state(**kw):
-    base = dict(time_s=0.0, theta=0.1, theta_dot=0.2, drive_angle=7.0, drive_rate=-1.0, phi=0.05, phi_dot=0.3,
-                omega_d=2.0, heading=0.1, heading_rate=0.4, position_m=np.array([1.0, 0.2, 0.3]),
-                velocity_m_s=np.array([0.5, 0.0, 0.0]), gravity_in_pipe=np.array([0.0, 0.0, -1.0]), pressure_kpa=5.0)
+    base = dict(
+        time_s=0.0,
+        theta=0.1,
+        theta_dot=0.2,
+        drive_angle=7.0,
+        drive_rate=-1.0,
+        phi=0.05,
+        phi_dot=0.3,
+        omega_d=2.0,
+        heading=0.1,
+        heading_rate=0.4,
+        position_m=np.array([1.0, 0.2, 0.3]),
+        velocity_m_s=np.array([0.5, 0.0, 0.0]),
+        gravity_in_pipe=np.array([0.0, 0.0, -1.0]),
+        pressure_kpa=5.0,
+    )
     base.update(kw)
     return SimpleNamespace(**base)
 
@@ -83,16 +96,26 @@ def test_randomization_presets_and_sampling_are_seeded():
     vals = full.sample(np.random.default_rng(0))
     assert set(vals) >= {"pressure_kpa", "ground_friction", "payload_mass_kg", "payload_com_offset_m", "incline_deg"}
     assert len(vals["payload_com_offset_m"]) == 3 and full.pressure_schedule is not None
-    assert "incline_deg" not in RandomizationSpec.parse("full", ramp=False).resolved(SPACE).sample(np.random.default_rng(0))
+    assert "incline_deg" not in RandomizationSpec.parse("full", ramp=False).resolved(SPACE).sample(
+        np.random.default_rng(0)
+    )
 
 
 def test_randomization_mapping_formats():
-    spec = RandomizationSpec.parse({
-        "pressure_kpa": [4.0, 8.0],
-        "ground_friction": {"distribution": "normal", "mean": 1.0, "std": 0.1, "mode": "interval", "interval_s": 0.5},
-        "payload_mass_kg": 2.0,
-        "pressure_schedule": {"rate_kpa_per_s": -0.1, "delay_s": 1.0},
-    }).resolved(SPACE)
+    spec = RandomizationSpec.parse(
+        {
+            "pressure_kpa": [4.0, 8.0],
+            "ground_friction": {
+                "distribution": "normal",
+                "mean": 1.0,
+                "std": 0.1,
+                "mode": "interval",
+                "interval_s": 0.5,
+            },
+            "payload_mass_kg": 2.0,
+            "pressure_schedule": {"rate_kpa_per_s": -0.1, "delay_s": 1.0},
+        }
+    ).resolved(SPACE)
     modes = {t.parameter: t.mode for t in spec.terms}
     assert modes == {"pressure_kpa": "reset", "ground_friction": "interval", "payload_mass_kg": "reset"}
     assert spec.sample(np.random.default_rng(0))["payload_mass_kg"] == 2.0
@@ -100,24 +123,45 @@ def test_randomization_mapping_formats():
     assert spec.pressure_schedule.delay_s == 1.0
 
 
-@pytest.mark.parametrize("bad, match", [
-    ({"bogus": 1.0}, "unknown field 'bogus'"),
-    ({"pressure_kpa": [1.0, 8.0]}, re.escape("field 'pressure_kpa' = 1.0: Input should be greater than or equal to 3; "
-                                             "allowed: [3.0, 14.0] kPa, the calibrated range")),
-    ({"ground_friction": {"distribution": "uniform", "low": 1.5, "high": 1.0}},
-     re.escape("field 'ground_friction' = {'distribution': 'uniform', 'low': 1.5, 'high': 1.0}: low 1.5 is above "
-               "high 1.0; allowed: ")),
-    ({"ground_friction": [1.2, 0.8]}, re.escape("field 'ground_friction' = [1.2, 0.8]: low 1.2 is above high 0.8; "
-                                                "allowed: ")),
-    ({"payload_com_offset_m": [[0.1, 0.0, 0.0], [0.0, 0.1, 0.1]]},
-     re.escape("field 'payload_com_offset_m' = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.1]]: low [0.1, 0.0, 0.0] is above high "
-               "[0.0, 0.1, 0.1]; allowed: ")),
-    ({"incline_deg": {"distribution": "uniform", "low": 10, "high": 12, "mode": "interval", "interval_s": 1}}, "interval"),
-    ({"ground_friction": {"distribution": "uniform", "low": 0.5, "high": 1.0, "mode": "interval"}}, "interval_s"),
-    ({"payload_mass_kg": -1.0}, "field 'payload_mass_kg' = -1.0: Input should be greater than or equal to 0"),
-    ({"pressure_schedule": {"rate": 1}}, "pressure_schedule"),
-    ("sometimes", "field 'base' = 'sometimes'"),
-])
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        ({"bogus": 1.0}, "unknown field 'bogus'"),
+        (
+            {"pressure_kpa": [1.0, 8.0]},
+            re.escape(
+                "field 'pressure_kpa' = 1.0: Input should be greater than or equal to 3; "
+                "allowed: [3.0, 14.0] kPa, the calibrated range"
+            ),
+        ),
+        (
+            {"ground_friction": {"distribution": "uniform", "low": 1.5, "high": 1.0}},
+            re.escape(
+                "field 'ground_friction' = {'distribution': 'uniform', 'low': 1.5, 'high': 1.0}: low 1.5 is above "
+                "high 1.0; allowed: "
+            ),
+        ),
+        (
+            {"ground_friction": [1.2, 0.8]},
+            re.escape("field 'ground_friction' = [1.2, 0.8]: low 1.2 is above high 0.8; allowed: "),
+        ),
+        (
+            {"payload_com_offset_m": [[0.1, 0.0, 0.0], [0.0, 0.1, 0.1]]},
+            re.escape(
+                "field 'payload_com_offset_m' = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.1]]: low [0.1, 0.0, 0.0] is above high "
+                "[0.0, 0.1, 0.1]; allowed: "
+            ),
+        ),
+        (
+            {"incline_deg": {"distribution": "uniform", "low": 10, "high": 12, "mode": "interval", "interval_s": 1}},
+            "interval",
+        ),
+        ({"ground_friction": {"distribution": "uniform", "low": 0.5, "high": 1.0, "mode": "interval"}}, "interval_s"),
+        ({"payload_mass_kg": -1.0}, "field 'payload_mass_kg' = -1.0: Input should be greater than or equal to 0"),
+        ({"pressure_schedule": {"rate": 1}}, "pressure_schedule"),
+        ("sometimes", "field 'base' = 'sometimes'"),
+    ],
+)
 def test_randomization_bad_specs_name_the_field(bad, match):
     with pytest.raises(ValueError, match=match) as err:
         RandomizationSpec.parse(bad).resolved(SPACE)
@@ -141,7 +185,9 @@ def test_speed_linear_term_pulls_where_the_gaussian_is_flat():
         return sum(rewards.ramp_descent_terms(weights, 0.02, omega_d, 3.0, 0.0, 0.0, (0.0, 0.0), False, False).values())
 
     def linear(weights, omega_d):
-        return rewards.ramp_descent_terms(weights, 0.02, omega_d, 3.0, 0.0, 0.0, (0.0, 0.0), False, False)["speed_linear"]
+        return rewards.ramp_descent_terms(weights, 0.02, omega_d, 3.0, 0.0, 0.0, (0.0, 0.0), False, False)[
+            "speed_linear"
+        ]
 
     assert linear(default, 7.0) == 0.0
     flat = total(default, 7.0) - total(default, 8.0)  # 4 → 5 rad/s too fast

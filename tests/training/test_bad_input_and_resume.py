@@ -36,8 +36,13 @@ TINY = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs
         ("vf_coef:.nan", "hyperparams.vf_coef"),
         ("policy_kwargs:[64, 64]", "hyperparams.policy_kwargs"),
         ("n_envs:100000", "n_envs"),
-        (("env_kwargs:{'randomization': {'pressure_kpa': {'distribution': 'uniform'}, "
-          "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}}"), "env_kwargs.randomization"),
+        (
+            (
+                "env_kwargs:{'randomization': {'pressure_kpa': {'distribution': 'uniform'}, "
+                "'pressure_schedule': {'rate_kpa_per_s': [0.5, -0.5]}}}"
+            ),
+            "env_kwargs.randomization",
+        ),
     ],
 )
 def test_bad_hyperparameters_refused_before_anything_is_written(tmp_path, capsys, param, field):
@@ -49,24 +54,43 @@ def test_bad_hyperparameters_refused_before_anything_is_written(tmp_path, capsys
     assert not (tmp_path / "run").exists()
 
 
-@pytest.mark.parametrize("algo, section, message", [
-    ("ppo", {"policy_kwargs": {"net_arch": [-64, 64]}},
-     "field 'hyperparams.policy_kwargs.net_arch[0]' = -64: Input should be greater than or equal to 1; allowed: a "
-     "list of layer sizes >= 1"),
-    ("ppo", {"policy_kwargs": "dict(net_arch=dict(pi=[64, 0]))"},
-     "field 'hyperparams.policy_kwargs.net_arch' = {'pi': [64, 0]}: "),
-    ("ppo", {"policy_kwargs": {"activation_fn": "sigmoid"}},
-     "field 'hyperparams.policy_kwargs.activation_fn' = 'sigmoid': String should match pattern"),
-    ("ppo", {"policy_kwargs": {"activation_fn": "leakyrelu"}},
-     "field 'hyperparams.policy_kwargs.activation_fn' = 'leakyrelu': "),
-    ("ppo", {"learning_rate": "lin_0"}, "field 'hyperparams.learning_rate' = 'lin_0': "),
-    ("ppo", {"learning_rate": "lin_1e999"}, "field 'hyperparams.learning_rate' = 'lin_1e999': "),
-    ("ppo", {"clip_range": "lin_x"}, "field 'hyperparams.clip_range' = 'lin_x': "),
-    ("sac", {"gradient_steps": 0}, "field 'hyperparams.gradient_steps' = 0: Input should be greater than or equal to "
-                                   "1; allowed: an integer >= 1 or -1 (as many as env steps)"),
-    ("sac", {"ent_coef": "auto_0"}, "field 'hyperparams.ent_coef' = 'auto_0': "),
-    ("ppo", [64, 64], "field 'hyperparams' is a list, not a mapping; allowed keys: ["),
-])
+@pytest.mark.parametrize(
+    "algo, section, message",
+    [
+        (
+            "ppo",
+            {"policy_kwargs": {"net_arch": [-64, 64]}},
+            "field 'hyperparams.policy_kwargs.net_arch[0]' = -64: Input should be greater than or equal to 1; allowed: a "
+            "list of layer sizes >= 1",
+        ),
+        (
+            "ppo",
+            {"policy_kwargs": "dict(net_arch=dict(pi=[64, 0]))"},
+            "field 'hyperparams.policy_kwargs.net_arch' = {'pi': [64, 0]}: ",
+        ),
+        (
+            "ppo",
+            {"policy_kwargs": {"activation_fn": "sigmoid"}},
+            "field 'hyperparams.policy_kwargs.activation_fn' = 'sigmoid': String should match pattern",
+        ),
+        (
+            "ppo",
+            {"policy_kwargs": {"activation_fn": "leakyrelu"}},
+            "field 'hyperparams.policy_kwargs.activation_fn' = 'leakyrelu': ",
+        ),
+        ("ppo", {"learning_rate": "lin_0"}, "field 'hyperparams.learning_rate' = 'lin_0': "),
+        ("ppo", {"learning_rate": "lin_1e999"}, "field 'hyperparams.learning_rate' = 'lin_1e999': "),
+        ("ppo", {"clip_range": "lin_x"}, "field 'hyperparams.clip_range' = 'lin_x': "),
+        (
+            "sac",
+            {"gradient_steps": 0},
+            "field 'hyperparams.gradient_steps' = 0: Input should be greater than or equal to "
+            "1; allowed: an integer >= 1 or -1 (as many as env steps)",
+        ),
+        ("sac", {"ent_coef": "auto_0"}, "field 'hyperparams.ent_coef' = 'auto_0': "),
+        ("ppo", [64, 64], "field 'hyperparams' is a list, not a mapping; allowed keys: ["),
+    ],
+)
 def test_bad_values_are_refused_by_name(algo, section, message):
     with pytest.raises(ValueError) as err:
         check_section(algo, section)
@@ -75,17 +99,33 @@ def test_bad_values_are_refused_by_name(algo, section, message):
         assert "; allowed: " in str(err.value)
 
 
-@pytest.mark.parametrize("algo, section", [
-    ("ppo", {"learning_rate": "lin_3e-4", "clip_range": "lin_0.2"}), ("ppo", {"learning_rate": "lin_.0003"}),
-    ("ppo", {"policy_kwargs": "dict(activation_fn=nn.LeakyReLU)"}), ("ppo", {"policy_kwargs": {"activation_fn": "Tanh"}}),
-    ("ppo", {"policy_kwargs": {"activation_fn": "leaky_relu"}}), ("sac", {"gradient_steps": -1}),
-])
+@pytest.mark.parametrize(
+    "algo, section",
+    [
+        ("ppo", {"learning_rate": "lin_3e-4", "clip_range": "lin_0.2"}),
+        ("ppo", {"learning_rate": "lin_.0003"}),
+        ("ppo", {"policy_kwargs": "dict(activation_fn=nn.LeakyReLU)"}),
+        ("ppo", {"policy_kwargs": {"activation_fn": "Tanh"}}),
+        ("ppo", {"policy_kwargs": {"activation_fn": "leaky_relu"}}),
+        ("sac", {"gradient_steps": -1}),
+    ],
+)
 def test_good_values_pass(algo, section):
     check_section(algo, section)
 
 
-@pytest.mark.parametrize("value, ok", [("auto", True), ("auto_0.1", True), (0.05, True), ("auto_-1", False),
-                                       ("autox", False), (-0.1, False), (True, False)])
+@pytest.mark.parametrize(
+    "value, ok",
+    [
+        ("auto", True),
+        ("auto_0.1", True),
+        (0.05, True),
+        ("auto_-1", False),
+        ("autox", False),
+        (-0.1, False),
+        (True, False),
+    ],
+)
 def test_sac_entropy_coefficient(value, ok):
     if ok:
         check_section("sac", {"ent_coef": value})
@@ -108,8 +148,9 @@ def test_tiny_budget_writes_few_checkpoints(tmp_path):
 
 
 def _tiny_run(tmp_path, n=64):
-    cfg = resolve_config(RAMP, "ppo", overrides={**TINY, "n_timesteps": n}, eval_freq=32, eval_episodes=1,
-                         checkpoint_freq=32)
+    cfg = resolve_config(
+        RAMP, "ppo", overrides={**TINY, "n_timesteps": n}, eval_freq=32, eval_episodes=1, checkpoint_freq=32
+    )
     return train(cfg, tmp_path / "run", progress_bar=False, command=["original", "command"])
 
 
@@ -162,8 +203,22 @@ def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, cap
     assert latest_checkpoint(run)[0] >= 32 and (run / "model.zip").exists()
     shutil.rmtree(run / "checkpoints")
     (run / "model.zip").unlink()
-    main(["--run-dir", str(run), "--n-timesteps", "32", "--no-progress", "--hyperparams", "n_envs:1", "n_steps:32",
-          "batch_size:32", "n_epochs:1", "--env-kwargs", "shell_model:'point'"])
+    main(
+        [
+            "--run-dir",
+            str(run),
+            "--n-timesteps",
+            "32",
+            "--no-progress",
+            "--hyperparams",
+            "n_envs:1",
+            "n_steps:32",
+            "batch_size:32",
+            "n_epochs:1",
+            "--env-kwargs",
+            "shell_model:'point'",
+        ]
+    )
     assert "starting over" in capsys.readouterr().err
     assert (run / "model.zip").exists()
 
@@ -195,10 +250,23 @@ def test_resume_continues_the_monitor_logs_without_a_repeat_or_a_time_jump(tmp_p
 
 def test_one_process_per_env_is_bounded_before_anything_starts(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["--hyperparams", "n_envs:100", "n_workers:None", "--run-dir", str(tmp_path / "run"),
-              "--n-timesteps", "10", "--no-progress"])
+        main(
+            [
+                "--hyperparams",
+                "n_envs:100",
+                "n_workers:None",
+                "--run-dir",
+                str(tmp_path / "run"),
+                "--n-timesteps",
+                "10",
+                "--no-progress",
+            ]
+        )
     assert exc.value.code == 2
     assert "field 'hyperparams.n_envs' = 100 with n_workers: null" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
-    with pytest.raises(ValueError, match=r"^field 'hyperparams.n_timesteps' = 1000000000000.0: .*allowed: an integer within \[1, 10000000000\]"):
+    with pytest.raises(
+        ValueError,
+        match=r"^field 'hyperparams.n_timesteps' = 1000000000000.0: .*allowed: an integer within \[1, 10000000000\]",
+    ):
         resolve_config(RAMP, "ppo", overrides={**TINY, "n_timesteps": 1e12}, build_env=False)

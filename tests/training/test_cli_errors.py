@@ -11,16 +11,31 @@ import pytest
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import main
 
-TINY = ["--env", "sphere_env/RampDescent-v2", "-n", "32", "--eval-freq", "-1", "--no-progress",
-        "--hyperparams", "n_envs:1", "n_steps:32", "batch_size:32", "n_epochs:1"]
+TINY = [
+    "--env",
+    "sphere_env/RampDescent-v2",
+    "-n",
+    "32",
+    "--eval-freq",
+    "-1",
+    "--no-progress",
+    "--hyperparams",
+    "n_envs:1",
+    "n_steps:32",
+    "batch_size:32",
+    "n_epochs:1",
+]
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--device", "banana"], "field 'device' = 'banana': String should match pattern"),
-    (["--device", "banana"], "; allowed: 'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"),
-    (["--device", "mps"], "field 'device' = 'mps': String should match pattern"),
-    (["--device", "cuda:7"], "field 'device' = 'cuda:7': names a CUDA device and this machine has none"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--device", "banana"], "field 'device' = 'banana': String should match pattern"),
+        (["--device", "banana"], "; allowed: 'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'"),
+        (["--device", "mps"], "field 'device' = 'mps': String should match pattern"),
+        (["--device", "cuda:7"], "field 'device' = 'cuda:7': names a CUDA device and this machine has none"),
+    ],
+)
 def test_bad_arguments_end_in_one_named_line(tmp_path, capsys, argv, needle):
     with pytest.raises(SystemExit) as exc:
         main([*TINY, "--run-dir", str(tmp_path / "run"), *argv])
@@ -33,29 +48,56 @@ def test_bad_arguments_end_in_one_named_line(tmp_path, capsys, argv, needle):
 def test_sac_checkpoints_hold_the_replay_buffer_only_when_asked(tmp_path):
     from sphere_env.training.train import train
 
-    over = {"n_envs": 1, "learning_starts": 16, "buffer_size": 500, "batch_size": 16, "train_freq": 8,
-            "gradient_steps": 1, "policy_kwargs": {"net_arch": [16, 16]}, "n_timesteps": 64,
-            "env_kwargs": {"shell_model": "point"}}
-    plain = train(resolve_config("sphere_env/RampDescent-v2", "sac", overrides=over, eval_freq=0), tmp_path / "a",
-                  progress_bar=False)
+    over = {
+        "n_envs": 1,
+        "learning_starts": 16,
+        "buffer_size": 500,
+        "batch_size": 16,
+        "train_freq": 8,
+        "gradient_steps": 1,
+        "policy_kwargs": {"net_arch": [16, 16]},
+        "n_timesteps": 64,
+        "env_kwargs": {"shell_model": "point"},
+    }
+    plain = train(
+        resolve_config("sphere_env/RampDescent-v2", "sac", overrides=over, eval_freq=0),
+        tmp_path / "a",
+        progress_bar=False,
+    )
     assert not list((plain / "checkpoints").glob("*replay_buffer*"))
-    kept = train(resolve_config("sphere_env/RampDescent-v2", "sac", overrides=over, eval_freq=0,
-                                save_replay_buffer=True), tmp_path / "b", progress_bar=False)
+    kept = train(
+        resolve_config("sphere_env/RampDescent-v2", "sac", overrides=over, eval_freq=0, save_replay_buffer=True),
+        tmp_path / "b",
+        progress_bar=False,
+    )
     assert list((kept / "checkpoints").glob("*replay_buffer*"))
 
 
 def test_help_is_clean_for_every_calibrate_subcommand():
-    out = subprocess.run([sys.executable, "-m", "sphere_env.calibration", "--help"], capture_output=True, text=True,
-                         timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-m", "sphere_env.calibration", "--help"], capture_output=True, text=True, timeout=120
+    )
     assert out.returncode == 0 and "option_strings" not in out.stdout and "±50% sweep" in out.stdout
 
 
 def test_continuing_a_model_with_other_policy_kwargs_is_refused(tmp_path, capsys):
     first = main([*TINY, "--run-dir", str(tmp_path / "a")])
     with pytest.raises(SystemExit) as exc:
-        main([*TINY, "--run-dir", str(tmp_path / "b"), "-i", str(first / "model.zip"),
-              "--hyperparams", "n_envs:1", "n_steps:32", "batch_size:32", "n_epochs:1",
-              "policy_kwargs:dict(net_arch=[8, 8])"])
+        main(
+            [
+                *TINY,
+                "--run-dir",
+                str(tmp_path / "b"),
+                "-i",
+                str(first / "model.zip"),
+                "--hyperparams",
+                "n_envs:1",
+                "n_steps:32",
+                "batch_size:32",
+                "n_epochs:1",
+                "policy_kwargs:dict(net_arch=[8, 8])",
+            ]
+        )
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "hyperparams.policy_kwargs" in err and "net_arch" in err

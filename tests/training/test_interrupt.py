@@ -26,11 +26,28 @@ def _as_from_a_terminal() -> None:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_an_interrupted_training_is_saved_and_resumes(tmp_path, sig):
     run = tmp_path / "run"
-    cmd = [sys.executable, "-m", "sphere_env.training.train", "--env", "sphere_env/RampDescent-v2",
-           "--run-dir", str(run), "-n", "1000000", "--eval-freq", "-1", "--no-progress",
-           "--hyperparams", "n_envs:2", "n_steps:64", "batch_size:64", "n_epochs:1"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_as_from_a_terminal)
+    cmd = [
+        sys.executable,
+        "-m",
+        "sphere_env.training.train",
+        "--env",
+        "sphere_env/RampDescent-v2",
+        "--run-dir",
+        str(run),
+        "-n",
+        "1000000",
+        "--eval-freq",
+        "-1",
+        "--no-progress",
+        "--hyperparams",
+        "n_envs:2",
+        "n_steps:64",
+        "batch_size:64",
+        "n_epochs:1",
+    ]
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_as_from_a_terminal
+    )
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline:  # wait for the first finished episode: training is under way
         csv = run / "learning_curve_train.csv"

@@ -42,8 +42,14 @@ def test_the_one_hot_follows_the_shell_of_each_mixture_episode():
 
 
 def test_actor_ignores_and_critic_reads_the_privileged_components(env, tmp_path):
-    model = PPO("AsymmetricMlpPolicy", env, n_steps=64, batch_size=64, seed=0,
-                policy_kwargs=dict(privileged_dims=4, net_arch=[32, 32], log_std_init=[-3.0, -2.0]))
+    model = PPO(
+        "AsymmetricMlpPolicy",
+        env,
+        n_steps=64,
+        batch_size=64,
+        seed=0,
+        policy_kwargs=dict(privileged_dims=4, net_arch=[32, 32], log_std_init=[-3.0, -2.0]),
+    )
     model.learn(128)  # the critic's weights on the privileged inputs move away from their start
     obs, _ = env.reset(seed=1)
     x = torch.as_tensor(obs[None])
@@ -58,12 +64,20 @@ def test_actor_ignores_and_critic_reads_the_privileged_components(env, tmp_path)
     assert loaded.policy.privileged_dims == 4
     with torch.no_grad():
         np.testing.assert_array_equal(loaded.policy.log_std.numpy(), pol.log_std.numpy())
-        assert torch.equal(loaded.policy.get_distribution(x).distribution.mean, pol.get_distribution(x).distribution.mean)
+        assert torch.equal(
+            loaded.policy.get_distribution(x).distribution.mean, pol.get_distribution(x).distribution.mean
+        )
 
 
 def test_initial_exploration_noise_per_action_component(env):
-    model = PPO("AsymmetricMlpPolicy", env, n_steps=64, batch_size=64, seed=0,
-                policy_kwargs=dict(privileged_dims=4, log_std_init=[-3.0, -2.0]))
+    model = PPO(
+        "AsymmetricMlpPolicy",
+        env,
+        n_steps=64,
+        batch_size=64,
+        seed=0,
+        policy_kwargs=dict(privileged_dims=4, log_std_init=[-3.0, -2.0]),
+    )
     np.testing.assert_allclose(model.policy.log_std.detach().numpy(), [-3.0, -2.0])
 
 
@@ -75,6 +89,9 @@ def test_bad_privileged_dims_name_the_field(env, bad):
 
 @pytest.mark.parametrize("bad", [[-3.0, -2.0, -1.0], "x", float("nan")])
 def test_bad_log_std_init_names_the_field_and_the_action_size(env, bad):
-    with pytest.raises(ValueError, match=r"^policy_kwargs.log_std_init = .*; allowed: a finite number, or 2 \(one per "
-                                         r"action component\)$"):
+    with pytest.raises(
+        ValueError,
+        match=r"^policy_kwargs.log_std_init = .*; allowed: a finite number, or 2 \(one per "
+        r"action component\)$",
+    ):
         PPO("AsymmetricMlpPolicy", env, policy_kwargs=dict(privileged_dims=4, log_std_init=bad))

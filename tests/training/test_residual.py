@@ -71,14 +71,17 @@ def test_bad_residual_action_is_refused_before_stepping():
     assert env.unwrapped.twin.context.get_time() == t
 
 
-@pytest.mark.parametrize("value, needle", [
-    ("sphere_env.wrappers.NoSuchWrapper", "NoSuchWrapper"),
-    ("no_such_module.Wrapper", "no_such_module"),
-    ("sphere_env.controllers.PendulumPDController", "not a gymnasium.Wrapper"),
-    ([{"sphere_env.wrappers.PDResidualAction": [0.5]}], "mapping of kwargs"),
-    ([{"sphere_env.wrappers.PDResidualAction": {"scale": 7}}], "scale"),
-    ([{"sphere_env.wrappers.PDResidualAction": {"gain": 1}}], "gain"),
-])
+@pytest.mark.parametrize(
+    "value, needle",
+    [
+        ("sphere_env.wrappers.NoSuchWrapper", "NoSuchWrapper"),
+        ("no_such_module.Wrapper", "no_such_module"),
+        ("sphere_env.controllers.PendulumPDController", "not a gymnasium.Wrapper"),
+        ([{"sphere_env.wrappers.PDResidualAction": [0.5]}], "mapping of kwargs"),
+        ([{"sphere_env.wrappers.PDResidualAction": {"scale": 7}}], "scale"),
+        ([{"sphere_env.wrappers.PDResidualAction": {"gain": 1}}], "gain"),
+    ],
+)
 def test_bad_env_wrapper_is_refused_by_name(value, needle):
     from sphere_env.training.config import resolve_config
 
@@ -87,11 +90,14 @@ def test_bad_env_wrapper_is_refused_by_name(value, needle):
     assert needle in str(err.value)
 
 
-@pytest.mark.parametrize("value", [
-    "sphere_env.wrappers.PDResidualAction",
-    {"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}},
-    [{"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}],
-])
+@pytest.mark.parametrize(
+    "value",
+    [
+        "sphere_env.wrappers.PDResidualAction",
+        {"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}},
+        [{"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}],
+    ],
+)
 def test_env_wrapper_accepts_rl_zoo3_forms(value):
     from sphere_env.schemas.training import check_section
 
@@ -106,11 +112,24 @@ def residual_run(tmp_path_factory):
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import train
 
-    cfg = resolve_config(ENV, "ppo", hyperparams_path("ppo_residual"),
-                         overrides={"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128,
-                                    "env_kwargs": {"shell_model": "point"}}, eval_episodes=1)
-    assert cfg.env_wrapper == [{"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}},
-                              {"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}}]
+    cfg = resolve_config(
+        ENV,
+        "ppo",
+        hyperparams_path("ppo_residual"),
+        overrides={
+            "n_envs": 1,
+            "n_steps": 64,
+            "batch_size": 64,
+            "n_epochs": 1,
+            "n_timesteps": 128,
+            "env_kwargs": {"shell_model": "point"},
+        },
+        eval_episodes=1,
+    )
+    assert cfg.env_wrapper == [
+        {"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}},
+        {"sphere_env.wrappers.PDResidualAction": {"scale": 0.5}},
+    ]
     return train(cfg, tmp_path_factory.mktemp("residual") / "run", progress_bar=False)
 
 
@@ -181,8 +200,11 @@ def test_shell_model_mixture_refuses_bad_lists_by_name(models):
 def test_shell_model_mixture_needs_the_env_s_own_model():
     from sphere_env.wrappers import ShellModelMixture
 
-    with pytest.raises(ValueError, match=r"^ShellModelMixture: the env's shell_model = 'injected': .*; allowed: one of "
-                                         r"shell_models \['point', 'hydroelastic'\]$"):
+    with pytest.raises(
+        ValueError,
+        match=r"^ShellModelMixture: the env's shell_model = 'injected': .*; allowed: one of "
+        r"shell_models \['point', 'hydroelastic'\]$",
+    ):
         ShellModelMixture(gym.make(ENV, shell_model="injected"), ["point", "hydroelastic"])
 
 
@@ -209,8 +231,9 @@ def test_trainer_venv_set_attr_randomization_reaches_every_shell_model():
     from sphere_env.training.train import make_env
 
     wrappers = [{"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}}]
-    venv = DummyVecEnv([partial(make_env, ENV, {"shell_model": "point", "randomization": "off"}, 0,
-                                env_wrapper=wrappers)])
+    venv = DummyVecEnv(
+        [partial(make_env, ENV, {"shell_model": "point", "randomization": "off"}, 0, env_wrapper=wrappers)]
+    )
     venv.set_attr("randomization", {"pressure_kpa": [7.0, 7.5]})
     (mixture,) = venv.get_attr("envs")
     assert all(7.0 <= e.unwrapped.randomization.terms[0].distribution.low for e in mixture.values())

@@ -11,8 +11,14 @@ from sphere_env.training.config import resolve_config
 from sphere_env.training.train import default_run_dir, run_lock, train
 
 ENV = "sphere_env/RampDescent-v2"
-TINY = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 32,
-        "env_kwargs": {"shell_model": "point"}}
+TINY = {
+    "n_envs": 1,
+    "n_steps": 32,
+    "batch_size": 32,
+    "n_epochs": 1,
+    "n_timesteps": 32,
+    "env_kwargs": {"shell_model": "point"},
+}
 
 
 def test_default_run_folders_started_in_the_same_second_differ(tmp_path):
@@ -49,8 +55,14 @@ def test_a_second_writer_on_a_folder_in_use_is_refused_and_changes_nothing(tmp_p
         release.set()
         holder.join(60)
     after = {p.relative_to(run): p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
-    assert {k: v for k, v in after.items() if k.name != ".lock"} == {k: v for k, v in before.items() if k.name != ".lock"}
+    assert {k: v for k, v in after.items() if k.name != ".lock"} == {
+        k: v for k, v in before.items() if k.name != ".lock"
+    }
     # released with its process: the run continues
-    train(resolve_config(ENV, "ppo", overrides={**TINY, "n_timesteps": 64}, eval_freq=0), run, resume=True,
-          progress_bar=False)
+    train(
+        resolve_config(ENV, "ppo", overrides={**TINY, "n_timesteps": 64}, eval_freq=0),
+        run,
+        resume=True,
+        progress_bar=False,
+    )
     assert (run / "model.zip").exists()

@@ -15,8 +15,19 @@ TINY = {"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timestep
 
 
 def _configs(seeds=(0, 1)):
-    return [resolve_config(RAMP, "ppo", overrides=TINY, env_kwargs={"shell_model": "point"}, seed=s,
-                           eval_freq=128, eval_episodes=2, checkpoint_freq=256) for s in seeds]
+    return [
+        resolve_config(
+            RAMP,
+            "ppo",
+            overrides=TINY,
+            env_kwargs={"shell_model": "point"},
+            seed=s,
+            eval_freq=128,
+            eval_episodes=2,
+            checkpoint_freq=256,
+        )
+        for s in seeds
+    ]
 
 
 def _params(run):
@@ -56,8 +67,10 @@ def test_ray_sweep_equals_trials_run_locally_one_by_one(tmp_path):
         assert (local / name / "learning_curve.csv").read_bytes() == (on_ray / name / "learning_curve.csv").read_bytes()
         pa, pb = _params(local / name), _params(on_ray / name)
         assert all(np.array_equal(pa[k].numpy(), pb[k].numpy()) for k in pa)
-    assert not all(np.array_equal(x.numpy(), y.numpy()) for x, y in
-                   zip(_params(local / "config0_seed0").values(), _params(local / "config0_seed1").values()))
+    assert not all(
+        np.array_equal(x.numpy(), y.numpy())
+        for x, y in zip(_params(local / "config0_seed0").values(), _params(local / "config0_seed1").values())
+    )
     agg = (local / "learning_curve_aggregate.csv").read_text()
     assert agg == (on_ray / "learning_curve_aggregate.csv").read_text()
     import pandas as pd
@@ -70,8 +83,20 @@ def test_ray_sweep_equals_trials_run_locally_one_by_one(tmp_path):
 
 def test_sweep_refuses_bad_trials_before_any_folder(tmp_path, capsys):
     with pytest.raises(SystemExit):
-        main(["--env", RAMP, "--seeds", "0", "1", "--trial", "learning_rate:-1", "--run-dir", str(tmp_path / "s"),
-              "--no-progress"])
+        main(
+            [
+                "--env",
+                RAMP,
+                "--seeds",
+                "0",
+                "1",
+                "--trial",
+                "learning_rate:-1",
+                "--run-dir",
+                str(tmp_path / "s"),
+                "--no-progress",
+            ]
+        )
     assert "hyperparams.learning_rate" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
 

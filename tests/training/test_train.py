@@ -19,8 +19,16 @@ IMPROVE_STEPS = int(__import__("os").environ.get("SPHERE_IMPROVE_STEPS", 16384))
 TASK = {"shell_model": "injected", "omega_ref_range_rad_s": (4.0, 4.5)}
 TINY = {
     "ppo": {"n_envs": 2, "n_steps": 64, "batch_size": 64, "n_epochs": 2, "env_kwargs": {"shell_model": "point"}},
-    "sac": {"n_envs": 2, "learning_starts": 64, "buffer_size": 2000, "batch_size": 32, "train_freq": 8,
-            "gradient_steps": 1, "policy_kwargs": {"net_arch": [32, 32]}, "env_kwargs": {"shell_model": "point"}},
+    "sac": {
+        "n_envs": 2,
+        "learning_starts": 64,
+        "buffer_size": 2000,
+        "batch_size": 32,
+        "train_freq": 8,
+        "gradient_steps": 1,
+        "policy_kwargs": {"net_arch": [32, 32]},
+        "env_kwargs": {"shell_model": "point"},
+    },
 }
 
 
@@ -48,8 +56,10 @@ def no_workers(monkeypatch):
         (["--params", "n_workers:9"], "n_workers"),
         (["--params", "n_workers:many"], "n_workers"),
         (["--env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "field 'env_kwargs.randomization.pressure_kpa'"),
-        (["--env-kwargs", "randomization:{'ground_friction': [0.9, 0.5]}"],
-         "field 'env_kwargs.randomization.ground_friction'"),
+        (
+            ["--env-kwargs", "randomization:{'ground_friction': [0.9, 0.5]}"],
+            "field 'env_kwargs.randomization.ground_friction'",
+        ),
         (["--env-kwargs", "shell_model:'jelly'"], "env_kwargs.shell_model"),
         (["--hyperparams", "env_kwargs:{'shell_model': 'jelly'}"], "env_kwargs.shell_model"),
         (["--hyperparams", "normalize:{'norm_ob': True}"], "normalize.norm_ob"),
@@ -57,10 +67,16 @@ def no_workers(monkeypatch):
         (["--hyperparams", "frame_stack:4"], "hyperparams.frame_stack"),  # rl-zoo3 key not implemented here
         (["--hyperparams", "ppo.yml"], "-conf/--conf-file"),
         (["--eval-env-kwargs", "shell_model:'jelly'"], "eval_env_kwargs.shell_model"),
-        (["--eval-env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "field 'eval_env_kwargs.randomization.pressure_kpa'"),
+        (
+            ["--eval-env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"],
+            "field 'eval_env_kwargs.randomization.pressure_kpa'",
+        ),
         (["--eval-pressures-kpa", "3", "20"], "eval_pressures_kpa"),
-        (["-i", "no/such/model.zip"], "trained_agent = 'no/such/model.zip': Path does not point to a file; "
-                                      "allowed: a saved model: a .zip file, or a run folder with model.zip"),
+        (
+            ["-i", "no/such/model.zip"],
+            "trained_agent = 'no/such/model.zip': Path does not point to a file; "
+            "allowed: a saved model: a .zip file, or a run folder with model.zip",
+        ),
         (["-i", "pyproject.toml"], "trained_agent = 'pyproject.toml': String should match pattern"),
         (["--seeds", "1", "1"], "seeds"),
     ],
@@ -90,8 +106,11 @@ def test_layout_overrides_replace_the_files_layout():
 
 
 def test_bad_randomization_message_names_field():
-    with pytest.raises(ValueError, match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: .*; allowed: "
-                                         r"\[3\.0, 14\.0\] kPa, the calibrated range"):
+    with pytest.raises(
+        ValueError,
+        match=r"^field 'env_kwargs\.randomization\.pressure_kpa' = 1\.0: .*; allowed: "
+        r"\[3\.0, 14\.0\] kPa, the calibrated range",
+    ):
         resolve_config(RAMP, "ppo", env_kwargs={"randomization": {"pressure_kpa": [1.0, 50.0]}})
 
 
@@ -103,33 +122,82 @@ def test_top_level_randomization_refused_with_where_it_moved(no_workers, tmp_pat
         with pytest.raises(SystemExit):
             main(["--env", RAMP, *argv, "--run-dir", str(tmp_path / "run"), "--no-progress"])
         err = capsys.readouterr().err
-        assert "field 'hyperparams.randomization': a top-level key" in err and "moved to env_kwargs.randomization" in err, err
+        assert (
+            "field 'hyperparams.randomization': a top-level key" in err and "moved to env_kwargs.randomization" in err
+        ), err
     assert not (tmp_path / "run").exists()
 
 
 def test_key_values_read_as_python_literals_like_rl_zoo3():
-    parsed = train_mod.parse_key_values(["n_envs:4", "learning_rate:lin_5e-4", "gamma:0.99", "use_sde:True",
-                                         "policy_kwargs:dict(net_arch=[64])", "env_kwargs:{'randomization': 'off'}",
-                                         "shell_model:'point'", "target_kl:None"])
-    assert parsed == {"n_envs": 4, "learning_rate": "lin_5e-4", "gamma": 0.99, "use_sde": True,
-                      "policy_kwargs": "dict(net_arch=[64])", "env_kwargs": {"randomization": "off"},
-                      "shell_model": "point", "target_kl": None}
+    parsed = train_mod.parse_key_values(
+        [
+            "n_envs:4",
+            "learning_rate:lin_5e-4",
+            "gamma:0.99",
+            "use_sde:True",
+            "policy_kwargs:dict(net_arch=[64])",
+            "env_kwargs:{'randomization': 'off'}",
+            "shell_model:'point'",
+            "target_kl:None",
+        ]
+    )
+    assert parsed == {
+        "n_envs": 4,
+        "learning_rate": "lin_5e-4",
+        "gamma": 0.99,
+        "use_sde": True,
+        "policy_kwargs": "dict(net_arch=[64])",
+        "env_kwargs": {"randomization": "off"},
+        "shell_model": "point",
+        "target_kl": None,
+    }
 
 
 def test_rl_zoo3_flags_reach_the_config(tmp_path):
     """-conf, --hyperparams, --env-kwargs, --eval-env-kwargs, --eval-*, --save-freq, -tb, -n, --seed."""
-    args = train_mod.build_parser().parse_args([
-        "--env", RAMP, "-conf", str(hyperparams_path("ppo")), "-params", "n_envs:1", "n_steps:64",
-        "--env-kwargs", "shell_model:'point'", "randomization:{'pressure_kpa': [4.0, 6.0]}",
-        "--eval-env-kwargs", "observation_noise_scale:0.5", "--eval-freq", "-1", "--save-freq", "128",
-        "--eval-episodes", "4", "--eval-pressures-kpa", "5", "7", "-tb", str(tmp_path / "tb"), "-n", "512",
-        "--seed", "3"])
+    args = train_mod.build_parser().parse_args(
+        [
+            "--env",
+            RAMP,
+            "-conf",
+            str(hyperparams_path("ppo")),
+            "-params",
+            "n_envs:1",
+            "n_steps:64",
+            "--env-kwargs",
+            "shell_model:'point'",
+            "randomization:{'pressure_kpa': [4.0, 6.0]}",
+            "--eval-env-kwargs",
+            "observation_noise_scale:0.5",
+            "--eval-freq",
+            "-1",
+            "--save-freq",
+            "128",
+            "--eval-episodes",
+            "4",
+            "--eval-pressures-kpa",
+            "5",
+            "7",
+            "-tb",
+            str(tmp_path / "tb"),
+            "-n",
+            "512",
+            "--seed",
+            "3",
+        ]
+    )
     cfg = train_mod._config_from_args(args, args.hyperparams, args.seed)
     assert (cfg.n_envs, cfg.hyperparams["n_steps"], cfg.n_timesteps, cfg.seed) == (1, 64, 512, 3)
-    assert cfg.env_kwargs == {"shell_model": "point", "friction_model": "majd",
-                              "randomization": {"pressure_kpa": [4.0, 6.0]}}  # merged over the YAML's
-    assert cfg.make_kwargs(evaluation=True) == {**cfg.env_kwargs, "randomization": "off",
-                                                "observation_noise_scale": 0.5}
+    assert cfg.env_kwargs == {
+        "shell_model": "point",
+        "friction_model": "majd",
+        "randomization": {"pressure_kpa": [4.0, 6.0]},
+    }  # merged over the YAML's
+    assert cfg.make_kwargs(evaluation=True) == {
+        **cfg.env_kwargs,
+        "randomization": "off",
+        "observation_noise_scale": 0.5,
+    }
     assert (cfg.eval_freq, cfg.checkpoint_freq, cfg.eval_episodes, cfg.eval_pressures_kpa) == (0, 128, 4, [5.0, 7.0])
     assert cfg.tensorboard_log == str(tmp_path / "tb")
     default = resolve_config(RAMP, "ppo", build_env=False)
@@ -153,11 +221,27 @@ def _first_obs(env_kwargs, seed=7, n=40):
 def test_short_run_loads_with_vecnormalize_and_acts_the_same(tmp_path, algo):
     from sphere_env.evaluation.controller_specs import PolicyController
 
-    cfg = resolve_config(RAMP, algo, overrides={**TINY[algo], "n_timesteps": 256}, seed=1, eval_freq=128,
-                         eval_episodes=1, checkpoint_freq=128)
+    cfg = resolve_config(
+        RAMP,
+        algo,
+        overrides={**TINY[algo], "n_timesteps": 256},
+        seed=1,
+        eval_freq=128,
+        eval_episodes=1,
+        checkpoint_freq=128,
+    )
     run, model = train(cfg, tmp_path / "run", progress_bar=False, return_model=True)
-    for f in ["config.yaml", "model.zip", "vecnormalize.pkl", "best/best_model.zip", "best/vecnormalize.pkl",
-              "learning_curve.csv", "learning_curve.png", "eval/evaluations.npz", "timing.json"]:
+    for f in [
+        "config.yaml",
+        "model.zip",
+        "vecnormalize.pkl",
+        "best/best_model.zip",
+        "best/vecnormalize.pkl",
+        "learning_curve.csv",
+        "learning_curve.png",
+        "eval/evaluations.npz",
+        "timing.json",
+    ]:
         assert (run / f).exists(), f
     assert any((run / "tb").rglob("events.out.tfevents*"))
     assert (run / "monitor" / "train_0.monitor.csv").exists()
@@ -179,8 +263,15 @@ def test_short_run_loads_with_vecnormalize_and_acts_the_same(tmp_path, algo):
 
 @pytest.mark.slow
 def test_resume_continues_step_count(tmp_path):
-    cfg = resolve_config(RAMP, "ppo", overrides={**TINY["ppo"], "n_timesteps": 256}, seed=0, eval_freq=128,
-                         eval_episodes=1, checkpoint_freq=128)
+    cfg = resolve_config(
+        RAMP,
+        "ppo",
+        overrides={**TINY["ppo"], "n_timesteps": 256},
+        seed=0,
+        eval_freq=128,
+        eval_episodes=1,
+        checkpoint_freq=128,
+    )
     run = train(cfg, tmp_path / "run", progress_bar=False)
     assert latest_checkpoint(run)[0] == 256
     main(["--resume", str(run), "--n-timesteps", "512", "--no-progress"])
@@ -239,8 +330,15 @@ def test_evaluations_play_the_fixed_pressure_grid_without_randomization(tmp_path
     """Training draws pressures; every evaluation plays the calibration's low, nominal and high
     pressures in order (randomization off), the same episodes each time."""
     tiny = {k: v for k, v in TINY1.items() if k != "env_kwargs"}
-    cfg = resolve_config(RAMP, "ppo", overrides={**tiny, "n_timesteps": 256}, env_kwargs={"shell_model": "point"},
-                         eval_freq=128, eval_episodes=3, checkpoint_freq=256)
+    cfg = resolve_config(
+        RAMP,
+        "ppo",
+        overrides={**tiny, "n_timesteps": 256},
+        env_kwargs={"shell_model": "point"},
+        eval_freq=128,
+        eval_episodes=3,
+        checkpoint_freq=256,
+    )
     assert cfg.randomization == {"pressure_kpa": {"distribution": "uniform"}}  # the shipped training spec
     run = train(cfg, tmp_path / "run", progress_bar=False)
     import pandas as pd
@@ -270,8 +368,20 @@ def test_trained_agent_continues_with_its_vecnormalize(tmp_path):
 
     from stable_baselines3 import PPO
 
-    common = ["--env", RAMP, "--hyperparams", "n_envs:1", "n_steps:32", "batch_size:32", "n_epochs:1",
-              "--env-kwargs", "shell_model:'point'", "--eval-freq", "-1", "--no-progress"]
+    common = [
+        "--env",
+        RAMP,
+        "--hyperparams",
+        "n_envs:1",
+        "n_steps:32",
+        "batch_size:32",
+        "n_epochs:1",
+        "--env-kwargs",
+        "shell_model:'point'",
+        "--eval-freq",
+        "-1",
+        "--no-progress",
+    ]
     first = main([*common, "-n", "64", "--run-dir", str(tmp_path / "a")])
     second = main([*common, "-n", "32", "--run-dir", str(tmp_path / "b"), "-i", str(first / "model.zip")])
     vn_a = pickle.loads((first / "vecnormalize.pkl").read_bytes())
@@ -309,11 +419,14 @@ def test_unchecked_distributions_train_the_same_network_and_restore_the_checks()
     assert torch.equal(checked, unchecked)
 
 
-@pytest.mark.parametrize("text, message", [
-    ("env_id: sphere_env/RampDescent-v3\n", "field 'algo' is missing"),
-    ("algo: ppo\nenv_id: 3\n", "field 'env_id' = 3: Input should be a valid string"),
-    ("- a list\n", "the input is a list, not a mapping; allowed keys: ['algo', 'env_id']"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("env_id: sphere_env/RampDescent-v3\n", "field 'algo' is missing"),
+        ("algo: ppo\nenv_id: 3\n", "field 'env_id' = 3: Input should be a valid string"),
+        ("- a list\n", "the input is a list, not a mapping; allowed keys: ['algo', 'env_id']"),
+    ],
+)
 def test_a_config_that_is_no_training_config_is_refused_by_name(tmp_path, text, message):
     (tmp_path / "config.yaml").write_text(text)
     with pytest.raises(ValueError) as err:
@@ -326,5 +439,7 @@ def test_a_hyperparameter_section_that_is_no_mapping_is_refused_naming_the_file(
     path.write_text(f"{RAMP}: [64, 64]\n")
     with pytest.raises(ValueError) as err:
         resolve_config(RAMP, "ppo", path, build_env=False)
-    assert str(err.value).startswith(f"hyperparams file {str(path)!r}, section {RAMP!r}: field 'hyperparams' is a "
-                                     "list, not a mapping; allowed keys: [")
+    assert str(err.value).startswith(
+        f"hyperparams file {str(path)!r}, section {RAMP!r}: field 'hyperparams' is a "
+        "list, not a mapping; allowed keys: ["
+    )

@@ -103,10 +103,19 @@ def test_layouts_train_the_same_network():
     params = {}
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # as the trainer sets it (--torch-threads)
-    for name, layout in {"blocks": {"n_workers": 2}, "threads": {"n_threads": 2},
-                         "one thread": {"n_threads": 1}}.items():
-        cfg = resolve_config("sphere_env/RampDescent-v2", "ppo", overrides={**tiny, **layout},
-                             env_kwargs={"shell_model": "point"}, seed=5, build_env=False)
+    for name, layout in {
+        "blocks": {"n_workers": 2},
+        "threads": {"n_threads": 2},
+        "one thread": {"n_threads": 1},
+    }.items():
+        cfg = resolve_config(
+            "sphere_env/RampDescent-v2",
+            "ppo",
+            overrides={**tiny, **layout},
+            env_kwargs={"shell_model": "point"},
+            seed=5,
+            build_env=False,
+        )
         venv = wrap_normalize(cfg, make_vec_env(cfg, None))
         try:
             model = algo_class("ppo")(cfg.policy, venv, seed=5, device="cpu", **cfg.algo_kwargs())

@@ -54,8 +54,15 @@ def test_training_with_one_process_per_env_runs_on_the_safe_layout(tmp_path):
     from sphere_env.training.config import resolve_config
     from sphere_env.training.train import make_vec_env, train
 
-    over = {"n_envs": 2, "n_workers": None, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "n_timesteps": 64,
-            "env_kwargs": {"shell_model": "point"}}
+    over = {
+        "n_envs": 2,
+        "n_workers": None,
+        "n_steps": 32,
+        "batch_size": 32,
+        "n_epochs": 1,
+        "n_timesteps": 64,
+        "env_kwargs": {"shell_model": "point"},
+    }
     cfg = resolve_config("sphere_env/RampDescent-v0", "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
     venv = make_vec_env(cfg, None)
     try:

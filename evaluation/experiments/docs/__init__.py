@@ -30,8 +30,14 @@ from sphere_env.files import write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[3]
 #: The pages with generated blocks, relative to the repository root.
-PAGES = ("README.md", "docs/results/speed.md", "docs/results/training_speed.md", "docs/physics.md",
-         "docs/calibration.md", "docs/envs.md")
+PAGES = (
+    "README.md",
+    "docs/results/speed.md",
+    "docs/results/training_speed.md",
+    "docs/physics.md",
+    "docs/calibration.md",
+    "docs/envs.md",
+)
 #: The modules whose renderers fill them (importing one registers its renderers by block name).
 BLOCK_MODULES = (demo, speed, training, physics, calibration, registry)
 BLOCK = re.compile(r"<!-- generated: (?P<name>[^\s>]+) -->(?P<body>.*?)<!-- /generated -->", re.S)
@@ -99,4 +105,3 @@ def main(argv: Sequence[str] | None = None) -> int:
             if new != old:
                 write_text_atomic(ROOT / page, new)
     return 1 if args.check and stale else 0
-

@@ -45,23 +45,57 @@ def validation_table(res: Results) -> str:
     def three(x: float) -> str:
         return f"{x:.3f}"
 
-    rows = [["stand_swing, shipped `majd_steer`", f"{len(s['shipped_rmse_rad'])} trials", "—", "—",
-             span(s["shipped_rmse_rad"].values(), lambda x: f"{x:.4f}"), AUTHORS_STAND_RMSE],
-            ["stand_swing, leave-one-out (test trial)", f"{len(s['leave_one_out'])} trials", "—", "—",
-             span((r["test_rmse_rad"] for r in s["leave_one_out"]), lambda x: f"{x:.4f}"), ""]]
+    rows = [
+        [
+            "stand_swing, shipped `majd_steer`",
+            f"{len(s['shipped_rmse_rad'])} trials",
+            "—",
+            "—",
+            span(s["shipped_rmse_rad"].values(), lambda x: f"{x:.4f}"),
+            AUTHORS_STAND_RMSE,
+        ],
+        [
+            "stand_swing, leave-one-out (test trial)",
+            f"{len(s['leave_one_out'])} trials",
+            "—",
+            "—",
+            span((r["test_rmse_rad"] for r in s["leave_one_out"]), lambda x: f"{x:.4f}"),
+            "",
+        ],
+    ]
     for model in ("injected", "hydroelastic", "point"):
-        ref = {"injected": "authors' Drake: φ " + slash(a[0] for a in AUTHORS_DRAKE.values()) + ", θ "
-               + slash(a[1] for a in AUTHORS_DRAKE.values()), "point": AUTHORS_POINT_PHI}.get(model, "")
-        rows.append(["steer_free, shipped calibration", short, model,
-                     slash((shipped[(model, t)]["phi"] for t in trials), three),
-                     slash((shipped[(model, t)]["theta"] for t in trials), three), ref])
+        ref = {
+            "injected": "authors' Drake: φ "
+            + slash(a[0] for a in AUTHORS_DRAKE.values())
+            + ", θ "
+            + slash(a[1] for a in AUTHORS_DRAKE.values()),
+            "point": AUTHORS_POINT_PHI,
+        }.get(model, "")
+        rows.append(
+            [
+                "steer_free, shipped calibration",
+                short,
+                model,
+                slash((shipped[(model, t)]["phi"] for t in trials), three),
+                slash((shipped[(model, t)]["theta"] for t in trials), three),
+                ref,
+            ]
+        )
     for model in ("injected", "hydroelastic"):
         xs = sorted(_xval(v, "steer_free", model), key=lambda x: trials.index(x["fit_on"]))
-        arrows = slash(f"{x['fit_on'][-3:]}→{next(r['trial'] for r in x['records'] if r['role'] == 'held out')[-3:]}"
-                        for x in xs)
-        rows.append(["steer_free, fit on one trial, **test on the other**", arrows, model,
-                     slash((_held_out(x, "rmse_phi_rad") for x in xs), three),
-                     slash((_held_out(x, "rmse_theta_rad") for x in xs), three), f"aim φ ≤ {AIM_HELD_OUT_PHI:g}"])
+        arrows = slash(
+            f"{x['fit_on'][-3:]}→{next(r['trial'] for r in x['records'] if r['role'] == 'held out')[-3:]}" for x in xs
+        )
+        rows.append(
+            [
+                "steer_free, fit on one trial, **test on the other**",
+                arrows,
+                model,
+                slash((_held_out(x, "rmse_phi_rad") for x in xs), three),
+                slash((_held_out(x, "rmse_theta_rad") for x in xs), three),
+                f"aim φ ≤ {AIM_HELD_OUT_PHI:g}",
+            ]
+        )
     free = [r for r in v["free_robot_shipped"] if r["model"] in ("injected", "hydroelastic")]
     n_free = len({r["trial"] for r in free})
     lowo = res.calibration("free_robot")["steer_fit"]["models"]
@@ -71,38 +105,69 @@ def validation_table(res: Results) -> str:
 
     for model in ("injected", "hydroelastic"):
         mine = [r for r in free if r["model"] == model]
-        rows.append(["free robot, shipped calibration", f"{n_free} windows", model,
-                     spread(r["rmse_phi_rad"] for r in mine), spread(r["rmse_theta_rad"] for r in mine), ""])
+        rows.append(
+            [
+                "free robot, shipped calibration",
+                f"{n_free} windows",
+                model,
+                spread(r["rmse_phi_rad"] for r in mine),
+                spread(r["rmse_theta_rad"] for r in mine),
+                "",
+            ]
+        )
     for model in ("injected", "hydroelastic"):
         held = [r for x in _xval(v, "free_robot", model) for r in x["records"] if r["role"] == "held out"]
-        rows.append(["free robot, fit on one window, **test on each other**", f"{len(held)} tests", model,
-                     spread(r["rmse_phi_rad"] for r in held), spread(r["rmse_theta_rad"] for r in held), ""])
+        rows.append(
+            [
+                "free robot, fit on one window, **test on each other**",
+                f"{len(held)} tests",
+                model,
+                spread(r["rmse_phi_rad"] for r in held),
+                spread(r["rmse_theta_rad"] for r in held),
+                "",
+            ]
+        )
     for model in ("injected", "hydroelastic"):
         held = lowo[model]["held_out_rmse_rad"].values()
-        rows.append(["free robot, `free_robot.yaml`, **each window held out**", f"{len(held)} windows", model,
-                     spread(e["phi"] for e in held), spread(e["theta"] for e in held),
-                     f"aim φ ≤ {AIM_FREE_PHI:g}, θ ≤ {AIM_FREE_THETA:g}"])
-    return table(["check", "segment", "model", "RMSE φ [rad]", "RMSE θ [rad]", "reference"], rows,
-                  ["left", "left", "left", "right", "right", "left"])
+        rows.append(
+            [
+                "free robot, `free_robot.yaml`, **each window held out**",
+                f"{len(held)} windows",
+                model,
+                spread(e["phi"] for e in held),
+                spread(e["theta"] for e in held),
+                f"aim φ ≤ {AIM_FREE_PHI:g}, θ ≤ {AIM_FREE_THETA:g}",
+            ]
+        )
+    return table(
+        ["check", "segment", "model", "RMSE φ [rad]", "RMSE θ [rad]", "reference"],
+        rows,
+        ["left", "left", "left", "right", "right", "left"],
+    )
 
 
 @renders("validation_gaps")
 def validation_gaps(res: Results) -> str:
     v = _validation(res)
-    worst = {m: max(_held_out(x, "rmse_phi_rad") for x in _xval(v, "steer_free", m))
-             for m in ("injected", "hydroelastic")}
+    worst = {
+        m: max(_held_out(x, "rmse_phi_rad") for x in _xval(v, "steer_free", m)) for m in ("injected", "hydroelastic")
+    }
     over = "over" if min(worst.values()) > AIM_HELD_OUT_PHI else "against"
     omega = [x["params"]["omega_n"] for x in _xval(v, "steer_free", "injected")]
-    return (f"φ is {worst['injected']:.3f} (injected) and {worst['hydroelastic']:.3f} rad (hydroelastic) in the worse "
-            f"direction, {over} the {AIM_HELD_OUT_PHI:g} aim; the two trials want different stiffness at the same "
-            f"assumed pressure (ω_n {' vs '.join(f'{w:.2f}' for w in omega)} rad/s)")
+    return (
+        f"φ is {worst['injected']:.3f} (injected) and {worst['hydroelastic']:.3f} rad (hydroelastic) in the worse "
+        f"direction, {over} the {AIM_HELD_OUT_PHI:g} aim; the two trials want different stiffness at the same "
+        f"assumed pressure (ω_n {' vs '.join(f'{w:.2f}' for w in omega)} rad/s)"
+    )
 
 
 @renders("validation_hydro_zeta")
 def validation_hydro_zeta(res: Results) -> str:
     rows = [r for r in _validation(res)["sensitivity"] if r["case"] == "control"]
-    return (f"{slash((r['zeta_error_vs_curve_pct'] for r in rows), lambda x: signed(x, 0))} % at "
-            f"{slash((r['pressure_kpa'] for r in rows), kpa)} kPa")
+    return (
+        f"{slash((r['zeta_error_vs_curve_pct'] for r in rows), lambda x: signed(x, 0))} % at "
+        f"{slash((r['pressure_kpa'] for r in rows), kpa)} kPa"
+    )
 
 
 @renders("free_robot_lowo")
@@ -112,11 +177,14 @@ def free_robot_lowo(res: Results) -> str:
     windows = fit["fit_on"]
     rows = []
     for model, rec in fit["models"].items():
-        for label, errs in (("**held out** (fit on the other windows)", rec["held_out_rmse_rad"]),
-                            ("pooled fit on all (a fit, not a test)", rec["rmse_rad"])):
+        for label, errs in (
+            ("**held out** (fit on the other windows)", rec["held_out_rmse_rad"]),
+            ("pooled fit on all (a fit, not a test)", rec["rmse_rad"]),
+        ):
             rows.append([model, label, *(f"{errs[w]['phi']:.3f} / {errs[w]['theta']:.3f}" for w in windows)])
-    return table(["model", "φ / θ RMSE [rad]", *(f"`{w}`" for w in windows)], rows,
-                 ["left", "left", *("right" for _ in windows)])
+    return table(
+        ["model", "φ / θ RMSE [rad]", *(f"`{w}`" for w in windows)], rows, ["left", "left", *("right" for _ in windows)]
+    )
 
 
 @renders("free_robot_lowo_worst")
@@ -127,6 +195,8 @@ def free_robot_lowo_worst(res: Results) -> str:
         held = rec["held_out_rmse_rad"].values()
         phi, theta = max(e["phi"] for e in held), max(e["theta"] for e in held)
         met = "meets" if phi <= AIM_FREE_PHI and theta <= AIM_FREE_THETA else "misses"
-        out.append(f"{model}: worst held-out φ {phi:.3f}, θ {theta:.3f} rad ({met} the aim φ ≤ {AIM_FREE_PHI:g}, "
-                   f"θ ≤ {AIM_FREE_THETA:g})")
+        out.append(
+            f"{model}: worst held-out φ {phi:.3f}, θ {theta:.3f} rad ({met} the aim φ ≤ {AIM_FREE_PHI:g}, "
+            f"θ ≤ {AIM_FREE_THETA:g})"
+        )
     return "; ".join(out)

@@ -21,31 +21,43 @@ def demo_results(res: Results) -> str:
 
     steps = d["train_steps"]["ppo_from_scratch"]
     rate = {name: percent(c[name]["success_rate"]) for name in c}
-    return (f"the shipped policy {rate['ppo']} ({slash(d['shell_models'])} {wins('ppo')} of {per}, tracking RMSE "
-            f"{c['ppo']['tracking_rmse_rad_s']:.2f} rad/s), the PD {rate['pd']} ({wins('pd')}, "
-            f"{c['pd']['tracking_rmse_rad_s']:.2f} rad/s), zero torque {rate['zero']}, the run from scratch "
-            f"({whole(steps)} env steps) {rate['ppo_from_scratch']}; the job took "
-            f"{d['total_wall_s'] / 60:.1f} min after the install (training "
-            f"{d['train_wall_s']['ppo_from_scratch']:.0f} s at {d['train_steps_per_s']['ppo_from_scratch']:.0f} env "
-            f"steps/s, evaluation {d['eval_wall_s']:.0f} s)")
+    return (
+        f"the shipped policy {rate['ppo']} ({slash(d['shell_models'])} {wins('ppo')} of {per}, tracking RMSE "
+        f"{c['ppo']['tracking_rmse_rad_s']:.2f} rad/s), the PD {rate['pd']} ({wins('pd')}, "
+        f"{c['pd']['tracking_rmse_rad_s']:.2f} rad/s), zero torque {rate['zero']}, the run from scratch "
+        f"({whole(steps)} env steps) {rate['ppo_from_scratch']}; the job took "
+        f"{d['total_wall_s'] / 60:.1f} min after the install (training "
+        f"{d['train_wall_s']['ppo_from_scratch']:.0f} s at {d['train_steps_per_s']['ppo_from_scratch']:.0f} env "
+        f"steps/s, evaluation {d['eval_wall_s']:.0f} s)"
+    )
 
 
 @renders("demo_policy_vs_pd")
 def demo_policy_vs_pd(res: Results) -> str:
     d = _demo(res)
     c, n = d["controllers"], d["episodes_per_controller"]
-    return (f"wins {round(c['ppo']['success_rate'] * n)} of {n} grid episodes (the PD "
-            f"{round(c['pd']['success_rate'] * n)}) at a tracking RMSE of {c['ppo']['tracking_rmse_rad_s']:.2f} rad/s "
-            f"(the PD {c['pd']['tracking_rmse_rad_s']:.2f})")
+    return (
+        f"wins {round(c['ppo']['success_rate'] * n)} of {n} grid episodes (the PD "
+        f"{round(c['pd']['success_rate'] * n)}) at a tracking RMSE of {c['ppo']['tracking_rmse_rad_s']:.2f} rad/s "
+        f"(the PD {c['pd']['tracking_rmse_rad_s']:.2f})"
+    )
 
 
-FAULTS = {"sensor_noise": "sensor noise", "latency_1": "one control step of latency",
-          "latency_2": "two steps of latency", "torque_saturation": "motor saturation",
-          "friction_high": "joint friction × 1.5", "friction_low": "joint friction × 0.5"}
+FAULTS = {
+    "sensor_noise": "sensor noise",
+    "latency_1": "one control step of latency",
+    "latency_2": "two steps of latency",
+    "torque_saturation": "motor saturation",
+    "friction_high": "joint friction × 1.5",
+    "friction_low": "joint friction × 0.5",
+}
 
 
 @renders("fault_grid")
 def fault_grid(res: Results) -> str:
     s = res.json("learning/summary.json")
-    return ", ".join(f"{label}: {percent(s['pretrained']['faults'][k]['success_rate'])} "
-                     f"({percent(s['pd']['faults'][k]['success_rate'])})" for k, label in FAULTS.items())
+    return ", ".join(
+        f"{label}: {percent(s['pretrained']['faults'][k]['success_rate'])} "
+        f"({percent(s['pd']['faults'][k]['success_rate'])})"
+        for k, label in FAULTS.items()
+    )

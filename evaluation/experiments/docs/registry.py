@@ -30,8 +30,17 @@ def randomizable_parameters(_: Results) -> str:
     rows = []
     for name in RANDOMIZABLE:
         rec = PARAMETERS[name]
-        rows.append([f"`{name}`", rec.unit, _nominal(rec), _bounds(rec), ", ".join(modes_of(rec)[0]),
-                     rec.applied_by or "a twin per value", rec.doc.replace("|", "\\|")])
+        rows.append(
+            [
+                f"`{name}`",
+                rec.unit,
+                _nominal(rec),
+                _bounds(rec),
+                ", ".join(modes_of(rec)[0]),
+                rec.applied_by or "a twin per value",
+                rec.doc.replace("|", "\\|"),
+            ]
+        )
     return table(["parameter", "unit", "nominal", "bounds", "modes", "applied by", "what"], rows)
 
 
