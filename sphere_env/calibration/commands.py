@@ -115,7 +115,11 @@ def cmd_steer_fit(args) -> int:
         )
     if args.out:
         ShellCalibration.from_dict(raw, source=str(args.out))  # validated (incl. stand-still) before writing
-        raw = dict(raw, steer_fit=_jsonable(record))
+        # The base's records of earlier shell fits describe another fit than this file's: they give
+        # way to a pointer at this file's steer_fit record (assumptions such as the slopes are kept).
+        prov = {k: v for k, v in (raw.get("provenance") or {}).items() if k not in SHELL_FIT_PROVENANCE}
+        prov["shell_fit"] = "MEASURED: the steer_fit record below (windows, values, intervals, held-out errors)"
+        raw = dict(raw, provenance=prov, steer_fit=_jsonable(record))
         raw["steer_fit"]["how"] = (
             f"python -m sphere_env.calibration {' '.join(shlex.quote(a) for a in sys.argv[1:])}; "
             f"the segments' pressure is unknown: the fitted law is stated at nominal_pressure_kpa = {p0} "
@@ -124,6 +128,10 @@ def cmd_steer_fit(args) -> int:
         write_yaml(args.out, raw, "# Written by python -m sphere_env.calibration steer-fit")
         print(f"wrote {args.out}")
     return 0
+
+
+#: Provenance entries of a calibration that record a shell fit (replaced when steer-fit writes a new one).
+SHELL_FIT_PROVENANCE = ("injected_fit", "hydroelastic_fit", "form_choice")
 
 
 def _jsonable(x):

@@ -141,13 +141,12 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
     )
     out = tmp_path / "fitted.yaml"
     start = tmp_path / "start.yaml"
-    start.write_text(
-        yaml.safe_dump(
-            calibration_with(
-                ShellCalibration.from_dict(TRUTH), P, {"omega_n": 2.7, "rest_angle_rad": 0.0}, form="linear"
-            )
-        )
+    start_raw = calibration_with(
+        ShellCalibration.from_dict(TRUTH), P, {"omega_n": 2.7, "rest_angle_rad": 0.0}, form="linear"
     )
+    # provenance of an earlier fit (must not be carried into the new file) and an assumption (kept)
+    start_raw["provenance"] = {"injected_fit": {"fit_on": ["elsewhere"]}, "zeta_rate_per_kpa": {"status": "ASSUMED"}}
+    start.write_text(yaml.safe_dump(start_raw))
     rc = main(
         [
             "steer-fit",
@@ -175,6 +174,9 @@ def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_
     assert cal.steer_law.rest_angle_rad == pytest.approx(0.03, abs=0.005)
     lo, hi = cal.raw["steer_fit"]["models"]["injected"]["ci95"]["omega_n"]
     assert lo <= float(cal.omega_n(P)) <= hi
+    prov = cal.raw["provenance"]
+    assert "injected_fit" not in prov and prov["zeta_rate_per_kpa"] == {"status": "ASSUMED"}
+    assert "steer_fit record" in prov["shell_fit"]
     # a refused fit writes nothing
     out2 = tmp_path / "refused.yaml"
     rc = main(
