@@ -97,48 +97,46 @@ def validation_table(res: Results) -> str:
             ]
         )
     free = [r for r in v["free_robot_shipped"] if r["model"] in ("injected", "hydroelastic")]
-    n_free = len({r["trial"] for r in free})
     lowo = res.calibration("free_robot")["steer_fit"]["models"]
 
-    def spread(values) -> str:
-        return span(values, three)
+    # Three checks of the free-robot windows, each a list of (φ, θ) RMSE per model: the steer_free
+    # calibration, a fit on one window tested on each other, and free_robot.yaml's held-out windows.
+    def held_out_of_single_fits(model: str) -> list[tuple[float, float]]:
+        return [
+            (r["rmse_phi_rad"], r["rmse_theta_rad"])
+            for x in _xval(v, "free_robot", model)
+            for r in x["records"]
+            if r["role"] == "held out"
+        ]
 
-    for model in ("injected", "hydroelastic"):
-        mine = [r for r in free if r["model"] == model]
-        rows.append(
-            [
-                "free robot, shipped calibration",
-                f"{n_free} windows",
-                model,
-                spread(r["rmse_phi_rad"] for r in mine),
-                spread(r["rmse_theta_rad"] for r in mine),
-                "",
-            ]
-        )
-    for model in ("injected", "hydroelastic"):
-        held = [r for x in _xval(v, "free_robot", model) for r in x["records"] if r["role"] == "held out"]
-        rows.append(
-            [
-                "free robot, fit on one window, **test on each other**",
-                f"{len(held)} tests",
-                model,
-                spread(r["rmse_phi_rad"] for r in held),
-                spread(r["rmse_theta_rad"] for r in held),
-                "",
-            ]
-        )
-    for model in ("injected", "hydroelastic"):
-        held = lowo[model]["held_out_rmse_rad"].values()
-        rows.append(
-            [
-                "free robot, `free_robot.yaml`, **each window held out**",
-                f"{len(held)} windows",
-                model,
-                spread(e["phi"] for e in held),
-                spread(e["theta"] for e in held),
-                f"aim φ ≤ {AIM_FREE_PHI:g}, θ ≤ {AIM_FREE_THETA:g}",
-            ]
-        )
+    checks = [
+        (
+            "free robot, shipped calibration",
+            "windows",
+            "",
+            lambda m: [(r["rmse_phi_rad"], r["rmse_theta_rad"]) for r in free if r["model"] == m],
+        ),
+        ("free robot, fit on one window, **test on each other**", "tests", "", held_out_of_single_fits),
+        (
+            "free robot, `free_robot.yaml`, **each window held out**",
+            "windows",
+            f"aim φ ≤ {AIM_FREE_PHI:g}, θ ≤ {AIM_FREE_THETA:g}",
+            lambda m: [(e["phi"], e["theta"]) for e in lowo[m]["held_out_rmse_rad"].values()],
+        ),
+    ]
+    for check, unit, ref, errors in checks:
+        for model in ("injected", "hydroelastic"):
+            errs = errors(model)
+            rows.append(
+                [
+                    check,
+                    f"{len(errs)} {unit}",
+                    model,
+                    span((e[0] for e in errs), three),
+                    span((e[1] for e in errs), three),
+                    ref,
+                ]
+            )
     return table(
         ["check", "segment", "model", "RMSE φ [rad]", "RMSE θ [rad]", "reference"],
         rows,
