@@ -99,19 +99,20 @@ FAULTS: dict[str, Fault] = {
 }
 
 
-def fault_jobs(
-    fault: str | Fault,
+def grid_jobs(
     controller: str,
     spec: str,
     env_id: str,
     env_kwargs: Mapping[str, Any],
     shells: Sequence[str] = SHELLS,
+    pressures_kpa: Sequence[float] = PRESSURES_KPA,
     seeds: Sequence[int] = SEEDS,
+    randomization: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """The fault grid's episodes of one fault as :func:`sphere_env.evaluation.cells.rollout`
-    jobs (the fault's events as the env's randomization, its kwargs over ``env_kwargs``)."""
-    f = FAULTS[fault] if isinstance(fault, str) else fault
-    kwargs = {**dict(env_kwargs), **dict(f.env_kwargs)}
+    """The episodes of a shell × pressure × seed grid as :func:`sphere_env.evaluation.cells.rollout`
+    jobs: the nominal grid by default, the validation grid with other ``seeds``, a fault's grid with
+    its ``randomization`` (events the env applies)."""
+    extra = {} if randomization is None else {"randomization": dict(randomization)}
     return [
         dict(
             controller=controller,
@@ -121,10 +122,34 @@ def fault_jobs(
             friction="majd",
             pressure_kpa=p,
             seed=s,
-            env_kwargs=kwargs,
-            randomization=dict(f.randomization),
+            env_kwargs=dict(env_kwargs),
+            **extra,
         )
         for m in shells
-        for p in (f.pressures_kpa or PRESSURES_KPA)
+        for p in pressures_kpa
         for s in seeds
     ]
+
+
+def fault_jobs(
+    fault: str | Fault,
+    controller: str,
+    spec: str,
+    env_id: str,
+    env_kwargs: Mapping[str, Any],
+    shells: Sequence[str] = SHELLS,
+    seeds: Sequence[int] = SEEDS,
+) -> list[dict[str, Any]]:
+    """The fault grid's episodes of one fault (its events as the env's randomization, its kwargs over
+    ``env_kwargs``, its pressures where it sets its own)."""
+    f = FAULTS[fault] if isinstance(fault, str) else fault
+    return grid_jobs(
+        controller,
+        spec,
+        env_id,
+        {**dict(env_kwargs), **dict(f.env_kwargs)},
+        shells,
+        f.pressures_kpa or PRESSURES_KPA,
+        seeds,
+        randomization=f.randomization,
+    )

@@ -35,6 +35,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
+from sphere_env.evaluation.faults import PRESSURES_KPA, SHELLS, grid_jobs
+from sphere_env.evaluation.faults import SEEDS as EVAL_SEEDS
 from sphere_env.files import write_text_atomic
 
 ENV_ID = "sphere_env/RampDescent-v3"
@@ -42,37 +44,12 @@ HERE = Path(__file__).resolve().parent
 RECIPES = HERE / "recipes.yml"
 RESULTS = HERE.parent / "results" / "learning"
 RUNS = Path("runs") / "learning"
-SHELLS = ("point", "injected", "hydroelastic")
-PRESSURES_KPA = (3.0, 8.5, 14.0)
-EVAL_SEEDS = (0, 1, 2)
 PD_MARGIN = 0.03  # "PD level": grid success ≥ the PD's − 3 points
 
 
 def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
     with open(path) as f:
         return yaml.safe_load(f)["recipes"]
-
-
-def grid_jobs(
-    controller: str, spec: str, env_kwargs: Mapping[str, Any], env_id: str = ENV_ID, seeds: Sequence[int] = EVAL_SEEDS
-) -> list[dict[str, Any]]:
-    """The demo grid's episodes (or, with other ``seeds``, the validation grid's) as
-    :func:`sphere_env.evaluation.cells.rollout` jobs."""
-    return [
-        dict(
-            controller=controller,
-            spec=spec,
-            env_id=env_id,
-            shell_model=m,
-            friction="majd",
-            pressure_kpa=p,
-            seed=s,
-            env_kwargs=dict(env_kwargs),
-        )
-        for m in SHELLS
-        for p in PRESSURES_KPA
-        for s in seeds
-    ]
 
 
 def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -95,7 +72,9 @@ def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL
     from sphere_env.evaluation.controller_specs import PolicyController, env_kwargs_of, run_folder
 
     ctrl = PolicyController(*run_folder(spec))
-    rows = [rollout(job, controller=ctrl)[0] for job in grid_jobs("policy", spec, env_kwargs_of(spec), env_id, seeds)]
+    rows = [
+        rollout(job, controller=ctrl)[0] for job in grid_jobs("policy", spec, env_id, env_kwargs_of(spec), seeds=seeds)
+    ]
     return {
         **grid_figures(rows),
         "episodes_detail": [
@@ -342,7 +321,7 @@ def baselines(results: Path = RESULTS) -> Path:
 
     out = {}
     for name in ("pd", "zero"):
-        rows = [rollout(job)[0] for job in grid_jobs(name, name, {})]
+        rows = [rollout(job)[0] for job in grid_jobs(name, name, ENV_ID, {})]
         out[name] = grid_figures(rows)
     out.update(
         grid={
