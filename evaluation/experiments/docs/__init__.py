@@ -24,7 +24,7 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from sphere_env.evaluation.experiments.docs import calibration, demo, physics, registry, speed, training
+from sphere_env.evaluation.experiments.docs import calibration, demo, learning, physics, registry, speed, training
 from sphere_env.evaluation.experiments.docs.base import RENDERERS, DocsError, Results
 from sphere_env.files import write_text_atomic
 
@@ -34,12 +34,13 @@ PAGES = (
     "README.md",
     "docs/results/speed.md",
     "docs/results/training_speed.md",
+    "docs/results/learning.md",
     "docs/physics.md",
     "docs/calibration.md",
     "docs/envs.md",
 )
 #: The modules whose renderers fill them (importing one registers its renderers by block name).
-BLOCK_MODULES = (demo, speed, training, physics, calibration, registry)
+BLOCK_MODULES = (demo, speed, training, physics, calibration, registry, learning)
 BLOCK = re.compile(r"<!-- generated: (?P<name>[^\s>]+) -->(?P<body>.*?)<!-- /generated -->", re.S)
 OPEN, CLOSE = "<!-- generated:", "<!-- /generated -->"
 

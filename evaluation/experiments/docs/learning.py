@@ -1,0 +1,132 @@
+"""Blocks of ``docs/results/learning.md``: the shipped policy's card, each recipe's figures over seeds
+(``learning/summary.json`` and the per-seed ``learning/runs/<recipe>/seed<k>.json`` with their
+learning curves) and the normalization swap (``learning/normalization_swap.json``)."""
+
+from __future__ import annotations
+
+import json
+
+from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
+from sphere_env.resources import asset_path
+
+CARD = ("policies", "ramp_descent_v3", "card.json")
+
+
+def _summary(res: Results) -> dict:
+    return res.json("learning/summary.json")
+
+
+def _recipes(res: Results) -> dict[str, dict]:
+    """recipe name (``<recipe>`` or ``<recipe>@selected``) -> its row of the summary."""
+    return {r["recipe"]: r for r in _summary(res)["recipes"]}
+
+
+def _curves(res: Results, recipe: str) -> list[list[dict]]:
+    """The learning curve (grid success of every evaluated checkpoint) of each seed of ``recipe``."""
+    seeds = sorted(r["seed"] for r in _summary(res)["runs"] if r["method"] == recipe)
+    return [res.json(f"learning/runs/{recipe}/seed{k}.json")["curve"] for k in seeds]
+
+
+def steps_k(n: float) -> str:
+    """Env steps as the page writes them: ``900 k``, ``1.3 M``."""
+    return f"{n / 1e6:.1f} M".replace(".0 M", " M") if n >= 1e6 else f"{n / 1e3:.0f} k"
+
+
+@renders("learning_shipped_policy")
+def learning_shipped_policy(res: Results) -> str:
+    path = asset_path(*CARD)
+    try:
+        card = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise DocsError(f"cannot read policy card {path}: {e}") from e
+    pd = _summary(res)["pd"]
+    n = len(card["episodes"])
+    return (
+        f"the recipe `{card['recipe']}`'s seed {card['seed']} at {steps_k(card['checkpoint_steps'])} env steps; it "
+        f"wins {round(card['success_rate'] * n)} of {n} grid episodes (the PD {round(pd['success_rate'] * n)}) "
+        f"at a tracking RMSE of {card['tracking_rmse_rad_s']:.2f} rad/s (the PD {pd['tracking_rmse_rad_s']:.2f})"
+    )
+
+
+@renders("learning_recipe_table")
+def learning_recipe_table(res: Results) -> str:
+    rows = []
+    recipes = _recipes(res)
+    for name, r in recipes.items():
+        if name.endswith("@selected"):
+            continue
+        sel = recipes.get(f"{name}@selected")
+        peaks = [max(c, key=lambda x: (x["success_rate"], -x["env_steps"])) for c in _curves(res, name)]
+        rows.append(
+            [
+                name,
+                str(r["seeds"]),
+                steps_k(r["env_steps"]),
+                f"{percent(r['mean_success'])} ({percent(r['worst_seed_success'])})",
+                f"{percent(sel['mean_success'])} ({percent(sel['worst_seed_success'])})" if sel else "–",
+                slash(percent(p["success_rate"]) for p in peaks),
+                slash(steps_k(p["env_steps"]) for p in peaks),
+            ]
+        )
+    return table(
+        [
+            "recipe",
+            "seeds",
+            "budget",
+            "final model: mean (worst)",
+            "validation-chosen: mean (worst)",
+            "best checkpoint of each seed",
+            "at env steps",
+        ],
+        rows,
+    )
+
+
+def _fall(res: Results, recipe: str) -> tuple[int, dict, dict]:
+    """(seed, peak, last) of the seed of ``recipe`` whose grid success fell furthest after its peak."""
+    falls = []
+    for k, curve in enumerate(_curves(res, recipe)):
+        peak = max(curve, key=lambda x: (x["success_rate"], -x["env_steps"]))
+        falls.append((peak["success_rate"] - curve[-1]["success_rate"], k, peak, curve[-1]))
+    _, k, peak, last = max(falls, key=lambda x: x[0])
+    return k, peak, last
+
+
+@renders("learning_batch_fall")
+def learning_batch_fall(res: Results) -> str:
+    k, peak, last = _fall(res, "stable_wide_batch")
+    return (
+        f"seed {k} from {percent(peak['success_rate'])} at {steps_k(peak['env_steps'])} steps to "
+        f"{percent(last['success_rate'])} at {steps_k(last['env_steps'])}"
+    )
+
+
+@renders("learning_batch_peaks")
+def learning_batch_peaks(res: Results) -> str:
+    peaks = sorted(max(c["success_rate"] for c in curve) for curve in _curves(res, "stable_wide_batch"))
+    level = _summary(res)["pd"]["success_rate"] - 0.03
+    high = [p for p in peaks if p >= level - 1e-9]
+    return (
+        f"the best checkpoints of {len(high)} of {len(peaks)} seeds won {span(high, percent)} of the grid"
+        if high
+        else f"no seed's best checkpoint reached the PD's level (best {percent(peaks[-1])})"
+    )
+
+
+@renders("normalization_swap")
+def normalization_swap(res: Results) -> str:
+    s = res.json("learning/normalization_swap.json")
+    e, late, c, d = s["early_steps"], s["late_steps"], s["cases"], s["statistics_drift"]
+
+    def wins(p: int, st: int) -> str:
+        x = c[f"policy_{p}_stats_{st}"]
+        return f"{x['wins']} of {x['episodes']}"
+
+    lo, hi = d["sd_ratio_range"]
+    return (
+        f"`{s['run']}`'s {steps_k(e)} policy wins {wins(e, late)} grid episodes with the normalization "
+        f"statistics of {steps_k(late)} ({wins(e, e)} with its own), and its {steps_k(late)} policy wins "
+        f"{wins(late, e)} with those of {steps_k(e)} ({wins(late, late)} with its own). The statistics moved "
+        f"little in between: means by at most {d['max_abs_mean_shift_in_early_sd']:.2f} σ, standard deviations "
+        f"by a factor of {lo:.2f}–{hi:.2f}"
+    )
