@@ -7,6 +7,7 @@ Commands
   sensitivity  hydroelastic ±50 % sweep (paper Fig. 11) on a process pool
   kd-step      hydroelastic k_d refitted at another plant step -> calibration YAML (k_d_by_time_step)
   kd-pressure  hydroelastic k_d against pressure at a plant step, fitted to ζ(p) -> calibration YAML (k_d_by_pressure)
+  pressure-fit one inflation pressure per recording, estimated from its free motion with a fixed calibration
   events       free-motion events (release or push, then free decay) in a long log [-> manifest entries]
   validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
   report       regenerate evaluation/results/validation/ from the real logs
@@ -25,6 +26,7 @@ from sphere_env.calibration.commands import (
     cmd_friction,
     cmd_kd_pressure,
     cmd_kd_step,
+    cmd_pressure_fit,
     cmd_report,
     cmd_sensitivity,
     cmd_shell,
@@ -163,6 +165,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the table)")
     p.set_defaults(func=cmd_kd_pressure)
+
+    p = sub.add_parser(
+        "pressure-fit",
+        help="one inflation pressure per recording, estimated from its free motion with a fixed calibration",
+    )
+    common(p, "free_robot")
+    p.add_argument("--models", nargs="+", default=["injected", "hydroelastic"], choices=["injected", "hydroelastic"])
+    p.add_argument("--calibration", default=None, help="calibration YAML held fixed (default: the shipped one)")
+    p.add_argument("--steer-friction", default="majd_steer")
+    p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
+    p.add_argument("--json", default=None, metavar="PATH", help="write every estimate and its profile")
+    p.set_defaults(func=cmd_pressure_fit)
 
     p = sub.add_parser("events", help="free-motion events in a long log; optionally write manifest entries")
     p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")

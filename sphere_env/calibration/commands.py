@@ -302,6 +302,36 @@ def cmd_validate(args) -> int:
     return 1 if bad else 0
 
 
+def cmd_pressure_fit(args) -> int:
+    from sphere_env.calibration.pressure_fit import by_recording, fit_pressure
+    from sphere_env.files import write_text_atomic
+    from sphere_env.models.shell import ShellCalibration
+
+    _, logs = _trials(args, required=("phi", "theta"))
+    cal = ShellCalibration.load(args.calibration)
+    fits = []
+    for model in args.models:
+        for group in by_recording(logs):
+            fit = fit_pressure(
+                group, model, cal, steer_friction=args.steer_friction, drive_friction=args.drive_friction
+            )
+            fits.append(fit)
+            near = f"{fit.near_best_kpa[0]:g}-{fit.near_best_kpa[1]:g}"
+            print(
+                f"{model} {'+'.join(fit.logs)}: {fit.pressure_kpa:.2f} kPa (within 10 % of the best RMSE: {near} kPa), "
+                f"pooled RMSE {fit.pooled_rmse_rad:.4f} rad"
+            )
+            for name, r in fit.rmse_rad.items():
+                print(f"  {name}: RMSE phi {r['phi']:.4f} rad, theta {r['theta']:.4f} rad")
+            for note in fit.notes:
+                print(f"  note: {note}")
+    if args.json:
+        record = {"calibration": str(cal.source), "fits": [f.as_dict() for f in fits]}
+        write_text_atomic(args.json, json.dumps(record, indent=1) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
 def cmd_events(args) -> int:
     import os
 

@@ -6,7 +6,7 @@ import numpy as np
 import yaml
 
 from sphere_env.calibration.logs import write_log_csv
-from sphere_env.physics.twin import InitialState, Twin
+from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
 SYNTH_CAL = {
     "name": "synthetic",
@@ -22,6 +22,21 @@ SYNTH_CAL = {
 def write_calibration(path: Path, data: dict = SYNTH_CAL) -> Path:
     path.write_text(yaml.safe_dump(data))
     return path
+
+
+def steer_twin(calibration: Path, pressure_kpa: float) -> Twin:
+    """The injected twin on the steer_plane fixture that the synthetic steer logs are made with (the
+    fitted steer friction, no drive friction: the drive joint does not turn there)."""
+    return Twin(
+        TwinConfig(
+            fixture="steer_plane",
+            shell_model="injected",
+            steer_friction="majd_steer",
+            drive_friction="none",
+            calibration=calibration,
+            pressure_kpa=pressure_kpa,
+        )
+    )
 
 
 def record(

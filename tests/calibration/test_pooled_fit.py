@@ -3,33 +3,21 @@
 import math
 
 import pytest
-import yaml
 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import calibration_at, fit_shell, unidentified
 from sphere_env.calibration.steer_fit import steer_fit
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics.twin import InitialState
 
-from .conftest import SYNTH_CAL, record
+from .conftest import SYNTH_CAL, record, steer_twin, write_calibration
 
 P = 6.0
 
 
 def _steer_log(tmp_path, name: str, cal: ShellCalibration, duration_s: float, theta0: float = 0.38) -> RobotLog:
     """A steer_plane log of ``duration_s`` made by the twin with calibration ``cal``."""
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(dict(cal.raw)))
-    twin = Twin(
-        TwinConfig(
-            fixture="steer_plane",
-            shell_model="injected",
-            steer_friction="majd_steer",
-            drive_friction="none",
-            calibration=path,
-            pressure_kpa=P,
-        )
-    )
+    twin = steer_twin(write_calibration(tmp_path / f"{name}.yaml", dict(cal.raw)), P)
     t, data = record(twin, InitialState(theta=theta0, roll=-0.37), duration_s, channels=("theta", "phi"))
     return RobotLog(name, f"<{name}>", t, data, fixture="steer_plane")
 

@@ -7,25 +7,16 @@ from sphere_env.calibration.sensitivity import sweep
 from sphere_env.calibration.shell_fit import calibration_at, fit_shell, law_params, pressure_for_modulus
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics.twin import InitialState
 
-from .conftest import SYNTH_CAL, synth_log, write_calibration, write_manifest
+from .conftest import SYNTH_CAL, steer_twin, synth_log, write_calibration, write_manifest
 
 
 def test_injected_fit_recovers_omega_and_zeta(tmp_path):
     cal_path = write_calibration(tmp_path / "truth.yaml")
     truth = ShellCalibration.load(cal_path)
     p = 6.0
-    twin = Twin(
-        TwinConfig(
-            fixture="steer_plane",
-            shell_model="injected",
-            steer_friction="majd_steer",
-            drive_friction="none",
-            calibration=cal_path,
-            pressure_kpa=p,
-        )
-    )
+    twin = steer_twin(cal_path, p)
     synth_log(
         tmp_path / "a.csv", twin, InitialState(theta=0.38, roll=-0.37), 5.0, channels=("theta", "phi"), noise_rad=2e-3
     )

@@ -1,0 +1,155 @@
+"""The inflation pressure of a log, estimated from its free motion with a fixed calibration.
+
+The seed paper's claim is that the inflation pressure explains how the shell behaves. If so, one
+calibration with one pressure per log reproduces every log: a log whose pressure was not recorded
+gets the pressure at which the calibration fits it best, and what is left is the calibration's
+error on that log. Windows cut from one file share one pressure (the robot was not re-inflated
+within a recording).
+
+The estimate is a profile over the calibration's pressure range: the pooled cost of every window
+(the mean square φ and θ error over all samples, as :func:`sphere_env.calibration.shell_fit.fit_shell`
+uses) on a grid of pressures, then a bounded scalar search (scipy) around the best grid point. The
+grid is reported too: a flat profile means the log cannot tell pressures apart, and the estimate is
+marked unidentified. An optimum on a bound of the range says the log wants a pressure the
+calibration does not cover.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from sphere_env.analysis.metrics import rmse
+from sphere_env.calibration.logs import RobotLog
+from sphere_env.calibration.shell_fit import FitError, TwinPool
+from sphere_env.calibration.simulate import simulate_log
+from sphere_env.models.shell import ShellCalibration
+
+#: Pressures on the profile grid, spread evenly over the calibration's range.
+GRID_POINTS = 9
+#: The profile's flatness test: an estimate is unidentified when the worst grid pressure's RMSE is
+#: within this factor of the best (the log cannot tell the range's ends apart).
+FLAT_RATIO = 1.1
+#: The pressures whose pooled RMSE is within this factor of the best form the reported range.
+NEAR_BEST_RATIO = 1.1
+
+
+@dataclass
+class PressureFit:
+    """The pressure [kPa] at which ``calibration`` best reproduces ``logs`` (one shell model)."""
+
+    model: str
+    logs: list[str]
+    pressure_kpa: float
+    rmse_rad: dict[str, dict[str, float]]  # window -> {"phi", "theta"} at the estimate
+    pooled_rmse_rad: float  # sqrt of the pooled mean square φ and θ error
+    profile: list[tuple[float, float]]  # (pressure kPa, pooled RMSE rad) on the grid
+    near_best_kpa: tuple[float, float]  # the estimate and the grid pressures within NEAR_BEST_RATIO of its RMSE
+    at_bound: bool
+    unidentified: bool
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "model": self.model,
+            "logs": self.logs,
+            "pressure_kpa": self.pressure_kpa,
+            "rmse_rad": self.rmse_rad,
+            "pooled_rmse_rad": self.pooled_rmse_rad,
+            "profile": [list(x) for x in self.profile],
+            "near_best_kpa": list(self.near_best_kpa),
+            "at_bound": self.at_bound,
+            "unidentified": self.unidentified,
+            "notes": self.notes,
+        }
+
+
+def fit_pressure(
+    logs: Sequence[RobotLog],
+    model: str,
+    calibration: ShellCalibration,
+    steer_friction: Any = "majd_steer",
+    drive_friction: Any = "majd_drive",
+    time_step_s: float = 0.005,
+    grid_points: int = GRID_POINTS,
+    xatol_kpa: float = 0.05,
+) -> PressureFit:
+    """One pressure for all ``logs`` (windows of one recording) with ``calibration`` fixed.
+
+    Refuses (:class:`FitError`) logs without φ and θ, a fixture other than ``steer_plane`` or
+    ``free``, and a model other than ``injected`` or ``hydroelastic`` (point contact has no
+    pressure). A simulation that diverges at a pressure costs that pressure a 1 rad error.
+    """
+    if model not in ("injected", "hydroelastic"):
+        raise FitError(f"model: {model!r} has no pressure to estimate; allowed: 'injected', 'hydroelastic'")
+    if not logs:
+        raise FitError("fit_pressure: no windows to fit on")
+    for log in logs:
+        if log.fixture not in ("steer_plane", "free"):
+            raise FitError(
+                f"log {log.path!r}: trial {log.name!r} has fixture {log.fixture!r}; "
+                "a pressure estimate needs 'steer_plane' or 'free' windows"
+            )
+        for ch in ("phi", "theta"):
+            if not log.has(ch):
+                raise FitError(f"log {log.path!r}: trial {log.name!r} needs a {ch} channel for a pressure estimate")
+    lo, hi = calibration.pressure_range_kpa
+    pool = TwinPool(model, steer_friction, time_step_s, drive_friction)
+    n = sum(2 * len(log.t_s) for log in logs)
+
+    def errors(p: float) -> tuple[float, dict[str, dict[str, float]]]:
+        pool.install(calibration, float(p))
+        sq, per = 0.0, {}
+        for log in logs:
+            tr = simulate_log(pool.get(log.fixture), log)
+            if tr.diverged:
+                return 1.0, {}
+            d_phi, d_theta = tr["phi"] - log["phi"], tr["theta"] - log["theta"]
+            sq += float(np.sum(d_phi**2) + np.sum(d_theta**2))
+            per[log.name] = {"phi": rmse(tr["phi"], log["phi"]), "theta": rmse(tr["theta"], log["theta"])}
+        return math.sqrt(sq / n), per
+
+    grid = np.linspace(lo, hi, grid_points)
+    profile = [(float(p), errors(p)[0]) for p in grid]
+    i = int(np.argmin([c for _, c in profile]))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+    res = minimize_scalar(lambda p: errors(p)[0], bounds=(a, b), method="bounded", options={"xatol": xatol_kpa})
+    p_best, c_best = (float(res.x), float(res.fun)) if res.fun <= profile[i][1] else profile[i]
+    c_best, per = errors(p_best)
+    near = [p_best] + [p for p, c in profile if c <= NEAR_BEST_RATIO * c_best]
+    costs = [c for _, c in profile]
+    at_bound = min(p_best - lo, hi - p_best) <= 2 * xatol_kpa
+    flat = max(costs) <= FLAT_RATIO * min(costs)
+    notes = []
+    if flat:
+        notes.append(
+            f"the pooled RMSE varies by less than {FLAT_RATIO - 1:.0%} over {lo:g}-{hi:g} kPa: "
+            "the log does not pin the pressure down"
+        )
+    if at_bound:
+        notes.append(f"the estimate sits on the calibrated range's bound ({lo:g}-{hi:g} kPa)")
+    return PressureFit(
+        model=model,
+        logs=[log.name for log in logs],
+        pressure_kpa=p_best,
+        rmse_rad=per,
+        pooled_rmse_rad=c_best,
+        profile=profile,
+        near_best_kpa=(min(near), max(near)),
+        at_bound=at_bound,
+        unidentified=flat,
+        notes=notes,
+    )
+
+
+def by_recording(logs: Sequence[RobotLog]) -> list[list[RobotLog]]:
+    """``logs`` grouped by the file they were cut from (one pressure each), in first-seen order."""
+    groups: dict[str, list[RobotLog]] = {}
+    for log in logs:
+        groups.setdefault(str(log.path), []).append(log)
+    return list(groups.values())
