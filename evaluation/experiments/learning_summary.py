@@ -114,7 +114,6 @@ def selected_runs(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[st
 def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> str:
     """Success per fault: zero torque, the PD, the pretrained policy and each recipe's runs (their
     validation-chosen checkpoints: mean and worst seed)."""
-    import pandas as pd_
 
     cols = {name: base[name]["faults"] for name in ("zero", "pd", "pretrained") if "faults" in base.get(name, {})}
     faults = list(next(iter(cols.values())).keys()) if cols else []
@@ -134,7 +133,7 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
     if not rows:
         return ""
     why = "\n".join(f"- **{f}**: {FAULTS[f].why}." for f in faults if f in FAULTS)
-    return pd_.DataFrame(rows).to_markdown(index=False) + "\n\nWhere each range comes from:\n\n" + why
+    return _md(rows) + "\n\nWhere each range comes from:\n\n" + why
 
 
 #: The randomization study's recipes, one per training condition (``recipes.yml``): the shipped
@@ -254,16 +253,22 @@ def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
     )
 
 
+def _md(rows: Sequence[Mapping[str, Any]]) -> str:
+    """Rows of one mapping each as a Markdown table, one column per key (in the rows' order, first
+    seen first): the project's one table helper, :func:`sphere_env.reporting.markdown_table`."""
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    return markdown_table(rows, [(k, k, "") for k in keys])
+
+
 def markdown(
     rows: Sequence[Mapping[str, Any]],
     base: Mapping[str, Any],
     faults: str = "",
     study: Sequence[Mapping[str, Any]] = (),
 ) -> str:
-    import pandas as pd_
 
     pd = base["pd"]
-    table = pd_.DataFrame(
+    table = _md(
         [
             {
                 "recipe": r["recipe"],
@@ -303,7 +308,7 @@ def markdown(
         f"{' / '.join(_pct(pd['per_shell'][m]) for m in SHELLS)}), tracking RMSE "
         f"{pd['tracking_rmse_rad_s']:.2f} rad/s; zero torque {_pct(base['zero']['success_rate'])}. "
         "PD level = PD − 3 points. IQM and its interval: rliable, stratified bootstrap over training seeds "
-        f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n" + table.to_markdown(index=False) + "\n\n"
+        f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples).\n\n" + table + "\n\n"
         "`<recipe>@selected`: each run reported by its checkpoint with the highest success on the validation "
         "grid (evaluation seeds 100-102, never the reported grid), from half its budget on: the model an "
         "rl-zoo3 user keeps as best_model. The plain rows report each run's final model.\n\n"

@@ -10,9 +10,9 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from tabulate import tabulate
 
 from sphere_env.evaluation.reporting import RESULTS
+from sphere_env.reporting import markdown_table
 from sphere_env.resources import asset_path
 
 MINUS = "\u2212"
@@ -113,7 +113,9 @@ def cpu(name: str) -> str:
 
 
 def table(headers: Sequence[str], rows: Sequence[Sequence[str]], align: Sequence[str] | None = None) -> str:
-    return tabulate(rows, headers=headers, tablefmt="github", disable_numparse=True, colalign=align)
+    """The project's one Markdown table helper (:func:`sphere_env.reporting.markdown_table`) over
+    rows of ready-written cells; ``align``: "left", "right" or "center" per column (default left)."""
+    return markdown_table(rows, list(headers), "".join(a[0] for a in align) if align else "")
 
 
 def slash(values: Iterable[Any], fmt: Callable[[Any], str] = str) -> str:
