@@ -130,3 +130,20 @@ def normalization_swap(res: Results) -> str:
         f"little in between: means by at most {d['max_abs_mean_shift_in_early_sd']:.2f} σ, standard deviations "
         f"by a factor of {lo:.2f}–{hi:.2f}"
     )
+
+
+@renders("learning_best_recipe")
+def learning_best_recipe(res: Results) -> str:
+    """The recipe with the highest mean success of its validation-chosen checkpoints (five seeds or more)."""
+    rows = [r for r in _summary(res)["recipes"] if r["recipe"].endswith("@selected") and r["seeds"] >= 5]
+    best = max(rows, key=lambda r: (r["mean_success"], r["worst_seed_success"]))
+    per = best["per_shell_mean"]
+    met = [k for k, ok in best["aims"].items() if ok]
+    return (
+        f"the best recipe over five seeds so far, `{best['recipe'].removesuffix('@selected')}`, wins "
+        f"{percent(best['mean_success'])} of the grid in the mean with each seed's validation-chosen checkpoint "
+        f"(worst seed {percent(best['worst_seed_success'])}; point / injected / hydroelastic "
+        f"{slash((percent(per[m]) for m in ('point', 'injected', 'hydroelastic')))}; rliable IQM "
+        f"{percent(best['rliable_iqm'])}, 95 % CI {percent(best['rliable_iqm_ci'][0])}–"
+        f"{percent(best['rliable_iqm_ci'][1])}), and meets {len(met)} of the {len(best['aims'])} aims"
+    )
