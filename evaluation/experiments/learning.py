@@ -287,7 +287,9 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
         "pd_level": level,
         "env_steps_to_pd_level": reached["env_steps"] if reached else None,
         "wall_clock_to_pd_level_s": reached["wall_clock_s"] if reached else None,
-        "wall_clock_s": offset_wall + timing["wall_s"],
+        # the last training session's rate over the whole run: a resumed run's earlier sessions are
+        # not timed (timing.json is per session), so its own wall time would count the last one only
+        "wall_clock_s": offset_wall + timing["num_timesteps"] * wall_per_step,
         "env_steps": offset + timing["num_timesteps"],
         "steps_per_s": timing["steps_per_s"],
         "job_wall_s": time.perf_counter() - t0,
