@@ -147,3 +147,14 @@ def learning_best_recipe(res: Results) -> str:
         f"{percent(best['rliable_iqm'])}, 95 % CI {percent(best['rliable_iqm_ci'][0])}–"
         f"{percent(best['rliable_iqm_ci'][1])}), and meets {len(met)} of the {len(best['aims'])} aims"
     )
+
+
+@renders("learning_batch32_vs_batch")
+def learning_batch32_vs_batch(res: Results) -> str:
+    r = _recipes(res)
+    a, b = r["stable_wide_batch32@selected"], r["stable_wide_batch@selected"]
+    return (
+        f"mean {percent(a['mean_success'])} and worst seed {percent(a['worst_seed_success'])} against "
+        f"{percent(b['mean_success'])} and {percent(b['worst_seed_success'])}; point / injected / hydroelastic "
+        f"{slash(percent(a['per_shell_mean'][m]) for m in ('point', 'injected', 'hydroelastic'))}"
+    )
