@@ -8,6 +8,7 @@ Commands
   kd-step      hydroelastic k_d refitted at another plant step -> calibration YAML (k_d_by_time_step)
   kd-pressure  hydroelastic k_d against pressure at a plant step, fitted to ζ(p) -> calibration YAML (k_d_by_pressure)
   pressure-fit one inflation pressure per recording, estimated from its free motion with a fixed calibration
+  pressure-study both shipped calibrations with a pressure per shared recording -> evaluation/results/validation/
   events       free-motion events (release or push, then free decay) in a long log [-> manifest entries]
   validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
   report       regenerate evaluation/results/validation/ from the real logs
@@ -27,6 +28,7 @@ from sphere_env.calibration.commands import (
     cmd_kd_pressure,
     cmd_kd_step,
     cmd_pressure_fit,
+    cmd_pressure_study,
     cmd_report,
     cmd_sensitivity,
     cmd_shell,
@@ -177,6 +179,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--drive-friction", default="majd_drive", help="drive friction on free windows")
     p.add_argument("--json", default=None, metavar="PATH", help="write every estimate and its profile")
     p.set_defaults(func=cmd_pressure_fit)
+
+    p = sub.add_parser(
+        "pressure-study",
+        help="both shipped calibrations with one pressure per shared recording (one twin for every log?)",
+    )
+    p.add_argument("--manifest", default=str(DEFAULT_MANIFEST))
+    p.add_argument("--data-root", default=None)
+    p.add_argument("--out", default=str(Path("evaluation") / "results" / "validation" / "pressure_per_log.json"))
+    p.set_defaults(func=cmd_pressure_study)
 
     p = sub.add_parser("events", help="free-motion events in a long log; optionally write manifest entries")
     p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")

@@ -332,6 +332,20 @@ def cmd_pressure_fit(args) -> int:
     return 0
 
 
+def cmd_pressure_study(args) -> int:
+    from sphere_env.calibration.pressure_fit import pressure_study
+    from sphere_env.files import write_text_atomic
+
+    man = load_manifest(args.manifest, args.data_root)
+    if not man.available():
+        print(f"pressure-study: real logs not found at {man.data_root}; nothing written", file=sys.stderr)
+        return 2
+    record = pressure_study(man, log_to=lambda line: print(line, flush=True))
+    write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
+    print(f"wrote {args.out}")
+    return 0
+
+
 def cmd_events(args) -> int:
     import os
 

@@ -12,11 +12,16 @@ uses) on a grid of pressures, then a bounded scalar search (scipy) around the be
 grid is reported too: a flat profile means the log cannot tell pressures apart, and the estimate is
 marked unidentified. An optimum on a bound of the range says the log wants a pressure the
 calibration does not cover.
+
+:func:`pressure_study` (``python -m sphere_env.calibration pressure-study``) asks the question of
+the shared logs: each shipped calibration with only the pressure estimated per recording, and the
+steer_free trials fitted on one and validated on the other with the other's pressure estimated.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -29,6 +34,7 @@ from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import FitError, TwinPool
 from sphere_env.calibration.simulate import simulate_log
 from sphere_env.models.shell import ShellCalibration
+from sphere_env.resources import asset_path
 
 #: Pressures on the profile grid, spread evenly over the calibration's range.
 GRID_POINTS = 9
@@ -153,3 +159,68 @@ def by_recording(logs: Sequence[RobotLog]) -> list[list[RobotLog]]:
     for log in logs:
         groups.setdefault(str(log.path), []).append(log)
     return list(groups.values())
+
+
+#: The study's calibrations (shipped files), manifest groups and shell models.
+CALIBRATIONS = ("default", "free_robot")
+GROUPS = ("steer_free", "free_robot")
+MODELS = ("injected", "hydroelastic")
+#: The aims of the fidelity issue, per group: (φ, θ) RMSE limits [rad]; None = no limit on θ.
+AIMS_RAD = {"steer_free": (0.05, None), "free_robot": (0.06, 0.08)}
+
+
+def pressure_study(man: Any, log_to: Any = print) -> dict[str, Any]:
+    """Each of :data:`CALIBRATIONS` with one pressure estimated per recording of each of :data:`GROUPS`
+    of the manifest ``man``, for both soft models, and :func:`steer_free_cross`: the record that
+    ``pressure-study`` writes."""
+    rows = []
+    for cal_name in CALIBRATIONS:
+        cal = ShellCalibration.load(asset_path("calibration", f"{cal_name}.yaml"))
+        for group in GROUPS:
+            logs = [s.load(required=("phi", "theta")) for s in man.group(group)]
+            for model in MODELS:
+                for rec in by_recording(logs):
+                    t0 = time.perf_counter()
+                    fit = fit_pressure(rec, model, cal)
+                    phi_aim, theta_aim = AIMS_RAD[group]
+                    within = all(
+                        r["phi"] <= phi_aim and (theta_aim is None or r["theta"] <= theta_aim)
+                        for r in fit.rmse_rad.values()
+                    )
+                    rows.append({"calibration": cal_name, "group": group, **fit.as_dict(), "within_aims": within})
+                    log_to(
+                        f"{cal_name} {model} {'+'.join(fit.logs)}: {fit.pressure_kpa:.2f} kPa, "
+                        + ", ".join(f"{k} {v['phi']:.3f}/{v['theta']:.3f}" for k, v in fit.rmse_rad.items())
+                        + f" ({'within' if within else 'outside'} the aims; {time.perf_counter() - t0:.0f} s)",
+                    )
+    return {
+        "aims_rad": {g: list(a) for g, a in AIMS_RAD.items()},
+        "rows": rows,
+        "steer_free_cross": steer_free_cross(man, log_to),
+    }
+
+
+def steer_free_cross(man: Any, log_to: Any = print) -> list[dict[str, Any]]:
+    """The steer_free trials both ways with a pressure per trial: the law fitted on one trial at the
+    assumed pressure (as the validation report's cross-validation does), then the other trial's
+    pressure estimated with that law held fixed, and its error there."""
+    from sphere_env.calibration.crossval import fit_calibration
+
+    base = ShellCalibration.load(asset_path("calibration", "default.yaml"))
+    p0 = base.nominal_pressure_kpa
+    logs = [s.load(required=("phi", "theta")) for s in man.group("steer_free")]
+    out = []
+    for model in MODELS:
+        for train in logs:
+            t0 = time.perf_counter()
+            _, raw = fit_calibration([train], model, p0, base, "majd_steer")
+            cal = ShellCalibration.from_dict(raw, source=f"<fitted on {train.name}>")
+            for test in (log for log in logs if log is not train):
+                fit = fit_pressure([test], model, cal)
+                out.append({"fit_on": train.name, "fit_at_kpa": p0, **fit.as_dict()})
+                r = fit.rmse_rad[test.name]
+                log_to(
+                    f"cross {model} {train.name} -> {test.name}: {fit.pressure_kpa:.2f} kPa, "
+                    f"{r['phi']:.3f}/{r['theta']:.3f} ({time.perf_counter() - t0:.0f} s)",
+                )
+    return out

@@ -64,3 +64,11 @@ def test_cli_refuses_an_unknown_trial_before_simulating(tmp_path, capsys):
     assert code == 2
     assert "no_such_trial" in capsys.readouterr().err
     assert not (tmp_path / "out.json").exists()
+
+
+def test_pressure_study_without_the_logs_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "pressure_per_log.json"
+    code = calibrate(["pressure-study", "--data-root", str(tmp_path / "no_logs"), "--out", str(out)])
+    assert code == 2
+    assert "real logs not found" in capsys.readouterr().err
+    assert not out.exists()
