@@ -61,7 +61,10 @@ def interval_estimates(scores: Mapping[str, np.ndarray], seed: int = 0) -> dict[
 
 
 def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any]) -> list[dict[str, Any]]:
+    from sphere_env.evaluation.experiments.learning import load_recipes
+
     ests = interval_estimates({k: shell_scores(v) for k, v in runs_by_recipe.items()})
+    notes = {k: v.get("note", "") for k, v in load_recipes().items()}
     rows = []
     for name, runs in runs_by_recipe.items():
         succ = np.array([r["success_rate"] for r in runs])
@@ -92,7 +95,9 @@ def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
                         np.nanmean([r["tracking_rmse_rad_s"] for r in runs]) <= pd["tracking_rmse_rad_s"]
                     ),
                 },
-                "note": "" if "@" in name else runs[0]["recipe"].get("note", ""),
+                # the recipe's note as recipes.yml has it now (what was found is added to it after the
+                # runs), else as the runs recorded it
+                "note": "" if "@" in name else (notes.get(name) or runs[0]["recipe"].get("note", "")),
             }
         )
     return rows

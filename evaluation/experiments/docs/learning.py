@@ -158,3 +158,26 @@ def learning_batch32_vs_batch(res: Results) -> str:
         f"{percent(b['mean_success'])} and {percent(b['worst_seed_success'])}; point / injected / hydroelastic "
         f"{slash(percent(a['per_shell_mean'][m]) for m in ('point', 'injected', 'hydroelastic'))}"
     )
+
+
+@renders("learning_batch32_failures")
+def learning_batch32_failures(res: Results) -> str:
+    """How the final models of ``stable_wide_batch32`` fail their grid episodes: off the lane, or at
+    the run-out with a tracking RMSE over the tolerance; and where (shell, pressure)."""
+    seeds = sorted(r["seed"] for r in _summary(res)["runs"] if r["method"] == "stable_wide_batch32")
+    eps = [e for k in seeds for e in res.json(f"learning/runs/stable_wide_batch32/seed{k}.json")["episodes"]]
+    failed = [e for e in eps if not e["is_success"]]
+    at_runout = [e for e in failed if e["reached_runout"]]
+    rmse = [e["tracking_rmse_rad_s"] for e in at_runout]
+
+    def share(shell: str, p: float) -> str:
+        cell = [e for e in eps if e["shell_model"] == shell and e["pressure_kpa"] == p]
+        return f"{sum(not e['is_success'] for e in cell)} of {len(cell)}"
+
+    low = min(e["pressure_kpa"] for e in eps)
+    return (
+        f"{len(at_runout)} of the {len(failed)} failed grid episodes of its final models reached the run-out in "
+        f"the lane and failed on the tracking RMSE alone ({min(rmse):.2f}–{max(rmse):.2f} rad/s), most often on "
+        f"the soft shells at {low:g} kPa (injected {share('injected', low)}, hydroelastic "
+        f"{share('hydroelastic', low)}; point {share('point', low)})"
+    )
