@@ -201,10 +201,13 @@ def pressure_study(man: Any, log_to: Any = print) -> dict[str, Any]:
 
 
 def steer_free_cross(man: Any, log_to: Any = print) -> list[dict[str, Any]]:
-    """The steer_free trials both ways with a pressure per trial: the law fitted on one trial at the
-    assumed pressure (as the validation report's cross-validation does), then the other trial's
-    pressure estimated with that law held fixed, and its error there."""
+    """The steer_free trials both ways with one number per trial: the law fitted on one trial at the
+    assumed pressure (as the validation report's cross-validation does), then, with that law held
+    fixed, the other trial's pressure estimated (``pressure_kpa``, ``rmse_rad``) and, instead, its
+    rest angle φ_0 (``rest_angle``: the shell's equilibrium roll angle, which a soft shell set down
+    on another spot of its surface may change), and the other trial's error with each."""
     from sphere_env.calibration.crossval import fit_calibration
+    from sphere_env.calibration.shell_fit import fit_shell
 
     base = ShellCalibration.load(asset_path("calibration", "default.yaml"))
     p0 = base.nominal_pressure_kpa
@@ -217,10 +220,26 @@ def steer_free_cross(man: Any, log_to: Any = print) -> list[dict[str, Any]]:
             cal = ShellCalibration.from_dict(raw, source=f"<fitted on {train.name}>")
             for test in (log for log in logs if log is not train):
                 fit = fit_pressure([test], model, cal)
-                out.append({"fit_on": train.name, "fit_at_kpa": p0, **fit.as_dict()})
+                rest = fit_shell(
+                    [test], model, p0, base=cal, params=["rest_angle_rad"], max_nfev=30, require_convergence=False
+                )
+                rest_rmse = {k: float(v) for k, v in rest.rmse[test.name].items()}
+                out.append(
+                    {
+                        "fit_on": train.name,
+                        "fit_at_kpa": p0,
+                        **fit.as_dict(),
+                        "rest_angle": {
+                            "fitted_on_rad": float(cal.steer_law.rest_angle_rad),
+                            "estimated_rad": float(rest.params["rest_angle_rad"]),
+                            "rmse_rad": rest_rmse,
+                        },
+                    }
+                )
                 r = fit.rmse_rad[test.name]
                 log_to(
                     f"cross {model} {train.name} -> {test.name}: {fit.pressure_kpa:.2f} kPa, "
-                    f"{r['phi']:.3f}/{r['theta']:.3f} ({time.perf_counter() - t0:.0f} s)",
+                    f"{r['phi']:.3f}/{r['theta']:.3f}; rest angle {rest.params['rest_angle_rad']:.3f} rad, "
+                    f"{rest_rmse['phi']:.3f}/{rest_rmse['theta']:.3f} ({time.perf_counter() - t0:.0f} s)",
                 )
     return out
