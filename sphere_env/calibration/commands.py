@@ -21,6 +21,16 @@ def _trials(args, required=()):
     return man, [s.load(required=required) for s in specs]
 
 
+def _shared_logs(args, command: str):
+    """The manifest of a command that reads every log of it (``report``, ``pressure-study``), or None
+    after saying on stderr that its logs are missing and nothing is written."""
+    man = load_manifest(args.manifest, args.data_root)
+    if not man.available():
+        print(f"{command}: real logs not found at {man.data_root}; nothing written", file=sys.stderr)
+        return None
+    return man
+
+
 def cmd_shell(args) -> int:
     from sphere_env.calibration.decay import (
         calibration_dict,
@@ -336,9 +346,8 @@ def cmd_pressure_study(args) -> int:
     from sphere_env.calibration.pressure_fit import pressure_study
     from sphere_env.files import write_text_atomic
 
-    man = load_manifest(args.manifest, args.data_root)
-    if not man.available():
-        print(f"pressure-study: real logs not found at {man.data_root}; nothing written", file=sys.stderr)
+    man = _shared_logs(args, "pressure-study")
+    if man is None:
         return 2
     record = pressure_study(man, log_to=lambda line: print(line, flush=True))
     write_text_atomic(args.out, json.dumps(record, indent=1) + "\n")
@@ -395,9 +404,8 @@ def cmd_events(args) -> int:
 def cmd_report(args) -> int:
     from sphere_env.calibration.report import build_report
 
-    man = load_manifest(args.manifest, args.data_root)
-    if not man.available():
-        print(f"report: real logs not found at {man.data_root}; nothing written", file=sys.stderr)
+    man = _shared_logs(args, "report")
+    if man is None:
         return 2
     cmd = "python -m sphere_env.calibration " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     path = build_report(
