@@ -15,7 +15,8 @@ calibration does not cover.
 
 :func:`pressure_study` (``python -m sphere_env.calibration pressure-study``) asks the question of
 the shared logs: each shipped calibration with only the pressure estimated per recording, and the
-steer_free trials fitted on one and validated on the other with the other's pressure estimated.
+steer_free trials fitted on one and validated on the other with one number of the other estimated:
+its pressure, or instead its rest angle φ_0.
 """
 
 from __future__ import annotations
