@@ -319,6 +319,9 @@ def cmd_pressure_fit(args) -> int:
 
     _, logs = _trials(args, required=("phi", "theta"))
     cal = ShellCalibration.load(args.calibration)
+    other = [f"{log.name} ({log.fixture})" for log in logs if log.fixture not in ("steer_plane", "free")]
+    if other:  # refused before any fit runs, not after the first recordings were fitted
+        raise LogError(f"trials {other}: a pressure estimate needs 'steer_plane' or 'free' windows")
     fits = []
     for model in args.models:
         for group in by_recording(logs):

@@ -9,7 +9,7 @@ from sphere_env.calibration.shell_fit import FitError
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState
 
-from .conftest import SYNTH_CAL, record, steer_twin, write_calibration
+from .conftest import SYNTH_CAL, record, steer_twin, synth_log, write_calibration, write_manifest
 
 
 def _steer_log(
@@ -71,4 +71,26 @@ def test_pressure_study_without_the_logs_writes_nothing(tmp_path, capsys):
     code = calibrate(["pressure-study", "--data-root", str(tmp_path / "no_logs"), "--out", str(out)])
     assert code == 2
     assert "real logs not found" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_cli_refuses_a_window_of_another_fixture_before_fitting_anything(tmp_path, capsys):
+    """A selection that mixes a stand window (φ and θ logged, but the shell held) into free-motion
+    windows is refused whole, before the first recording is fitted: nothing is written."""
+    twin = steer_twin(write_calibration(tmp_path / "cal.yaml"), 6.0)
+    for name in ("a", "b"):
+        synth_log(tmp_path / f"{name}.csv", twin, InitialState(theta=0.38, roll=-0.3), 1.0, channels=("theta", "phi"))
+    man = write_manifest(
+        tmp_path / "m.yaml",
+        [
+            {"name": "a", "group": "g", "file": "a.csv", "fixture": "steer_plane"},
+            {"name": "b", "group": "g", "file": "b.csv", "fixture": "stand"},
+        ],
+    )
+    out = tmp_path / "out.json"
+    code = calibrate(["pressure-fit", "--manifest", str(man), "--group", "g", "--json", str(out)])
+    said = capsys.readouterr()
+    assert code == 2
+    assert "b (stand)" in said.err
+    assert said.out == ""  # no recording was fitted (each prints its estimate)
     assert not out.exists()
