@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from sphere_env.evaluation.experiments.learning import PD_MARGIN
 from sphere_env.files import write_text_atomic
 from sphere_env.reporting import markdown_table
 
@@ -88,7 +89,7 @@ def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
                 else None,
                 **{f"rliable_{k}": v for k, v in ests[name].items()},
                 "aims": {
-                    "mean_success_ge_pd_minus_3": bool(succ.mean() >= pd["success_rate"] - 0.03 - 1e-9),
+                    "mean_success_ge_pd_minus_3": bool(succ.mean() >= pd["success_rate"] - PD_MARGIN - 1e-9),
                     "worst_seed_ge_85": bool(succ.min() >= 0.85 - 1e-9),
                     "every_shell_ge_80": all(np.mean([r["per_shell"][m] for r in runs]) >= 0.8 - 1e-9 for m in SHELLS),
                     "rmse_le_pd": bool(
@@ -224,7 +225,7 @@ def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
         ax.plot(steps, y, marker="o", ms=3, color=f"C{i}", label=f"{name} ({len(runs)} seeds)")
         ax.fill_between(steps, lo, hi, color=f"C{i}", alpha=0.2)
     ax.axhline(pd["success_rate"], color="k", lw=1, label="PD")
-    ax.axhline(pd["success_rate"] - 0.03, color="k", lw=1, ls="--", label="PD level (PD − 3 points)")
+    ax.axhline(pd["success_rate"] - PD_MARGIN, color="k", lw=1, ls="--", label="PD level (PD − 3 points)")
     ax.set_xlabel("environment steps")
     ax.set_ylabel("grid success (IQM over seeds, 95 % CI)")
     ax.set_ylim(-0.02, 1.02)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
+from sphere_env.evaluation.experiments.learning import PD_MARGIN
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
@@ -104,7 +105,7 @@ def learning_batch_fall(res: Results) -> str:
 @renders("learning_batch_peaks")
 def learning_batch_peaks(res: Results) -> str:
     peaks = sorted(max(c["success_rate"] for c in curve) for curve in _curves(res, "stable_wide_batch"))
-    level = _summary(res)["pd"]["success_rate"] - 0.03
+    level = _summary(res)["pd"]["success_rate"] - PD_MARGIN
     high = [p for p in peaks if p >= level - 1e-9]
     return (
         f"the best checkpoints of {len(high)} of {len(peaks)} seeds won {span(high, percent)} of the grid"
