@@ -38,8 +38,10 @@ FAULTS: dict[str, Fault] = {
             "leak",
             "pressure leak, -0.5 kPa/s",
             "a leaking valve or a puncture; clipped at the calibrated floor of 3 kPa, so a 14 kPa shell is at 3 kPa "
-            "after 22 s, about two descents (the training preset full draws leaks up to 0.2 kPa/s)",
+            "after 22 s, about two descents (the training preset full draws leaks up to 0.2 kPa/s); nothing on the "
+            "robot measures it, so a policy that observes the pressure reads the value from before the run",
             {"pressure_schedule": {"rate_kpa_per_s": -0.5}},
+            {"pressure_reading": "at_reset"},
         ),
         Fault(
             "pressure_beyond_range",

@@ -107,6 +107,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._randomization = self._check_randomization(kw.randomization, steer_check=False)
         self.observe_pressure = observe_pressure = kw.observe_pressure
         self.observe_shell_model = observe_shell_model = kw.observe_shell_model
+        self.pressure_reading = kw.pressure_reading
         self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) if observe_shell_model else ()
         self.observation_noise_scale = kw.observation_noise_scale
         self._noise_std = task.observation_layout().noise_std()  # × the episode's observation_noise_scale
@@ -350,6 +351,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._events, self._next_events = events, None
         events.start(params)
         self._params = events.params
+        self._pressure_at_reset_kpa = self._params["pressure_kpa"]
         self._fired = [e["name"] for e in events.describe()]  # every term draws at reset
         if self.observe_shell_model:
             self._shell_one_hot = tuple(float(m == params["shell_model"]) for m in SHELL_MODELS)
@@ -445,6 +447,11 @@ class SphereEnv(gym.Env, EzPickle):
         if twin_changes:
             self.twin.apply(twin_changes)
 
+    def _pressure_observed_kpa(self) -> float:
+        """The pressure the observation reports [kPa]: the physics' current one, or the episode's
+        starting one under ``pressure_reading="at_reset"``."""
+        return self._pressure_at_reset_kpa if self.pressure_reading == "at_reset" else self._params["pressure_kpa"]
+
     def _observe(self, state) -> np.ndarray:
         noise = None
         scale = self._params["observation_noise_scale"]
@@ -453,7 +460,7 @@ class SphereEnv(gym.Env, EzPickle):
         obs = assemble_observation(
             state,
             self.task.command(state),
-            self._params["pressure_kpa"] if self.observe_pressure else None,
+            self._pressure_observed_kpa() if self.observe_pressure else None,
             noise,
             self._extra_names,
             self._shell_one_hot,

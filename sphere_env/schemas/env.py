@@ -61,6 +61,11 @@ class EnvKwargs(Schema):
         ``"full"``, a mapping, or a :class:`RandomizationSpec`; read by ``RandomizationSpec.parse``
         against the calibration. Sampled values are in ``info["params"]``.
     :param observe_pressure: append the (privileged) pressure [kPa] to the observation; default False.
+    :param pressure_reading: which pressure the observation's pressure component reports:
+        ``"current"`` (default; the pressure the physics uses, a pressure sensor in the shell) or
+        ``"at_reset"`` (the episode's starting pressure, an operator's gauge reading before the
+        run, which a leak or any other pressure event during the episode leaves behind). Only
+        read with ``observe_pressure``.
     :param observe_shell_model: append the (privileged) shell model as a one-hot [point, injected,
         hydroelastic] after the pressure; default False. With both, a critic can tell the episodes
         of a shell and pressure mixture apart while the actor drops them
@@ -104,6 +109,7 @@ class EnvKwargs(Schema):
     drive_torque_limit_nm: parameter("drive_torque_limit_nm") = PARAMETERS["drive_torque_limit_nm"].nominal
     randomization: Any = "default"
     observe_pressure: bool = False
+    pressure_reading: Literal["current", "at_reset"] = "current"
     observe_shell_model: bool = False
     observation_history_steps: count(0, 20) = 0
     observation_noise_scale: parameter("observation_noise_scale") = 0.0

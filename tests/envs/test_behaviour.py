@@ -67,6 +67,23 @@ def test_pressure_schedule_changes_pressure_and_dynamics(make):
     assert not np.allclose(a[-1][0], b[-1][0], atol=1e-3)  # different dynamics
 
 
+@pytest.mark.parametrize("reading", ["current", "at_reset"])
+def test_the_observed_pressure_follows_a_leak_or_keeps_the_reading_at_reset(make, reading):
+    leak = dict(pressure_kpa=12.0, pressure_schedule={"rate_kpa_per_s": -3.0})
+    env = make(
+        "sphere_env/Roll-v1", shell_model="injected", randomization=leak, observe_pressure=True, pressure_reading=reading
+    )
+    i = env.unwrapped.observation_layout["pressure_kpa"]
+    steps = rollout(env, 100, seed=1, actions=np.array([0.3, 0.6], np.float32))
+    observed = np.array([s[0][i] for s in steps[1:]])
+    applied = np.array([s[-1]["pressure_kpa"] for s in steps[1:]])
+    assert applied[-1] < 9.0  # the shell leaked
+    if reading == "at_reset":
+        np.testing.assert_allclose(observed, 12.0)
+    else:  # the observation is taken after the step, at the pressure the next step uses
+        assert observed[-1] == pytest.approx(applied[-1], abs=0.1) and observed[-1] < 9.0
+
+
 def test_interval_randomization_changes_within_episode(make):
     spec = {
         "ground_friction": {"distribution": "uniform", "low": 0.3, "high": 1.5, "mode": "interval", "interval_s": 0.2}
