@@ -16,7 +16,8 @@ calibration does not cover.
 :func:`pressure_study` (``python -m sphere_env.calibration pressure-study``) asks the question of
 the shared logs: each shipped calibration with only the pressure estimated per recording, and the
 steer_free trials fitted on one and validated on the other with one number of the other estimated:
-its pressure, or instead its rest angle φ_0.
+its pressure, or instead its rest angle φ_0; and :func:`setup_transfer`, each calibration's law
+shape on the other setup's recordings with its stiffness, damping and rest angle refitted.
 """
 
 from __future__ import annotations
@@ -198,7 +199,71 @@ def pressure_study(man: Any, log_to: Any = print) -> dict[str, Any]:
         "aims_rad": {g: list(a) for g, a in AIMS_RAD.items()},
         "rows": rows,
         "steer_free_cross": steer_free_cross(man, log_to),
+        "setup_transfer": setup_transfer(man, log_to),
     }
+
+
+#: The parameters :func:`setup_transfer` refits per recording, per shell model: the stiffness and
+#: damping (for the hydroelastic model the steer couple's factors) and the rest angle φ_0.
+TRANSFER_PARAMS = {
+    "injected": ("omega_n", "zeta", "rest_angle_rad"),
+    "hydroelastic": ("couple_stiffness_factor", "couple_damping_factor", "rest_angle_rad"),
+}
+
+
+def setup_transfer(man: Any, log_to: Any = print) -> list[dict[str, Any]]:
+    """Each shipped calibration's law shape on the other setup's recordings, with the stiffness,
+    damping and rest angle refitted per recording (:data:`TRANSFER_PARAMS`) and the amplitude terms
+    held: more freedom than a pressure per log gives, since a pressure moves only ω_n and ζ, along
+    the calibration's curves. Where even this misses the aims, no pressure can close the gap and the
+    law's shape is what differs; where it meets them, the stiffness and damping it wants show how
+    far the pressure would have to move them."""
+    from sphere_env.calibration.shell_fit import fit_shell
+
+    out = []
+    for cal_name, group in (("free_robot", "steer_free"), ("default", "free_robot")):
+        cal = ShellCalibration.load(asset_path("calibration", f"{cal_name}.yaml"))
+        p0 = cal.nominal_pressure_kpa
+        logs = [s.load(required=("phi", "theta")) for s in man.group(group)]
+        phi_aim, theta_aim = AIMS_RAD[group]
+        for model in MODELS:
+            names = TRANSFER_PARAMS[model]
+            for rec in by_recording(logs):
+                t0 = time.perf_counter()
+                fit = fit_shell(rec, model, p0, base=cal, params=names, max_nfev=40, require_convergence=False)
+                rmse_rad = {k: {c: float(v[c]) for c in ("phi", "theta")} for k, v in fit.rmse.items()}
+                within = all(
+                    r["phi"] <= phi_aim and (theta_aim is None or r["theta"] <= theta_aim) for r in rmse_rad.values()
+                )
+                law = cal.steer_law
+                shipped = {
+                    "omega_n": float(cal.omega_n(p0)),
+                    "zeta": float(cal.zeta(p0)),
+                    "rest_angle_rad": float(law.rest_angle_rad),
+                    "couple_stiffness_factor": float(cal.couple_stiffness_factor),
+                    "couple_damping_factor": float(cal.couple_damping_factor),
+                }
+                out.append(
+                    {
+                        "calibration": cal_name,
+                        "form": law.form,
+                        "model": model,
+                        "group": group,
+                        "logs": [log.name for log in rec],
+                        "fitted": {k: float(fit.params[k]) for k in names},
+                        "shipped_at_nominal": {k: shipped[k] for k in names},
+                        "rmse_rad": rmse_rad,
+                        "within_aims": within,
+                    }
+                )
+                log_to(
+                    f"transfer {cal_name} ({law.form}) {model} {'+'.join(log.name for log in rec)}: "
+                    + ", ".join(f"{k} {fit.params[k]:.3f} (shipped {shipped[k]:.3f})" for k in names)
+                    + "; "
+                    + ", ".join(f"{k} {v['phi']:.3f}/{v['theta']:.3f}" for k, v in rmse_rad.items())
+                    + f" ({'within' if within else 'outside'} the aims; {time.perf_counter() - t0:.0f} s)"
+                )
+    return out
 
 
 def steer_free_cross(man: Any, log_to: Any = print) -> list[dict[str, Any]]:

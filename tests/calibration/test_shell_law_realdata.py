@@ -117,7 +117,6 @@ def test_shipped_calibration_on_steer_free(roboball_dir, model):
         assert phi <= 0.04 and theta <= 0.06, (spec.name, phi, theta)
 
 
-
 @pytest.mark.parametrize("calibration", ["default", "free_robot"])
 def test_steer_free_replays_on_the_free_fixture_match_the_steer_plane_fixture(roboball_dir, calibration):
     """The steer_free trials run on ``steer_plane`` (shell confined to the steer plane, drive welded),

@@ -71,7 +71,11 @@ def test_pressure_schedule_changes_pressure_and_dynamics(make):
 def test_the_observed_pressure_follows_a_leak_or_keeps_the_reading_at_reset(make, reading):
     leak = dict(pressure_kpa=12.0, pressure_schedule={"rate_kpa_per_s": -3.0})
     env = make(
-        "sphere_env/Roll-v1", shell_model="injected", randomization=leak, observe_pressure=True, pressure_reading=reading
+        "sphere_env/Roll-v1",
+        shell_model="injected",
+        randomization=leak,
+        observe_pressure=True,
+        pressure_reading=reading,
     )
     i = env.unwrapped.observation_layout["pressure_kpa"]
     steps = rollout(env, 100, seed=1, actions=np.array([0.3, 0.6], np.float32))

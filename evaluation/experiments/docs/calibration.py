@@ -268,3 +268,69 @@ def steer_free_cross_rest(res: Results) -> str:
     worst = max(x["rest_angle"]["rmse_rad"]["phi"] for x in xs)
     verdict = "meets" if worst <= AIM_HELD_OUT_PHI else "misses"
     return f"{'; '.join(parts)}: the worse direction {worst:.3f} rad {verdict} the {AIM_HELD_OUT_PHI:g} aim"
+
+
+#: How setup_transfer's parameters are named in the docs.
+_TRANSFER_SYMBOL = {
+    "omega_n": "ω_n",
+    "zeta": "ζ",
+    "rest_angle_rad": "φ_0",
+    "couple_stiffness_factor": "f_K",
+    "couple_damping_factor": "f_C",
+}
+
+
+def _g3(v: float) -> str:
+    """Three significant digits; 0 for a value a fit left within 1e-9 of its zero bound."""
+    return "0" if abs(v) < 1e-9 else f"{v:.3g}"
+
+
+@renders("setup_transfer_table")
+def setup_transfer_table(res: Results) -> str:
+    rows = []
+    for r in _pressures(res)["setup_transfer"]:
+        fitted = ", ".join(
+            f"{_TRANSFER_SYMBOL[k]} {_g3(v)} ({_g3(r['shipped_at_nominal'][k])})" for k, v in r["fitted"].items()
+        )
+        rows.append(
+            [
+                f"`{r['calibration']}` ({r['form']})",
+                r["model"],
+                ", ".join(f"`{n}`" for n in r["logs"]),
+                fitted,
+                _windows(r),
+                "yes" if r["within_aims"] else "**no**",
+            ]
+        )
+    return table(
+        [
+            "law of",
+            "model",
+            "recording",
+            "refitted (shipped at the nominal pressure)",
+            "φ / θ RMSE [rad] per window",
+            "within the aims",
+        ],
+        rows,
+    )
+
+
+@renders("setup_transfer_pressure")
+def setup_transfer_pressure(res: Results) -> str:
+    cal = res.calibration("default")
+    slope = float(cal["omega_n"]["slope_rad_s_per_kpa"])
+    p0 = float(cal["nominal_pressure_kpa"])
+    lo, hi = cal["pressure_range_kpa"]
+    rows = [
+        r
+        for r in _pressures(res)["setup_transfer"]
+        if r["calibration"] == "default" and r["model"] == "injected" and "omega_n" in r["fitted"]
+    ]
+    parts = []
+    for r in rows:
+        d = r["fitted"]["omega_n"] - r["shipped_at_nominal"]["omega_n"]
+        parts.append(f"{', '.join(r['logs'])}: ω_n {d:+.2f} rad/s, {p0 + d / slope:.0f} kPa")
+    return (
+        f"{'; '.join(parts)} (the calibration's ω_n curve rises {slope:g} rad/s per kPa from "
+        f"{p0:g} kPa; its calibrated range is {lo:g}–{hi:g} kPa)"
+    )
