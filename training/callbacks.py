@@ -1,8 +1,9 @@
 """The callbacks of a training run and its checkpoints: what is logged and saved while SB3 learns.
 
 :func:`build_callbacks` gives periodic checkpoints (``checkpoints/``), the evaluations on fixed
-episodes that choose ``best/`` (with its VecNormalize statistics), and the log of every finished
-training episode (``learning_curve_train.csv``); on resume, earlier evaluations stay in the log.
+episodes that choose ``best/`` (with its VecNormalize statistics), the run's own callbacks
+(``callback`` in the hyperparameters, e.g. :class:`sphere_env.training.curriculum.SuccessCurriculum`)
+and the log of every finished training episode (``learning_curve_train.csv``); on resume, earlier evaluations stay in the log.
 :func:`save_checkpoint` writes a checkpoint at the model's current step count, named as the
 checkpoint callback names them, for the end of a session or an interrupted one.
 """
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sphere_env.training.config import TrainConfig
+from sphere_env.training.config import TrainConfig, make_callbacks
 from sphere_env.training.run_folder import CHECKPOINT_PREFIX, _ckpt_file
 
 
@@ -82,7 +83,8 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
             self._f.close()
 
     n = cfg.n_envs
-    callbacks: list[BaseCallback] = [EpisodeLog()]
+    # the run's own callbacks (hyperparams ``callback``) see each step before the episode log
+    callbacks: list[BaseCallback] = [*make_callbacks(cfg), EpisodeLog()]
     if cfg.checkpoint_freq > 0:
         callbacks.insert(
             0,

@@ -17,6 +17,9 @@ arguments plus these keys, and the shipped files hold nothing else, so
 ``normalize``       ``true``/``false`` or a mapping of ``VecNormalize`` arguments
 ``env_kwargs``      keyword arguments of ``gymnasium.make`` (see the env docstrings), including
                     ``randomization``: the env's spec (:mod:`sphere_env.tasks.randomization`)
+``callback``        stable-baselines3 callbacks, as rl-zoo3 names them: a class path,
+                    ``{path: {kwargs}}`` or a list of these (e.g.
+                    ``sphere_env.training.curriculum.SuccessCurriculum``)
 ==================  ==========================================================================
 
 Two more keys choose how this trainer steps the envs; rl-zoo3 does not know them (it would pass
@@ -37,7 +40,7 @@ auto``, the fastest measured layout):
 
 A top-level ``randomization`` key (the former layout) is refused with a message saying where it
 moved; rl-zoo3 keys this trainer does not implement (``frame_stack``, ``callback``, ...) are
-refused too. ``env_wrapper`` is read as rl-zoo3 reads it: a class path, ``{path: {kwargs}}``, or a
+refused too. ``env_wrapper`` and ``callback`` are read as rl-zoo3 reads them: a class path, ``{path: {kwargs}}``, or a
 list of these (applied in order, the first innermost), e.g. ``sphere_env.wrappers.PDResidualAction``.
 
 ``learning_rate`` and ``clip_range`` accept ``"lin_<value>"`` (linear decay to 0);
@@ -124,6 +127,8 @@ class TrainConfig:
     save_replay_buffer: bool = False
     # gymnasium wrappers around each env, innermost first: [{"module.Class": {kwargs}}] (rl-zoo3's env_wrapper)
     env_wrapper: list[dict[str, dict[str, Any]]] = field(default_factory=list)
+    # stable-baselines3 callbacks of the training run: [{"module.Class": {kwargs}}] (rl-zoo3's callback)
+    callback: list[dict[str, dict[str, Any]]] = field(default_factory=list)
 
     @property
     def randomization(self) -> Any:
@@ -321,6 +326,7 @@ def resolve_config(
         trained_agent=None if trained_agent is None else str(trained_agent),
         save_replay_buffer=bool(save_replay_buffer),
         env_wrapper=copy.deepcopy(spec.env_wrapper),
+        callback=copy.deepcopy(spec.callback),
     )
     cfg.algo_kwargs()  # schedules and policy_kwargs parse
     if build_env:
@@ -410,6 +416,21 @@ def apply_env_wrappers(env: Any, env_wrapper: Sequence[Mapping[str, Mapping[str,
     return env
 
 
+def make_callbacks(cfg: TrainConfig) -> list[Any]:
+    """The run's ``callback`` entries as callback objects; ``ValueError`` naming the field when a
+    class refuses its kwargs."""
+    from sphere_env.schemas.training import callback_class
+
+    out = []
+    for item in cfg.callback:
+        for path, kwargs in item.items():
+            try:
+                out.append(callback_class(path)(**kwargs))
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"callback: {path}: {err}") from None
+    return out
+
+
 def validate_with_env(cfg: TrainConfig) -> None:
     """Build one training env and the model on it in-process, and check the evaluation env at each
     evaluation pressure (the same env with the evaluation spec set when only the randomization
@@ -418,6 +439,9 @@ def validate_with_env(cfg: TrainConfig) -> None:
 
     env = _make_checked(cfg.env_id, cfg.make_kwargs(), "env_kwargs", cfg.env_wrapper)
     _try_episode_start(env, cfg.seed, "env_kwargs")
+    for callback in make_callbacks(cfg):  # kwargs refused by name; a check against the env where it has one
+        if hasattr(callback, "check_env"):
+            callback.check_env(env.unwrapped, cfg.n_envs)
     if cfg.trained_agent is not None:
         from sphere_env.training.trained_agent import check_trained_agent
 

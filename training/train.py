@@ -342,6 +342,7 @@ def _stored_overrides(cfg: TrainConfig) -> dict[str, Any]:
         "normalize": cfg.normalize if cfg.normalize is not None else False,
         "env_kwargs": cfg.env_kwargs,
         "env_wrapper": cfg.env_wrapper or None,
+        "callback": cfg.callback or None,
         **cfg.hyperparams,
     }
 

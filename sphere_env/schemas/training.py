@@ -11,7 +11,8 @@ A top-level ``randomization`` (the former layout, now ``env_kwargs.randomization
 keys this trainer does not implement (:data:`ZOO_ONLY_KEYS`) are refused by name, saying where the
 key moved or what to use instead. ``env_wrapper`` takes rl-zoo3's forms (a class path, ``{path:
 {kwargs}}`` or a list of these) and is read as a list of ``{path: kwargs}``, each class imported and
-checked. :class:`RunOptions` holds the trainer's own options (env id, torch device, seeds,
+checked; ``callback`` takes the same forms for stable-baselines3 callback classes (rl-zoo3's
+``callback`` key). :class:`RunOptions` holds the trainer's own options (env id, torch device, seeds,
 evaluation and checkpoint periods, ...), :class:`SweepOptions` a sweep's.
 
 rl-zoo3's string forms are read as data, never evaluated: ``lin_<x>`` schedules, ``"dict(...)"``
@@ -30,9 +31,19 @@ from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_v
 from sphere_env.schemas import Finite, OutputFolder, Schema, _integral, allowed, count, number, validate
 
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
-SPECIAL_KEYS = ("n_envs", "n_threads", "n_workers", "n_timesteps", "policy", "normalize", "env_kwargs", "env_wrapper")
+SPECIAL_KEYS = (
+    "n_envs",
+    "n_threads",
+    "n_workers",
+    "n_timesteps",
+    "policy",
+    "normalize",
+    "env_kwargs",
+    "env_wrapper",
+    "callback",
+)
 #: rl-zoo3 section keys (popped by its ExpManager) that this trainer does not implement.
-ZOO_ONLY_KEYS = ("vec_env_wrapper", "frame_stack", "callback", "monitor_kwargs", "noise_type", "noise_std")
+ZOO_ONLY_KEYS = ("vec_env_wrapper", "frame_stack", "monitor_kwargs", "noise_type", "noise_std")
 #: Former top-level keys of a section and where they live now.
 MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
 #: Upper bounds: more envs than this is a typo, not a study (each env holds a Drake diagram, ~20 MB;
@@ -194,6 +205,29 @@ def wrapper_class(path: str) -> type:
     return cls
 
 
+def callback_class(path: str) -> type:
+    """The stable-baselines3 callback class at ``path`` (``module.Class``), else ValueError saying why."""
+    import importlib
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    module, _, name = path.rpartition(".")
+    try:
+        cls = getattr(importlib.import_module(module), name) if module else None
+    except ImportError as err:
+        raise ValueError(f"{path!r} cannot be imported: {err}") from None
+    except AttributeError:
+        cls = None
+    if not (isinstance(cls, type) and issubclass(cls, BaseCallback)):
+        raise ValueError(f"{path!r} is not a stable_baselines3 BaseCallback class")
+    return cls
+
+
+def _callback_path(path: str) -> str:
+    callback_class(path)
+    return path
+
+
 def _wrapper_path(path: str) -> str:
     wrapper_class(path)
     return path
@@ -218,6 +252,13 @@ WrapperEntry = Annotated[
     Field(min_length=1, max_length=1),
     AfterValidator(lambda entry: {path: dict(kwargs or {}) for path, kwargs in entry.items()}),
 ]
+#: One callback: ``{module.Class: kwargs}`` (kwargs null: none), read as ``{path: {kwargs}}``.
+CallbackEntry = Annotated[
+    dict[Annotated[str, AfterValidator(_callback_path)], dict[str, Any] | None],
+    BeforeValidator(_wrapper_entry),
+    Field(min_length=1, max_length=1),
+    AfterValidator(lambda entry: {path: dict(kwargs or {}) for path, kwargs in entry.items()}),
+]
 Layout = count(1, MAX_N_ENVS) | Literal["auto"] | None
 
 
@@ -236,6 +277,14 @@ class Section(Schema):
         json_schema_extra=allowed(
             "a gymnasium.Wrapper class path 'module.Class' (such as 'sphere_env.wrappers.PDResidualAction'), "
             "{path: {kwargs}} with a mapping of kwargs, or a list of these (the first innermost)"
+        ),
+    )
+    callback: Annotated[list[CallbackEntry], BeforeValidator(_wrapper_list)] = Field(
+        default_factory=list,
+        json_schema_extra=allowed(
+            "a stable_baselines3 BaseCallback class path 'module.Class' (such as "
+            "'sphere_env.training.curriculum.SuccessCurriculum'), {path: {kwargs}} with a mapping of kwargs, "
+            "or a list of these"
         ),
     )
     # arguments PPO and SAC share

@@ -131,6 +131,14 @@ class RandomizationSpec:
         data = _as_data(spec, kwarg) if isinstance(spec, RandomizationSpec) else spec
         return _from_schema(load_spec(data, ramp, kwarg))
 
+    def with_entries(self, entries: Any, ramp: bool = True, kwarg: str = "randomization") -> "RandomizationSpec":
+        """This spec with the parameters of ``entries`` (a mapping in the spec's own format, e.g.
+        ``{"shell_model": "point"}``) drawn as given there instead; every other term and the
+        pressure schedule kept. Validated like :meth:`parse`."""
+        data = _as_data(self, kwarg)
+        data.update(dict(entries))
+        return RandomizationSpec.parse(data, ramp, kwarg)
+
     def resolved(self, space: ParameterSpace, kwarg: str = "randomization") -> "RandomizationSpec":
         """The spec in ``space`` (the registry resolved against the calibration): a parameter whose
         bounds come from the context (``bounds_from``: the pressure) gets them as its uniform

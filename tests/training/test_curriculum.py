@@ -1,0 +1,98 @@
+"""The success curriculum: it puts the training episodes in its shell × pressure cells, gives the
+cells the policy fails more envs, and a set-up it cannot run is refused by name before training."""
+
+from __future__ import annotations
+
+import csv
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from stable_baselines3 import PPO
+from stable_baselines3.common.logger import configure
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from sphere_env.training.config import resolve_config
+from sphere_env.training.curriculum import SuccessCurriculum, allocate
+from sphere_env.training.train import train
+
+RAMP = "sphere_env/RampDescent-v0"
+CURRICULUM = "sphere_env.training.curriculum.SuccessCurriculum"
+
+
+def test_allocate_gives_every_cell_an_env_and_more_to_the_heavier():
+    counts = allocate([0.9, 0.1, 0.5, 0.5], 16, 0.02)
+    assert sum(counts) == 16 and min(counts) >= 1
+    assert counts[0] > counts[2] == counts[3] > counts[1]
+    assert allocate([0.0, 0.0, 0.0], 6, 0.1) == [2, 2, 2]  # no weight anywhere: even
+    with pytest.raises(ValueError, match="at least one env per cell"):
+        allocate([1.0, 1.0, 1.0], 2, 0.0)
+
+
+def test_the_training_episodes_run_in_the_curriculums_cells(tmp_path):
+    """Two envs, cells 3-4 and 4-5 kPa on the injected shell while the env's own spec draws point
+    contact over the whole range: after each env's first episode (started before training starts)
+    every episode is on the injected shell within 3-5 kPa, and both cells get episodes."""
+    over = {
+        "n_envs": 2,
+        "n_steps": 32,
+        "batch_size": 32,
+        "n_epochs": 1,
+        "n_timesteps": 256,
+        "env_kwargs": {"shell_model": "point", "max_episode_steps": 10},
+        "callback": [{CURRICULUM: {"pressure_edges_kpa": [3.0, 4.0, 5.0], "shell_models": ["injected"]}}],
+    }
+    cfg = resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
+    run = train(cfg, tmp_path / "run", progress_bar=False)
+    with open(run / "learning_curve_train.csv") as f:
+        rows = list(csv.DictReader(f))
+    later = [r for rank in ("0", "1") for r in [r for r in rows if r["env"] == rank][1:]]
+    assert len(later) >= 20
+    assert all(r["shell_model"] == "injected" and 3.0 <= float(r["pressure_kpa"]) <= 5.0 for r in later)
+    pressures = np.array([float(r["pressure_kpa"]) for r in later])
+    assert (pressures < 4.0).any() and (pressures > 4.0).any()
+
+
+def test_the_cells_the_policy_fails_get_more_envs():
+    envs = DummyVecEnv([lambda: gym.make(RAMP, shell_model="point", max_episode_steps=10) for _ in range(8)])
+    model = PPO("MlpPolicy", envs, n_steps=16, batch_size=16, device="cpu")
+    model.set_logger(configure(None, []))
+    cb = SuccessCurriculum([3.0, 8.5, 14.0], shell_models=["point", "injected"], window_episodes=20)
+    cb.init_callback(model)
+    cb.on_training_start(locals(), globals())
+    assert sorted(cb._assigned) == [0, 0, 1, 1, 2, 2, 3, 3]  # no episodes yet: even
+    for c, wins in enumerate((20, 20, 20, 0)):  # the last cell (injected, 8.5-14 kPa) always failed
+        cb.outcomes[c].extend([True] * wins + [False] * (20 - wins))
+    cb.on_rollout_end()
+    counts = [cb._assigned.count(c) for c in range(4)]
+    assert counts[3] == max(counts) >= 4 and min(counts) >= 1
+    for i, c in enumerate(cb._assigned):  # each env draws from its cell
+        terms = {t.parameter: t.distribution for t in envs.get_attr("randomization", [i])[0].terms}
+        model_name, lo, hi = cb.cells[c]
+        assert terms["shell_model"].value == model_name
+        assert (terms["pressure_kpa"].low, terms["pressure_kpa"].high) == (lo, hi)
+    envs.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, n_envs, needle",
+    [
+        ({"pressure_edges_kpa": [1.0, 2.0]}, 4, "cell ('injected', 1.0, 2.0)"),
+        ({"pressure_edges_kpa": [3.0, 5.0, 7.0]}, 3, "n_envs = 3 for 4 cells"),
+        ({"pressure_edges_kpa": [5.0, 3.0]}, 4, "field 'pressure_edges_kpa'"),
+        ({"pressure_edges_kpa": [3.0, 5.0], "shell_models": ["soft"]}, 4, "field 'shell_models[0]'"),
+        ({"pressure_edges_kpa": [3.0, 5.0], "window": 10}, 4, "window"),
+    ],
+)
+def test_a_curriculum_it_cannot_run_is_refused_by_name_before_training(tmp_path, kwargs, n_envs, needle):
+    over = {"n_envs": n_envs, "n_steps": 32, "batch_size": 32, "callback": [{CURRICULUM: kwargs}]}
+    with pytest.raises(ValueError, match="callback") as err:
+        resolve_config(RAMP, "ppo", overrides=over, eval_freq=0)
+    assert needle in str(err.value)
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_callback_that_is_not_one_is_refused_by_name():
+    over = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "callback": "sphere_env.wrappers.PDResidualAction"}
+    with pytest.raises(ValueError, match="hyperparams.callback.*not a stable_baselines3 BaseCallback"):
+        resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, build_env=False)

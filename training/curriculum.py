@@ -1,0 +1,181 @@
+"""A curriculum over shells and pressures: training episodes go where the policy fails.
+
+:class:`SuccessCurriculum` is an SB3 callback, named in a hyperparameter section as rl-zoo3 names
+callbacks::
+
+    callback:
+      - sphere_env.training.curriculum.SuccessCurriculum:
+          pressure_edges_kpa: [3.0, 5.2, 7.4, 9.6, 11.8, 14.0]
+          shell_models: [injected, point]
+
+It splits the training conditions into cells, one per shell model × pressure bin (the bins between
+consecutive ``pressure_edges_kpa``), and gives every cell its own share of the training envs: each
+env draws its episodes' pressure uniformly within its cell's bin and runs its cell's shell model
+(``set_randomization`` with the env's own spec, every other term of the spec kept). After every
+rollout the shares follow the training success of each cell over its last ``window_episodes``
+episodes, s = (successes + 1) / (episodes + 2): a cell's weight is 1 − s, and every cell keeps at
+least ``min_share`` of the envs (and at least one env), so no condition is dropped. Cells the policy
+already wins get few envs, cells it fails get many.
+
+Why: under the uniform pressure draw the policies of the learning study won the injected shell at
+7–14 kPa in 95–100 % of their training episodes and at 3–5 kPa in 30–70 %, the condition the grid
+evaluates at 3 kPa, while a third of the episodes went to cells already won.
+
+The success counts start empty when a run is resumed (every cell then has s = 1/2 and the
+allocation is even until the cells have episodes again). The envs' randomization is only changed
+for training: evaluation envs keep theirs.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Annotated, Any, Sequence
+
+import numpy as np
+from pydantic import AfterValidator, Field
+from stable_baselines3.common.callbacks import BaseCallback
+
+from sphere_env.params import SHELL_MODELS
+from sphere_env.schemas import Finite, Schema, allowed, count, number, validate
+
+
+def _increasing(edges: list[float]) -> list[float]:
+    if any(b <= a for a, b in zip(edges, edges[1:])):
+        raise ValueError(f"must increase strictly, got {edges}")
+    return edges
+
+
+def _shell(name: str) -> str:
+    if name not in SHELL_MODELS:
+        raise ValueError(f"{name!r} is not a shell model")
+    return name
+
+
+class CurriculumArgs(Schema):
+    """The keyword arguments of :class:`SuccessCurriculum`."""
+
+    pressure_edges_kpa: Annotated[
+        list[Finite],
+        Field(min_length=2, json_schema_extra=allowed("at least 2 strictly increasing pressures [kPa]")),
+        AfterValidator(_increasing),
+    ]
+    shell_models: Annotated[
+        list[Annotated[str, AfterValidator(_shell)]],
+        Field(min_length=1, json_schema_extra=allowed(f"a non-empty list of {list(SHELL_MODELS)}")),
+    ] = ["injected", "point"]
+    window_episodes: count(1, 100_000) = 100
+    min_share: number(ge=0.0, le=1.0) = 0.02
+
+
+def allocate(weights: Sequence[float], n_envs: int, min_share: float) -> list[int]:
+    """Envs per cell: one each, the rest by ``min_share`` + (1 − cells · ``min_share``) × weight /
+    Σ weights (largest remainder; ties to the earlier cell). Needs ``n_envs`` ≥ cells."""
+    w = np.asarray(weights, float)
+    n = len(w)
+    if n_envs < n:
+        raise ValueError(f"n_envs {n_envs} < {n} curriculum cells; allowed: at least one env per cell")
+    floor = min(min_share, 1.0 / n)
+    share = floor + (1.0 - n * floor) * (w / w.sum() if w.sum() > 0 else np.full(n, 1.0 / n))
+    free = n_envs - n
+    raw = share * free
+    out = np.floor(raw).astype(int)
+    order = sorted(range(n), key=lambda i: (-(raw[i] - out[i]), i))
+    for i in order[: free - int(out.sum())]:
+        out[i] += 1
+    return [int(k) + 1 for k in out]
+
+
+class SuccessCurriculum(BaseCallback):
+    """Training envs go to the shell × pressure cells with the lowest recent training success
+    (module docstring). ``pressure_edges_kpa`` [kPa], ``shell_models``, ``window_episodes`` and
+    ``min_share`` as :class:`CurriculumArgs`; a bad value is refused by name on construction."""
+
+    def __init__(
+        self,
+        pressure_edges_kpa: Sequence[float],
+        shell_models: Sequence[str] = ("injected", "point"),
+        window_episodes: int = 100,
+        min_share: float = 0.02,
+        verbose: int = 0,
+    ):
+        super().__init__(verbose)
+        args = validate(
+            CurriculumArgs,
+            {
+                "pressure_edges_kpa": list(pressure_edges_kpa),
+                "shell_models": list(shell_models),
+                "window_episodes": window_episodes,
+                "min_share": min_share,
+            },
+            "callback SuccessCurriculum",
+        )
+        self.edges = [float(e) for e in args.pressure_edges_kpa]
+        self.shell_models = list(args.shell_models)
+        self.window_episodes = args.window_episodes
+        self.min_share = args.min_share
+        #: the cells, (shell model, low kPa, high kPa), in a fixed order
+        self.cells = [(m, lo, hi) for m in self.shell_models for lo, hi in zip(self.edges, self.edges[1:])]
+        self.outcomes = [deque(maxlen=self.window_episodes) for _ in self.cells]
+        self._base: Any = None
+        self._assigned: list[int] = []  # cell of each env's next episode
+        self._current: list[int | None] = []  # cell of each env's running episode (None: before any)
+
+    def check_env(self, env: Any, n_envs: int) -> None:
+        """Refuse, before training, a set-up the curriculum cannot run: fewer envs than cells, or a
+        cell the env's randomization refuses (a pressure outside the calibration's range, a shell
+        model the env cannot build); ``ValueError`` naming the field."""
+        if n_envs < len(self.cells):
+            raise ValueError(
+                f"callback SuccessCurriculum: n_envs = {n_envs} for {len(self.cells)} cells "
+                f"({len(self.shell_models)} shell models x {len(self.edges) - 1} pressure bins); "
+                "allowed: at least one env per cell"
+            )
+        base = env.randomization
+        for cell in self.cells:
+            try:
+                env.set_randomization(self.spec(base, cell))
+            except ValueError as err:
+                raise ValueError(f"callback SuccessCurriculum: cell {cell}: {err}") from None
+        env.set_randomization(base)
+
+    @staticmethod
+    def spec(base: Any, cell: tuple[str, float, float]) -> Any:
+        """``base`` (a randomization spec) with the shell model fixed to the cell's and the
+        pressure drawn uniformly within its bin."""
+        model, lo, hi = cell
+        return base.with_entries(
+            {"shell_model": model, "pressure_kpa": {"distribution": "uniform", "low": lo, "high": hi}}
+        )
+
+    def success(self) -> list[float]:
+        """Each cell's recent training success, (successes + 1) / (episodes + 2)."""
+        return [(sum(o) + 1.0) / (len(o) + 2.0) for o in self.outcomes]
+
+    def _allocate(self) -> None:
+        n = self.training_env.num_envs
+        counts = allocate([1.0 - s for s in self.success()], n, self.min_share)
+        assigned = [c for c, k in enumerate(counts) for _ in range(k)]
+        for i, (old, new) in enumerate(zip(self._assigned or [None] * n, assigned)):
+            if old != new:
+                self.training_env.env_method("set_randomization", self.spec(self._base, self.cells[new]), indices=[i])
+        self._assigned = assigned
+        for c, (m, lo, hi) in enumerate(self.cells):
+            self.logger.record(f"curriculum/envs_{m}_{lo:g}-{hi:g}_kpa", counts[c])
+
+    def _on_training_start(self) -> None:
+        self._base = self.training_env.get_attr("randomization", [0])[0]
+        self._current = [None] * self.training_env.num_envs
+        self._allocate()
+
+    def _on_step(self) -> bool:
+        for i, info in enumerate(self.locals.get("infos", ())):
+            if info.get("episode") is None:
+                continue
+            cell = self._current[i]
+            if cell is not None:
+                self.outcomes[cell].append(bool(info.get("is_success")))
+            self._current[i] = self._assigned[i]
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self._allocate()
