@@ -187,11 +187,9 @@ class NormalizeArgs(Schema):
 VECNORMALIZE_KEYS = tuple(NormalizeArgs.model_fields)
 
 
-def wrapper_class(path: str) -> type:
-    """The gymnasium wrapper class at ``path`` (``module.Class``), else ValueError saying why."""
+def _class_at(path: str, base: type, what: str) -> type:
+    """The subclass of ``base`` at ``path`` (``module.Class``), else ValueError saying why."""
     import importlib
-
-    import gymnasium as gym
 
     module, _, name = path.rpartition(".")
     try:
@@ -200,27 +198,23 @@ def wrapper_class(path: str) -> type:
         raise ValueError(f"{path!r} cannot be imported: {err}") from None
     except AttributeError:
         cls = None
-    if not (isinstance(cls, type) and issubclass(cls, gym.Wrapper)):
-        raise ValueError(f"{path!r} is not a gymnasium.Wrapper class")
+    if not (isinstance(cls, type) and issubclass(cls, base)):
+        raise ValueError(f"{path!r} is not a {what} class")
     return cls
+
+
+def wrapper_class(path: str) -> type:
+    """The gymnasium wrapper class at ``path`` (``module.Class``), else ValueError saying why."""
+    import gymnasium as gym
+
+    return _class_at(path, gym.Wrapper, "gymnasium.Wrapper")
 
 
 def callback_class(path: str) -> type:
     """The stable-baselines3 callback class at ``path`` (``module.Class``), else ValueError saying why."""
-    import importlib
-
     from stable_baselines3.common.callbacks import BaseCallback
 
-    module, _, name = path.rpartition(".")
-    try:
-        cls = getattr(importlib.import_module(module), name) if module else None
-    except ImportError as err:
-        raise ValueError(f"{path!r} cannot be imported: {err}") from None
-    except AttributeError:
-        cls = None
-    if not (isinstance(cls, type) and issubclass(cls, BaseCallback)):
-        raise ValueError(f"{path!r} is not a stable_baselines3 BaseCallback class")
-    return cls
+    return _class_at(path, BaseCallback, "stable_baselines3 BaseCallback")
 
 
 def _callback_path(path: str) -> str:
