@@ -51,7 +51,7 @@ import numpy as np
 from sphere_env.files import swap_folder
 from sphere_env.schemas import validate
 from sphere_env.schemas.evaluation import EXPORT_FORMATS, ExportOptions
-from sphere_env.tasks.sensors import FROM_SENSORS
+from sphere_env.tasks.sensors import FROM_OPERATOR, FROM_SENSORS
 
 ONNX_PACKAGES = ("onnx", "onnxscript", "onnxruntime")
 DEFAULT_TOL = 1e-5
@@ -299,6 +299,8 @@ def export(
         for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
             if rec["name"] in FROM_SENSORS:
                 rec["from_sensors"] = FROM_SENSORS[rec["name"]]
+            elif rec["name"] in FROM_OPERATOR:
+                rec["from_operator"] = FROM_OPERATOR[rec["name"]]
         action_layout = u.action_layout()
         control_hz = 1.0 / u.control_period_s
     finally:
@@ -364,7 +366,8 @@ def export(
             "observation_from_sensors": (
                 "each component's from_sensors: the robot's channels, computation, frame "
                 "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
-                f"samples at {control_hz:g} Hz (incline_deg: the ramp's)"
+                f"samples at {control_hz:g} Hz (incline_deg: the ramp's); a component with from_operator "
+                "instead is given by the operator"
             ),
             "observation_normalization": stats,
             "action": action_layout,

@@ -154,6 +154,18 @@ FROM_SENSORS: dict[str, dict[str, Any]] = {
         "computation": "α̇ = pitch_joint.velocity",
     },
 }
+
+#: Observation components no sensor of the robot gives, which an actor may still take (an
+#: asymmetric actor-critic with ``privileged_dims: 3`` keeps the pressure): where they come from.
+FROM_OPERATOR: dict[str, dict[str, Any]] = {
+    "pressure_kpa": {
+        "unit": "kPa",
+        "source": "the shell's gauge pressure, read by the operator before the run and held for the whole run "
+        "(the env's pressure_reading='at_reset'); the robot logs no pressure channel, so a leak during the "
+        "run goes unseen",
+    },
+}
+
 #: The one table of channel aliases: a log may name a RoboBall channel either way (the log loader
 #: of :mod:`sphere_env.calibration.logs` reads it too).
 CHANNEL_ALIASES = {"pipe_roll": "ball_roll", "shell_yaw": "ball_yaw"}

@@ -79,3 +79,28 @@ def test_a_non_finite_observation_gets_zero_torque_from_the_file_and_an_error_fr
     bad[4] = np.nan
     with pytest.raises(ValueError, match=r"observation: components \[4\]"):
         policy.act(bad)
+
+
+def test_an_actor_that_sees_the_pressure_exports_it_as_the_operators_reading(tmp_path):
+    """With ``privileged_dims: 3`` only the shell one-hot is the critic's alone: the file takes the
+    pressure as its last input, and policy.json says where the robot gets it (no sensor gives it)."""
+    from sphere_env.training.config import resolve_config
+    from sphere_env.training.train import train
+
+    over = {
+        "n_envs": 1,
+        "n_steps": 64,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "n_timesteps": 64,
+        "n_workers": 1,
+        "policy_kwargs": {"net_arch": [16], "privileged_dims": 3},
+    }
+    run = train(resolve_config("sphere_env/RampDescent-v3", "ppo", overrides=over, eval_freq=0), tmp_path / "run")
+    res = export(str(run), "torchscript", tmp_path / "out")
+    layout = json.loads(res["layout"].read_text())
+    names = [c["name"] for c in layout["observation"]]
+    assert names[-1] == "pressure_kpa" and not any(n.startswith("shell_") for n in names)
+    pressure = layout["observation"][-1]
+    assert "from_sensors" not in pressure and "before the run" in pressure["from_operator"]["source"]
+    assert all("from_sensors" in c for c in layout["observation"][:-1])
