@@ -17,9 +17,10 @@ episodes, s = (successes + 1) / (episodes + 2): a cell's weight is 1 − s, and 
 least ``min_share`` of the envs (and at least one env), so no condition is dropped. Cells the policy
 already wins get few envs, cells it fails get many.
 
-Why: under the uniform pressure draw the policies of the learning study won the injected shell at
-7–14 kPa in 95–100 % of their training episodes and at 3–5 kPa in 30–70 %, the condition the grid
-evaluates at 3 kPa, while a third of the episodes went to cells already won.
+Why: under the uniform pressure draw, the better policies of the learning study won the injected
+shell at 7–14 kPa in 83–100 % of their training episodes and at 3–5 kPa in 49–70 % (the
+condition the grid evaluates at 3 kPa), while about a third of all episodes went to cells already
+won.
 
 The success counts start empty when a run is resumed (every cell then has s = 1/2 and the
 allocation is even until the cells have episodes again). The envs' randomization is only changed
