@@ -11,7 +11,9 @@ callbacks::
 It splits the training conditions into cells, one per shell model × pressure bin (the bins between
 consecutive ``pressure_edges_kpa``), and gives every cell its own share of the training envs: each
 env draws its episodes' pressure uniformly within its cell's bin and runs its cell's shell model
-(``set_randomization`` with the env's own spec, every other term of the spec kept). After every
+(``set_randomization`` with the env's own spec, every other term of the spec kept). Without
+``pressure_edges_kpa`` (the default) the cells are the shell models alone and the pressure is drawn
+as the env's own spec draws it (a fixed nominal pressure, for instance). After every
 rollout the shares follow the training success of each cell over its last ``window_episodes``
 episodes, s = (successes + 1) / (episodes + 2): a cell's weight is 1 − s, and every cell keeps at
 least ``min_share`` of the envs (and at least one env), so no condition is dropped. Cells the policy
@@ -55,11 +57,17 @@ def _shell(name: str) -> str:
 class CurriculumArgs(Schema):
     """The keyword arguments of :class:`SuccessCurriculum`."""
 
-    pressure_edges_kpa: Annotated[
-        list[Finite],
-        Field(min_length=2, json_schema_extra=allowed("at least 2 strictly increasing pressures [kPa]")),
-        AfterValidator(_increasing),
-    ]
+    pressure_edges_kpa: (
+        Annotated[
+            list[Finite],
+            Field(
+                min_length=2,
+                json_schema_extra=allowed("null (no pressure bins) or at least 2 strictly increasing pressures [kPa]"),
+            ),
+            AfterValidator(_increasing),
+        ]
+        | None
+    ) = None
     shell_models: Annotated[
         list[Annotated[str, AfterValidator(_shell)]],
         Field(min_length=1, json_schema_extra=allowed(f"a non-empty list of {list(SHELL_MODELS)}")),
@@ -88,12 +96,13 @@ def allocate(weights: Sequence[float], n_envs: int, min_share: float) -> list[in
 
 class SuccessCurriculum(BaseCallback):
     """Training envs go to the shell × pressure cells with the lowest recent training success
-    (module docstring). ``pressure_edges_kpa`` [kPa], ``shell_models``, ``window_episodes`` and
-    ``min_share`` as :class:`CurriculumArgs`; a bad value is refused by name on construction."""
+    (module docstring). ``pressure_edges_kpa`` [kPa] (None: cells per shell model only),
+    ``shell_models``, ``window_episodes`` and ``min_share`` as :class:`CurriculumArgs`; a bad value
+    is refused by name on construction."""
 
     def __init__(
         self,
-        pressure_edges_kpa: Sequence[float],
+        pressure_edges_kpa: Sequence[float] | None = None,
         shell_models: Sequence[str] = ("injected", "point"),
         window_episodes: int = 100,
         min_share: float = 0.02,
@@ -103,19 +112,21 @@ class SuccessCurriculum(BaseCallback):
         args = validate(
             CurriculumArgs,
             {
-                "pressure_edges_kpa": list(pressure_edges_kpa),
+                "pressure_edges_kpa": None if pressure_edges_kpa is None else list(pressure_edges_kpa),
                 "shell_models": list(shell_models),
                 "window_episodes": window_episodes,
                 "min_share": min_share,
             },
             "callback SuccessCurriculum",
         )
-        self.edges = [float(e) for e in args.pressure_edges_kpa]
+        self.edges = None if args.pressure_edges_kpa is None else [float(e) for e in args.pressure_edges_kpa]
         self.shell_models = list(args.shell_models)
         self.window_episodes = args.window_episodes
         self.min_share = args.min_share
-        #: the cells, (shell model, low kPa, high kPa), in a fixed order
-        self.cells = [(m, lo, hi) for m in self.shell_models for lo, hi in zip(self.edges, self.edges[1:])]
+        #: the cells, (shell model, low kPa, high kPa), in a fixed order; (shell model, None, None)
+        #: without pressure bins
+        bins = [(None, None)] if self.edges is None else list(zip(self.edges, self.edges[1:]))
+        self.cells = [(m, lo, hi) for m in self.shell_models for lo, hi in bins]
         self.outcomes = [deque(maxlen=self.window_episodes) for _ in self.cells]
         self._base: Any = None
         self._assigned: list[int] = []  # cell of each env's next episode
@@ -128,7 +139,7 @@ class SuccessCurriculum(BaseCallback):
         if n_envs < len(self.cells):
             raise ValueError(
                 f"callback SuccessCurriculum: n_envs = {n_envs} for {len(self.cells)} cells "
-                f"({len(self.shell_models)} shell models x {len(self.edges) - 1} pressure bins); "
+                f"({len(self.shell_models)} shell models x {len(self.cells) // len(self.shell_models)} pressure bins); "
                 "allowed: at least one env per cell"
             )
         base = env.randomization
@@ -142,8 +153,10 @@ class SuccessCurriculum(BaseCallback):
     @staticmethod
     def spec(base: Any, cell: tuple[str, float, float]) -> Any:
         """``base`` (a randomization spec) with the shell model fixed to the cell's and the
-        pressure drawn uniformly within its bin."""
+        pressure drawn uniformly within its bin (as ``base`` draws it when the cell has no bin)."""
         model, lo, hi = cell
+        if lo is None:
+            return base.with_entries({"shell_model": model})
         return base.with_entries(
             {"shell_model": model, "pressure_kpa": {"distribution": "uniform", "low": lo, "high": hi}}
         )
@@ -161,7 +174,7 @@ class SuccessCurriculum(BaseCallback):
                 self.training_env.env_method("set_randomization", self.spec(self._base, self.cells[new]), indices=[i])
         self._assigned = assigned
         for c, (m, lo, hi) in enumerate(self.cells):
-            self.logger.record(f"curriculum/envs_{m}_{lo:g}-{hi:g}_kpa", counts[c])
+            self.logger.record(f"curriculum/envs_{m}" + ("" if lo is None else f"_{lo:g}-{hi:g}_kpa"), counts[c])
 
     def _on_training_start(self) -> None:
         self._base = self.training_env.get_attr("randomization", [0])[0]

@@ -203,12 +203,31 @@ def pd_level() -> float:
     return base["pd"]["success_rate"] - PD_MARGIN
 
 
+def recipe_config(recipe: dict[str, Any], seed: int, trained_agent: Path | None = None):
+    """The training configuration of one ``recipe`` (an entry of ``recipes.yml``) and ``seed``,
+    validated like any training configuration (its env built, its callbacks checked against it);
+    ``trained_agent``: the checkpoint a continuation starts from."""
+    from sphere_env.resources import hyperparams_path
+    from sphere_env.training.config import resolve_config
+
+    overrides = {"n_timesteps": int(float(recipe["n_timesteps"])), "n_workers": 1, **(recipe.get("hyperparams") or {})}
+    return resolve_config(
+        recipe.get("env", ENV_ID),
+        recipe.get("algo", "ppo"),
+        hyperparams_path(recipe.get("conf", "ppo")),
+        overrides=overrides,
+        env_kwargs=recipe.get("env_kwargs") or {},
+        seed=seed,
+        eval_freq=0,
+        checkpoint_freq=int(float(recipe.get("eval_every", 100_000))),
+        trained_agent=trained_agent,
+    )
+
+
 def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path = RESULTS) -> Path:
     """Train one recipe × seed and evaluate its checkpoints; returns the result file."""
     import torch
 
-    from sphere_env.resources import hyperparams_path
-    from sphere_env.training.config import resolve_config
     from sphere_env.training.train import CHECKPOINT_PREFIX, train
 
     torch.set_num_threads(1)
@@ -217,8 +236,6 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
         return out
     recipe = load_recipes()[recipe_name]
     steps = int(float(recipe["n_timesteps"]))
-    every = int(float(recipe.get("eval_every", 100_000)))
-    overrides = {"n_timesteps": steps, "n_workers": 1, **(recipe.get("hyperparams") or {})}
     env_id = recipe.get("env", ENV_ID)
     # a second phase: the same seed's run of another recipe, continued from one of its checkpoints
     # with this recipe's hyperparameters (the trainer's -i); steps and wall-clock count from zero
@@ -232,17 +249,7 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
             raise ValueError(f"continue_from: {agent} is missing (run {recipe['continue_from']} seed {seed} first)")
         t = json.loads((first / "timing.json").read_text()) if (first / "timing.json").exists() else None
         offset_wall = offset * (t["wall_s"] / max(t["steps_this_session"], 1)) if t else math.nan
-    cfg = resolve_config(
-        env_id,
-        recipe.get("algo", "ppo"),
-        hyperparams_path(recipe.get("conf", "ppo")),
-        overrides=overrides,
-        env_kwargs=recipe.get("env_kwargs") or {},
-        seed=seed,
-        eval_freq=0,
-        checkpoint_freq=every,
-        trained_agent=agent,
-    )
+    cfg = recipe_config(recipe, seed, trained_agent=agent)
     run_dir = runs_root / recipe_name / f"seed{seed}"
     resume = (run_dir / "config.yaml").exists()
     t0 = time.perf_counter()

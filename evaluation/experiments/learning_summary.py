@@ -142,10 +142,10 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
     return _md(rows) + "\n\nWhere each range comes from:\n\n" + why
 
 
-#: The randomization study's recipes, one per training condition (``recipes.yml``): the shipped
-#: recipe is the pressure condition. Other recipes (continuations, variants) are not independent
+#: The randomization study's recipes, one per training condition (``recipes.yml``):
+#: batch32_curriculum is the pressure condition. Other recipes (continuations, variants) are not independent
 #: runs of a condition and stay out of the study.
-STUDY_RECIPES = ("study_nominal", "shipped", "study_faults")
+STUDY_RECIPES = ("study_nominal", "batch32_curriculum", "study_faults")
 
 
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
@@ -329,7 +329,8 @@ def markdown(
         )
         + (
             "\n## Randomization study\n\nTraining conditions (each run's `condition`: nominal, pressure, "
-            "pressure_faults), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
+            "pressure_faults; the runs of the recipes " + ", ".join(f"`{r}`" for r in STUDY_RECIPES) + ", which "
+            "differ in their training randomization only), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
             "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
             "each pair the probability that a run of the first condition beats one of the second (0.5: no "
             "difference; an interval that excludes 0.5 tells them apart). Conditions with fewer than 2 runs are "

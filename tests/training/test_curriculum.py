@@ -53,6 +53,31 @@ def test_the_training_episodes_run_in_the_curriculums_cells(tmp_path):
     assert (pressures < 4.0).any() and (pressures > 4.0).any()
 
 
+def test_without_pressure_bins_the_cells_are_the_shells_and_the_pressure_stays_the_envs(tmp_path):
+    """No ``pressure_edges_kpa``: one cell per shell model (the default ones, injected and point).
+    The env's spec draws no pressure (the nominal one) and runs hydroelastic contact; after each
+    env's first episode both envs run their cell's shell, both shells get episodes, and every
+    episode keeps the env's nominal pressure."""
+    over = {
+        "n_envs": 2,
+        "n_steps": 32,
+        "batch_size": 32,
+        "n_epochs": 1,
+        "n_timesteps": 256,
+        "env_kwargs": {"shell_model": "hydroelastic", "max_episode_steps": 10, "randomization": "off"},
+        "callback": [{CURRICULUM: {}}],
+    }
+    cfg = resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
+    run = train(cfg, tmp_path / "run", progress_bar=False)
+    with open(run / "learning_curve_train.csv") as f:
+        rows = list(csv.DictReader(f))
+    later = [r for rank in ("0", "1") for r in [r for r in rows if r["env"] == rank][1:]]
+    assert len(later) >= 20
+    assert {r["shell_model"] for r in later} == {"injected", "point"}
+    nominal = gym.make(RAMP).unwrapped.parameter_space.nominal("pressure_kpa")
+    assert all(float(r["pressure_kpa"]) == pytest.approx(nominal, abs=1e-3) for r in later)
+
+
 def test_the_cells_the_policy_fails_get_more_envs():
     envs = DummyVecEnv([lambda: gym.make(RAMP, shell_model="point", max_episode_steps=10) for _ in range(8)])
     model = PPO("MlpPolicy", envs, n_steps=16, batch_size=16, device="cpu")
@@ -80,6 +105,8 @@ def test_the_cells_the_policy_fails_get_more_envs():
         ({"pressure_edges_kpa": [1.0, 2.0]}, 4, "cell ('injected', 1.0, 2.0)"),
         ({"pressure_edges_kpa": [3.0, 5.0, 7.0]}, 3, "n_envs = 3 for 4 cells"),
         ({"pressure_edges_kpa": [5.0, 3.0]}, 4, "field 'pressure_edges_kpa'"),
+        ({"pressure_edges_kpa": [5.0]}, 4, "field 'pressure_edges_kpa'"),
+        ({"shell_models": ["injected", "point", "hydroelastic"]}, 2, "n_envs = 2 for 3 cells"),
         ({"pressure_edges_kpa": [3.0, 5.0], "shell_models": ["soft"]}, 4, "field 'shell_models[0]'"),
         ({"pressure_edges_kpa": [3.0, 5.0], "window": 10}, 4, "window"),
     ],
