@@ -171,7 +171,9 @@ def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict
 def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
     """The randomization study: per condition and grid, the number of runs and rliable's IQM and
     mean with 95 % stratified-bootstrap intervals; per pair of conditions, rliable's probability
-    of improvement of the first over the second with its interval (0.5: no difference)."""
+    of improvement of the first over the second with its interval (0.5: no difference), and the
+    difference of their mean success with its interval: the study can tell a 10-point difference
+    when that interval's half-width is under 10 points (``resolves_10_points``)."""
     from rliable import library as rly
     from rliable import metrics
 
@@ -187,16 +189,26 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
                 np.random.seed(0)
                 point, ci = rly.get_interval_estimates(
                     {f"{a},{b}": (have[a], have[b])},
-                    lambda x, y: np.array([metrics.probability_of_improvement(x, y)]),
+                    lambda x, y: np.array(
+                        [
+                            metrics.probability_of_improvement(x, y),
+                            metrics.aggregate_mean(x) - metrics.aggregate_mean(y),
+                        ]
+                    ),
                     reps=BOOTSTRAP_REPS,
                 )
+                key = f"{a},{b}"
+                diff_ci = [float(ci[key][0, 1]), float(ci[key][1, 1])]
                 rows.append(
                     {
                         "grid": grid,
                         "condition": f"P({a} > {b})",
                         "runs": f"{len(have[a])} vs {len(have[b])}",
-                        "poi": float(point[f"{a},{b}"][0]),
-                        "poi_ci": [float(ci[f"{a},{b}"][0, 0]), float(ci[f"{a},{b}"][1, 0])],
+                        "poi": float(point[key][0]),
+                        "poi_ci": [float(ci[key][0, 0]), float(ci[key][1, 0])],
+                        "mean_diff": float(point[key][1]),
+                        "mean_diff_ci": diff_ci,
+                        "resolves_10_points": bool((diff_ci[1] - diff_ci[0]) / 2 < 0.10),
                     }
                 )
     return rows
@@ -253,9 +265,21 @@ def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
             return f"{r['poi']:.2f} [{r['poi_ci'][0]:.2f}, {r['poi_ci'][1]:.2f}]"
         return f"{_pct(r['iqm'])} [{_pct(r['iqm_ci'][0])}, {_pct(r['iqm_ci'][1])}]"
 
+    def diff(r: Mapping[str, Any]) -> str:
+        if "mean_diff" not in r:
+            return ""
+        lo, hi = r["mean_diff_ci"]
+        return f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] ({'yes' if r['resolves_10_points'] else 'no'})"
+
     return markdown_table(
-        [[r["grid"], r["condition"], r["runs"], value(r)] for r in study],
-        ["grid", "condition", "runs", "IQM [95% CI] / P(improvement) [95% CI]"],
+        [[r["grid"], r["condition"], r["runs"], value(r), diff(r)] for r in study],
+        [
+            "grid",
+            "condition",
+            "runs",
+            "IQM [95% CI] / P(improvement) [95% CI]",
+            "mean difference, points [95% CI] (a 10-point difference would show)",
+        ],
     )
 
 
@@ -333,8 +357,9 @@ def markdown(
             "differ in their training randomization only), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
             "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
             "each pair the probability that a run of the first condition beats one of the second (0.5: no "
-            "difference; an interval that excludes 0.5 tells them apart). Conditions with fewer than 2 runs are "
-            "left out.\n\n" + study_markdown(study) + "\n"
+            "difference; an interval that excludes 0.5 tells them apart) with the difference of their mean success "
+            "and its interval (the study can tell a 10-point difference where that interval's half-width is under 10 "
+            "points). Conditions with fewer than 2 runs are left out.\n\n" + study_markdown(study) + "\n"
             if study
             else ""
         )

@@ -134,7 +134,9 @@ def test_selected_checkpoints_and_faults_reach_the_summary(tmp_path):
 
 def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
     """Two conditions whose runs differ by 30 points on every shell: the probability of improvement's
-    interval excludes 0.5; two conditions drawn alike: it includes 0.5."""
+    interval excludes 0.5 and the mean difference's interval holds 30 points; two conditions drawn
+    alike: the first includes 0.5, the second 0. With 10 runs of this spread both intervals are
+    narrow enough to show a 10-point difference; with 3 widely spread runs they are not."""
     from sphere_env.evaluation.experiments.learning_summary import study_rows
 
     rng = np.random.default_rng(0)
@@ -151,4 +153,16 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
     poi = {r["condition"]: r for r in rows if "poi" in r}
     assert poi["P(a > b)"]["poi_ci"][0] > 0.5
     assert poi["P(b > c)"]["poi_ci"][0] < 0.5 < poi["P(b > c)"]["poi_ci"][1]
+    lo, hi = poi["P(a > b)"]["mean_diff_ci"]
+    assert 0.2 < lo < poi["P(a > b)"]["mean_diff"] < hi < 0.4  # the 30-point gap, resolved
+    assert poi["P(a > b)"]["resolves_10_points"] and poi["P(b > c)"]["resolves_10_points"]
+    lo, hi = poi["P(b > c)"]["mean_diff_ci"]
+    assert lo < 0.0 < hi
     assert {r["condition"] for r in rows if "iqm" in r} == {"a", "b", "c"}
+    wide = study_rows(
+        {
+            "a": {"nominal": np.array([[0.2] * 3, [0.9] * 3, [0.5] * 3]), "faults": np.zeros((0, 9))},
+            "b": {"nominal": np.array([[0.1] * 3, [0.8] * 3, [0.6] * 3]), "faults": np.zeros((0, 9))},
+        }
+    )
+    assert not next(r for r in wide if "poi" in r)["resolves_10_points"]
