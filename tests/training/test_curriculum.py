@@ -29,18 +29,17 @@ def test_allocate_gives_every_cell_an_env_and_more_to_the_heavier():
         allocate([1.0, 1.0, 1.0], 2, 0.0)
 
 
-def test_the_training_episodes_run_in_the_curriculums_cells(tmp_path):
-    """Two envs, cells 3-4 and 4-5 kPa on the injected shell while the env's own spec draws point
-    contact over the whole range: after each env's first episode (started before training starts)
-    every episode is on the injected shell within 3-5 kPa, and both cells get episodes."""
+def _later_episodes(tmp_path, env_kwargs, curriculum):
+    """Train two envs for 256 steps with ``curriculum``; the logged training episodes after each
+    env's first (which starts before training does)."""
     over = {
         "n_envs": 2,
         "n_steps": 32,
         "batch_size": 32,
         "n_epochs": 1,
         "n_timesteps": 256,
-        "env_kwargs": {"shell_model": "point", "max_episode_steps": 10},
-        "callback": [{CURRICULUM: {"pressure_edges_kpa": [3.0, 4.0, 5.0], "shell_models": ["injected"]}}],
+        "env_kwargs": {"max_episode_steps": 10, **env_kwargs},
+        "callback": [{CURRICULUM: curriculum}],
     }
     cfg = resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
     run = train(cfg, tmp_path / "run", progress_bar=False)
@@ -48,6 +47,16 @@ def test_the_training_episodes_run_in_the_curriculums_cells(tmp_path):
         rows = list(csv.DictReader(f))
     later = [r for rank in ("0", "1") for r in [r for r in rows if r["env"] == rank][1:]]
     assert len(later) >= 20
+    return later
+
+
+def test_the_training_episodes_run_in_the_curriculums_cells(tmp_path):
+    """Two envs, cells 3-4 and 4-5 kPa on the injected shell while the env's own spec draws point
+    contact over the whole range: after each env's first episode every episode is on the injected
+    shell within 3-5 kPa, and both cells get episodes."""
+    later = _later_episodes(
+        tmp_path, {"shell_model": "point"}, {"pressure_edges_kpa": [3.0, 4.0, 5.0], "shell_models": ["injected"]}
+    )
     assert all(r["shell_model"] == "injected" and 3.0 <= float(r["pressure_kpa"]) <= 5.0 for r in later)
     pressures = np.array([float(r["pressure_kpa"]) for r in later])
     assert (pressures < 4.0).any() and (pressures > 4.0).any()
@@ -58,21 +67,7 @@ def test_without_pressure_bins_the_cells_are_the_shells_and_the_pressure_stays_t
     The env's spec draws no pressure (the nominal one) and runs hydroelastic contact; after each
     env's first episode both envs run their cell's shell, both shells get episodes, and every
     episode keeps the env's nominal pressure."""
-    over = {
-        "n_envs": 2,
-        "n_steps": 32,
-        "batch_size": 32,
-        "n_epochs": 1,
-        "n_timesteps": 256,
-        "env_kwargs": {"shell_model": "hydroelastic", "max_episode_steps": 10, "randomization": "off"},
-        "callback": [{CURRICULUM: {}}],
-    }
-    cfg = resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
-    run = train(cfg, tmp_path / "run", progress_bar=False)
-    with open(run / "learning_curve_train.csv") as f:
-        rows = list(csv.DictReader(f))
-    later = [r for rank in ("0", "1") for r in [r for r in rows if r["env"] == rank][1:]]
-    assert len(later) >= 20
+    later = _later_episodes(tmp_path, {"shell_model": "hydroelastic", "randomization": "off"}, {})
     assert {r["shell_model"] for r in later} == {"injected", "point"}
     nominal = gym.make(RAMP).unwrapped.parameter_space.nominal("pressure_kpa")
     assert all(float(r["pressure_kpa"]) == pytest.approx(nominal, abs=1e-3) for r in later)
