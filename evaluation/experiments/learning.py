@@ -186,7 +186,11 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
         if kind in res or not run_dir.is_dir():
             continue
         if kind == "selected":
-            res["selected"] = select_checkpoint(run_dir, res.get("env_id", ENV_ID), int(SELECT_FROM * res["env_steps"]))
+            # a continuation's checkpoints count from the start of its own phase; env_steps from zero
+            offset = int(float(res["recipe"]["continue_at"])) if res["recipe"].get("continue_from") else 0
+            from_steps = max(0, int(SELECT_FROM * res["env_steps"]) - offset)
+            res["selected"] = select_checkpoint(run_dir, res.get("env_id", ENV_ID), from_steps)
+            res["selected"]["env_steps"] = offset + res["selected"]["checkpoint_steps"]
         else:
             if "selected" not in res:
                 continue
