@@ -143,9 +143,9 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
 
 
 #: The randomization study's recipes, one per training condition (``recipes.yml``):
-#: batch32_curriculum is the pressure condition. Other recipes (continuations, variants) are not independent
+#: curriculum_scheduled is the pressure condition. Other recipes (continuations, variants) are not independent
 #: runs of a condition and stay out of the study.
-STUDY_RECIPES = ("study_nominal", "batch32_curriculum", "study_faults")
+STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults")
 
 
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:

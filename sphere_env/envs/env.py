@@ -173,6 +173,15 @@ class SphereEnv(gym.Env, EzPickle):
     def randomization(self, spec: Any) -> None:
         self.set_randomization(spec)
 
+    def set_reward_weights(self, overrides: Any) -> Any:
+        """Change reward weights from the next step on: ``overrides`` (a mapping term -> weight, e.g.
+        ``{"speed_width": 0.5}``) applied over the current weights and validated like the
+        ``reward_weights`` kwarg; on a ``ValueError`` (naming the field) nothing changes. Copies carry
+        the new weights. Through a vector env: ``venv.env_method("set_reward_weights", overrides)``
+        (:class:`sphere_env.training.schedules.RewardSchedule` does so at a given step). Returns the
+        new weights."""
+        return self.task.set_reward_weights(overrides)
+
     def set_randomization(self, spec: Any) -> RandomizationSpec:
         """Replace the randomization spec; it takes effect from the next ``reset()`` (the running
         episode keeps its parameters). ``spec`` takes every form of the ``randomization`` kwarg and

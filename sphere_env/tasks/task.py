@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from sphere_env.schemas import validate
 from sphere_env.tasks.observation import ObservationLayout
 
 
@@ -63,6 +64,20 @@ class Task:
         return ObservationLayout(
             self.command_names, observe_pressure, self.extra_names, observe_shell_model, history_steps
         )
+
+    # ---- reward ---------------------------------------------------------------------------------
+    def set_reward_weights(self, overrides: Mapping[str, Any]) -> Any:
+        """Apply ``overrides`` (a mapping term -> weight, e.g. ``{"speed_width": 0.5}``) over the
+        current reward weights, validated like the ``reward_weights`` kwarg: on a ``ValueError``
+        (naming the field) nothing changes. Returns the new weights."""
+        current = getattr(self, "reward_weights", None)
+        if current is None:
+            raise ValueError(f"reward_weights: the {self.name} task has no reward weights to set")
+        if not isinstance(overrides, Mapping):
+            raise ValueError(f"reward_weights: value {overrides!r} must be a mapping term -> weight")
+        new = validate(type(current), {**current.model_dump(), **dict(overrides)}, root="reward_weights")
+        self.reward_weights = new
+        return new
 
     # ---- episode --------------------------------------------------------------------------------
     def initial_state(self) -> dict[str, Any]:
