@@ -364,10 +364,15 @@ def _candidate(spec: str, runs_root: Path) -> tuple[str, dict[str, Any]]:
         raise ValueError(f"candidates: {spec!r}; allowed: recipe:seed or recipe:seed:steps")
     run = str(runs_root / parts[0] / f"seed{parts[1]}") + (f"@{parts[2]}" if len(parts) == 3 else "")
     check_spec(run, ENV_ID)
+    steps = int(parts[2]) if len(parts) == 3 else None
+    recipe = load_recipes().get(parts[0], {})
+    # a continuation's checkpoints count from the start of its own phase
+    offset = int(float(recipe["continue_at"])) if recipe.get("continue_from") else 0
     return run, {
         "recipe": parts[0],
         "seed": int(parts[1]),
-        "checkpoint_steps": int(parts[2]) if len(parts) == 3 else None,
+        "checkpoint_steps": steps,
+        "env_steps": None if steps is None else offset + steps,
     }
 
 

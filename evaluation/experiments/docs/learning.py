@@ -43,7 +43,7 @@ def learning_shipped_policy(res: Results) -> str:
     pd = _summary(res)["pd"]
     n = len(card["episodes"])
     return (
-        f"the recipe `{card['recipe']}`'s seed {card['seed']} at {steps_k(card['checkpoint_steps'])} env steps; it "
+        f"the recipe `{card['recipe']}`'s seed {card['seed']} at {steps_k(card.get('env_steps') or card['checkpoint_steps'])} env steps; it "
         f"wins {round(card['success_rate'] * n)} of {n} grid episodes (the PD {round(pd['success_rate'] * n)}) "
         f"at a tracking RMSE of {card['tracking_rmse_rad_s']:.2f} rad/s (the PD {pd['tracking_rmse_rad_s']:.2f})"
     )
