@@ -57,14 +57,11 @@ class RewardSchedule(BaseCallback):
 
     def check_env(self, env: Any, n_envs: int) -> None:
         """Refuse, before training, weights the env's reward does not take (``ValueError`` naming
-        the field); the env's own weights are left as they were."""
-        before = env.task.reward_weights
+        the field); the env keeps its own weights."""
         try:
-            env.set_reward_weights(self.reward_weights)
+            env.task.reward_weights_with(self.reward_weights)
         except ValueError as err:
             raise ValueError(f"callback RewardSchedule: {err}") from None
-        finally:
-            env.task.reward_weights = before
 
     def _apply_when_due(self) -> None:
         if not self.applied and self.num_timesteps >= self.at_steps:

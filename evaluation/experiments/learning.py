@@ -187,7 +187,7 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
             continue
         if kind == "selected":
             # a continuation's checkpoints count from the start of its own phase; env_steps from zero
-            offset = int(float(res["recipe"]["continue_at"])) if res["recipe"].get("continue_from") else 0
+            offset = phase_offset(res["recipe"])
             from_steps = max(0, int(SELECT_FROM * res["env_steps"]) - offset)
             res["selected"] = select_checkpoint(run_dir, res.get("env_id", ENV_ID), from_steps)
             res["selected"]["env_steps"] = offset + res["selected"]["checkpoint_steps"]
@@ -205,6 +205,12 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
 def pd_level() -> float:
     base = json.loads((RESULTS / "baselines.json").read_text())
     return base["pd"]["success_rate"] - PD_MARGIN
+
+
+def phase_offset(recipe: Mapping[str, Any]) -> int:
+    """Env steps before a recipe's own run: a continuation's ``continue_at`` (its checkpoints count
+    from the start of its own phase), else 0."""
+    return int(float(recipe["continue_at"])) if recipe.get("continue_from") else 0
 
 
 def recipe_config(recipe: dict[str, Any], seed: int, trained_agent: Path | None = None):
@@ -246,7 +252,7 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
     # of the first phase
     offset, offset_wall, agent = 0, 0.0, None
     if recipe.get("continue_from"):
-        offset = int(float(recipe["continue_at"]))
+        offset = phase_offset(recipe)
         first = runs_root / recipe["continue_from"] / f"seed{seed}"
         agent = first / "checkpoints" / f"{CHECKPOINT_PREFIX}_{offset}_steps.zip"
         if not agent.is_file():
@@ -365,9 +371,7 @@ def _candidate(spec: str, runs_root: Path) -> tuple[str, dict[str, Any]]:
     run = str(runs_root / parts[0] / f"seed{parts[1]}") + (f"@{parts[2]}" if len(parts) == 3 else "")
     check_spec(run, ENV_ID)
     steps = int(parts[2]) if len(parts) == 3 else None
-    recipe = load_recipes().get(parts[0], {})
-    # a continuation's checkpoints count from the start of its own phase
-    offset = int(float(recipe["continue_at"])) if recipe.get("continue_from") else 0
+    offset = phase_offset(load_recipes().get(parts[0], {}))
     return run, {
         "recipe": parts[0],
         "seed": int(parts[1]),

@@ -66,18 +66,22 @@ class Task:
         )
 
     # ---- reward ---------------------------------------------------------------------------------
-    def set_reward_weights(self, overrides: Mapping[str, Any]) -> Any:
-        """Apply ``overrides`` (a mapping term -> weight, e.g. ``{"speed_width": 0.5}``) over the
-        current reward weights, validated like the ``reward_weights`` kwarg: on a ``ValueError``
-        (naming the field) nothing changes. Returns the new weights."""
+    def reward_weights_with(self, overrides: Mapping[str, Any]) -> Any:
+        """The current reward weights with ``overrides`` (a mapping term -> weight, e.g.
+        ``{"speed_width": 0.5}``) applied, validated like the ``reward_weights`` kwarg
+        (``ValueError`` naming the field); the task keeps its own."""
         current = getattr(self, "reward_weights", None)
         if current is None:
             raise ValueError(f"reward_weights: the {self.name} task has no reward weights to set")
         if not isinstance(overrides, Mapping):
             raise ValueError(f"reward_weights: value {overrides!r} must be a mapping term -> weight")
-        new = validate(type(current), {**current.model_dump(), **dict(overrides)}, root="reward_weights")
-        self.reward_weights = new
-        return new
+        return validate(type(current), {**current.model_dump(), **dict(overrides)}, root="reward_weights")
+
+    def set_reward_weights(self, overrides: Mapping[str, Any]) -> Any:
+        """Apply ``overrides`` over the current reward weights (:meth:`reward_weights_with`); on a
+        ``ValueError`` nothing changes. Returns the new weights."""
+        self.reward_weights = self.reward_weights_with(overrides)
+        return self.reward_weights
 
     # ---- episode --------------------------------------------------------------------------------
     def initial_state(self) -> dict[str, Any]:

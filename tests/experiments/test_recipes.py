@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from sphere_env.evaluation.experiments.learning import load_recipes, recipe_config
+from sphere_env.evaluation.experiments.learning import load_recipes, phase_offset, recipe_config
 
 RECIPES = load_recipes()
 
@@ -23,3 +23,15 @@ def test_a_recipe_with_a_bad_field_is_refused_by_name():
     recipe = {**RECIPES["batch32_curriculum"], "env_kwargs": {"randomization": {"pressure_kpa": [3.0, 99.0]}}}
     with pytest.raises(ValueError, match="pressure_kpa"):
         recipe_config(recipe, seed=0)
+
+
+def test_a_continuation_counts_its_steps_from_its_first_phase():
+    """A continuation's checkpoints are numbered from its own start: every continuation recipe
+    names a first recipe that exists and a step within that recipe's budget, which is its offset."""
+    continuations = {k: r for k, r in RECIPES.items() if r.get("continue_from")}
+    assert continuations
+    for name, r in continuations.items():
+        first = RECIPES[r["continue_from"]]
+        assert 0 < phase_offset(r) <= float(first["n_timesteps"]), name
+        assert phase_offset(r) == int(float(r["continue_at"]))
+    assert all(phase_offset(r) == 0 for r in RECIPES.values() if not r.get("continue_from"))
