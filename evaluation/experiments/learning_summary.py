@@ -378,9 +378,15 @@ def markdown(
             "each pair the probability that a run of the first condition beats one of the second (0.5: no "
             "difference; an interval that excludes 0.5 tells them apart) with the difference of their mean success "
             "and its interval (the study can tell a 10-point difference where that interval's half-width is under 10 "
-            "points). Conditions with fewer than 2 runs are left out.\n\n" + study_markdown(study) + "\n"
-            if study
-            else ""
+            "points). Conditions with fewer than 2 runs are left out.\n\n"
+            + (
+                study_markdown(study)
+                if study
+                else "No condition has 2 finished runs yet; `python -m evaluation.experiments.learning run --recipe "
+                + " ".join(STUDY_RECIPES)
+                + " --seeds 0 1 2 3 4 5 6 7 8 9` runs the study."
+            )
+            + "\n"
         )
         + (
             "\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
