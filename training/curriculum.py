@@ -17,7 +17,9 @@ as the env's own spec draws it (a fixed nominal pressure, for instance). After e
 rollout the shares follow the training success of each cell over its last ``window_episodes``
 episodes, s = (successes + 1) / (episodes + 2): a cell's weight is 1 − s, and every cell keeps at
 least ``min_share`` of the envs (and at least one env), so no condition is dropped. Cells the policy
-already wins get few envs, cells it fails get many.
+already wins get few envs, cells it fails get many. With fewer envs than cells (a short run on a
+small machine) each env's cell is drawn after every rollout, distinct cells with the shares as
+probabilities, from a generator seeded with the model's seed, so every cell still takes turns.
 
 Why: under the uniform pressure draw, the better policies of the learning study won the injected
 shell at 7–14 kPa in 83–100 % of their training episodes and at 3–5 kPa in 49–70 % (the
@@ -76,15 +78,21 @@ class CurriculumArgs(Schema):
     min_share: number(ge=0.0, le=1.0) = 0.02
 
 
-def allocate(weights: Sequence[float], n_envs: int, min_share: float) -> list[int]:
+def allocate(
+    weights: Sequence[float], n_envs: int, min_share: float, rng: np.random.Generator | None = None
+) -> list[int]:
     """Envs per cell: one each, the rest by ``min_share`` + (1 − cells · ``min_share``) × weight /
-    Σ weights (largest remainder; ties to the earlier cell). Needs ``n_envs`` ≥ cells."""
+    Σ weights (largest remainder; ties to the earlier cell). With ``n_envs`` < cells, ``n_envs``
+    distinct cells drawn by ``rng`` with those shares as probabilities get one env each."""
     w = np.asarray(weights, float)
     n = len(w)
-    if n_envs < n:
-        raise ValueError(f"n_envs {n_envs} < {n} curriculum cells; allowed: at least one env per cell")
     floor = min(min_share, 1.0 / n)
     share = floor + (1.0 - n * floor) * (w / w.sum() if w.sum() > 0 else np.full(n, 1.0 / n))
+    if n_envs < n:
+        if rng is None:
+            raise ValueError(f"n_envs {n_envs} < {n} curriculum cells: drawing the cells needs an rng")
+        chosen = rng.choice(n, size=n_envs, replace=False, p=share / share.sum())
+        return [int(i in chosen) for i in range(n)]
     free = n_envs - n
     raw = share * free
     out = np.floor(raw).astype(int)
@@ -129,19 +137,13 @@ class SuccessCurriculum(BaseCallback):
         self.cells = [(m, lo, hi) for m in self.shell_models for lo, hi in bins]
         self.outcomes = [deque(maxlen=self.window_episodes) for _ in self.cells]
         self._base: Any = None
+        self._rng: np.random.Generator | None = None  # draws the cells when envs are fewer
         self._assigned: list[int] = []  # cell of each env's next episode
         self._current: list[int | None] = []  # cell of each env's running episode (None: before any)
 
     def check_env(self, env: Any, n_envs: int) -> None:
-        """Refuse, before training, a set-up the curriculum cannot run: fewer envs than cells, or a
-        cell the env's randomization refuses (a pressure outside the calibration's range, a shell
-        model the env cannot build); ``ValueError`` naming the field."""
-        if n_envs < len(self.cells):
-            raise ValueError(
-                f"callback SuccessCurriculum: n_envs = {n_envs} for {len(self.cells)} cells "
-                f"({len(self.shell_models)} shell models x {len(self.cells) // len(self.shell_models)} pressure bins); "
-                "allowed: at least one env per cell"
-            )
+        """Refuse, before training, a cell the env's randomization refuses (a pressure outside the
+        calibration's range, a shell model the env cannot build); ``ValueError`` naming the field."""
         base = env.randomization
         for cell in self.cells:
             try:
@@ -167,7 +169,7 @@ class SuccessCurriculum(BaseCallback):
 
     def _allocate(self) -> None:
         n = self.training_env.num_envs
-        counts = allocate([1.0 - s for s in self.success()], n, self.min_share)
+        counts = allocate([1.0 - s for s in self.success()], n, self.min_share, self._rng)
         assigned = [c for c, k in enumerate(counts) for _ in range(k)]
         for i, (old, new) in enumerate(zip(self._assigned or [None] * n, assigned)):
             if old != new:
@@ -178,6 +180,7 @@ class SuccessCurriculum(BaseCallback):
 
     def _on_training_start(self) -> None:
         self._base = self.training_env.get_attr("randomization", [0])[0]
+        self._rng = np.random.default_rng(self.model.seed)
         self._current = [None] * self.training_env.num_envs
         self._allocate()
 

@@ -48,8 +48,10 @@ PD_MARGIN = 0.03  # "PD level": grid success ≥ the PD's − 3 points
 
 
 def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
+    """The recipes of ``recipes.yml``, each with its ``conf``: its own, else the file's default."""
     with open(path) as f:
-        return yaml.safe_load(f)["recipes"]
+        data = yaml.safe_load(f)
+    return {name: {"conf": data["conf"], **recipe} for name, recipe in data["recipes"].items()}
 
 
 def grid_figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -224,7 +226,7 @@ def recipe_config(recipe: dict[str, Any], seed: int, trained_agent: Path | None 
     return resolve_config(
         recipe.get("env", ENV_ID),
         recipe.get("algo", "ppo"),
-        hyperparams_path(recipe.get("conf", "ppo")),
+        hyperparams_path(recipe["conf"]),
         overrides=overrides,
         env_kwargs=recipe.get("env_kwargs") or {},
         seed=seed,

@@ -35,3 +35,30 @@ def test_a_continuation_counts_its_steps_from_its_first_phase():
         assert 0 < phase_offset(r) <= float(first["n_timesteps"]), name
         assert phase_offset(r) == int(float(r["continue_at"]))
     assert all(phase_offset(r) == 0 for r in RECIPES.values() if not r.get("continue_from"))
+
+
+def test_the_default_ppo_section_is_the_shipped_policys_recipe():
+    """``training/hyperparams/ppo.yml``'s RampDescent-v3 section (what ``sphere-env train`` and
+    rl-zoo3 train by default) resolves to the configuration of ``curriculum_scheduled``, the recipe
+    the shipped policy was trained with; the other recipes keep their frozen base file."""
+    from sphere_env.resources import hyperparams_path
+    from sphere_env.training.config import resolve_config
+
+    recipe = RECIPES["curriculum_scheduled"]
+    assert recipe["conf"] == "ppo_mixture"
+    ours = recipe_config(recipe, seed=0)
+    default = resolve_config(
+        "sphere_env/RampDescent-v3",
+        "ppo",
+        hyperparams_path("ppo"),
+        overrides={"n_workers": 1},
+        seed=0,
+        eval_freq=0,
+        checkpoint_freq=int(float(recipe["eval_every"])),
+    )
+
+    def settings(cfg):
+        return {k: v for k, v in cfg.as_dict().items() if k != "hyperparams_file"}
+
+    assert settings(default) == settings(ours)
+    assert settings(recipe_config(RECIPES["shipped"], seed=0)) != settings(ours)

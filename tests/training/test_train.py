@@ -50,10 +50,10 @@ def no_workers(monkeypatch):
         (["--env", "sphere_env/Nope-v0"], "env"),
         (["--params", "learning_rat:0.001"], "hyperparams.learning_rat"),
         (["--params", "n_envs:0"], "n_envs"),
-        (["--params", "n_threads:9"], "n_threads"),
+        (["--params", "n_threads:33"], "n_threads"),  # more than n_envs
         (["--params", "n_threads:many"], "n_threads"),
         (["--params", "n_threads:2", "n_workers:2"], "n_threads"),
-        (["--params", "n_workers:9"], "n_workers"),
+        (["--params", "n_workers:33"], "n_workers"),
         (["--params", "n_workers:many"], "n_workers"),
         (["--env-kwargs", "randomization:{'pressure_kpa': [1, 50]}"], "field 'env_kwargs.randomization.pressure_kpa'"),
         (
