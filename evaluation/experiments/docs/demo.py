@@ -32,17 +32,6 @@ def demo_results(res: Results) -> str:
     )
 
 
-@renders("demo_policy_vs_pd")
-def demo_policy_vs_pd(res: Results) -> str:
-    d = _demo(res)
-    c, n = d["controllers"], d["episodes_per_controller"]
-    return (
-        f"wins {round(c['ppo']['success_rate'] * n)} of {n} grid episodes (the PD "
-        f"{round(c['pd']['success_rate'] * n)}) at a tracking RMSE of {c['ppo']['tracking_rmse_rad_s']:.2f} rad/s "
-        f"(the PD {c['pd']['tracking_rmse_rad_s']:.2f})"
-    )
-
-
 FAULTS = {
     "sensor_noise": "sensor noise",
     "latency_1": "one control step of latency",

@@ -150,6 +150,28 @@ def learning_best_recipe(res: Results) -> str:
     )
 
 
+@renders("learning_shipped_recipe")
+def learning_shipped_recipe(res: Results) -> str:
+    """The figures over seeds of the recipe the shipped policy was trained with (its card's)."""
+    card = json.loads(asset_path(*CARD).read_text())
+    r = _recipes(res).get(f"{card['recipe']}@selected")
+    if r is None:
+        raise DocsError(f"the shipped policy's recipe {card['recipe']!r} has no finished runs in learning/summary.json")
+    per = r["per_shell_mean"]
+    met = [k for k, ok in r["aims"].items() if ok]
+    lo, hi = r["env_steps_to_pd_level_range"] or (None, None)
+    reached = r["reached_pd_level"]
+    return (
+        f"`{card['recipe']}` wins {percent(r['mean_success'])} of the grid in the mean over {r['seeds']} seeds with each "
+        f"seed's validation-chosen checkpoint (worst seed {percent(r['worst_seed_success'])}; point / injected / "
+        f"hydroelastic {slash(percent(per[m]) for m in ('point', 'injected', 'hydroelastic'))}; tracking RMSE "
+        f"{r['mean_tracking_rmse_rad_s']:.2f} rad/s; rliable IQM {percent(r['rliable_iqm'])}, 95 % CI "
+        f"{percent(r['rliable_iqm_ci'][0])}–{percent(r['rliable_iqm_ci'][1])}) and meets {len(met)} of the "
+        f"{len(r['aims'])} aims; {reached.split('/')[0]} of its {reached.split('/')[1]} runs reached PD level"
+        + (f", at {steps_k(lo)}–{steps_k(hi)} env steps" if lo is not None else "")
+    )
+
+
 @renders("learning_batch32_vs_batch")
 def learning_batch32_vs_batch(res: Results) -> str:
     r = _recipes(res)
