@@ -37,8 +37,12 @@ def run_parallel(
     workers: int | None = None,
     progress: bool = False,
     ray_address: str | None = None,
+    chunksize: int | None = None,
 ) -> list[Any]:
     """Run ``fn(job)`` for every job, on ``workers`` processes (None: all usable cores), or on Ray.
+
+    ``chunksize``: jobs a pool worker takes at a time (None: about a third of an even share, for
+    many short jobs; 1 for long jobs, which are then started in job order as workers free up).
 
     ``fn`` must be importable at module level (pickled by reference). Results keep job order.
     ``ray_address``: ``"local"`` starts a local Ray instance, anything else is passed to
@@ -56,7 +60,7 @@ def run_parallel(
         # children, so stopping them on an interrupt leaves no server process behind (forkserver's
         # server printed a traceback when its parent went away)
         pool = ProcessPoolExecutor(max_workers=min(n, len(jobs)), mp_context=get_context("spawn"))
-        it = pool.map(fn, jobs, chunksize=max(1, math.ceil(len(jobs) / (n * 3))))
+        it = pool.map(fn, jobs, chunksize=chunksize or max(1, math.ceil(len(jobs) / (n * 3))))
     if progress:
         from tqdm import tqdm
 

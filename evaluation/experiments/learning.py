@@ -495,10 +495,10 @@ def main(argv: Sequence[str] | None = None) -> None:
         p.error(f"--jobs: value {args.jobs} must be >= 1")
     from sphere_env.parallel import run_parallel
 
-    # seed by seed, each seed's recipes side by side: a study stopped part-way (a session's end) has
-    # its conditions at the same number of seeds
+    # seed by seed, each seed's recipes side by side, one job per worker at a time: a study stopped
+    # part-way (a session's end) has its conditions at the same number of seeds
     todo = [{"recipe": n, "seed": s} for s in args.seeds for n in args.recipe]
-    run_parallel(_job, todo, workers=args.jobs, ray_address=args.ray_address)
+    run_parallel(_job, todo, workers=args.jobs, ray_address=args.ray_address, chunksize=1)
 
 
 if __name__ == "__main__":

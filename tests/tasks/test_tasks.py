@@ -136,3 +136,23 @@ def test_a_pool_needs_one_worker_at_least():
         with pytest.raises(ValueError, match=rf"^workers = {workers!r}: .*; allowed: an integer >= 1 or None$"):
             run_parallel(abs, [{}], workers=workers)
     assert run_parallel(len, [{}, {"a": 1}], workers=1) == [0, 1]
+
+
+def _sleep_then_pid(job):
+    import os
+    import time
+
+    time.sleep(job["s"])
+    return os.getpid()
+
+
+def test_long_jobs_go_one_at_a_time_to_whichever_worker_is_free():
+    """With ``chunksize=1`` the job after a long one starts on the other worker at once; with the
+    default chunks for many jobs it waits behind the long one in the same worker."""
+    from sphere_env.parallel import run_parallel
+
+    jobs = [{"s": 3.0}] + [{"s": 0.01}] * 11  # 3 s: longer than a worker takes to start
+    one = run_parallel(_sleep_then_pid, jobs, workers=2, chunksize=1)
+    assert one[1] != one[0] and one.count(one[0]) == 1
+    chunked = run_parallel(_sleep_then_pid, jobs, workers=2)
+    assert chunked[1] == chunked[0]
