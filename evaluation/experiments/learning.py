@@ -7,9 +7,11 @@ on the demo's grid (3 shell models × 3, 8.5, 14 kPa × evaluation seeds 0, 1, 2
 randomization off) and writes ``<results>/runs/<recipe>/seed<k>.json`` atomically. A job whose result
 file exists is skipped, so an interrupted study continues where it stopped (``--jobs`` runs that
 many jobs at once through :func:`sphere_env.parallel.run_parallel`, each training on one core;
-``--ray-address`` runs them on a Ray cluster).
+``--ray-address`` runs them on a Ray cluster; ``--complete`` writes each result with its
+validation-chosen checkpoint and fault grid, which ``select`` and ``faults`` otherwise add later
+from the run folders).
 
-    python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2]
+    python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2] [--complete]
     python -m evaluation.experiments.learning pd            # the PD and zero-torque baselines on the grid
     python -m evaluation.experiments.learning select        # each finished run's checkpoint chosen on validation
     python -m evaluation.experiments.learning faults        # PD, zero, pretrained and every run on the fault grid
@@ -185,23 +187,31 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
     for f in sorted((results / "runs").glob("*/seed*.json")):
         res = json.loads(f.read_text())
         run_dir = runs_root / f.parent.name / f.stem
-        if kind in res or not run_dir.is_dir():
+        if kind in res or not run_dir.is_dir() or (kind == "faults" and "selected" not in res):
             continue
-        if kind == "selected":
-            # a continuation's checkpoints count from the start of its own phase; env_steps from zero
-            offset = phase_offset(res["recipe"])
-            from_steps = max(0, int(SELECT_FROM * res["env_steps"]) - offset)
-            res["selected"] = select_checkpoint(run_dir, res.get("env_id", ENV_ID), from_steps)
-            res["selected"]["env_steps"] = offset + res["selected"]["checkpoint_steps"]
-        else:
-            if "selected" not in res:
-                continue
-            # the run's reported model on the fault grid: its validation-chosen checkpoint
-            n = res["selected"]["checkpoint_steps"]
-            sel = f"{run_dir}@{n}"
-            res["faults"] = fault_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
+        (add_selection if kind == "selected" else add_faults)(res, run_dir)
         write_text_atomic(f, json.dumps(res, indent=1) + "\n")
         print(f"{f}: {kind} added", flush=True)
+
+
+def add_selection(res: dict[str, Any], run_dir: Path) -> None:
+    """``res["selected"]``: the run's :func:`select_checkpoint` from :data:`SELECT_FROM` of its
+    budget on."""
+    # a continuation's checkpoints count from the start of its own phase; env_steps from zero
+    offset = phase_offset(res["recipe"])
+    from_steps = max(0, int(SELECT_FROM * res["env_steps"]) - offset)
+    res["selected"] = select_checkpoint(run_dir, res.get("env_id", ENV_ID), from_steps)
+    res["selected"]["env_steps"] = offset + res["selected"]["checkpoint_steps"]
+
+
+def add_faults(res: dict[str, Any], run_dir: Path) -> None:
+    """``res["faults"]``: the run's reported model, its validation-chosen checkpoint, on the fault
+    grid."""
+    from sphere_env.evaluation.controller_specs import env_kwargs_of
+
+    n = res["selected"]["checkpoint_steps"]
+    sel = f"{run_dir}@{n}"
+    res["faults"] = fault_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
 
 
 def pd_level() -> float:
@@ -236,8 +246,13 @@ def recipe_config(recipe: dict[str, Any], seed: int, trained_agent: Path | None 
     )
 
 
-def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path = RESULTS) -> Path:
-    """Train one recipe × seed and evaluate its checkpoints; returns the result file."""
+def run_job(
+    recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path = RESULTS, complete: bool = False
+) -> Path:
+    """Train one recipe × seed and evaluate its checkpoints; returns the result file. ``complete``:
+    also choose its checkpoint on validation and run that on the fault grid before the file is
+    written, so a result that exists needs nothing from the run folder (``runs/`` is a scratch
+    area: a study carried over to a fresh checkout keeps only its result files)."""
     import torch
 
     from sphere_env.training.train import CHECKPOINT_PREFIX, train
@@ -315,6 +330,9 @@ def run_job(recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path =
         "commit": _commit(),
         "cores": os.cpu_count(),
     }
+    if complete:
+        add_selection(result, run_dir)
+        add_faults(result, run_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out, json.dumps(result, indent=1) + "\n")
     return out
@@ -329,7 +347,7 @@ def _commit() -> str:
 def _job(job: Mapping[str, Any]) -> str:
     name, seed = job["recipe"], job["seed"]
     try:
-        out = str(run_job(name, seed))
+        out = str(run_job(name, seed, complete=job.get("complete", False)))
     except Exception as err:  # noqa: BLE001 - one failed job is reported, the others go on
         out = f"FAILED {name} seed {seed}: {type(err).__name__}: {err}"
     print(out, flush=True)
@@ -456,6 +474,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     r.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
     r.add_argument(
+        "--complete",
+        action="store_true",
+        help="also choose each run's checkpoint on validation and evaluate it on the fault grid before its"
+        " result file is written (what select and faults add later, while the run folder still exists)",
+    )
+    r.add_argument(
         "--ray-address",
         default=None,
         help="run the jobs on a Ray cluster (auto, ray://host:10001, or local); needs the ray extra",
@@ -497,7 +521,7 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     # seed by seed, each seed's recipes side by side, one job per worker at a time: a study stopped
     # part-way (a session's end) has its conditions at the same number of seeds
-    todo = [{"recipe": n, "seed": s} for s in args.seeds for n in args.recipe]
+    todo = [{"recipe": n, "seed": s, "complete": args.complete} for s in args.seeds for n in args.recipe]
     run_parallel(_job, todo, workers=args.jobs, ray_address=args.ray_address, chunksize=1)
 
 
