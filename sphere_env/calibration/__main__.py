@@ -36,6 +36,7 @@ from sphere_env.calibration.commands import (
     cmd_validate,
 )
 from sphere_env.cli import renamed
+from sphere_env.models.shell import STEER_LAW_FORMS
 from sphere_env.resources import asset_path
 from sphere_env.schemas import Finite, OutputFile, OutputFolder, checker, cli_type, count, number
 from sphere_env.schemas.twin import parameter
@@ -82,7 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--forms",
         nargs="+",
         default=["linear", "saturating", "quadratic"],
-        choices=["linear", "saturating", "quadratic"],
+        choices=list(STEER_LAW_FORMS),
         help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted",
     )
     p.add_argument(
