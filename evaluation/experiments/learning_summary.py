@@ -220,6 +220,63 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
     return rows
 
 
+def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
+    """Where the conditions differ: per grid, per task (each shell of the nominal grid, each fault
+    of the fault grid) and per pair of conditions with 2 or more runs, the difference of their mean
+    success on that task with its 95 % bootstrap interval over runs (rliable's, one task)."""
+    from rliable import library as rly
+    from rliable import metrics
+
+    from sphere_env.evaluation.faults import FAULTS
+
+    rows = []
+    for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
+        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= 2}
+        names = sorted(have)
+        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+        for j, task in enumerate(tasks):
+            for a, b in pairs:
+                np.random.seed(0)
+                point, ci = rly.get_interval_estimates(
+                    {"d": (have[a][:, [j]], have[b][:, [j]])},
+                    lambda x, y: metrics.aggregate_mean(x) - metrics.aggregate_mean(y),
+                    reps=BOOTSTRAP_REPS,
+                )
+                lo, hi = (float(v) for v in np.ravel(ci["d"]))
+                rows.append(
+                    {
+                        "grid": grid,
+                        "task": task,
+                        "pair": f"{a} − {b}",
+                        "runs": f"{len(have[a])} vs {len(have[b])}",
+                        "mean_diff": float(np.ravel(point["d"])[0]),
+                        "mean_diff_ci": [lo, hi],
+                        # "tells": the interval excludes 0; otherwise the two are not told apart
+                        "tells": bool(lo > 0.0 or hi < 0.0),
+                    }
+                )
+    return rows
+
+
+def study_task_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
+    """:func:`study_task_rows` as one table: a row per grid and task, a column per pair of
+    conditions, each cell the mean difference in points [95 % CI], in bold where the interval
+    excludes 0."""
+    if not rows:
+        return ""
+    pairs = list(dict.fromkeys(r["pair"] for r in rows))
+    table: dict[tuple[str, str], dict[str, str]] = {}
+    for r in rows:
+        lo, hi = r["mean_diff_ci"]
+        cell = f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}]"
+        table.setdefault((r["grid"], r["task"]), {})[r["pair"]] = f"**{cell}**" if r["tells"] else cell
+    runs = {r["pair"]: r["runs"] for r in rows}
+    return markdown_table(
+        [[grid, task, *(cells.get(p, "") for p in pairs)] for (grid, task), cells in table.items()],
+        ["grid", "shell / fault", *(f"{p} ({runs[p]} runs)" for p in pairs)],
+    )
+
+
 def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
     """Grid success against env steps: per recipe the IQM over seeds with its 95 % stratified-
     bootstrap band (rliable), the PD's success and the PD level."""
@@ -301,6 +358,7 @@ def markdown(
     base: Mapping[str, Any],
     faults: str = "",
     study: Sequence[Mapping[str, Any]] = (),
+    study_tasks: Sequence[Mapping[str, Any]] = (),
 ) -> str:
 
     pd = base["pd"]
@@ -381,10 +439,17 @@ def markdown(
             "points). Conditions with fewer than 2 runs are left out.\n\n"
             + (
                 study_markdown(study)
+                + (
+                    "\n\nWhere they differ: the difference of mean success, in points, per shell of the nominal "
+                    "grid and per fault of the fault grid, with its 95 % bootstrap interval over runs; in bold "
+                    "where the interval excludes 0.\n\n" + study_task_markdown(study_tasks)
+                    if study_tasks
+                    else ""
+                )
                 if study
                 else "No condition has 2 finished runs yet; `python -m evaluation.experiments.learning run --recipe "
                 + " ".join(STUDY_RECIPES)
-                + " --seeds 0 1 2 3 4 5 6 7 8 9` runs the study."
+                + " --seeds 0 1 2 3 4 5 6 7 8 9 --jobs 2 --complete` runs the study."
             )
             + "\n"
         )
@@ -401,7 +466,9 @@ def write_summary(results: Path) -> Path:
     base = json.loads((results / "baselines.json").read_text())
     runs_by_recipe = load_runs(results)
     rows = recipe_rows({**runs_by_recipe, **selected_runs(runs_by_recipe)}, base["pd"]) if runs_by_recipe else []
-    study = study_rows(condition_scores(runs_by_recipe)) if runs_by_recipe else []
+    scores = condition_scores(runs_by_recipe) if runs_by_recipe else {}
+    study = study_rows(scores) if scores else []
+    study_tasks = study_task_rows(scores) if scores else []
     summary = {
         "commit": base.get("commit"),
         "cores": 2,
@@ -409,6 +476,7 @@ def write_summary(results: Path) -> Path:
         "pd": base["pd"],
         "zero": base["zero"],
         "randomization_study": study,
+        "randomization_study_by_task": study_tasks,
         "pretrained": base.get("pretrained"),
         "recipes": rows,
         "runs": [
@@ -440,5 +508,7 @@ def write_summary(results: Path) -> Path:
     write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
     if runs_by_recipe:
         plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png")
-    write_text_atomic(results / "README.md", markdown(rows, base, fault_table(base, runs_by_recipe), study))
+    write_text_atomic(
+        results / "README.md", markdown(rows, base, fault_table(base, runs_by_recipe), study, study_tasks)
+    )
     return results / "summary.json"

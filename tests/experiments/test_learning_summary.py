@@ -166,3 +166,25 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
         }
     )
     assert not next(r for r in wide if "poi" in r)["resolves_10_points"]
+
+
+def test_the_study_tells_per_task_where_conditions_differ_and_where_not():
+    """Two conditions with the same runs' scores (in another order) on two shells and 40 points
+    apart on the third: only that shell's difference interval excludes 0, and it holds the 40
+    points."""
+    from sphere_env.evaluation.experiments.learning_summary import study_task_markdown, study_task_rows
+
+    rng = np.random.default_rng(1)
+    a = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
+    b = a[::-1].copy()
+    a[:, 2] += 0.4
+    rows = study_task_rows(
+        {"a": {"nominal": a, "faults": np.zeros((0, 9))}, "b": {"nominal": b, "faults": np.zeros((0, 9))}}
+    )
+    by_task = {r["task"]: r for r in rows}
+    assert [r["pair"] for r in rows] == ["a − b"] * 3  # no fault rows: neither condition has fault scores
+    assert not by_task["point"]["tells"] and not by_task["injected"]["tells"]
+    lo, hi = by_task["hydroelastic"]["mean_diff_ci"]
+    assert by_task["hydroelastic"]["tells"] and 0.3 < lo < by_task["hydroelastic"]["mean_diff"] < hi < 0.5
+    table = study_task_markdown(rows)
+    assert table.count("**") == 2 and "a − b (10 vs 10 runs)" in table
