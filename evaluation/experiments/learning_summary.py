@@ -154,6 +154,16 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
 STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults")
 
 
+#: The study's conditions from the most randomized to the least: each pair is written first minus
+#: second, so a positive difference is what the added randomization bought.
+CONDITION_ORDER = ("pressure_faults", "pressure", "nominal")
+
+
+def condition_order(names) -> list[str]:
+    """``names`` in :data:`CONDITION_ORDER`, other names after them in alphabetical order."""
+    return sorted(names, key=lambda c: (CONDITION_ORDER.index(c) if c in CONDITION_ORDER else len(CONDITION_ORDER), c))
+
+
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
     """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the nominal
     grid's scores (runs × shells) and the fault grid's (runs × faults), each run by its
@@ -189,7 +199,7 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
         est = interval_estimates(have) if have else {}
         for c, x in have.items():
             rows.append({"grid": grid, "condition": c, "runs": len(x), **est[c]})
-        names = sorted(have)
+        names = condition_order(have)
         for i, a in enumerate(names):
             for b in names[i + 1 :]:
                 np.random.seed(0)
@@ -232,7 +242,7 @@ def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict
     rows = []
     for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
         have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= 2}
-        names = sorted(have)
+        names = condition_order(have)
         pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
         for j, task in enumerate(tasks):
             for a, b in pairs:

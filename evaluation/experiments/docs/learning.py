@@ -204,3 +204,50 @@ def learning_batch32_failures(res: Results) -> str:
         f"the soft shells at {low:g} kPa (injected {share('injected', low)}, hydroelastic "
         f"{share('hydroelastic', low)}; point {share('point', low)})"
     )
+
+
+#: The study's conditions in the order the page names them, with the words it uses.
+STUDY_CONDITIONS = {"nominal": "nominal", "pressure": "pressure", "pressure_faults": "pressure + faults"}
+STUDY_SEEDS = 10  # the seeds the study aims at per condition
+
+
+@renders("randomization_study")
+def randomization_study(res: Results) -> str:
+    """The randomization study as it stands: runs per condition, each grid's IQM per condition and
+    the pairs and tasks (shells, faults) whose mean-difference interval excludes 0."""
+    s = _summary(res)
+    runs: dict[str, int] = {}
+    for r in s["runs"]:
+        if r["method"] in ("study_nominal", "curriculum_scheduled", "study_faults"):
+            runs[r["condition"]] = runs.get(r["condition"], 0) + 1
+    counts = ", ".join(f"{STUDY_CONDITIONS[c]} {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
+    out = [f"finished runs of the {STUDY_SEEDS} seeds per condition: {counts}"]
+    rows = s.get("randomization_study") or []
+    for grid in ("nominal", "faults"):
+        iqm = [r for r in rows if r["grid"] == grid and "iqm" in r]
+        if not iqm:
+            continue
+        parts = ", ".join(
+            f"{STUDY_CONDITIONS[r['condition']]} {percent(r['iqm'])} [{percent(r['iqm_ci'][0])}, "
+            f"{percent(r['iqm_ci'][1])}]"
+            for r in iqm
+        )
+        out.append(f"IQM on the {'nominal' if grid == 'nominal' else 'fault'} grid: {parts}")
+    told = [r for r in s.get("randomization_study_by_task") or [] if r["tells"]]
+    if told:
+
+        def pair(p: str) -> str:
+            a, b = p.split(" − ")
+            return f"{STUDY_CONDITIONS[a]} − {STUDY_CONDITIONS[b]}"
+
+        out.append(
+            "mean differences whose interval excludes 0: "
+            + "; ".join(
+                f"{r['task']}: {pair(r['pair'])} {100 * r['mean_diff']:+.0f} points "
+                f"[{100 * r['mean_diff_ci'][0]:+.0f}, {100 * r['mean_diff_ci'][1]:+.0f}]"
+                for r in told
+            )
+        )
+    elif rows:
+        out.append("no mean difference of any shell or fault has an interval that excludes 0 yet")
+    return "; ".join(out)
