@@ -157,6 +157,9 @@ STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults")
 #: The study's conditions from the most randomized to the least: each pair is written first minus
 #: second, so a positive difference is what the added randomization bought.
 CONDITION_ORDER = ("pressure_faults", "pressure", "nominal")
+#: Runs a condition needs before the study compares it: a training claim rests on 5 seeds or more,
+#: and a bootstrap over 2 or 3 runs has too few distinct resamples for an interval.
+MIN_STUDY_RUNS = 5
 
 
 def condition_order(names) -> list[str]:
@@ -195,7 +198,7 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
 
     rows = []
     for grid in ("nominal", "faults"):
-        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= 2}
+        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= MIN_STUDY_RUNS}
         est = interval_estimates(have) if have else {}
         for c, x in have.items():
             rows.append({"grid": grid, "condition": c, "runs": len(x), **est[c]})
@@ -232,7 +235,7 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
 
 def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
     """Where the conditions differ: per grid, per task (each shell of the nominal grid, each fault
-    of the fault grid) and per pair of conditions with 2 or more runs, the difference of their mean
+    of the fault grid) and per pair of conditions with :data:`MIN_STUDY_RUNS` or more runs, the difference of their mean
     success on that task with its 95 % bootstrap interval over runs (rliable's, one task)."""
     from rliable import library as rly
     from rliable import metrics
@@ -241,7 +244,7 @@ def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict
 
     rows = []
     for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
-        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= 2}
+        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= MIN_STUDY_RUNS}
         names = condition_order(have)
         pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
         for j, task in enumerate(tasks):
@@ -446,7 +449,9 @@ def markdown(
             "each pair the probability that a run of the first condition beats one of the second (0.5: no "
             "difference; an interval that excludes 0.5 tells them apart) with the difference of their mean success "
             "and its interval (the study can tell a 10-point difference where that interval's half-width is under 10 "
-            "points). Conditions with fewer than 2 runs are left out.\n\n"
+            "points). Conditions with fewer than "
+            + str(MIN_STUDY_RUNS)
+            + " runs are left out (a bootstrap over fewer runs draws too few distinct samples for its interval to mean much).\n\n"
             + (
                 study_markdown(study)
                 + (
@@ -457,7 +462,9 @@ def markdown(
                     else ""
                 )
                 if study
-                else "No condition has 2 finished runs yet; `python -m evaluation.experiments.learning run --recipe "
+                else "No condition has "
+                + str(MIN_STUDY_RUNS)
+                + " finished runs yet; `python -m evaluation.experiments.learning run --recipe "
                 + " ".join(STUDY_RECIPES)
                 + " --seeds 0 1 2 3 4 5 6 7 8 9 --jobs 2 --complete` runs the study."
             )

@@ -136,7 +136,8 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
     """Two conditions whose runs differ by 30 points on every shell: the probability of improvement's
     interval excludes 0.5 and the mean difference's interval holds 30 points; two conditions drawn
     alike: the first includes 0.5, the second 0. With 10 runs of this spread both intervals are
-    narrow enough to show a 10-point difference; with 3 widely spread runs they are not."""
+    narrow enough to show a 10-point difference; with 5 widely spread runs they are not, and a
+    condition with fewer than 5 runs is not compared."""
     from sphere_env.evaluation.experiments.learning_summary import study_rows
 
     rng = np.random.default_rng(0)
@@ -161,11 +162,21 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
     assert {r["condition"] for r in rows if "iqm" in r} == {"a", "b", "c"}
     wide = study_rows(
         {
-            "a": {"nominal": np.array([[0.2] * 3, [0.9] * 3, [0.5] * 3]), "faults": np.zeros((0, 9))},
-            "b": {"nominal": np.array([[0.1] * 3, [0.8] * 3, [0.6] * 3]), "faults": np.zeros((0, 9))},
+            "a": {
+                "nominal": np.array([[0.2] * 3, [0.9] * 3, [0.5] * 3, [0.0] * 3, [1.0] * 3]),
+                "faults": np.zeros((0, 9)),
+            },
+            "b": {
+                "nominal": np.array([[0.1] * 3, [0.8] * 3, [0.6] * 3, [1.0] * 3, [0.0] * 3]),
+                "faults": np.zeros((0, 9)),
+            },
         }
     )
     assert not next(r for r in wide if "poi" in r)["resolves_10_points"]
+    few = study_rows(
+        {"a": {"nominal": high[:4], "faults": np.zeros((0, 9))}, "b": {"nominal": low, "faults": np.zeros((0, 9))}}
+    )
+    assert {r["condition"] for r in few} == {"b"}
 
 
 def test_the_study_tells_per_task_where_conditions_differ_and_where_not():

@@ -8,6 +8,7 @@ import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
 from sphere_env.evaluation.experiments.learning import PD_MARGIN
+from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
@@ -248,6 +249,8 @@ def randomization_study(res: Results) -> str:
                 for r in told
             )
         )
-    elif rows:
+    elif s.get("randomization_study_by_task"):
         out.append("no mean difference of any shell or fault has an interval that excludes 0 yet")
+    else:
+        out.append(f"the conditions are compared once two of them have {MIN_STUDY_RUNS} finished runs each")
     return "; ".join(out)
