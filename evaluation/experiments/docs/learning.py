@@ -8,7 +8,7 @@ import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
 from sphere_env.evaluation.experiments.learning import PD_MARGIN
-from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS
+from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS, STUDY_RECIPES
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
@@ -219,7 +219,7 @@ def randomization_study(res: Results) -> str:
     s = _summary(res)
     runs: dict[str, int] = {}
     for r in s["runs"]:
-        if r["method"] in ("study_nominal", "curriculum_scheduled", "study_faults"):
+        if r["method"] in STUDY_RECIPES:
             runs[r["condition"]] = runs.get(r["condition"], 0) + 1
     counts = ", ".join(f"{STUDY_CONDITIONS[c]} {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
     out = [f"finished runs of the {STUDY_SEEDS} seeds per condition: {counts}"]
