@@ -167,6 +167,14 @@ def condition_order(names) -> list[str]:
     return sorted(names, key=lambda c: (CONDITION_ORDER.index(c) if c in CONDITION_ORDER else len(CONDITION_ORDER), c))
 
 
+def compared(scores: Mapping[str, Mapping[str, np.ndarray]], grid: str):
+    """The conditions of ``scores`` the study compares on ``grid`` (those with
+    :data:`MIN_STUDY_RUNS` or more runs) and their pairs, more randomized first."""
+    have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= MIN_STUDY_RUNS}
+    names = condition_order(have)
+    return have, [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+
+
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
     """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the nominal
     grid's scores (runs × shells) and the fault grid's (runs × faults), each run by its
@@ -198,38 +206,36 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
 
     rows = []
     for grid in ("nominal", "faults"):
-        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= MIN_STUDY_RUNS}
+        have, pairs = compared(scores, grid)
         est = interval_estimates(have) if have else {}
         for c, x in have.items():
             rows.append({"grid": grid, "condition": c, "runs": len(x), **est[c]})
-        names = condition_order(have)
-        for i, a in enumerate(names):
-            for b in names[i + 1 :]:
-                np.random.seed(0)
-                point, ci = rly.get_interval_estimates(
-                    {f"{a},{b}": (have[a], have[b])},
-                    lambda x, y: np.array(
-                        [
-                            metrics.probability_of_improvement(x, y),
-                            metrics.aggregate_mean(x) - metrics.aggregate_mean(y),
-                        ]
-                    ),
-                    reps=BOOTSTRAP_REPS,
-                )
-                key = f"{a},{b}"
-                diff_ci = [float(ci[key][0, 1]), float(ci[key][1, 1])]
-                rows.append(
-                    {
-                        "grid": grid,
-                        "condition": f"P({a} > {b})",
-                        "runs": f"{len(have[a])} vs {len(have[b])}",
-                        "poi": float(point[key][0]),
-                        "poi_ci": [float(ci[key][0, 0]), float(ci[key][1, 0])],
-                        "mean_diff": float(point[key][1]),
-                        "mean_diff_ci": diff_ci,
-                        "resolves_10_points": bool((diff_ci[1] - diff_ci[0]) / 2 < 0.10),
-                    }
-                )
+        for a, b in pairs:
+            np.random.seed(0)
+            point, ci = rly.get_interval_estimates(
+                {f"{a},{b}": (have[a], have[b])},
+                lambda x, y: np.array(
+                    [
+                        metrics.probability_of_improvement(x, y),
+                        metrics.aggregate_mean(x) - metrics.aggregate_mean(y),
+                    ]
+                ),
+                reps=BOOTSTRAP_REPS,
+            )
+            key = f"{a},{b}"
+            diff_ci = [float(ci[key][0, 1]), float(ci[key][1, 1])]
+            rows.append(
+                {
+                    "grid": grid,
+                    "condition": f"P({a} > {b})",
+                    "runs": f"{len(have[a])} vs {len(have[b])}",
+                    "poi": float(point[key][0]),
+                    "poi_ci": [float(ci[key][0, 0]), float(ci[key][1, 0])],
+                    "mean_diff": float(point[key][1]),
+                    "mean_diff_ci": diff_ci,
+                    "resolves_10_points": bool((diff_ci[1] - diff_ci[0]) / 2 < 0.10),
+                }
+            )
     return rows
 
 
@@ -244,9 +250,7 @@ def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict
 
     rows = []
     for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
-        have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= MIN_STUDY_RUNS}
-        names = condition_order(have)
-        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+        have, pairs = compared(scores, grid)
         for j, task in enumerate(tasks):
             for a, b in pairs:
                 np.random.seed(0)

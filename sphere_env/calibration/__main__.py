@@ -82,7 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--forms",
         nargs="+",
-        default=["linear", "saturating", "quadratic"],
+        default=list(STEER_LAW_FORMS),
         choices=list(STEER_LAW_FORMS),
         help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted",
     )
