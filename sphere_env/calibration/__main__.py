@@ -54,6 +54,22 @@ OUTPUT_FILE = checker(OutputFile)
 OUTPUT_FOLDER = checker(OutputFolder)
 
 
+def HOLD(text: str) -> tuple[str, tuple[float, ...]]:
+    """``--hold`` item NAME=VALUE[,VALUE...]: a fitted parameter held at each value in turn."""
+    from sphere_env.calibration.shell_fit import check_hold
+
+    name, sep, values = text.partition("=")
+    try:
+        if not sep or not values:
+            raise ValueError("expected NAME=VALUE[,VALUE...]")
+        vals = tuple(float(v) for v in values.split(","))
+        for v in vals:
+            check_hold({name: v}, "--hold")
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{text!r}: {err}") from None
+    return name, vals
+
+
 def build_parser() -> argparse.ArgumentParser:
     # usage lines read "sphere-env calibrate ..." from the sphere-env command (which sets argv[0])
     prog = sys.argv[0] if sys.argv[0].startswith("sphere-env") else "python -m sphere_env.calibration"
@@ -85,6 +101,15 @@ def build_parser() -> argparse.ArgumentParser:
         default=list(STEER_LAW_FORMS),
         choices=list(STEER_LAW_FORMS),
         help="steer-law forms to try; with several, the one with the least held-out phi RMSE is fitted",
+    )
+    p.add_argument(
+        "--hold",
+        nargs="+",
+        type=HOLD,
+        default=[],
+        metavar="NAME=VALUE[,VALUE...]",
+        help="parameters held instead of fitted (e.g. amplitude_scale_rad=0.05,0.07,0.1 omega_n=2.3); "
+        "several values are candidates chosen by held-out phi RMSE, as forms are",
     )
     p.add_argument(
         "--pressure-kpa",

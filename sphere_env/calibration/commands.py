@@ -3,6 +3,7 @@ parsed arguments; the parser and the error handling are in :mod:`sphere_env.cali
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import shlex
@@ -80,6 +81,10 @@ def cmd_steer_fit(args) -> int:
     from sphere_env.calibration.steer_fit import steer_fit
     from sphere_env.models.shell import ShellCalibration
 
+    names_held = [name for name, _ in args.hold]
+    if len(set(names_held)) < len(names_held):
+        raise ValueError(f"--hold: a parameter is named twice in {names_held}; give one NAME=V1,V2,... per parameter")
+    holds = [dict(zip(names_held, vals)) for vals in itertools.product(*(v for _, v in args.hold))]
     man, logs = _trials(args, required=("phi", "theta"))
     base = ShellCalibration.load(args.base)
     p0 = base.check_pressure(
@@ -102,6 +107,7 @@ def cmd_steer_fit(args) -> int:
         max_nfev=args.max_nfev,
         log_to=print,
         workers=args.workers,
+        holds=holds,
     )
     for model, fit in record["models"].items():
         per = trial_rmse(fit.pop("pool"), logs)

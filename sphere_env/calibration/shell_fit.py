@@ -129,6 +129,7 @@ class ShellFit:
     form: str = "linear"
     nfev: int = 0
     unidentified: dict[str, str] = field(default_factory=dict)
+    held: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -136,6 +137,7 @@ class ShellFit:
             "form": self.form,
             "pressure_kpa": self.pressure_kpa,
             "params": self.params,
+            "held": dict(self.held),
             "rmse_rad": self.rmse,
             "ci95": {k: list(v) for k, v in self.ci95.items()},
             "unidentified": dict(self.unidentified),
@@ -251,6 +253,29 @@ class ShellFitOptions(Schema):
 def law_params(form: str) -> tuple[str, ...]:
     """The injected model's fitted parameters for a steer-law form (:data:`Form`)."""
     return ("omega_n", "zeta", "rest_angle_rad", *STEER_LAW_FORMS[_FORM(form, "field 'form'")])
+
+
+def check_hold(hold: Mapping[str, float], where: str = "hold") -> dict[str, float]:
+    """``hold`` (parameter name -> value held instead of fitted) checked against :data:`_BOUNDS`:
+    every name a fitted parameter of some model and form, every value finite and inside its search
+    range. Raises ValueError naming the parameter, the value and what is allowed."""
+    out = {}
+    for name, value in hold.items():
+        if name not in _BOUNDS:
+            raise ValueError(f"{where}: unknown parameter {name!r}; allowed: {sorted(_BOUNDS)}")
+        lo, hi = _BOUNDS[name]
+        v = float(value)
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise ValueError(f"{where}: {name} = {value!r} is outside its search range [{lo}, {hi}]")
+        out[name] = v
+    return out
+
+
+def model_params(model: str, form: str, hold: Mapping[str, float] | None = None) -> tuple[str, ...]:
+    """The parameters :func:`fit_shell` fits by default for ``model``: :func:`law_params` of ``form``
+    (injected) or :data:`HYDRO_PARAMS` (hydroelastic), without the ``hold`` names."""
+    names = law_params(form) if model == "injected" else HYDRO_PARAMS
+    return tuple(n for n in names if n not in (hold or {}))
 
 
 def _start(name: str, base: ShellCalibration, p0: float, robot: RobotParameters) -> float:
@@ -370,6 +395,7 @@ def fit_shell(
     drive_friction: FrictionModel | str = "majd_drive",
     require_convergence: bool = True,
     theta_weight: float = 1.0,
+    hold: Mapping[str, float] | None = None,
 ) -> ShellFit:
     """Fit the shell ``model`` at p₀ = ``pressure_kpa`` to free-motion segments (``steer_plane`` or ``free``).
 
@@ -380,7 +406,10 @@ def fit_shell(
     ``injected``: :func:`law_params` of ``form`` (default: the base calibration's form);
     ``hydroelastic``: :data:`HYDRO_PARAMS` (the steer couple's factors) unless ``params`` names
     others (``log10_modulus_pa``, ``dissipation_s_per_m``). ``fixed_injected``: ω_n, ζ at p₀ held
-    while fitting hydroelastic parameters (default the base calibration's).
+    while fitting hydroelastic parameters (default the base calibration's). ``hold``: parameters
+    held at the given values instead of fitted (:func:`check_hold`; those of this model's default
+    parameters are set in the base calibration and left out of the fit, the others are ignored):
+    a parameter the data do not pin down, held so that the law is no richer than the data allow.
 
     Refuses (:class:`FitError`, nothing written) a segment with no free motion, a fit that does
     not converge within ``max_nfev`` evaluations (unless ``require_convergence`` is False), a
@@ -407,9 +436,13 @@ def fit_shell(
     robot = RobotParameters.from_urdf()
     p0 = base.check_pressure(pressure_kpa)
     form = form or base.steer_law.form
+    held = {k: v for k, v in check_hold(hold or {}).items() if k in model_params(model, form)}
+    if held:
+        raw0 = calibration_with(base, p0, held, form if model == "injected" else None, robot)
+        base = ShellCalibration.from_dict(raw0, source=base.source, check_stand_still=False)
     if params is None:
-        params = law_params(form) if model == "injected" else HYDRO_PARAMS
-    names = list(params)
+        params = model_params(model, form, held)
+    names = [n for n in params if n not in held]
     fixed = dict(fixed_injected or {}) if model == "hydroelastic" else {}
     lo = np.array([_BOUNDS[n][0] for n in names])
     hi = np.array([_BOUNDS[n][1] for n in names])
@@ -484,7 +517,7 @@ def fit_shell(
     K, C = cal.bind(robot).injected_gains(p0)
     values.update(K_inject=K, C_inject=C)
     return ShellFit(
-        model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev, poor
+        model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev, poor, held
     )
 
 

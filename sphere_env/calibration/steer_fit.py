@@ -4,7 +4,9 @@ steer-law form chosen by held-out error, and every segment's error when it is le
 :func:`steer_fit` fits each model with :func:`~sphere_env.calibration.shell_fit.fit_shell`, on top of
 the previous model's calibration; :func:`cross_validate` scores forms and models on held-out
 segments (or held-out blocks of one segment), its folds in worker processes; :func:`choose_form`
-picks the form with the least mean held-out φ RMSE.
+picks the form with the least mean held-out φ RMSE. Parameters the data do not pin down may be held
+(``hold``: name -> value, :func:`~sphere_env.calibration.shell_fit.check_hold`); several candidate
+holds are chosen between by held-out error the same way as forms (:func:`choose_variant`).
 """
 
 from __future__ import annotations
@@ -31,8 +33,10 @@ def cross_validate(
     models: Sequence[str] = ("injected",),
     drive_friction: FrictionModel | str = "majd_drive",
     workers: int | None = 1,
+    holds: Sequence[Mapping[str, float]] = ({},),
 ) -> list[dict[str, Any]]:
-    """Held-out φ/θ RMSE [rad] of each steer-law form for each shell model in ``models``.
+    """Held-out φ/θ RMSE [rad] of each steer-law form (and each candidate of ``holds``: parameters
+    held instead of fitted) for each shell model in ``models``.
 
     Two or more segments: leave one segment out, fit on the others, test on it. One segment: cut it
     into ``blocks`` consecutive blocks, each replayed from the logged state at its start; leave one
@@ -42,7 +46,7 @@ def cross_validate(
     :func:`steer_fit` does (``hydroelastic`` after ``injected`` keeps the fold's injected law), so
     nothing of the held-out segment reaches any fit. The (form, fold) fits run on ``workers``
     processes (:func:`~sphere_env.parallel.run_parallel`; 1: in this process).
-    Returns one row per (model, form, fold) with the held-out RMSE and the fit; a fold whose fit is
+    Returns one row per (model, form, hold, fold) with the held-out RMSE and the fit; a fold whose fit is
     refused (e.g. a law the robot cannot stand still with) gets RMSE ``inf`` and the reason under
     ``refused``, so that form is never chosen.
     """
@@ -68,8 +72,10 @@ def cross_validate(
             "steer_friction": steer_friction,
             "drive_friction": drive_friction,
             "max_nfev": max_nfev,
+            "hold": dict(hold),
         }
         for form in forms
+        for hold in holds
         for train, test in folds
     ]
     return [row for rows in run_parallel(_fold_job, jobs, workers=workers) for row in rows]
@@ -79,10 +85,11 @@ def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
     """One (form, fold) of :func:`cross_validate`: fit its models in order on the training segments
     (twins built here: Drake diagrams never cross processes) and score the held-out ones."""
     train, test, form, models, p0 = job["train"], job["test"], job["form"], job["models"], job["pressure_kpa"]
+    hold = dict(job.get("hold") or {})
     cur = ShellCalibration.from_dict(job["base"], source=job["source"])
     rows: list[dict[str, Any]] = []
     for i, model in enumerate(models):
-        where = {"model": model, "form": form, "fit_on": [t.name for t in train]}
+        where = {"model": model, "form": form, "held": hold, "fit_on": [t.name for t in train]}
         pool = TwinPool(model, job["steer_friction"], drive_friction=job["drive_friction"])
         try:
             fit = fit_shell(
@@ -96,6 +103,7 @@ def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
                 pool=pool,
                 require_convergence=False,
                 drive_friction=job["drive_friction"],
+                hold=hold,
             )
         except FitError as err:  # this model and every one fitted on top of it are refused
             return rows + [
@@ -119,15 +127,37 @@ def _fold_job(job: Mapping[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
-def choose_form(rows: Sequence[Mapping[str, Any]]) -> tuple[str, dict[str, float]]:
-    """The form with the least mean held-out φ RMSE (ties: fewer parameters, i.e. earlier in the list)."""
-    mean: dict[str, float] = {}
-    for form in dict.fromkeys(r["form"] for r in rows):
-        mean[form] = float(np.mean([r["rmse_phi_rad"] for r in rows if r["form"] == form]))
-    best = min(mean, key=lambda f: (round(mean[f], 4), list(STEER_LAW_FORMS).index(f)))
+def variant_label(form: str, held: Mapping[str, float] | None = None) -> str:
+    """How a (form, held parameters) candidate is named in reports: ``saturating`` or
+    ``saturating [amplitude_scale_rad=0.07]``."""
+    if not held:
+        return form
+    return f"{form} [{', '.join(f'{k}={v:g}' for k, v in held.items())}]"
+
+
+def choose_variant(rows: Sequence[Mapping[str, Any]]) -> tuple[str, dict[str, float], dict[str, float]]:
+    """The (form, held parameters) candidate with the least mean held-out φ RMSE; ties within 0.1 mrad
+    go to the form with fewer parameters (earlier in :data:`STEER_LAW_FORMS`), then to the candidate
+    listed first. Returns (form, held, mean held-out φ RMSE per :func:`variant_label`)."""
+    cands: dict[str, tuple[str, dict[str, float]]] = {}
+    for r in rows:
+        cands.setdefault(variant_label(r["form"], r.get("held")), (r["form"], dict(r.get("held") or {})))
+    mean = {
+        label: float(np.mean([r["rmse_phi_rad"] for r in rows if variant_label(r["form"], r.get("held")) == label]))
+        for label in cands
+    }
+    order = list(cands)
+    best = min(mean, key=lambda k: (round(mean[k], 4), list(STEER_LAW_FORMS).index(cands[k][0]), order.index(k)))
     if not math.isfinite(mean[best]):
         raise FitError(f"no steer-law form could be fitted: {[r.get('refused') for r in rows]}")
-    return best, mean
+    return cands[best][0], cands[best][1], mean
+
+
+def choose_form(rows: Sequence[Mapping[str, Any]]) -> tuple[str, dict[str, float]]:
+    """The form with the least mean held-out φ RMSE (ties: fewer parameters, i.e. earlier in the list);
+    :func:`choose_variant` without held parameters."""
+    form, _, mean = choose_variant(rows)
+    return form, mean
 
 
 def steer_fit(
@@ -142,6 +172,7 @@ def steer_fit(
     log_to=None,
     hold_out_windows: bool = True,
     workers: int | None = 1,
+    holds: Sequence[Mapping[str, float]] = ({},),
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """What ``steer-fit`` does: fit each shell model in ``models`` on ``logs``, in order, each on top of
     the previous one's calibration (``hydroelastic`` after ``injected`` keeps the injected ω_n, ζ and
@@ -153,13 +184,16 @@ def steer_fit(
     slightly optimistic: the form was picked on them). Returns (calibration mapping, record of the
     fit: per model its parameters, 95 % intervals and ``unidentified`` ones; under
     ``leave_one_window_out`` each window's held-out RMSE); ``log_to`` (e.g. ``print``) receives a
-    readable account. ``workers``: processes for the cross-validation folds.
+    readable account. ``workers``: processes for the cross-validation folds. ``holds``: candidate
+    sets of parameters held instead of fitted (name -> value); with several forms or several
+    candidates, the (form, hold) pair is chosen by held-out error as a form alone is, and the chosen
+    hold is recorded under ``held`` (each model's held values under ``models.<model>.held``).
     """
     say = log_to or (lambda *_: None)
     record: dict[str, Any] = {"fit_on": [log.name for log in logs], "pressure_kpa": pressure_kpa, "models": {}}
-    form = forms[0]
+    form, hold = forms[0], dict(holds[0])
     form_rows: list[dict[str, Any]] = []
-    if "injected" in models and len(forms) > 1:
+    if "injected" in models and len(forms) * len(holds) > 1:
         form_rows = cross_validate(
             logs,
             forms,
@@ -169,16 +203,19 @@ def steer_fit(
             max_nfev=max_nfev,
             drive_friction=drive_friction,
             workers=workers,
+            holds=holds,
         )
-        form, mean = choose_form(form_rows)
+        form, hold, mean = choose_variant(form_rows)
         say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
         for r in form_rows:
             say(
-                f"  {r['form']:10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+                f"  {variant_label(r['form'], r.get('held')):10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
                 f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}"
             )
-        say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> form {form!r}")
+        say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> {variant_label(form, hold)!r}")
         record["form_cross_validation"] = [_cv_row(r) for r in form_rows]
+    if hold:
+        record["held"] = dict(hold)
     raw = dict(base.raw)
     for model in models:
         cur = ShellCalibration.from_dict(raw, source=base.source)
@@ -193,6 +230,7 @@ def steer_fit(
             form=form if model == "injected" else None,
             max_nfev=max_nfev,
             drive_friction=drive_friction,
+            hold=hold,
         )
         raw = fit.calibration
         say(
@@ -205,10 +243,13 @@ def steer_fit(
                 + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
                 + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else "")
             )
+        for k, v in fit.held.items():
+            say(f"  {k} = {v:.5g}  held (not fitted)")
         record["models"][model] = dict(fit.as_dict(), pool=pool)
     if hold_out_windows and len(logs) >= 2:
+        chosen = variant_label(form, hold)
         if tuple(models) == ("injected",) and form_rows:
-            rows = [r for r in form_rows if r["form"] == form]
+            rows = [r for r in form_rows if variant_label(r["form"], r.get("held")) == chosen]
         else:
             rows = cross_validate(
                 logs,
@@ -220,8 +261,9 @@ def steer_fit(
                 models=models,
                 drive_friction=drive_friction,
                 workers=workers,
+                holds=(hold,),
             )
-        say(f"leave-one-window-out (form {form!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
+        say(f"leave-one-window-out ({chosen!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
         for r in rows:
             say(
                 f"  {r['model']:12s} {'+'.join(r['fit_on'])} -> {r['test']}: "
@@ -273,5 +315,7 @@ def jackknife_ci95(full: Mapping[str, float], folds: Sequence[Mapping[str, float
 def _cv_row(row: Mapping[str, Any]) -> dict[str, Any]:
     """A cross-validation row as recorded in a calibration file (no fitted mappings, the refusal kept)."""
     return {
-        k: row[k] for k in ("model", "form", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad", "refused") if k in row
+        k: row[k]
+        for k in ("model", "form", "held", "fit_on", "test", "rmse_phi_rad", "rmse_theta_rad", "refused")
+        if k in row and (k != "held" or row[k])
     }
