@@ -304,7 +304,9 @@ def cmd_validate(args) -> int:
     )
     print(validation_table(rows))
     if args.json:
-        write_records(args.json, rows)
+        from sphere_env.models.shell import ShellCalibration
+
+        write_records(args.json, rows, ShellCalibration.load(args.calibration).raw)
         print(f"wrote {args.json}")
     if args.plot:
         plot_overlays(args.plot, logs, rows)

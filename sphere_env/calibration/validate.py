@@ -175,10 +175,52 @@ def validate(
     return run_parallel(_validate_job, jobs, workers=workers)
 
 
-def write_records(path: str | Path, rows: Sequence[ValidationRow]) -> Path:
-    """Write ``[row.record() ...]`` as JSON, atomically (temp file in the same folder, then rename)."""
-    path = Path(path)
-    return write_text_atomic(path, json.dumps([r.record() for r in rows], indent=1) + "\n")
+#: What :func:`fit_record` copies from a calibration's ``steer_fit.models.<model>`` record.
+FIT_FIELDS = ("form", "params", "held", "ci95", "ci95_over_windows", "unidentified", "held_out_rmse_rad")
+
+
+def fit_record(calibration: Mapping[str, Any], model: str) -> dict[str, Any] | None:
+    """How the calibration's ``model`` (``injected``, ``hydroelastic``) was fitted, for ``validate
+    --json``: the windows it was fitted on (``fit_on``), its parameters with their 95 % intervals
+    (``ci95``; over windows, ``ci95_over_windows``, where left-one-out folds ran), the parameters
+    marked ``unidentified`` or ``held``, and each window's held-out error (``held_out_rmse_rad``).
+    Read from the file's ``steer_fit`` record (written by ``steer-fit``) or, for a file fitted
+    before that record existed, its ``provenance.<model>_fit`` entry (with the form choice's
+    held-out errors, ``provenance.form_choice``, as ``cross_validation``). None: no record of a fit
+    (``point`` has nothing fitted; a hand-written calibration)."""
+    sf = calibration.get("steer_fit") or {}
+    if model in (sf.get("models") or {}):
+        rec = sf["models"][model]
+        return {"fit_on": list(sf.get("fit_on") or []), **{k: rec[k] for k in FIT_FIELDS if k in rec}}
+    prov = (calibration.get("provenance") or {}).get(f"{model}_fit")
+    if isinstance(prov, Mapping) and "fit_on" in prov:
+        out = {"fit_on": list(prov["fit_on"])}
+        out.update({k: prov[k] for k in ("form", "ci95") if k in prov})
+        if "values" in prov:
+            out["params"] = prov["values"]
+        choice = calibration["provenance"].get("form_choice")
+        if model == "injected" and isinstance(choice, Mapping):
+            out["cross_validation"] = dict(choice)
+        return out
+    return None
+
+
+def write_records(
+    path: str | Path, rows: Sequence[ValidationRow], calibration: Mapping[str, Any] | None = None
+) -> Path:
+    """Write ``[row.record() ...]`` as JSON, atomically (temp file in the same folder, then rename).
+    With the ``calibration`` mapping the rows ran with, each row of a fitted model also carries
+    ``fit`` (:func:`fit_record`) and ``held_out``: whether its trial was left out of that fit (so
+    its RMSE is a test, not a fit); null where the calibration records no fit."""
+    out = []
+    for r in rows:
+        rec = r.record()
+        if calibration is not None and r.model != "point":
+            fit = fit_record(calibration, r.model)
+            rec["held_out"] = None if fit is None else r.trial not in fit["fit_on"]
+            rec["fit"] = fit
+        out.append(rec)
+    return write_text_atomic(Path(path), json.dumps(out, indent=1) + "\n")
 
 
 def _limit_text(value: Any) -> Any:

@@ -146,3 +146,40 @@ def test_free_release_window_validates_to_records(roboball_dir, tmp_path):
     assert "pme_percent" not in rec  # flat ground
     assert rec["omega_d_derived_from"] == "pendulum_pitch_rate - drive_rate"
     assert 0.0 < rec["rmse_phi_rad"] < 1.0 and 0.0 < rec["rmse_theta_rad"] < 2.0
+
+
+@pytest.mark.parametrize(
+    "calibration, fit_on", [("free_robot", ["free_release", "push_1", "push_2", "push_3"]), ("default", None)]
+)
+def test_json_records_say_how_the_calibration_was_fitted_and_which_trials_it_saw(
+    logs_dir, tmp_path, calibration, fit_on
+):
+    """Each fitted model's record carries the calibration's fit (windows, intervals, held-out errors)
+    and whether its trial was held out of that fit; point contact has nothing fitted."""
+    from sphere_env.models.shell import ShellCalibration
+
+    raw = ShellCalibration.load(calibration).raw
+    fit_on = fit_on or raw["provenance"]["injected_fit"]["fit_on"]
+    man = write_manifest(
+        logs_dir / f"m_fit_{calibration}.yaml",
+        [
+            {"name": fit_on[0], "file": "sf.csv", "fixture": "steer_plane", "group": "g"},
+            {"name": "unseen", "file": "sf.csv", "fixture": "steer_plane", "group": "g"},
+        ],
+    )
+    out = tmp_path / "v.json"
+    argv = ["validate", "--manifest", str(man), "--models", "point", "injected", "hydroelastic"]
+    assert main([*argv, "--calibration", calibration, "--drive-friction", "none", "--json", str(out)]) == 0
+    recs = {(r["trial"], r["model"]): r for r in json.loads(out.read_text())}
+    assert "fit" not in recs[(fit_on[0], "point")] and "held_out" not in recs[(fit_on[0], "point")]
+    for model in ("injected", "hydroelastic"):
+        seen, unseen = recs[(fit_on[0], model)], recs[("unseen", model)]
+        assert seen["held_out"] is False and unseen["held_out"] is True
+        assert seen["fit"]["fit_on"] == fit_on and seen["fit"]["ci95"]
+    if "steer_fit" in raw:
+        rec = raw["steer_fit"]["models"]["injected"]
+        fit = recs[("unseen", "injected")]["fit"]
+        assert fit["ci95_over_windows"] == rec["ci95_over_windows"]
+        assert fit["unidentified"] == rec["unidentified"] and fit["held_out_rmse_rad"] == rec["held_out_rmse_rad"]
+    else:
+        assert recs[("unseen", "injected")]["fit"]["cross_validation"]["held_out_phi_rad"]
