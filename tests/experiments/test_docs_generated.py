@@ -67,3 +67,15 @@ def test_every_results_page_is_generated():
     assert results_pages and results_pages <= set(PAGES), results_pages - set(PAGES)
     for page in PAGES:
         assert (ROOT / page).is_file(), page
+
+
+def test_fidelity_aims_flag_a_wide_interval_that_is_not_marked_unidentified():
+    from sphere_env.evaluation.experiments.docs.calibration import _wide_unmarked
+
+    rec = {"params": {"a": 1.0, "b": 0.1}, "ci95": {"a": (0.9, 1.1), "b": (-0.1, 0.3)}, "unidentified": {}}
+    cal = {"steer_fit": {"models": {"injected": rec}}}
+    assert _wide_unmarked(cal) == ["injected b"]
+    rec["unidentified"] = {"b": "95 % interval wider than |value|"}
+    assert _wide_unmarked(cal) == []
+    old = {"provenance": {"hydroelastic_fit": {"values": {"f": 0.2}, "ci95": {"f": (0.0, 0.5)}}}}
+    assert _wide_unmarked(old) == ["hydroelastic f"]

@@ -334,3 +334,84 @@ def setup_transfer_pressure(res: Results) -> str:
         f"{'; '.join(parts)} (the calibration's ω_n curve rises {slope:g} rad/s per kPa from "
         f"{p0:g} kPa; its calibrated range is {lo:g}–{hi:g} kPa)"
     )
+
+
+def _wide_unmarked(cal: dict) -> list[str]:
+    """Parameters of a shipped calibration whose recorded 95 % interval (the Jacobian's, and over
+    windows where recorded) is wider than |value| without being marked ``unidentified``."""
+    out = []
+    for model, rec in ((cal.get("steer_fit") or {}).get("models") or {}).items():
+        for kind in ("ci95", "ci95_over_windows"):
+            for k, (lo, hi) in (rec.get(kind) or {}).items():
+                if hi - lo > abs(rec["params"][k]) and k not in rec.get("unidentified", {}):
+                    out.append(f"{model} {k}")
+    for model in ("injected", "hydroelastic"):
+        prov = (cal.get("provenance") or {}).get(f"{model}_fit") or {}
+        for k, (lo, hi) in (prov.get("ci95") or {}).items():
+            if hi - lo > abs(prov["values"][k]):
+                out.append(f"{model} {k}")
+    return out
+
+
+@renders("fidelity_aims")
+def fidelity_aims(res: Results) -> str:
+    """The fidelity aims, each against what the shared logs give (README's calibration section)."""
+    v, pp = _validation(res), _pressures(res)
+    rows = []
+    lowo = res.calibration("free_robot")["steer_fit"]["models"]
+    worst = {
+        m: (
+            max(e["phi"] for e in r["held_out_rmse_rad"].values()),
+            max(e["theta"] for e in r["held_out_rmse_rad"].values()),
+        )
+        for m, r in lowo.items()
+    }
+    ok = all(p <= AIM_FREE_PHI and t <= AIM_FREE_THETA for p, t in worst.values())
+    rows.append(
+        [
+            f"free robot, each of the 4 windows held out: φ ≤ {AIM_FREE_PHI:g}, θ ≤ {AIM_FREE_THETA:g} rad",
+            "; ".join(f"{m} worst {p:.3f} / {t:.3f}" for m, (p, t) in worst.items()),
+            "met" if ok else "**not met**",
+        ]
+    )
+    sf = {m: max(_held_out(x, "rmse_phi_rad") for x in _xval(v, "steer_free", m)) for m in ("injected", "hydroelastic")}
+    rows.append(
+        [
+            f"steer_free, fit on one trial, φ ≤ {AIM_HELD_OUT_PHI:g} rad on the other, each way",
+            "; ".join(f"{m} worse way {x:.3f}" for m, x in sf.items()),
+            "met"
+            if max(sf.values()) <= AIM_HELD_OUT_PHI
+            else "**not met** (docs/calibration.md: the trials' rest angles differ)",
+        ]
+    )
+    cross = max(next(iter(x["rmse_rad"].values()))["phi"] for x in pp["steer_free_cross"])
+    rows.append(
+        [
+            "… with the other trial's pressure estimated (one number per log)",
+            f"worse way {cross:.3f}",
+            "met" if cross <= AIM_HELD_OUT_PHI else "**not met**",
+        ]
+    )
+    wide = [f"{name}: {p}" for name in ("default", "free_robot") for p in _wide_unmarked(res.calibration(name))]
+    rows.append(
+        [
+            "no shipped parameter with a 95 % interval wider than its value unless marked `unidentified`",
+            "none" if not wide else ", ".join(wide),
+            "met" if not wide else "**not met**",
+        ]
+    )
+    one = AIM_FREE_PHI
+    best = {}
+    for r in pp["rows"]:
+        key = (r["calibration"], r["model"])
+        phi = max(e["phi"] for e in r["rmse_rad"].values())
+        best[key] = max(best.get(key, 0.0), phi)
+    (cal, model), phi = min(best.items(), key=lambda kv: kv[1])
+    rows.append(
+        [
+            f"one calibration, a pressure per log: every steer_free trial and free-robot window φ ≤ {one:g} rad",
+            f"best: `{cal}` {model}, worst window {phi:.3f}",
+            "met" if phi <= one else "**not met** (docs/calibration.md: the setups want different law shapes)",
+        ]
+    )
+    return table(["aim", "measured [rad]", "status"], rows)
