@@ -45,38 +45,23 @@ def test_check_hold_names_the_parameter_the_value_and_what_is_allowed():
 
 def test_a_held_parameter_is_not_fitted_and_the_others_are(tmp_path):
     """Held at its true value, φ_a stays exactly there and the amplitude stiffness is recovered;
-    held at twice its value, the same fit cannot follow the log as well: the hold takes effect."""
+    held at twice its value, the same fit cannot follow the log as well: the hold takes effect.
+    The fitted parameters are the form's own without the held one (no ``params`` given)."""
     log = _log(tmp_path, "a", 0.38)
     base = ShellCalibration.from_dict(TRUTH)
-    params = ("zeta", "rest_angle_rad", "amplitude_stiffness_nm_per_rad")
     start = {"amplitude_stiffness_nm_per_rad": 60.0, "zeta": 0.2, "rest_angle_rad": 0.0}
-    right = fit_shell(
-        [log],
-        "injected",
-        P,
-        base=base,
-        form="saturating",
-        params=params,
-        start=start,
-        hold={"amplitude_scale_rad": PHI_A},
-        max_nfev=30,
-    )
+
+    def fit_with(phi_a: float):
+        hold = {"amplitude_scale_rad": phi_a}
+        return fit_shell([log], "injected", P, base=base, form="saturating", start=start, hold=hold, max_nfev=30)
+
+    right = fit_with(PHI_A)
     assert right.held == {"amplitude_scale_rad": PHI_A}
-    assert "amplitude_scale_rad" not in right.params and "amplitude_scale_rad" not in right.ci95
+    assert set(right.ci95) == {"omega_n", "zeta", "rest_angle_rad", "amplitude_stiffness_nm_per_rad"}
     assert right.calibration["steer_law"]["amplitude_scale_rad"] == PHI_A
     assert right.params["amplitude_stiffness_nm_per_rad"] == pytest.approx(100.0, rel=0.05)
     assert right.as_dict()["held"] == {"amplitude_scale_rad": PHI_A}
-    wrong = fit_shell(
-        [log],
-        "injected",
-        P,
-        base=base,
-        form="saturating",
-        params=params,
-        start=start,
-        hold={"amplitude_scale_rad": 2 * PHI_A},
-        max_nfev=30,
-    )
+    wrong = fit_with(2 * PHI_A)
     assert wrong.calibration["steer_law"]["amplitude_scale_rad"] == 2 * PHI_A
     assert wrong.rmse["a"]["phi"] > 3 * right.rmse["a"]["phi"]
 
