@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import zlib
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -41,24 +42,25 @@ def shell_scores(runs: Sequence[Mapping[str, Any]]) -> np.ndarray:
 
 def interval_estimates(scores: Mapping[str, np.ndarray], seed: int = 0) -> dict[str, dict[str, list[float]]]:
     """rliable's IQM and mean with 95 % stratified-bootstrap intervals, per key of ``scores``
-    (each a runs × tasks array)."""
+    (each a runs × tasks array). Each key's bootstrap has its own stream, seeded from ``seed`` and
+    the key, so one recipe's interval does not move when another recipe gains runs."""
     from rliable import library as rly
     from rliable import metrics
 
     def agg(x: np.ndarray) -> np.ndarray:
         return np.array([metrics.aggregate_iqm(x), metrics.aggregate_mean(x)])
 
-    np.random.seed(seed)  # rliable's bootstrap draws from numpy's global generator
-    point, ci = rly.get_interval_estimates(dict(scores), agg, reps=BOOTSTRAP_REPS)
-    return {
-        k: {
+    out = {}
+    for k, x in scores.items():
+        np.random.seed((seed + zlib.crc32(str(k).encode())) % 2**32)  # rliable draws from numpy's global generator
+        point, ci = rly.get_interval_estimates({k: x}, agg, reps=BOOTSTRAP_REPS)
+        out[k] = {
             "iqm": float(point[k][0]),
             "iqm_ci": [float(ci[k][0, 0]), float(ci[k][1, 0])],
             "mean": float(point[k][1]),
             "mean_ci": [float(ci[k][0, 1]), float(ci[k][1, 1])],
         }
-        for k in scores
-    }
+    return out
 
 
 def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any]) -> list[dict[str, Any]]:

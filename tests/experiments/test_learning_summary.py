@@ -199,3 +199,15 @@ def test_the_study_tells_per_task_where_conditions_differ_and_where_not():
     assert by_task["hydroelastic"]["tells"] and 0.3 < lo < by_task["hydroelastic"]["mean_diff"] < hi < 0.5
     table = study_task_markdown(rows)
     assert table.count("**") == 2 and "a − b (10 vs 10 runs)" in table
+
+
+def test_a_recipes_interval_does_not_move_when_another_recipe_gains_runs():
+    from sphere_env.evaluation.experiments.learning_summary import interval_estimates
+
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(size=(5, 3)), rng.uniform(size=(5, 3))
+    alone = interval_estimates({"a": a})
+    with_b = interval_estimates({"b": b, "a": a})
+    with_more_b = interval_estimates({"b": np.vstack([b, b[:2]]), "a": a})
+    assert alone["a"] == with_b["a"] == with_more_b["a"]
+    assert with_b["b"] != with_more_b["b"]
