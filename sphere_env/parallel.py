@@ -9,10 +9,12 @@ builds its own Drake diagrams: pydrake objects are never shipped between process
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import signal
-from concurrent.futures import ProcessPoolExecutor
+import threading
+from concurrent.futures import InvalidStateError, ProcessPoolExecutor
 from multiprocessing import get_context
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
@@ -65,10 +67,15 @@ def run_parallel(
         from tqdm import tqdm
 
         it = tqdm(it, total=len(jobs))
+    hook = threading.excepthook
     try:
         return list(it)
     except BaseException:
         if n > 1 and len(jobs) > 1:  # an error or an interrupt: stop the workers now, not after their jobs
+            # The executor's manager thread may still be handed the result of a job whose future was
+            # just cancelled; Python 3.11 then raises InvalidStateError in that thread, which printed a
+            # traceback over the interrupt's one-line message. Nothing is lost: the job was cancelled.
+            threading.excepthook = functools.partial(_unless_cancelled, hook)
             procs = list((getattr(pool, "_processes", None) or {}).values())  # no public terminate before 3.14
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in procs:
@@ -78,7 +85,15 @@ def run_parallel(
         raise
     finally:
         if n > 1 and len(jobs) > 1:
-            pool.shutdown()
+            pool.shutdown()  # joins the manager thread, so the hook below is no longer needed
+            threading.excepthook = hook
+
+
+def _unless_cancelled(hook, args) -> None:
+    """``threading.excepthook`` that drops an executor thread's InvalidStateError (a result for a
+    cancelled future) and passes everything else to ``hook``."""
+    if not isinstance(args.exc_value, InvalidStateError):
+        hook(args)
 
 
 @contextlib.contextmanager

@@ -53,3 +53,21 @@ def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
     assert not [p for p in workers if alive(p)], "worker processes outlived the evaluation"
     assert not list(tmp_path.iterdir()), "a staging or output folder was left behind"
     os.sync()
+
+
+def test_an_executor_threads_cancelled_result_error_is_dropped_and_others_are_not():
+    """The pool's stop path hides only InvalidStateError (a result for a cancelled future) raised in
+    the executor's thread; any other thread error still reaches the previous hook."""
+    import threading
+    from concurrent.futures import InvalidStateError
+
+    from sphere_env.parallel import _unless_cancelled
+
+    seen = []
+
+    def args(exc):
+        return threading.ExceptHookArgs((type(exc), exc, None, None))
+
+    _unless_cancelled(seen.append, args(InvalidStateError("CANCELLED")))
+    _unless_cancelled(seen.append, args(RuntimeError("real")))
+    assert [type(a.exc_value) for a in seen] == [RuntimeError]
