@@ -85,6 +85,11 @@ def cmd_steer_fit(args) -> int:
     if len(set(names_held)) < len(names_held):
         raise ValueError(f"--hold: a parameter is named twice in {names_held}; give one NAME=V1,V2,... per parameter")
     holds = [dict(zip(names_held, vals)) for vals in itertools.product(*(v for _, v in args.hold))]
+    if len(holds) > 1 and "injected" not in args.models:
+        raise ValueError(
+            f"--hold: {len(holds)} candidates are chosen on the injected model's held-out error, but --models "
+            f"is {args.models}; add injected or give one value per parameter"
+        )
     man, logs = _trials(args, required=("phi", "theta"))
     base = ShellCalibration.load(args.base)
     p0 = base.check_pressure(

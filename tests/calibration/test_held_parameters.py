@@ -125,6 +125,7 @@ def test_steer_fit_chooses_a_held_value_by_held_out_error_and_records_it(tmp_pat
         (["amplitude_scale_rad"], "expected NAME=VALUE"),
         (["amplitude_scale_rad=0.07,x"], "could not convert"),
         (["zeta=0.2", "zeta=0.3"], "named twice"),
+        (["couple_damping_factor=0.2,0.4", "--models", "hydroelastic"], "2 candidates are chosen on the injected"),
     ],
 )
 def test_steer_fit_refuses_a_bad_hold_before_anything_runs(tmp_path, capsys, hold, message):
