@@ -177,6 +177,17 @@ def compared(scores: Mapping[str, Mapping[str, np.ndarray]], grid: str):
     return have, [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
 
 
+def chose_budget_end(run: Mapping[str, Any]) -> bool:
+    """Whether a run's validation chose a checkpoint at the end of its budget (its last checkpoint
+    or its final model, within 1 % of the last candidate's steps): its success was still rising
+    when training stopped, so at that budget the run is under-trained rather than converged."""
+    sel = run.get("selected") or {}
+    if not sel.get("candidates"):
+        return False
+    last = max(sel["candidates"])
+    return last - sel["checkpoint_steps"] <= 0.01 * last
+
+
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
     """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the nominal
     grid's scores (runs × shells) and the fault grid's (runs × faults), each run by its

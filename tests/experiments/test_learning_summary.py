@@ -211,3 +211,15 @@ def test_a_recipes_interval_does_not_move_when_another_recipe_gains_runs():
     with_more_b = interval_estimates({"b": np.vstack([b, b[:2]]), "a": a})
     assert alone["a"] == with_b["a"] == with_more_b["a"]
     assert with_b["b"] != with_more_b["b"]
+
+
+def test_a_run_chose_its_budget_end_only_when_its_last_checkpoint_or_final_model_was_chosen():
+    """The last checkpoint, or the final model a few steps past it, is the budget's end; an earlier
+    checkpoint is not, and a run without candidates (no validation) never counts."""
+    from sphere_env.evaluation.experiments.learning_summary import chose_budget_end
+
+    cands = [1_800_000, 1_900_000, 2_000_000, 2_015_232]
+    assert chose_budget_end({"selected": {"checkpoint_steps": 2_015_232, "candidates": cands}})
+    assert chose_budget_end({"selected": {"checkpoint_steps": 2_000_000, "candidates": cands}})
+    assert not chose_budget_end({"selected": {"checkpoint_steps": 1_900_000, "candidates": cands}})
+    assert not chose_budget_end({"success_rate": 0.5})

@@ -8,7 +8,7 @@ import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
 from sphere_env.evaluation.experiments.learning import PD_MARGIN
-from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS, STUDY_RECIPES
+from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS, STUDY_RECIPES, chose_budget_end
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
@@ -218,11 +218,17 @@ def randomization_study(res: Results) -> str:
     the pairs and tasks (shells, faults) whose mean-difference interval excludes 0."""
     s = _summary(res)
     runs: dict[str, int] = {}
+    at_end: dict[str, int] = {}
     for r in s["runs"]:
         if r["method"] in STUDY_RECIPES:
             runs[r["condition"]] = runs.get(r["condition"], 0) + 1
+            at_end[r["condition"]] = at_end.get(r["condition"], 0) + chose_budget_end(r)
     counts = ", ".join(f"{STUDY_CONDITIONS[c]} {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
-    out = [f"finished runs of the {STUDY_SEEDS} seeds per condition: {counts}"]
+    ends = ", ".join(f"{STUDY_CONDITIONS[c]} {at_end.get(c, 0)} of {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
+    out = [
+        f"finished runs of the {STUDY_SEEDS} seeds per condition: {counts}",
+        f"runs whose validation chose the end of their training budget (still improving when training stopped): {ends}",
+    ]
     rows = s.get("randomization_study") or []
     for grid in ("nominal", "faults"):
         iqm = [r for r in rows if r["grid"] == grid and "iqm" in r]
