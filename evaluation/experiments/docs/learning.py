@@ -240,20 +240,38 @@ def randomization_study(res: Results) -> str:
             for r in iqm
         )
         out.append(f"IQM on the {'nominal' if grid == 'nominal' else 'fault'} grid: {parts}")
+
+    def pair(p: str) -> str:
+        a, b = p.split(" − ")
+        return f"{STUDY_CONDITIONS[a]} − {STUDY_CONDITIONS[b]}"
+
+    diffs = [r for r in rows if "mean_diff" in r]
+    if diffs:
+        by_pair: dict[str, list[str]] = {}
+        for r in diffs:
+            lo, hi = r["mean_diff_ci"]
+            grid = "nominal grid" if r["grid"] == "nominal" else "fault grid"
+            by_pair.setdefault(r["condition"][2:-1].replace(" > ", " − "), []).append(
+                f"{grid} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}]"
+            )
+        out.append(
+            "mean success, difference of the means: "
+            + "; ".join(f"{pair(p)}: {', '.join(v)}" for p, v in by_pair.items())
+        )
+        wide = [r for r in diffs if not r["resolves_10_points"]]
+        out.append(
+            "every such interval's half-width is under 10 points, so a 10-point difference would show"
+            if not wide
+            else f"{len(wide)} of {len(diffs)} such intervals are 10 points wide or more on each side, too wide to show a 10-point difference"
+        )
     told = [r for r in s.get("randomization_study_by_task") or [] if r["tells"]]
     if told:
-
-        def pair(p: str) -> str:
-            a, b = p.split(" − ")
-            return f"{STUDY_CONDITIONS[a]} − {STUDY_CONDITIONS[b]}"
-
+        by_pair = {}
+        for r in told:
+            by_pair.setdefault(r["pair"], []).append(f"{r['task']} {100 * r['mean_diff']:+.0f}")
         out.append(
-            "mean differences whose interval excludes 0: "
-            + "; ".join(
-                f"{r['task']}: {pair(r['pair'])} {100 * r['mean_diff']:+.0f} points "
-                f"[{100 * r['mean_diff_ci'][0]:+.0f}, {100 * r['mean_diff_ci'][1]:+.0f}]"
-                for r in told
-            )
+            "shells and faults whose mean-difference interval excludes 0 (points; the intervals are in the "
+            "learning study's README): " + "; ".join(f"{pair(p)}: {', '.join(v)}" for p, v in by_pair.items())
         )
     elif s.get("randomization_study_by_task"):
         out.append("no mean difference of any shell or fault has an interval that excludes 0 yet")
