@@ -241,6 +241,7 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
                 {
                     "grid": grid,
                     "condition": f"P({a} > {b})",
+                    "pair": f"{a} − {b}",
                     "runs": f"{len(have[a])} vs {len(have[b])}",
                     "poi": float(point[key][0]),
                     "poi_ci": [float(ci[key][0, 0]), float(ci[key][1, 0])],

@@ -152,7 +152,7 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
         }
     )
     poi = {r["condition"]: r for r in rows if "poi" in r}
-    assert poi["P(a > b)"]["poi_ci"][0] > 0.5
+    assert poi["P(a > b)"]["poi_ci"][0] > 0.5 and poi["P(a > b)"]["pair"] == "a − b"
     assert poi["P(b > c)"]["poi_ci"][0] < 0.5 < poi["P(b > c)"]["poi_ci"][1]
     lo, hi = poi["P(a > b)"]["mean_diff_ci"]
     assert 0.2 < lo < poi["P(a > b)"]["mean_diff"] < hi < 0.4  # the 30-point gap, resolved

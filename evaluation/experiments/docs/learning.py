@@ -251,7 +251,7 @@ def randomization_study(res: Results) -> str:
         for r in diffs:
             lo, hi = r["mean_diff_ci"]
             grid = "nominal grid" if r["grid"] == "nominal" else "fault grid"
-            by_pair.setdefault(r["condition"][2:-1].replace(" > ", " − "), []).append(
+            by_pair.setdefault(r["pair"], []).append(
                 f"{grid} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}]"
             )
         out.append(
