@@ -214,8 +214,10 @@ STUDY_SEEDS = 10  # the seeds the study aims at per condition
 
 @renders("randomization_study")
 def randomization_study(res: Results) -> str:
-    """The randomization study as it stands: runs per condition, each grid's IQM per condition and
-    the pairs and tasks (shells, faults) whose mean-difference interval excludes 0."""
+    """The randomization study as it stands: runs per condition and how many chose the end of their
+    budget, each grid's IQM per condition, each pair's difference of mean success per grid and
+    whether its interval can show 10 points, and the shells and faults whose mean-difference
+    interval excludes 0."""
     s = _summary(res)
     runs: dict[str, int] = {}
     at_end: dict[str, int] = {}
