@@ -179,8 +179,8 @@ def compared(scores: Mapping[str, Mapping[str, np.ndarray]], grid: str):
 
 def chose_budget_end(run: Mapping[str, Any]) -> bool:
     """Whether a run's validation chose a checkpoint at the end of its budget (its last checkpoint
-    or its final model, within 1 % of the last candidate's steps): its success was still rising
-    when training stopped, so at that budget the run is under-trained rather than converged."""
+    or its final model, within 1 % of the last candidate's steps): the run was not past its best
+    when training stopped, so more steps may still have helped (a tie at full success also counts)."""
     sel = run.get("selected") or {}
     if not sel.get("candidates"):
         return False

@@ -229,7 +229,7 @@ def randomization_study(res: Results) -> str:
     ends = ", ".join(f"{STUDY_CONDITIONS[c]} {at_end.get(c, 0)} of {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
     out = [
         f"finished runs of the {STUDY_SEEDS} seeds per condition: {counts}",
-        f"runs whose validation chose the end of their training budget (still improving when training stopped): {ends}",
+        f"runs whose validation chose the end of their training budget (not past their best when training stopped): {ends}",
     ]
     rows = s.get("randomization_study") or []
     for grid in ("nominal", "faults"):
