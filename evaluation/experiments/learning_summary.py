@@ -208,6 +208,23 @@ def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict
     return {c: {k: np.array(v, dtype=float) for k, v in d.items()} for c, d in out.items()}
 
 
+#: The four things a difference's 95 % interval (first condition minus second) lets the study say.
+VERDICTS = ("higher", "lower", "within 10 points", "undecided")
+
+
+def verdict(ci: Sequence[float]) -> str:
+    """What the 95 % interval ``ci`` of a difference of mean success (first condition minus
+    second, as fractions) lets the study say: ``higher`` or ``lower`` where it excludes 0; where it
+    holds 0, ``within 10 points`` when it lies inside ±10 points (neither condition leads by 10
+    points), else ``undecided``: it rules out neither no difference nor a 10-point lead."""
+    lo, hi = ci
+    if lo > 0.0:
+        return "higher"
+    if hi < 0.0:
+        return "lower"
+    return "within 10 points" if lo > -0.10 and hi < 0.10 else "undecided"
+
+
 def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
     """The randomization study: per condition and grid, the number of runs and rliable's IQM and
     mean with 95 % stratified-bootstrap intervals; per pair of conditions, rliable's probability
@@ -248,6 +265,7 @@ def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str,
                     "mean_diff": float(point[key][1]),
                     "mean_diff_ci": diff_ci,
                     "resolves_10_points": bool((diff_ci[1] - diff_ci[0]) / 2 < 0.10),
+                    "verdict": verdict(diff_ci),
                 }
             )
     return rows
@@ -282,8 +300,7 @@ def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict
                         "runs": f"{len(have[a])} vs {len(have[b])}",
                         "mean_diff": float(np.ravel(point["d"])[0]),
                         "mean_diff_ci": [lo, hi],
-                        # "tells": the interval excludes 0; otherwise the two are not told apart
-                        "tells": bool(lo > 0.0 or hi < 0.0),
+                        "verdict": verdict((lo, hi)),
                     }
                 )
     return rows
@@ -291,16 +308,18 @@ def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict
 
 def study_task_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     """:func:`study_task_rows` as one table: a row per grid and task, a column per pair of
-    conditions, each cell the mean difference in points [95 % CI], in bold where the interval
-    excludes 0."""
+    conditions, each cell the mean difference in points [95 % CI] and its :func:`verdict`, in bold
+    where the interval excludes 0."""
     if not rows:
         return ""
     pairs = list(dict.fromkeys(r["pair"] for r in rows))
     table: dict[tuple[str, str], dict[str, str]] = {}
     for r in rows:
         lo, hi = r["mean_diff_ci"]
-        cell = f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}]"
-        table.setdefault((r["grid"], r["task"]), {})[r["pair"]] = f"**{cell}**" if r["tells"] else cell
+        cell = f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] {r['verdict']}"
+        table.setdefault((r["grid"], r["task"]), {})[r["pair"]] = (
+            f"**{cell}**" if r["verdict"] in ("higher", "lower") else cell
+        )
     runs = {r["pair"]: r["runs"] for r in rows}
     return markdown_table(
         [[grid, task, *(cells.get(p, "") for p in pairs)] for (grid, task), cells in table.items()],
@@ -366,13 +385,14 @@ def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
         return f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] ({'yes' if r['resolves_10_points'] else 'no'})"
 
     return markdown_table(
-        [[r["grid"], r["condition"], r["runs"], value(r), diff(r)] for r in study],
+        [[r["grid"], r["condition"], r["runs"], value(r), diff(r), r.get("verdict", "")] for r in study],
         [
             "grid",
             "condition",
             "runs",
             "IQM [95% CI] / P(improvement) [95% CI]",
             "mean difference, points [95% CI] (a 10-point difference would show)",
+            "first condition's mean success",
         ],
     )
 
@@ -474,8 +494,11 @@ def markdown(
                 study_markdown(study)
                 + (
                     "\n\nWhere they differ: the difference of mean success, in points, per shell of the nominal "
-                    "grid and per fault of the fault grid, with its 95 % bootstrap interval over runs; in bold "
-                    "where the interval excludes 0.\n\n" + study_task_markdown(study_tasks)
+                    "grid and per fault of the fault grid, with its 95 % bootstrap interval over runs and what "
+                    "that interval says of the first condition: higher or lower (in bold) where it excludes 0; "
+                    "within 10 points where it holds 0 and lies inside ±10 points, so neither condition leads "
+                    "by 10 points; undecided where it holds 0 and reaches past ±10 points, so it rules out "
+                    "neither no difference nor a 10-point one.\n\n" + study_task_markdown(study_tasks)
                     if study_tasks
                     else ""
                 )

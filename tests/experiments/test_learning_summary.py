@@ -181,8 +181,10 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
 
 def test_the_study_tells_per_task_where_conditions_differ_and_where_not():
     """Two conditions with the same runs' scores (in another order) on two shells and 40 points
-    apart on the third: only that shell's difference interval excludes 0, and it holds the 40
-    points."""
+    apart on the third: that shell's difference interval excludes 0 and holds the 40 points
+    (higher); the two alike shells' intervals hold 0 inside ±10 points (within 10 points). With
+    five widely spread runs alike in the mean, the interval holds 0 and reaches past ±10 points
+    (undecided)."""
     from sphere_env.evaluation.experiments.learning_summary import study_task_markdown, study_task_rows
 
     rng = np.random.default_rng(1)
@@ -194,11 +196,23 @@ def test_the_study_tells_per_task_where_conditions_differ_and_where_not():
     )
     by_task = {r["task"]: r for r in rows}
     assert [r["pair"] for r in rows] == ["a − b"] * 3  # no fault rows: neither condition has fault scores
-    assert not by_task["point"]["tells"] and not by_task["injected"]["tells"]
+    assert by_task["point"]["verdict"] == by_task["injected"]["verdict"] == "within 10 points"
     lo, hi = by_task["hydroelastic"]["mean_diff_ci"]
-    assert by_task["hydroelastic"]["tells"] and 0.3 < lo < by_task["hydroelastic"]["mean_diff"] < hi < 0.5
+    assert by_task["hydroelastic"]["verdict"] == "higher" and 0.3 < lo < by_task["hydroelastic"]["mean_diff"] < hi < 0.5
+    reversed_rows = study_task_rows(
+        {"a": {"nominal": b, "faults": np.zeros((0, 9))}, "b": {"nominal": a, "faults": np.zeros((0, 9))}}
+    )
+    assert next(r for r in reversed_rows if r["task"] == "hydroelastic")["verdict"] == "lower"
     table = study_task_markdown(rows)
-    assert table.count("**") == 2 and "a − b (10 vs 10 runs)" in table
+    assert table.count("**") == 2 and "a − b (10 vs 10 runs)" in table and "within 10 points" in table
+    spread = np.array([[0.2] * 3, [0.9] * 3, [0.5] * 3, [0.0] * 3, [1.0] * 3])
+    wide = study_task_rows(
+        {
+            "a": {"nominal": spread, "faults": np.zeros((0, 9))},
+            "b": {"nominal": spread[::-1], "faults": np.zeros((0, 9))},
+        }
+    )
+    assert all(r["verdict"] == "undecided" and r["mean_diff_ci"][0] < -0.1 for r in wide)
 
 
 def test_a_recipes_interval_does_not_move_when_another_recipe_gains_runs():

@@ -8,7 +8,7 @@ import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
 from sphere_env.evaluation.experiments.learning import PD_MARGIN
-from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS, STUDY_RECIPES, chose_budget_end
+from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS, STUDY_RECIPES, VERDICTS, chose_budget_end
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
@@ -214,10 +214,10 @@ STUDY_SEEDS = 10  # the seeds the study aims at per condition
 
 @renders("randomization_study")
 def randomization_study(res: Results) -> str:
-    """The randomization study as it stands: runs per condition and how many chose the end of their
-    budget, each grid's IQM per condition, each pair's difference of mean success per grid and
-    whether its interval can show 10 points, and the shells and faults whose mean-difference
-    interval excludes 0."""
+    """The randomization study as it stands, as a list: runs per condition and how many chose the
+    end of their budget, each grid's IQM per condition, each pair's difference of mean success per
+    grid with what its interval says and whether it can show 10 points, and per pair the shells and
+    faults by what their difference's interval says (:data:`VERDICTS`)."""
     s = _summary(res)
     runs: dict[str, int] = {}
     at_end: dict[str, int] = {}
@@ -228,8 +228,9 @@ def randomization_study(res: Results) -> str:
     counts = ", ".join(f"{STUDY_CONDITIONS[c]} {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
     ends = ", ".join(f"{STUDY_CONDITIONS[c]} {at_end.get(c, 0)} of {runs.get(c, 0)}" for c in STUDY_CONDITIONS)
     out = [
-        f"finished runs of the {STUDY_SEEDS} seeds per condition: {counts}",
-        f"runs whose validation chose the end of their training budget (not past their best when training stopped): {ends}",
+        f"Finished runs of the {STUDY_SEEDS} seeds per condition: {counts}.",
+        "Runs whose validation chose the end of their training budget (not past their best when training "
+        f"stopped): {ends}.",
     ]
     rows = s.get("randomization_study") or []
     for grid in ("nominal", "faults"):
@@ -241,7 +242,7 @@ def randomization_study(res: Results) -> str:
             f"{percent(r['iqm_ci'][1])}]"
             for r in iqm
         )
-        out.append(f"IQM on the {'nominal' if grid == 'nominal' else 'fault'} grid: {parts}")
+        out.append(f"IQM on the {'nominal' if grid == 'nominal' else 'fault'} grid: {parts}.")
 
     def pair(p: str) -> str:
         a, b = p.split(" − ")
@@ -254,29 +255,35 @@ def randomization_study(res: Results) -> str:
             lo, hi = r["mean_diff_ci"]
             grid = "nominal grid" if r["grid"] == "nominal" else "fault grid"
             by_pair.setdefault(r["pair"], []).append(
-                f"{grid} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}]"
+                f"{grid} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], {r['verdict']}"
             )
         out.append(
-            "mean success, difference of the means: "
-            + "; ".join(f"{pair(p)}: {', '.join(v)}" for p, v in by_pair.items())
+            "Difference of mean success, first condition minus second [95 % CI], and what the interval says "
+            "of the first:"
         )
+        out += [f"  - {pair(p)}: {'; '.join(v)}." for p, v in by_pair.items()]
         wide = [r for r in diffs if not r["resolves_10_points"]]
         out.append(
-            "every such interval's half-width is under 10 points, so a 10-point difference would show"
+            "Every such interval's half-width is under 10 points, so a 10-point difference would show."
             if not wide
-            else f"{len(wide)} of {len(diffs)} such intervals are 10 points wide or more on each side, too wide to show a 10-point difference"
+            else f"{len(wide)} of {len(diffs)} such intervals are 10 points wide or more on each side, too wide "
+            "to show a 10-point difference."
         )
-    told = [r for r in s.get("randomization_study_by_task") or [] if r["tells"]]
-    if told:
-        by_pair = {}
-        for r in told:
-            by_pair.setdefault(r["pair"], []).append(f"{r['task']} {100 * r['mean_diff']:+.0f}")
+    tasks = s.get("randomization_study_by_task") or []
+    if tasks:
+        by_task: dict[str, dict[str, list[str]]] = {}
+        for r in tasks:
+            told = r["verdict"] in ("higher", "lower")
+            named = f"{r['task']} {100 * r['mean_diff']:+.0f}" if told else r["task"]
+            by_task.setdefault(r["pair"], {}).setdefault(r["verdict"], []).append(named)
         out.append(
-            "shells and faults whose mean-difference interval excludes 0 (points; the intervals are in the "
-            "learning study's README): " + "; ".join(f"{pair(p)}: {', '.join(v)}" for p, v in by_pair.items())
+            "Per shell and per fault, what each difference's interval says of the first condition (with the "
+            "points where it excludes 0; the intervals are in the learning study's README):"
         )
-    elif s.get("randomization_study_by_task"):
-        out.append("no mean difference of any shell or fault has an interval that excludes 0 yet")
+        out += [
+            f"  - {pair(p)}: " + "; ".join(f"{v}: {', '.join(by_v[v])}" for v in VERDICTS if v in by_v) + "."
+            for p, by_v in by_task.items()
+        ]
     else:
-        out.append(f"the conditions are compared once two of them have {MIN_STUDY_RUNS} finished runs each")
-    return "; ".join(out)
+        out.append(f"The conditions are compared once two of them have {MIN_STUDY_RUNS} finished runs each.")
+    return "\n".join(ln if ln.startswith("  - ") else f"- {ln}" for ln in out)
