@@ -151,14 +151,16 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
 
 
 #: The randomization study's recipes, one per training condition (``recipes.yml``):
-#: curriculum_scheduled is the pressure condition. Other recipes (continuations, variants) are not independent
-#: runs of a condition and stay out of the study.
-STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults")
+#: curriculum_scheduled is the pressure condition; study_faults_4m, the fourth arm, is study_faults's
+#: runs continued to twice the budget. Other recipes (continuations, variants) are not runs of a
+#: condition and stay out of the study.
+STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults", "study_faults_4m")
 
 
-#: The study's conditions from the most randomized to the least: each pair is written first minus
-#: second, so a positive difference is what the added randomization bought.
-CONDITION_ORDER = ("pressure_faults", "pressure", "nominal")
+#: The study's conditions from the most randomized (and, for the fourth arm, the most trained) to the
+#: least: each pair is written first minus second, so a positive difference is what the added
+#: randomization or budget bought.
+CONDITION_ORDER = ("pressure_faults_4m", "pressure_faults", "pressure", "nominal")
 #: Runs a condition needs before the study compares it: a training claim rests on 5 seeds or more,
 #: and a bootstrap over 2 or 3 runs has too few distinct resamples for an interval.
 MIN_STUDY_RUNS = 5
@@ -480,9 +482,13 @@ def markdown(
             else ""
         )
         + (
-            "\n## Randomization study\n\nTraining conditions (each run's `condition`: nominal, pressure, "
-            "pressure_faults; the runs of the recipes " + ", ".join(f"`{r}`" for r in STUDY_RECIPES) + ", which "
-            "differ in their training randomization only), every run by its validation-chosen checkpoint, on the nominal grid (scores per shell) "
+            "\n## Randomization study\n\nTraining conditions (each run's `condition`: "
+            + ", ".join(CONDITION_ORDER[::-1])
+            + "; the runs of the recipes "
+            + ", ".join(f"`{r}`" for r in STUDY_RECIPES)
+            + ": the first three differ in their training randomization only, and the fourth arm, "
+            "pressure_faults_4m, is the pressure_faults runs continued to twice their budget), every run by "
+            "its validation-chosen checkpoint, on the nominal grid (scores per shell) "
             "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
             "each pair the probability that a run of the first condition beats one of the second (0.5: no "
             "difference; an interval that excludes 0.5 tells them apart) with the difference of their mean success "

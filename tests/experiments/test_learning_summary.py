@@ -237,3 +237,24 @@ def test_a_run_chose_its_budget_end_only_when_its_last_checkpoint_or_final_model
     assert chose_budget_end({"selected": {"checkpoint_steps": 2_000_000, "candidates": cands}})
     assert not chose_budget_end({"selected": {"checkpoint_steps": 1_900_000, "candidates": cands}})
     assert not chose_budget_end({"success_rate": 0.5})
+
+
+def test_each_pair_puts_the_more_randomized_or_longer_trained_condition_first():
+    """A positive difference reads as what the added randomization (or, for the fourth arm, the
+    doubled budget) bought: the pairs run from pressure_faults_4m to nominal whatever order the
+    conditions arrive in, a condition this order does not know comes last, and one with fewer than
+    5 runs is left out."""
+    from sphere_env.evaluation.experiments.learning_summary import compared
+
+    five = {"nominal": np.full((5, 3), 0.5), "faults": np.zeros((0, 9))}
+    four = {"nominal": np.full((4, 3), 0.5), "faults": np.zeros((0, 9))}
+    scores = {c: five for c in ("nominal", "other", "pressure", "pressure_faults_4m", "pressure_faults")}
+    have, pairs = compared({**scores, "few": four}, "nominal")
+    assert "few" not in have
+    assert pairs[:4] == [
+        ("pressure_faults_4m", "pressure_faults"),
+        ("pressure_faults_4m", "pressure"),
+        ("pressure_faults_4m", "nominal"),
+        ("pressure_faults_4m", "other"),
+    ]
+    assert pairs[-1] == ("nominal", "other") and len(pairs) == 10
