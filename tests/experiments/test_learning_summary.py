@@ -10,7 +10,8 @@ import pytest
 
 pytest.importorskip("rliable")
 
-from sphere_env.evaluation.experiments.learning_summary import interval_estimates, recipe_rows, write_summary
+from sphere_env.evaluation.experiments.intervals import interval_estimates
+from sphere_env.evaluation.experiments.learning_summary import recipe_rows, write_summary
 
 SHELLS = ("point", "injected", "hydroelastic")
 PD = {
@@ -138,7 +139,7 @@ def test_the_randomization_study_tells_conditions_apart_only_when_they_differ():
     alike: the first includes 0.5, the second 0. With 10 runs of this spread both intervals are
     narrow enough to show a 10-point difference; with 5 widely spread runs they are not, and a
     condition with fewer than 5 runs is not compared."""
-    from sphere_env.evaluation.experiments.learning_summary import study_rows
+    from sphere_env.evaluation.experiments.study_summary import study_rows
 
     rng = np.random.default_rng(0)
     low = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
@@ -185,7 +186,7 @@ def test_the_study_tells_per_task_where_conditions_differ_and_where_not():
     (higher); the two alike shells' intervals hold 0 inside ±10 points (within 10 points). With
     five widely spread runs alike in the mean, the interval holds 0 and reaches past ±10 points
     (undecided)."""
-    from sphere_env.evaluation.experiments.learning_summary import study_task_markdown, study_task_rows
+    from sphere_env.evaluation.experiments.study_summary import study_task_markdown, study_task_rows
 
     rng = np.random.default_rng(1)
     a = np.clip(0.5 + 0.05 * rng.standard_normal((10, 3)), 0, 1)
@@ -216,8 +217,6 @@ def test_the_study_tells_per_task_where_conditions_differ_and_where_not():
 
 
 def test_a_recipes_interval_does_not_move_when_another_recipe_gains_runs():
-    from sphere_env.evaluation.experiments.learning_summary import interval_estimates
-
     rng = np.random.default_rng(0)
     a, b = rng.uniform(size=(5, 3)), rng.uniform(size=(5, 3))
     alone = interval_estimates({"a": a})
@@ -230,7 +229,7 @@ def test_a_recipes_interval_does_not_move_when_another_recipe_gains_runs():
 def test_a_run_chose_its_budget_end_only_when_its_last_checkpoint_or_final_model_was_chosen():
     """The last checkpoint, or the final model a few steps past it, is the budget's end; an earlier
     checkpoint is not, and a run without candidates (no validation) never counts."""
-    from sphere_env.evaluation.experiments.learning_summary import chose_budget_end
+    from sphere_env.evaluation.experiments.study_summary import chose_budget_end
 
     cands = [1_800_000, 1_900_000, 2_000_000, 2_015_232]
     assert chose_budget_end({"selected": {"checkpoint_steps": 2_015_232, "candidates": cands}})
@@ -244,7 +243,7 @@ def test_each_pair_puts_the_more_randomized_or_longer_trained_condition_first():
     doubled budget) bought: the pairs run from pressure_faults_4m to nominal whatever order the
     conditions arrive in, a condition this order does not know comes last, and one with fewer than
     5 runs is left out."""
-    from sphere_env.evaluation.experiments.learning_summary import compared
+    from sphere_env.evaluation.experiments.study_summary import compared
 
     five = {"nominal": np.full((5, 3), 0.5), "faults": np.zeros((0, 9))}
     four = {"nominal": np.full((4, 3), 0.5), "faults": np.zeros((0, 9))}

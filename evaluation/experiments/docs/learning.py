@@ -8,7 +8,7 @@ import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
 from sphere_env.evaluation.experiments.learning import PD_MARGIN
-from sphere_env.evaluation.experiments.learning_summary import MIN_STUDY_RUNS, STUDY_RECIPES, VERDICTS, chose_budget_end
+from sphere_env.evaluation.experiments.study_summary import MIN_STUDY_RUNS, STUDY_RECIPES, VERDICTS, chose_budget_end
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
