@@ -9,7 +9,6 @@ that writes its results file under ``evaluation/results/``. No product module im
     python -m evaluation.experiments.learning run --recipe NAME --seeds 0 1 2 3 4
     python -m evaluation.experiments.learning summary
     python -m evaluation.experiments.log_noise
-    python -m evaluation.experiments.randomization_study
     python -m evaluation.experiments.robustness
     python -m evaluation.experiments.timestep_study
     python -m evaluation.experiments.tune_pd
