@@ -44,6 +44,8 @@ SHELL_FRICTION = 1.0
 
 #: The shell contact models (``docs/design.md`` §5).
 SHELL_MODELS = ("point", "injected", "hydroelastic")
+#: The shell calibrations shipped in ``assets/calibration`` (a randomization may draw among them).
+SHIPPED_CALIBRATIONS = ("default", "free_robot", "hydroelastic_fast", "v0_linear")
 
 
 @dataclass(frozen=True)
@@ -245,6 +247,32 @@ PARAMETERS: dict[str, Parameter] = dict(
             applied_by="twin",
             randomizable=True,
         ),
+        # The shell law's uncertainty (calibration-aware randomization): the calibrations report
+        # intervals for the fitted ω_n, ζ and amplitude stiffness, and the shipped calibrations of
+        # the one robot disagree by more (ShellCalibration.law_scale_intervals). Explicit torques:
+        # the twin's stability check covers the largest scales a spec can draw.
+        _p(
+            "shell_stiffness_scale",
+            "-",
+            1.0,
+            0.25,
+            4.0,
+            "step",
+            "× the shell's steer-direction spring (K_inject, amplitude and quadratic terms); point contact has none",
+            applied_by="twin",
+            randomizable=True,
+        ),
+        _p(
+            "shell_damping_scale",
+            "-",
+            1.0,
+            0.0,
+            4.0,
+            "step",
+            "× the shell's dampers (C_inject on the steer and drive directions); point contact has none",
+            applied_by="twin",
+            randomizable=True,
+        ),
         _p(
             "pressure_rate_kpa_per_s",
             "kPa/s",
@@ -326,6 +354,17 @@ PARAMETERS: dict[str, Parameter] = dict(
             30.0,
             "reset",
             "ground incline, downhill along +x_W; the contact models were checked up to 30°",
+            randomizable=True,
+        ),
+        _p(
+            "calibration",
+            "-",
+            None,
+            None,
+            None,
+            "reset",
+            "shell calibration (a shipped one, by name); nominal: the env's calibration kwarg",
+            choices=SHIPPED_CALIBRATIONS,
             randomizable=True,
         ),
         # ---- fixed when built ----

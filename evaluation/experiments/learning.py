@@ -246,6 +246,28 @@ def recipe_config(recipe: dict[str, Any], seed: int, trained_agent: Path | None 
     )
 
 
+def train_job(recipe_name: str, seed: int, runs_root: Path = RUNS) -> Path:
+    """Train one recipe × seed into its run folder, resuming an interrupted run, and evaluate
+    nothing (``run`` evaluates it later: a run at its budget is not trained again); returns the run
+    folder."""
+    import torch
+
+    from sphere_env.training.train import latest_checkpoint, train
+
+    torch.set_num_threads(1)
+    recipe = load_recipes()[recipe_name]
+    if recipe.get("continue_from"):
+        raise ValueError(f"--recipe {recipe_name}: a continuation; train it with run")
+    run_dir = runs_root / recipe_name / f"seed{seed}"
+    resume = (run_dir / "config.yaml").exists()
+    done = latest_checkpoint(run_dir) if resume else None
+    if done is not None and done[0] >= int(float(recipe["n_timesteps"])) and (run_dir / "timing.json").exists():
+        return run_dir
+    cfg = recipe_config(recipe, seed)
+    train(cfg, run_dir, resume=resume, progress_bar=False, command=["evaluation.experiments.learning", recipe_name])
+    return run_dir
+
+
 def run_job(
     recipe_name: str, seed: int, runs_root: Path = RUNS, results: Path = RESULTS, complete: bool = False
 ) -> Path:
@@ -347,7 +369,10 @@ def _commit() -> str:
 def _job(job: Mapping[str, Any]) -> str:
     name, seed = job["recipe"], job["seed"]
     try:
-        out = str(run_job(name, seed, complete=job.get("complete", False)))
+        if job.get("train_only"):
+            out = str(train_job(name, seed))
+        else:
+            out = str(run_job(name, seed, complete=job.get("complete", False)))
     except Exception as err:  # noqa: BLE001 - one failed job is reported, the others go on
         out = f"FAILED {name} seed {seed}: {type(err).__name__}: {err}"
     print(out, flush=True)
@@ -484,6 +509,11 @@ def main(argv: Sequence[str] | None = None) -> None:
         default=None,
         help="run the jobs on a Ray cluster (auto, ray://host:10001, or local); needs the ray extra",
     )
+    t = sub.add_parser("train", help="train recipe x seeds only (resumable); run evaluates them later")
+    t.add_argument("--recipe", nargs="+", required=True)
+    t.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    t.add_argument("--jobs", type=int, default=2, help="jobs at once, one core each")
+    t.add_argument("--ray-address", default=None, help="run the jobs on a Ray cluster")
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
     sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
@@ -521,7 +551,11 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     # seed by seed, each seed's recipes side by side, one job per worker at a time: a study stopped
     # part-way (a session's end) has its conditions at the same number of seeds
-    todo = [{"recipe": n, "seed": s, "complete": args.complete} for s in args.seeds for n in args.recipe]
+    todo = [
+        {"recipe": n, "seed": s, "complete": getattr(args, "complete", False), "train_only": args.cmd == "train"}
+        for s in args.seeds
+        for n in args.recipe
+    ]
     run_parallel(_job, todo, workers=args.jobs, ray_address=args.ray_address, chunksize=1)
 
 

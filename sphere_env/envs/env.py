@@ -32,7 +32,7 @@ from sphere_env.envs.twins import (
     shared_inclines,
     stability_problem,
 )
-from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
+from sphere_env.models.shell import SHELL_MODELS, ShellCalibration, calibration_name
 from sphere_env.params import ENV_PARAMETERS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
@@ -97,6 +97,9 @@ class SphereEnv(gym.Env, EzPickle):
         except ValueError as err:
             raise ValueError(f"{where}: field 'calibration' = {kw.calibration!r}: {err}") from None
         self._calibration_path = kw.calibration
+        self._contact_approximation = kw.contact_approximation
+        #: the shipped calibrations a randomization drew, loaded once each (by name)
+        self._shipped_calibrations: dict[str, ShellCalibration] = {}
         #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
         self.parameter_space = self.calibration.parameter_space()
         self.control_period_s = 1.0 / kw.control_frequency_hz
@@ -203,6 +206,7 @@ class SphereEnv(gym.Env, EzPickle):
             **{name: space.nominal(name) for name in TWIN_PARAMETERS + ENV_PARAMETERS},
             "incline_deg": self.incline_deg,
             "observation_noise_scale": self.observation_noise_scale,
+            "calibration": calibration_name(self._calibration_path),
         }
         return EventManager(spec, nominal, space, self._quantize_pressure, {"incline_deg": self._snap_incline})
 
@@ -250,8 +254,22 @@ class SphereEnv(gym.Env, EzPickle):
             calibration=self._calibration_path,
             inclines_deg=inclines_deg,
             pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
+            contact_approximation=self._contact_approximation,
         )
         return Twin(cfg, meshcat=self.meshcat)
+
+    def _use_calibration(self, twin: Twin, params: Mapping[str, Any]) -> None:
+        """Give ``twin`` the episode's shell calibration (``params["calibration"]``: a shipped one, or
+        the env's own ``calibration`` kwarg as :func:`calibration_name` gives it); no rebuild."""
+        name = params["calibration"]
+        own = calibration_name(self._calibration_path)
+        cal = self.calibration if name == own else self._shipped_calibrations.get(name)
+        if cal is None:
+            cal = self._shipped_calibrations[name] = ShellCalibration.load(name).extrapolated(
+                self.pressure_extrapolation_kpa
+            )
+        if twin.calibration.source != cal.source:
+            twin.set_calibration(cal, params["pressure_kpa"])
 
     @property
     def ramp_end_x_m(self) -> float:
@@ -355,6 +373,7 @@ class SphereEnv(gym.Env, EzPickle):
             self.twin.stop_recording()
         self.twin = twin
         twin.set_incline(params["incline_deg"])
+        self._use_calibration(twin, params)
         twin.apply(params)
         twin.reset(init)
         self._events, self._next_events = events, None

@@ -92,7 +92,10 @@ def _may_rise(rate) -> bool:
 def stability_problem(spec: RandomizationSpec, twins: list[Twin]) -> str | None:
     """Friction and injected shell torques are explicit: the largest friction scales ``spec`` can
     draw must not diverge at the time step of any of ``twins``; the first problem, or None."""
-    scales = (largest(spec, "steer_friction_scale"), largest(spec, "drive_friction_scale"))
+    scales = [
+        largest(spec, name)
+        for name in ("steer_friction_scale", "drive_friction_scale", "shell_stiffness_scale", "shell_damping_scale")
+    ]
     for twin in twins:
         problem = twin.explicit_stability_problem(*scales)
         if problem:

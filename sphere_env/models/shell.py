@@ -88,6 +88,14 @@ def calibration_file(calibration: str | Path | None) -> Path:
     return Path(calibration)
 
 
+def calibration_name(calibration: str | Path | None) -> str:
+    """How a parameter set names a calibration: a shipped one by its name (``None``: ``default``),
+    any other by its path."""
+    path = calibration_file(calibration)
+    shipped = asset_path("calibration", f"{path.stem}.yaml")
+    return path.stem if path.resolve() == Path(shipped).resolve() else str(calibration)
+
+
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:
     """Sphere–plane intersection volume V(p) [m³] from a membrane estimate (docs/design.md §5).
 
@@ -455,6 +463,41 @@ class BoundShell:
         """(K_inject [N m/rad], C_inject [N m s/rad]) at pressure p (eqs. 7–8)."""
         cal, r = self.calibration, self.robot
         return injected_gains(float(cal.omega_n(pressure_kpa)), float(cal.zeta(pressure_kpa)), r.M_eq, r.K_eq)
+
+    def law_scale_intervals(self) -> dict[str, tuple[float, float]]:
+        """The 95 % intervals of ``shell_stiffness_scale`` and ``shell_damping_scale`` (the
+        randomizable scales of the shell's springs and dampers, :mod:`sphere_env.params`) that the
+        calibration's own fit reports: its intervals of ω_n, ζ and the spring's amplitude or
+        quadratic stiffness, over windows where the fit has them (``steer_fit.models.injected.
+        ci95_over_windows``), else the fit's Jacobian ones (``provenance.injected_fit.ci95``),
+        mapped through eqs. 7-8 (K_inject = ω_n² M_eq − K_eq, C_inject = 2 M_eq ω_n ζ) at the fit's
+        own values. Empty when the calibration reports no interval."""
+        raw = self.calibration.raw or {}
+        fit = ((raw.get("steer_fit") or {}).get("models") or {}).get("injected") or {}
+        values, ci = fit.get("params"), fit.get("ci95_over_windows")
+        if not ci:
+            prov = (raw.get("provenance") or {}).get("injected_fit") or {}
+            values, ci = prov.get("values"), prov.get("ci95")
+        if not ci or not values:
+            return {}
+
+        def pick(d, *keys):
+            return next((d[k] for k in keys if k in d), None)
+
+        w, z = pick(values, "omega_n", "omega_n_rad_s"), pick(values, "zeta")
+        w_ci = pick(ci, "omega_n", "omega_n_rad_s") or (w, w)
+        z_ci = pick(ci, "zeta") or (z, z)
+        M, K_eq = self.robot.M_eq, self.robot.K_eq
+        K0, C0 = injected_gains(w, z, M, K_eq)
+        stiffness = [injected_gains(x, z, M, K_eq)[0] / K0 for x in w_ci]
+        for key in ("amplitude_stiffness_nm_per_rad", "quadratic_stiffness_nm_per_rad2"):
+            if key in ci and values.get(key):
+                stiffness += [x / values[key] for x in ci[key]]
+        damping = [injected_gains(x, y, M, K_eq)[1] / C0 for x, y in zip(w_ci, z_ci)]
+        return {
+            "shell_stiffness_scale": (float(min(stiffness)), float(max(stiffness))),
+            "shell_damping_scale": (float(min(damping)), float(max(damping))),
+        }
 
     def hydroelastic(self, pressure_kpa: float) -> tuple[float, float]:
         """(modulus [Pa], Hunt–Crossley dissipation [s/m]) at pressure p.

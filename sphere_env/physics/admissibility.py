@@ -10,6 +10,8 @@ centre sits from the ground (:data:`MAX_INITIAL_PENETRATION_M` inside it at the 
 
 from __future__ import annotations
 
+import math
+
 from typing import Any
 
 import numpy as np
@@ -74,13 +76,21 @@ class ExplicitStability:
             self.omega_n = float(np.max(calibration.omega_n(ps)))
             self.C = max(shell.injected_gains(float(p))[1] for p in ps)
 
-    def problem(self, steer_friction_scale: float = 1.0, drive_friction_scale: float = 1.0) -> str | None:
-        """Why the explicit torques would diverge at the configuration's time step, or ``None``."""
+    def problem(
+        self,
+        steer_friction_scale: float = 1.0,
+        drive_friction_scale: float = 1.0,
+        shell_stiffness_scale: float = 1.0,
+        shell_damping_scale: float = 1.0,
+    ) -> str | None:
+        """Why the explicit torques would diverge at the configuration's time step, or ``None``
+        (the shell's spring and dampers × their scales: ω_n grows as √ of the stiffness scale at most)."""
         dt = self.config.time_step_s
-        if self.omega_n is not None and self.omega_n * dt > INJECTED_OMEGA_DT_LIMIT:
+        omega_n = None if self.omega_n is None else self.omega_n * math.sqrt(max(shell_stiffness_scale, 1.0))
+        if omega_n is not None and omega_n * dt > INJECTED_OMEGA_DT_LIMIT:
             lo, hi = self.calibration.pressure_range_kpa
             return (
-                f"calibration: omega_n reaches {self.omega_n:.4g} rad/s over [{lo:g}, {hi:g}] kPa; the injected "
+                f"calibration: omega_n reaches {omega_n:.4g} rad/s over [{lo:g}, {hi:g}] kPa; the injected "
                 f"shell torques are explicit and diverge for omega_n·time_step_s > {INJECTED_OMEGA_DT_LIMIT:g}; "
                 f"allowed at time_step_s={dt:g} s: omega_n <= {INJECTED_OMEGA_DT_LIMIT / dt:.4g} rad/s"
             )
@@ -88,12 +98,12 @@ class ExplicitStability:
             slope, idx = self.joints[joint]
             if idx is None:
                 continue
-            injected = self.C if joint == "drive" and self.C is not None else 0.0
+            injected = self.C * shell_damping_scale if joint == "drive" and self.C is not None else 0.0
             damping = slope * scale + injected
             ratio = damping * dt * self.minv[idx]
             if ratio > EXPLICIT_DAMPING_LIMIT:
                 allowed = EXPLICIT_DAMPING_LIMIT / (dt * self.minv[idx])
-                extra = f" + injected C_inject {self.C:.4g}" if joint == "drive" and self.C is not None else ""
+                extra = f" + injected C_inject {injected:.4g}" if joint == "drive" and self.C is not None else ""
                 return (
                     f"friction_model: {joint} joint damping {damping:.4g} N m s/rad (friction law "
                     f"{getattr(self.config, joint + '_friction').law!r} peak slope {slope:.4g} × "

@@ -6,6 +6,7 @@ One function, :func:`build_diagram`, returns the built pieces as a :class:`TwinD
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,7 +23,12 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlantConfig
+from pydrake.multibody.plant import (
+    AddMultibodyPlant,
+    CoulombFriction,
+    DiscreteContactApproximation,
+    MultibodyPlantConfig,
+)
 from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, SpatialInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
@@ -102,13 +108,38 @@ def shell_properties(config: TwinConfig, shell: BoundShell, pressure_kpa: float)
     return props
 
 
+_log = logging.getLogger(__name__)
+
+
+def offered_contact_approximations() -> tuple[str, ...]:
+    """The discrete contact approximations the installed Drake offers (``tamsi``, deprecated in
+    Drake, may be gone from a later release)."""
+    return tuple(name[1:].lower() for name in dir(DiscreteContactApproximation) if name.startswith("k"))
+
+
+def contact_approximation(cfg: TwinConfig) -> str:
+    """The approximation the plant is built with: the config's, or the shell model's default
+    (:data:`DEFAULT_CONTACT_APPROXIMATION`). One the installed Drake no longer offers falls back to
+    ``sap``, the reference physics, with a one-line warning naming the reason."""
+    approx = cfg.contact_approximation or DEFAULT_CONTACT_APPROXIMATION[cfg.shell_model]
+    offered = offered_contact_approximations()
+    if approx not in offered:
+        _log.warning(
+            "contact_approximation=%r: not offered by the installed Drake (offers %s); using 'sap'",
+            approx,
+            ", ".join(offered),
+        )
+        return "sap"
+    return approx
+
+
 def build_diagram(
     config: TwinConfig, robot: RobotParameters, terrain: Terrain, shell_props: ProximityProperties, meshcat=None
 ) -> TwinDiagram:
     """Build plant + scene graph (+ friction/injected-shell systems, + Meshcat visualizer)."""
     cfg = config
     hydro = cfg.shell_model == "hydroelastic"
-    approx = cfg.contact_approximation or DEFAULT_CONTACT_APPROXIMATION[cfg.shell_model]
+    approx = contact_approximation(cfg)
     builder = DiagramBuilder()
     plant_config = MultibodyPlantConfig(
         time_step=cfg.time_step_s,

@@ -53,6 +53,10 @@ __all__ = [
 _log = logging.getLogger("sphere_env")
 
 
+#: The parameters whose change re-sets the force system's gain vector.
+_GAIN_PARAMETERS = ("steer_friction_scale", "drive_friction_scale", "shell_stiffness_scale", "shell_damping_scale")
+
+
 class Twin:
     """The robot in Drake, advanced in chunks like an environment would.
 
@@ -228,7 +232,7 @@ class Twin:
         shell gains with the friction scales already stored and snapshots a hydroelastic shell with
         the ground in force (the order the setters always had, so results stay bit-identical)."""
         self._params.update(changed)
-        if "steer_friction_scale" in changed or "drive_friction_scale" in changed:
+        if any(k in changed for k in _GAIN_PARAMETERS):
             self._apply_gains()
         if "ground_friction" in changed:
             self._ground_dirty = True  # pushed before the next reset, step or render
@@ -264,6 +268,10 @@ class Twin:
         if self._forces is None:  # bare plant
             return
         law = self.shell.law_gains(self.config.shell_model, self.pressure_kpa)
+        # the shell law's uncertainty: springs × shell_stiffness_scale, dampers × shell_damping_scale
+        # (LAW_GAIN_NAMES: K_inject, C_steer, C_drive, rest angle, amplitude torque, 1/scale, K_2)
+        k, c = self._params["shell_stiffness_scale"], self._params["shell_damping_scale"]
+        law = law * np.array([k, c, c, 1.0, k, 1.0, k])
         scales = np.array([self._params["steer_friction_scale"], self._params["drive_friction_scale"]])
         self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(np.concatenate([law, scales]))
 
@@ -342,7 +350,11 @@ class Twin:
 
     # ---- numerical admissibility ------------------------------------------------------------------
     def explicit_stability_problem(
-        self, steer_friction_scale: float = 1.0, drive_friction_scale: float = 1.0
+        self,
+        steer_friction_scale: float = 1.0,
+        drive_friction_scale: float = 1.0,
+        shell_stiffness_scale: float = 1.0,
+        shell_damping_scale: float = 1.0,
     ) -> str | None:
         """Why this twin's explicit torques would diverge at its time step, or ``None``.
 
@@ -358,7 +370,7 @@ class Twin:
             stability = self._stability = ExplicitStability(
                 self.plant, self._layout, self.config, self.calibration, self.shell
             )
-        return stability.problem(steer_friction_scale, drive_friction_scale)
+        return stability.problem(steer_friction_scale, drive_friction_scale, shell_stiffness_scale, shell_damping_scale)
 
     # ---- state -----------------------------------------------------------------------------------
     def reset(self, initial: InitialState | None = None, pressure_kpa: float | None = None) -> TwinState:
