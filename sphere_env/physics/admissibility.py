@@ -11,7 +11,6 @@ centre sits from the ground (:data:`MAX_INITIAL_PENETRATION_M` inside it at the 
 from __future__ import annotations
 
 import math
-
 from typing import Any
 
 import numpy as np
