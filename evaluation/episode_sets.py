@@ -11,10 +11,9 @@ that no seed is in two sets and that every evaluation seed lies above the traini
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, NamedTuple
 
 import yaml
 from pydantic import Field, model_validator
@@ -26,8 +25,9 @@ EPISODE_SETS = Path(__file__).resolve().parent / "episode_sets.yml"
 SET_NAMES = ("development", "validation", "test")
 
 
-@dataclass(frozen=True)
-class Episode:
+class Episode(NamedTuple):
+    """One episode: unpacks as ``(shell model, pressure [kPa], seed)``, the form evaluation jobs take."""
+
     shell_model: str
     pressure_kpa: float
     seed: int

@@ -33,7 +33,7 @@ from sphere_env.envs.twins import (
     stability_problem,
 )
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration, calibration_name
-from sphere_env.params import ENV_PARAMETERS, TWIN_PARAMETERS
+from sphere_env.params import ENV_PARAMETERS, SHIPPED_CALIBRATIONS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
 from sphere_env.schemas.env import RENDER_MODES, EnvKwargs, reset_options
@@ -135,7 +135,10 @@ class SphereEnv(gym.Env, EzPickle):
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_history_steps = k = kw.observation_history_steps
-        self.observation_layout = layout = task.observation_layout(observe_pressure, observe_shell_model, k)
+        self.observe_params = kw.observe_params
+        self.observation_layout = layout = task.observation_layout(
+            observe_pressure, observe_shell_model, k, self.observe_params
+        )
         self._extra_names = layout.extra_names
         # the last k observations (own components) and actions, most recent first
         self._obs_history = np.zeros((k, layout.own.stop), dtype=np.float32)
@@ -492,6 +495,7 @@ class SphereEnv(gym.Env, EzPickle):
             noise,
             self._extra_names,
             self._shell_one_hot,
+            tuple(self._param_value(n) for n in self.observe_params),
         )
         if self.observation_history_steps:
             own = obs[self.observation_layout.own]
@@ -506,6 +510,14 @@ class SphereEnv(gym.Env, EzPickle):
             hist[0] = own
         self._obs = obs
         return obs
+
+    def _param_value(self, name: str) -> float:
+        """A privileged parameter's value this step (``calibration``: its index among the shipped
+        ones, -1 for another file)."""
+        value = self._params[name]
+        if name == "calibration":
+            return float(SHIPPED_CALIBRATIONS.index(value)) if value in SHIPPED_CALIBRATIONS else -1.0
+        return float(value)
 
     def action_layout(self) -> list[dict[str, Any]]:
         """The action components as :meth:`step` applies them: ``index``, ``name``, the normalized

@@ -36,6 +36,11 @@ from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S
 RENDER_MODES = ("human", "rgb_array")
 #: Largest hydroelastic pressure grid step [kPa].
 MAX_PRESSURE_STEP_KPA = 5.0
+#: Parameters an env may append to its observation (``observe_params``): the numeric scalar
+#: randomizable ones but the pressure (``observe_pressure``), and the calibration (as an index).
+OBSERVABLE_PARAMETERS = tuple(
+    n for n, rec in PARAMETERS.items() if rec.randomizable and rec.size == 1 and not rec.choices and n != "pressure_kpa"
+) + ("calibration",)
 #: Allowed frame sizes [px], each of width and height.
 RENDER_SIZE_PX = (16, 4096)
 
@@ -66,6 +71,9 @@ class EnvKwargs(Schema):
         ``"at_reset"`` (the episode's starting pressure, an operator's gauge reading before the
         run, which a leak or any other pressure event during the episode leaves behind). Only
         read with ``observe_pressure``.
+    :param observe_params: names of randomizable parameters whose episode values are appended,
+        privileged, after the shell one-hot (for an asymmetric critic, ``privileged_dims`` counting
+        them): numeric scalar ones, and ``calibration`` as its index among the shipped calibrations.
     :param observe_shell_model: append the (privileged) shell model as a one-hot [point, injected,
         hydroelastic] after the pressure; default False. With both, a critic can tell the episodes
         of a shell and pressure mixture apart while the actor drops them
@@ -116,6 +124,7 @@ class EnvKwargs(Schema):
     observe_pressure: bool = False
     pressure_reading: Literal["current", "at_reset"] = "current"
     observe_shell_model: bool = False
+    observe_params: tuple[Literal[OBSERVABLE_PARAMETERS], ...] = ()  # type: ignore[valid-type]
     observation_history_steps: count(0, 20) = 0
     observation_noise_scale: parameter("observation_noise_scale") = 0.0
     incline_deg: parameter("incline_deg") = 0.0

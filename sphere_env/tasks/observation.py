@@ -83,7 +83,9 @@ class ObservationLayout:
     ``history_steps`` earlier observations of all these (:attr:`own`) and the ``history_steps``
     earlier actions (:func:`history_names`, slice :attr:`history`), then ``pressure_kpa`` if the
     privileged pressure is observed, then the shell model's one-hot (:data:`SHELL_ONE_HOT`) if it is
-    observed. The privileged components come last, so :attr:`privileged` is a trailing slice a
+    observed, then the episode's values of the parameters in ``observe_params`` (privileged: what
+    the randomization drew; ``calibration`` as its index in
+    :data:`~sphere_env.params.SHIPPED_CALIBRATIONS`). The privileged components come last, so :attr:`privileged` is a trailing slice a
     policy's actor can drop (asymmetric actor-critic).
     """
 
@@ -94,6 +96,7 @@ class ObservationLayout:
         extra_names: tuple[str, ...] = (),
         observe_shell_model: bool = False,
         history_steps: int = 0,
+        observe_params: tuple[str, ...] = (),
     ):
         self.command_names = tuple(command_names)
         self.extra_names = _EXTRA_NAMES(tuple(extra_names), "field 'extra_names'")
@@ -104,6 +107,7 @@ class ObservationLayout:
             + history_names(own, history_steps)
             + (("pressure_kpa",) if observe_pressure else ())
             + (SHELL_ONE_HOT if observe_shell_model else ())
+            + tuple(observe_params)
         )
         self.index: dict[str, int] = {n: i for i, n in enumerate(self.names)}
         self.measured = slice(0, N_MEASURED)
@@ -205,16 +209,18 @@ def assemble_observation(
     noise: np.ndarray | None = None,
     extra_names: tuple[str, ...] = (),
     shell_one_hot: tuple[float, ...] = (),
+    param_values: tuple[float, ...] = (),
 ) -> np.ndarray:
-    """[measured (11) | command | extra components | pressure_kpa if given | shell one-hot] as
-    float32.
+    """[measured (11) | command | extra components | pressure_kpa if given | shell one-hot |
+    parameter values] as float32.
 
     :param command: task command values, appended unchanged (not noised).
     :param pressure_kpa: privileged inflation pressure [kPa], appended if not ``None``.
     :param noise: additive noise for the measured and extra components (len 11 + len(extra_names)),
         or ``None``.
     :param extra_names: :data:`EXTRA_COMPONENTS` to append after the command.
-    :param shell_one_hot: privileged shell-model one-hot (:data:`SHELL_ONE_HOT` order), appended last.
+    :param shell_one_hot: privileged shell-model one-hot (:data:`SHELL_ONE_HOT` order).
+    :param param_values: privileged parameter values (``observe_params``), appended last.
     """
     values = measured_values(state)
     extras = [float(getattr(state, n)) for n in extra_names]
@@ -227,4 +233,5 @@ def assemble_observation(
     if pressure_kpa is not None:
         values.append(pressure_kpa)
     values += shell_one_hot
+    values += param_values
     return np.array(values, dtype=np.float32)

@@ -56,13 +56,17 @@ class Task:
 
     # ---- layout ---------------------------------------------------------------------------------
     def observation_layout(
-        self, observe_pressure: bool = False, observe_shell_model: bool = False, history_steps: int = 0
+        self,
+        observe_pressure: bool = False,
+        observe_shell_model: bool = False,
+        history_steps: int = 0,
+        observe_params: tuple[str, ...] = (),
     ) -> ObservationLayout:
         """The observation's components in order: measured, then this task's command and extra
         measured components, then ``history_steps`` earlier observations and actions, then the
         privileged pressure and shell one-hot if observed."""
         return ObservationLayout(
-            self.command_names, observe_pressure, self.extra_names, observe_shell_model, history_steps
+            self.command_names, observe_pressure, self.extra_names, observe_shell_model, history_steps, observe_params
         )
 
     # ---- reward ---------------------------------------------------------------------------------

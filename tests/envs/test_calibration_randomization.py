@@ -107,3 +107,31 @@ def test_shell_damping_that_tips_the_explicit_drive_damping_over_its_limit_is_re
 def test_an_unknown_calibration_name_is_refused_naming_the_field():
     with pytest.raises(ValueError, match=r"calibration.*'nope'.*free_robot"):
         gym.make(ENV_ID, randomization={"calibration": "nope"})
+
+
+def test_observed_parameters_are_the_episodes_draws_and_come_last():
+    names = ("steer_friction_scale", "payload_mass_kg", "calibration")
+    env = gym.make(
+        ENV_ID,
+        randomization={
+            "steer_friction_scale": [0.5, 1.5],
+            "payload_mass_kg": [0.0, 4.0],
+            "calibration": {"distribution": "choice", "values": ["default", "free_robot"]},
+        },
+        observe_shell_model=True,
+        observe_params=names,
+    )
+    layout = env.unwrapped.observation_layout
+    assert layout.names[-3:] == names and layout.privileged.stop == len(layout)
+    for seed in range(3):
+        obs, info = env.reset(seed=seed)
+        p = info["params"]
+        want = [p["steer_friction_scale"], p["payload_mass_kg"], ("default", "free_robot").index(p["calibration"])]
+        np.testing.assert_allclose(obs[-3:], want, rtol=1e-6)
+        obs, *_ = env.step(np.zeros(2, dtype=np.float32))
+        np.testing.assert_allclose(obs[-3:], want, rtol=1e-6)
+
+
+def test_a_parameter_that_cannot_be_observed_is_refused_naming_the_field():
+    with pytest.raises(ValueError, match=r"observe_params\[0\]' = 'shell_model'"):
+        gym.make(ENV_ID, observe_params=("shell_model",))
