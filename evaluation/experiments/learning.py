@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from sphere_env.evaluation.episode_sets import check_training_seed, episodes
+from sphere_env.evaluation.experiments.run_provenance import from_scratch
 from sphere_env.evaluation.faults import PRESSURES_KPA, SHELLS, grid_jobs
 from sphere_env.evaluation.faults import SEEDS as EVAL_SEEDS
 from sphere_env.files import write_text_atomic
@@ -305,6 +306,7 @@ def run_job(
     run_dir = runs_root / recipe_name / f"seed{seed}"
     resume = (run_dir / "config.yaml").exists()
     t0 = time.perf_counter()
+    load_start = os.getloadavg()[0]  # the machine's 1-min load average: what else was running
     from sphere_env.training.train import latest_checkpoint
 
     done = latest_checkpoint(run_dir) if resume else None
@@ -333,7 +335,7 @@ def run_job(
     result = {
         "method": recipe_name,
         "condition": recipe.get("condition", "pressure"),
-        "from_scratch": True,
+        "from_scratch": from_scratch(recipe, seed),
         "seed": seed,
         "algo": cfg.algo,
         "env_id": env_id,
@@ -352,6 +354,7 @@ def run_job(
         "env_steps": offset + timing["num_timesteps"],
         "steps_per_s": timing["steps_per_s"],
         "job_wall_s": time.perf_counter() - t0,
+        "load_avg_1min": {"start": load_start, "end": os.getloadavg()[0]},
         "commit": _commit(),
         "cores": os.cpu_count(),
     }

@@ -1,9 +1,13 @@
 """The learning study's summary: ``summary.json``, ``README.md`` and the learning-curve plot of
-``evaluation/results/learning/``, generated from the per-run result files and ``baselines.json``.
+``evaluation/results/learning/``, generated from the per-run result files, ``baselines.json`` (the
+PD and zero torque on the development grid) and ``baselines_validation.json`` (the PD on the
+validation grid). Nothing is simulated here, so the files rebuild byte for byte from those.
 
-Aggregates over training seeds are rliable's (Agarwal et al., 2021): the interquartile mean (IQM)
-and the mean with 95 % stratified-bootstrap intervals, the runs' scores being their success rates
-on the three shell models (the tasks of the bootstrap's strata).
+A run's score on a grid is one number, its success over the grid's episodes, and aggregates over
+training seeds are rliable's (Agarwal et al., 2021) with whole runs resampled
+(:mod:`~sphere_env.evaluation.experiments.intervals`). What a result file records of how its run
+was made (from scratch or not) is derived anew from its recipe
+(:mod:`~sphere_env.evaluation.experiments.run_provenance`).
 """
 
 from __future__ import annotations
@@ -16,16 +20,24 @@ import numpy as np
 
 from sphere_env.evaluation.experiments.intervals import BOOTSTRAP_REPS, SHELLS, interval_estimates, pct
 from sphere_env.evaluation.experiments.learning import PD_MARGIN
+from sphere_env.evaluation.experiments.run_provenance import (
+    from_scratch,
+    recipe_of,
+    resumed_at,
+    wall_clock_markdown,
+    wall_clock_rows,
+)
 from sphere_env.evaluation.experiments.study_summary import (
     CONDITION_ORDER,
     MIN_STUDY_RUNS,
     STUDY_RECIPES,
     condition_scores,
+    retired_conditions,
     study_markdown,
-    study_rows,
+    study_tables,
     study_task_markdown,
-    study_task_rows,
 )
+from sphere_env.evaluation.experiments.validation_baselines import FILE as VALIDATION_BASELINES
 from sphere_env.files import write_text_atomic
 from sphere_env.reporting import markdown_table
 
@@ -41,43 +53,44 @@ def load_runs(results: Path) -> dict[str, list[dict[str, Any]]]:
     return out
 
 
-def shell_scores(runs: Sequence[Mapping[str, Any]]) -> np.ndarray:
-    """(runs × shells) success rates."""
-    return np.array([[r["per_shell"][m] for m in SHELLS] for r in runs], dtype=float)
+def _validation_success(run: Mapping[str, Any]) -> float | None:
+    """The success on the validation grid of a run's validation-chosen checkpoint: the best of its
+    checkpoints from half its budget on (None for a run without a validation choice)."""
+    return ((run.get("selected") or {}).get("validation") or {}).get("success_rate")
 
 
-def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any]) -> list[dict[str, Any]]:
+def recipe_rows(
+    runs_by_recipe: Mapping[str, list[dict[str, Any]]],
+    pd: Mapping[str, Any],
+    pd_validation: Mapping[str, Any] | None = None,
+) -> list[dict[str, Any]]:
+    """Per recipe: its runs' figures on the development grid (final models, or ``<recipe>@selected``
+    the validation-chosen checkpoints), rliable's IQM over whole runs, the aims judged against the
+    PD's development-grid figures ``pd``, and how many runs reached PD level on the validation grid:
+    whose validation-chosen checkpoint won at least the PD's validation success (``pd_validation``)
+    less :data:`PD_MARGIN` (None where the PD's or a run's validation figures are missing)."""
     from sphere_env.evaluation.experiments.learning import load_recipes
 
-    ests = interval_estimates({k: shell_scores(v) for k, v in runs_by_recipe.items()})
-    notes = {k: v.get("note", "") for k, v in load_recipes().items()}
+    ests = interval_estimates({k: np.array([r["success_rate"] for r in v]) for k, v in runs_by_recipe.items()})
+    recipes = load_recipes()
+    level = None if pd_validation is None else pd_validation["success_rate"] - PD_MARGIN
     rows = []
     for name, runs in runs_by_recipe.items():
         succ = np.array([r["success_rate"] for r in runs])
-        steps = [r["env_steps_to_pd_level"] for r in runs]
-        walls = [r["wall_clock_to_pd_level_s"] for r in runs]
-        reached = [s for s in steps if s is not None]
+        val = [_validation_success(r) for r in runs]
         rows.append(
             {
                 "recipe": name,
                 "seeds": len(runs),
+                "runs_from_scratch": sum(from_scratch(recipe_of(r, recipes), r["seed"]) for r in runs),
                 "env_steps": int(np.median([r["env_steps"] for r in runs])),
                 "mean_success": float(succ.mean()),
                 "worst_seed_success": float(succ.min()),
                 "per_shell_mean": {m: float(np.mean([r["per_shell"][m] for r in runs])) for m in SHELLS},
                 "mean_tracking_rmse_rad_s": float(np.nanmean([r["tracking_rmse_rad_s"] for r in runs])),
-                "reached_pd_level": f"{len(reached)}/{len(runs)}",
-                "env_steps_to_pd_level_mean": float(np.mean(reached)) if len(reached) == len(runs) else None,
-                "env_steps_to_pd_level_range": [min(reached), max(reached)] if reached else None,
-                "wall_clock_to_pd_level_s_mean": float(np.mean([w for w in walls if w is not None]))
-                if len(reached) == len(runs)
-                else None,
-                "wall_clock_to_pd_level_s_range": [
-                    min(w for w in walls if w is not None),
-                    max(w for w in walls if w is not None),
-                ]
-                if any(w is not None for w in walls)
-                else None,
+                "validation_reached_pd_level": None
+                if level is None or None in val
+                else f"{sum(v >= level - 1e-9 for v in val)}/{len(runs)}",
                 **{f"rliable_{k}": v for k, v in ests[name].items()},
                 "aims": {
                     "mean_success_ge_pd_minus_3": bool(succ.mean() >= pd["success_rate"] - PD_MARGIN - 1e-9),
@@ -89,7 +102,7 @@ def recipe_rows(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
                 },
                 # the recipe's note as recipes.yml has it now (what was found is added to it after the
                 # runs), else as the runs recorded it
-                "note": "" if "@" in name else (notes.get(name) or runs[0]["recipe"].get("note", "")),
+                "note": "" if "@" in name else (recipes.get(name, {}).get("note") or runs[0]["recipe"].get("note", "")),
             }
         )
     return rows
@@ -134,8 +147,8 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
 
 
 def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
-    """Grid success against env steps: per recipe the IQM over seeds with its 95 % stratified-
-    bootstrap band (rliable), the PD's success and the PD level."""
+    """Development-grid success against env steps: per recipe the IQM over seeds with its 95 %
+    bootstrap band over whole runs (rliable), the PD's success and the PD level."""
     from sphere_env.plotting import pyplot
 
     plt = pyplot()
@@ -144,12 +157,11 @@ def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
         steps = sorted(set.intersection(*[{c["env_steps"] for c in r["curve"]} for r in runs]))
         if not steps:
             continue
-        scores = {}
-        for n in steps:
-            scores[n] = np.array(
-                [[next(c for c in r["curve"] if c["env_steps"] == n)["per_shell"][m] for m in SHELLS] for r in runs]
-            )
-        est = interval_estimates({str(n): s for n, s in scores.items()})
+        scores = {
+            str(n): np.array([next(c for c in r["curve"] if c["env_steps"] == n)["success_rate"] for r in runs])
+            for n in steps
+        }
+        est = interval_estimates(scores)
         y = np.array([est[str(n)]["iqm"] for n in steps])
         lo = np.array([est[str(n)]["iqm_ci"][0] for n in steps])
         hi = np.array([est[str(n)]["iqm_ci"][1] for n in steps])
@@ -158,7 +170,7 @@ def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[
     ax.axhline(pd["success_rate"], color="k", lw=1, label="PD")
     ax.axhline(pd["success_rate"] - PD_MARGIN, color="k", lw=1, ls="--", label="PD level (PD − 3 points)")
     ax.set_xlabel("environment steps")
-    ax.set_ylabel("grid success (IQM over seeds, 95 % CI)")
+    ax.set_ylabel("development-grid success (IQM over seeds, 95 % CI)")
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower right")
@@ -177,43 +189,55 @@ def _md(rows: Sequence[Mapping[str, Any]]) -> str:
     return markdown_table(rows, [(k, k, "") for k in keys])
 
 
+def _grid_text(base: Mapping[str, Any], pd_validation: Mapping[str, Any] | None) -> str:
+    """The sets of episodes the figures are on, the PD's figures on each and what PD level means."""
+    g, pd = base["grid"], base["pd"]
+    val = (
+        f"Validation grid: the same shells and pressures at evaluation seeds "
+        f"{pd_validation['grid']['seeds']}, on which each run's checkpoint is chosen and nothing is reported "
+        f"but PD level; the PD wins {pct(pd_validation['pd']['success_rate'])} there (point / injected / hydro "
+        f"{' / '.join(pct(pd_validation['pd']['per_shell'][m]) for m in SHELLS)}; `{VALIDATION_BASELINES}`). "
+        if pd_validation
+        else "Validation grid: the same shells and pressures at evaluation seeds 100-102; the PD's figures on it "
+        f"are not in `{VALIDATION_BASELINES}`, so PD level on it is not reported. "
+    )
+    return (
+        f"Development grid (every figure below unless its column or section names another): {g['episodes']} "
+        f"episodes = shells {', '.join(g['shells'])} × {g['pressures_kpa']} kPa × evaluation seeds {g['seeds']} "
+        "(each seed draws the two commands), deterministic actions, randomization off; the recipes were designed "
+        f"against its failures. PD: {pct(pd['success_rate'])} success (point / injected / hydro "
+        f"{' / '.join(pct(pd['per_shell'][m]) for m in SHELLS)}), tracking RMSE {pd['tracking_rmse_rad_s']:.2f} "
+        f"rad/s; zero torque {pct(base['zero']['success_rate'])}. " + val + "PD level = the PD's success on the "
+        "same grid − 3 points. IQM and its interval: rliable over whole runs, each run's development-grid success "
+        f"one sample ({BOOTSTRAP_REPS} resamples). Runs at PD level: on the validation grid, those whose "
+        "validation-chosen checkpoint (the best on the validation grid from half the budget on) reached it. The "
+        "run files hold that checkpoint's validation figures only, so when a run first reached PD level on the "
+        "validation grid is not known and is not reported."
+    )
+
+
 def markdown(
     rows: Sequence[Mapping[str, Any]],
     base: Mapping[str, Any],
     faults: str = "",
     study: Sequence[Mapping[str, Any]] = (),
     study_tasks: Sequence[Mapping[str, Any]] = (),
+    pd_validation: Mapping[str, Any] | None = None,
+    wall_clock: str = "",
 ) -> str:
-
-    pd = base["pd"]
     table = _md(
         [
             {
                 "recipe": r["recipe"],
                 "seeds": r["seeds"],
+                "from scratch": f"{r['runs_from_scratch']}/{r['seeds']}",
                 "env steps": r["env_steps"],
                 "mean success": pct(r["mean_success"]),
                 "worst seed": pct(r["worst_seed_success"]),
                 "IQM [95% CI]": f"{pct(r['rliable_iqm'])} [{pct(r['rliable_iqm_ci'][0])}, {pct(r['rliable_iqm_ci'][1])}]",
                 "point / injected / hydro": " / ".join(pct(r["per_shell_mean"][m]) for m in SHELLS),
                 "RMSE rad/s": f"{r['mean_tracking_rmse_rad_s']:.2f}",
-                "runs at PD level": r["reached_pd_level"],
-                "steps to PD level (mean, range)": "–"
-                if r["env_steps_to_pd_level_range"] is None
-                else (
-                    (f"{r['env_steps_to_pd_level_mean'] / 1e3:.0f} k, " if r["env_steps_to_pd_level_mean"] else "")
-                    + f"{r['env_steps_to_pd_level_range'][0] / 1e3:.0f}–{r['env_steps_to_pd_level_range'][1] / 1e3:.0f} k"
-                ),
-                "wall-clock to PD level (mean, range)": "–"
-                if r.get("wall_clock_to_pd_level_s_range") is None
-                else (
-                    (
-                        f"{r['wall_clock_to_pd_level_s_mean'] / 60:.0f} min, "
-                        if r["wall_clock_to_pd_level_s_mean"]
-                        else ""
-                    )
-                    + f"{r['wall_clock_to_pd_level_s_range'][0] / 60:.0f}–{r['wall_clock_to_pd_level_s_range'][1] / 60:.0f} min"
-                ),
+                "runs at PD level on the validation grid": r["validation_reached_pd_level"] or "not recorded",
             }
             for r in rows
         ]
@@ -225,30 +249,25 @@ def markdown(
     stopped = "\n".join(
         f"- **{name}**: {rec.get('note', '')}" for name, rec in load_recipes().items() if name not in finished
     )
-    g = base["grid"]
+    retired = [r for r in study if "retired" in r]
     return (
         "# Learning study\n\n"
-        "Generated by `python -m evaluation.experiments.learning summary` from `runs/*/seed*.json` and "
-        "`baselines.json` (do not edit by hand).\n\n"
-        f"Grid: {g['episodes']} episodes = shells {', '.join(g['shells'])} × {g['pressures_kpa']} kPa × "
-        f"evaluation seeds {g['seeds']} (each seed draws the two commands), deterministic actions, "
-        f"randomization off. PD: {pct(pd['success_rate'])} success (point / injected / hydro "
-        f"{' / '.join(pct(pd['per_shell'][m]) for m in SHELLS)}), tracking RMSE "
-        f"{pd['tracking_rmse_rad_s']:.2f} rad/s; zero torque {pct(base['zero']['success_rate'])}. "
-        "PD level = PD − 3 points. IQM and its interval: rliable, stratified bootstrap over training seeds "
-        f"with the three shells as tasks ({BOOTSTRAP_REPS} resamples). Steps and wall-clock to PD level: at "
-        "the first checkpoint (every 100 k steps) whose grid success reaches it, the wall-clock at the run's "
-        "training rate on the 2-core machine, which the seeds of a recipe shared; a mean only when "
-        "every run got there.\n\n" + table + "\n\n"
+        "Generated by `python -m evaluation.experiments.learning summary` from `runs/*/seed*.json`, "
+        f"`baselines.json` and `{VALIDATION_BASELINES}` (do not edit by hand).\n\n"
+        + _grid_text(base, pd_validation)
+        + "\n\n"
+        + table
+        + "\n\n"
         "`<recipe>@selected`: each run reported by its checkpoint with the highest success on the validation "
-        "grid (evaluation seeds 100-102, never the reported grid), from half its budget on: the model an "
-        "rl-zoo3 user keeps as best_model. The plain rows report each run's final model.\n\n"
+        "grid, from half its budget on: the model an rl-zoo3 user keeps as best_model. The plain rows report "
+        "each run's final model. From scratch: runs that did not continue another run's checkpoint (derived "
+        "from the recipe).\n\n"
         + notes
         + "\n\n![learning curves](learning_curves.png)\n"
         + (
-            "\n## Fault grid\n\nThe nominal grid under one fault at a time (`evaluation/faults.py`: what each "
-            "fault is and where its range comes from), deterministic actions; runs by their validation-chosen "
-            "checkpoint.\n\n" + faults + "\n"
+            "\n## Fault grid\n\nThe development grid under one fault at a time (`evaluation/faults.py`: what "
+            "each fault is and where its range comes from), deterministic actions; runs by their "
+            "validation-chosen checkpoint.\n\n" + faults + "\n"
             if faults
             else ""
         )
@@ -259,23 +278,27 @@ def markdown(
             + ", ".join(f"`{r}`" for r in STUDY_RECIPES)
             + ": the first three differ in their training randomization only, and the fourth arm, "
             "pressure_faults_4m, is the pressure_faults runs continued to twice their budget), every run by "
-            "its validation-chosen checkpoint, on the nominal grid (scores per shell) "
-            "and the fault grid (scores per fault): rliable's IQM with 95 % stratified-bootstrap intervals, and for "
-            "each pair the probability that a run of the first condition beats one of the second (0.5: no "
-            "difference; an interval that excludes 0.5 tells them apart) with the difference of their mean success "
-            "and its interval (the study can tell a 10-point difference where that interval's half-width is under 10 "
-            "points). Conditions with fewer than "
+            "its validation-chosen checkpoint, on the development grid and the fault grid. A run's score on a "
+            "grid is one number, its success over the grid's episodes, and every interval is a 95 % bootstrap "
+            "over whole runs: rliable's IQM per condition, and for each pair one bootstrap, paired by seed where "
+            "both conditions ran the same seeds, for the probability that a run of the first condition beats "
+            "one of the second (0.5: no difference), the difference of their mean success (the study can tell a "
+            "10-point difference where that interval's half-width is under 10 points) and the differences per "
+            "shell and per fault. Conditions with fewer than "
             + str(MIN_STUDY_RUNS)
-            + " runs are left out (a bootstrap over fewer runs draws too few distinct samples for its interval to mean much).\n\n"
+            + " runs are left out (a bootstrap over fewer runs draws too few distinct samples for its interval "
+            "to mean much), and a retired condition is listed with its runs and no interval or verdict"
+            + "".join(f" ({r['condition']}: {r['retired']})" for r in retired[:1])
+            + ".\n\n"
             + (
                 study_markdown(study)
                 + (
-                    "\n\nWhere they differ: the difference of mean success, in points, per shell of the nominal "
-                    "grid and per fault of the fault grid, with its 95 % bootstrap interval over runs and what "
-                    "that interval says of the first condition: higher or lower (in bold) where it excludes 0; "
-                    "within 10 points where it holds 0 and lies inside ±10 points, so neither condition leads "
-                    "by 10 points; undecided where it holds 0 and reaches past ±10 points, so it rules out "
-                    "neither no difference nor a 10-point one.\n\n" + study_task_markdown(study_tasks)
+                    "\n\nWhere they differ: the difference of mean success, in points, per shell of the "
+                    "development grid and per fault of the fault grid, with its 95 % interval and what that "
+                    "interval says of the first condition: higher or lower (in bold) where it excludes 0; within "
+                    "10 points where it holds 0 and lies inside ±10 points, so neither condition leads by 10 "
+                    "points; undecided where it holds 0 and reaches past ±10 points, so it rules out neither no "
+                    "difference nor a 10-point one.\n\n" + study_task_markdown(study_tasks)
                     if study_tasks
                     else ""
                 )
@@ -289,6 +312,17 @@ def markdown(
             + "\n"
         )
         + (
+            "\n## Wall-clock per run\n\nTraining wall-clock: each run's env steps at the training rate of its "
+            "last session, on the 2-core machine with other runs beside it (a resumed run's earlier sessions "
+            "were not timed, so its figure takes its last session's rate for the whole run; a continuation "
+            "counts its first phase at the first run's rate). Job wall time: the job that wrote the result "
+            "file (the training it still had to do, and the evaluation of every checkpoint). The 1-min load "
+            "average at the job's start and end is recorded by runs from this version of the runner on. Runs "
+            "resumed part-way from their own checkpoint are a row of their own.\n\n" + wall_clock + "\n"
+            if wall_clock
+            else ""
+        )
+        + (
             "\n## Recipes tried without a finished run\n\nFrom `evaluation/experiments/recipes.yml`; stopped "
             "early for the reason in their note, or not run yet.\n\n" + stopped + "\n"
             if stopped
@@ -297,53 +331,73 @@ def markdown(
     )
 
 
-def write_summary(results: Path) -> Path:
+def _run_entry(r: Mapping[str, Any], recipes: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """A run as ``summary.json`` lists it: its figures, how it was made (derived from its recipe)
+    and its wall-clock with the load it ran under (None where not recorded)."""
+    recipe = recipe_of(r, recipes)
+    return {
+        **{
+            k: r[k]
+            for k in ("method", "condition", "seed", "success_rate", "tracking_rmse_rad_s", "per_shell", "env_steps")
+        },
+        "from_scratch": from_scratch(recipe, r["seed"]),
+        "resumed_at_env_steps": resumed_at(recipe, r["seed"]),
+        **{k: r.get(k) for k in ("wall_clock_s", "steps_per_s", "job_wall_s", "load_avg_1min", "commit")},
+        "faults": r.get("faults", {}),
+        "selected": {k: v for k, v in r.get("selected", {}).items() if k != "faults"},
+    }
+
+
+def write_summary(results: Path, plot: bool = True) -> Path:
+    """``summary.json`` and ``README.md`` of ``results`` from its run files and baselines, and
+    (``plot``) the learning-curve plot."""
+    from sphere_env.evaluation.experiments.learning import load_recipes
+
     base = json.loads((results / "baselines.json").read_text())
+    val_path = results / VALIDATION_BASELINES
+    pd_validation = json.loads(val_path.read_text()) if val_path.exists() else None
+    recipes = load_recipes()
     runs_by_recipe = load_runs(results)
-    rows = recipe_rows({**runs_by_recipe, **selected_runs(runs_by_recipe)}, base["pd"]) if runs_by_recipe else []
+    rows = (
+        recipe_rows(
+            {**runs_by_recipe, **selected_runs(runs_by_recipe)},
+            base["pd"],
+            None if pd_validation is None else pd_validation["pd"],
+        )
+        if runs_by_recipe
+        else []
+    )
     scores = condition_scores(runs_by_recipe) if runs_by_recipe else {}
-    study = study_rows(scores) if scores else []
-    study_tasks = study_task_rows(scores) if scores else []
+    study, study_tasks = study_tables(scores, retired_conditions(recipes)) if scores else ([], [])
+    walls = wall_clock_rows(runs_by_recipe, recipes)
     summary = {
         "commit": base.get("commit"),
         "cores": 2,
         "grid": base["grid"],
+        "validation_grid": None if pd_validation is None else pd_validation["grid"],
         "pd": base["pd"],
+        "pd_validation": None if pd_validation is None else pd_validation["pd"],
         "zero": base["zero"],
         "randomization_study": study,
         "randomization_study_by_task": study_tasks,
         "pretrained": base.get("pretrained"),
         "recipes": rows,
-        "runs": [
-            {
-                k: r[k]
-                for k in (
-                    "method",
-                    "condition",
-                    "from_scratch",
-                    "seed",
-                    "success_rate",
-                    "tracking_rmse_rad_s",
-                    "per_shell",
-                    "env_steps_to_pd_level",
-                    "wall_clock_to_pd_level_s",
-                    "wall_clock_s",
-                    "env_steps",
-                    "commit",
-                )
-            }
-            | {
-                "faults": r.get("faults", {}),
-                "selected": {k: v for k, v in r.get("selected", {}).items() if k != "faults"},
-            }
-            for runs in runs_by_recipe.values()
-            for r in runs
-        ],
+        "wall_clock": walls,
+        "runs": [_run_entry(r, recipes) for runs in runs_by_recipe.values() for r in runs],
     }
     write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
-    if runs_by_recipe:
+    if runs_by_recipe and plot:
         plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png")
     write_text_atomic(
-        results / "README.md", markdown(rows, base, fault_table(base, runs_by_recipe), study, study_tasks)
+        results / "README.md",
+        markdown(
+            rows,
+            base,
+            fault_table(base, runs_by_recipe),
+            study,
+            study_tasks,
+            pd_validation,
+            wall_clock_markdown(walls) if walls else "",
+        ),
     )
     return results / "summary.json"

@@ -1,15 +1,18 @@
 """The randomization study's statistics: which runs make up each training condition, rliable's
-intervals per condition and per pair of conditions on the nominal and the fault grid, the
-difference of mean success per shell and per fault, and what each difference's interval lets the
-study say (:func:`verdict`)."""
+intervals per condition and, per pair of conditions, the difference of mean success on the
+development grid and on the fault grid, over the whole grid and per shell and per fault, with what
+each difference's interval lets the study say (:func:`verdict`). A run counts as one sample: its
+score on a grid is the mean over its episodes, and every interval resamples whole runs
+(:mod:`~sphere_env.evaluation.experiments.intervals`), paired by seed where both conditions ran the
+same seeds."""
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
-from sphere_env.evaluation.experiments.intervals import BOOTSTRAP_REPS, SHELLS, interval_estimates, pct
+from sphere_env.evaluation.experiments.intervals import SHELLS, bootstrap_runs, interval_estimates, pct, run_scores
 from sphere_env.reporting import markdown_table
 
 #: The randomization study's recipes, one per training condition (``recipes.yml``):
@@ -26,6 +29,23 @@ CONDITION_ORDER = ("pressure_faults_4m", "pressure_faults", "pressure", "nominal
 #: Runs a condition needs before the study compares it: a training claim rests on 5 seeds or more,
 #: and a bootstrap over 2 or 3 runs has too few distinct resamples for an interval.
 MIN_STUDY_RUNS = 5
+#: The grids a run is scored on: the development grid (``nominal``) and the fault grid (``faults``,
+#: the development grid under each fault), with the words the tables use.
+GRIDS = {"nominal": "development grid", "faults": "fault grid"}
+
+
+class GridScores(NamedTuple):
+    """A condition's runs on one grid: their training seeds, their success per task (runs × tasks:
+    the shells, or the faults) and each task's number of episodes."""
+
+    seeds: tuple[int, ...]
+    tasks: np.ndarray
+    episodes: np.ndarray
+
+    @property
+    def runs(self) -> np.ndarray:
+        """Each run's score: the mean over its episodes."""
+        return run_scores(self.tasks, self.episodes)
 
 
 def condition_order(names) -> list[str]:
@@ -33,10 +53,10 @@ def condition_order(names) -> list[str]:
     return sorted(names, key=lambda c: (CONDITION_ORDER.index(c) if c in CONDITION_ORDER else len(CONDITION_ORDER), c))
 
 
-def compared(scores: Mapping[str, Mapping[str, np.ndarray]], grid: str):
-    """The conditions of ``scores`` the study compares on ``grid`` (those with
+def compared(scores: Mapping[str, Mapping[str, GridScores]], grid: str, retired: Sequence[str] = ()):
+    """The conditions of ``scores`` the study compares on ``grid`` (not ``retired``, with
     :data:`MIN_STUDY_RUNS` or more runs) and their pairs, more randomized first."""
-    have = {c: d[grid] for c, d in scores.items() if len(d[grid]) >= MIN_STUDY_RUNS}
+    have = {c: d[grid] for c, d in scores.items() if c not in retired and len(d[grid].seeds) >= MIN_STUDY_RUNS}
     names = condition_order(have)
     return have, [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
 
@@ -52,24 +72,56 @@ def chose_budget_end(run: Mapping[str, Any]) -> bool:
     return last - sel["checkpoint_steps"] <= 0.01 * last
 
 
-def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, np.ndarray]]:
-    """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the nominal
-    grid's scores (runs × shells) and the fault grid's (runs × faults), each run by its
-    validation-chosen checkpoint when it has one. Runs without fault figures count for the nominal
-    grid only."""
+def retired_conditions(recipes: Mapping[str, Mapping[str, Any]]) -> dict[str, str]:
+    """condition -> why it was retired, for the study's recipes that ``recipes.yml`` marks
+    ``retired``: their runs stay listed, and no interval or verdict is drawn from them."""
+    return {
+        r.get("condition", "pressure"): str(r["retired"])
+        for name, r in recipes.items()
+        if name in STUDY_RECIPES and r.get("retired")
+    }
+
+
+def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, GridScores]]:
+    """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the
+    development grid's scores per shell and the fault grid's per fault (:class:`GridScores`), each
+    run by its validation-chosen checkpoint when it has one, in the order of the seeds. Runs
+    without fault figures count for the development grid only."""
     from sphere_env.evaluation.faults import FAULTS
 
     out: dict[str, dict[str, list]] = {}
     for name, runs in runs_by_recipe.items():
         if name not in STUDY_RECIPES:
             continue
-        for r in runs:
+        for r in sorted(runs, key=lambda r: r["seed"]):
             sel = r.get("selected") or r
             d = out.setdefault(r.get("condition", "pressure"), {"nominal": [], "faults": []})
-            d["nominal"].append([sel["per_shell"][m] for m in SHELLS])
-            if all(f in (r.get("faults") or {}) for f in FAULTS):
-                d["faults"].append([r["faults"][f]["success_rate"] for f in FAULTS])
-    return {c: {k: np.array(v, dtype=float) for k, v in d.items()} for c, d in out.items()}
+            # every shell has the same episodes (pressures × evaluation seeds): equal weights
+            d["nominal"].append((r["seed"], [sel["per_shell"][m] for m in SHELLS], [1.0] * len(SHELLS)))
+            faults = r.get("faults") or {}
+            if all(f in faults for f in FAULTS):
+                d["faults"].append(
+                    (
+                        r["seed"],
+                        [faults[f]["success_rate"] for f in FAULTS],
+                        [faults[f].get("episodes", 1) for f in FAULTS],
+                    )
+                )
+    width = {"nominal": len(SHELLS), "faults": len(FAULTS)}
+    out_scores: dict[str, dict[str, GridScores]] = {}
+    for c, d in out.items():
+        for g, v in d.items():
+            episodes = {tuple(e) for _, _, e in v}
+            if len(episodes) > 1:
+                raise ValueError(
+                    f"condition {c!r}, {GRIDS[g]}: episodes per task differ between runs: {sorted(episodes)}"
+                )
+            out_scores.setdefault(c, {})[g] = GridScores(
+                tuple(s for s, _, _ in v),
+                np.array([t for _, t, _ in v], dtype=float).reshape(len(v), width[g]),
+                np.array(v[0][2] if v else [1.0] * width[g], dtype=float),
+            )
+    return out_scores
 
 
 #: The four things a difference's 95 % interval (first condition minus second) lets the study say.
@@ -89,89 +141,103 @@ def verdict(ci: Sequence[float]) -> str:
     return "within 10 points" if lo > -0.10 and hi < 0.10 else "undecided"
 
 
-def study_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
-    """The randomization study: per condition and grid, the number of runs and rliable's IQM and
-    mean with 95 % stratified-bootstrap intervals; per pair of conditions, rliable's probability
-    of improvement of the first over the second with its interval (0.5: no difference), and the
-    difference of their mean success with its interval: the study can tell a 10-point difference
-    when that interval's half-width is under 10 points (``resolves_10_points``)."""
-    from rliable import library as rly
+def pair_estimates(a: GridScores, b: GridScores) -> tuple[bool, np.ndarray, np.ndarray]:
+    """(paired, point, 95 % interval) of condition ``a`` against ``b`` on one grid, from one
+    bootstrap over whole runs (paired by seed where both ran the same seeds): the difference of the
+    mean of the runs' scores, rliable's probability that a run of ``a`` beats one of ``b`` (0.5: no
+    difference), then the difference of mean success on each task."""
     from rliable import metrics
 
-    rows = []
-    for grid in ("nominal", "faults"):
-        have, pairs = compared(scores, grid)
-        est = interval_estimates(have) if have else {}
+    if a.tasks.shape[1] != b.tasks.shape[1]:
+        raise ValueError(f"tasks: {a.tasks.shape[1]} against {b.tasks.shape[1]}; allowed: the same tasks on both sides")
+    w = a.episodes / a.episodes.sum()
+
+    def statistic(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        xr, yr = x @ w, y @ w
+        poi = metrics.probability_of_improvement(xr[:, None], yr[:, None])
+        return np.concatenate([[xr.mean() - yr.mean(), poi], x.mean(axis=0) - y.mean(axis=0)])
+
+    paired = a.seeds == b.seeds
+    point, ci = bootstrap_runs(a.tasks, b.tasks, statistic, paired)
+    return paired, point, ci
+
+
+def study_tables(
+    scores: Mapping[str, Mapping[str, GridScores]], retired: Mapping[str, str] | None = None
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The randomization study as two tables.
+
+    The first: per grid and condition, the number of runs and rliable's IQM and mean over whole
+    runs with 95 % intervals (a ``retired`` condition: its runs and their mean only, with the
+    reason, and no interval or verdict); per pair of compared conditions, the probability of
+    improvement of the first over the second and the difference of their mean success with their
+    intervals, whether that interval's half-width is under 10 points (``resolves_10_points``) and
+    its :func:`verdict`. The second: per grid, task (each shell, each fault) and pair, the
+    difference of mean success on that task with its interval and verdict, from the same resampled
+    runs as the pair's row of the first."""
+    from sphere_env.evaluation.faults import FAULTS
+
+    retired = dict(retired or {})
+    rows: list[dict[str, Any]] = []
+    task_rows: list[dict[str, Any]] = []
+    for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
+        have, pairs = compared(scores, grid, retired)
+        est = interval_estimates({c: x.runs for c, x in have.items()}) if have else {}
         for c, x in have.items():
-            rows.append({"grid": grid, "condition": c, "runs": len(x), **est[c]})
-        for a, b in pairs:
-            np.random.seed(0)
-            point, ci = rly.get_interval_estimates(
-                {f"{a},{b}": (have[a], have[b])},
-                lambda x, y: np.array(
-                    [
-                        metrics.probability_of_improvement(x, y),
-                        metrics.aggregate_mean(x) - metrics.aggregate_mean(y),
-                    ]
-                ),
-                reps=BOOTSTRAP_REPS,
+            rows.append({"grid": grid, "condition": c, "runs": len(x.seeds), **est[c]})
+        for c in condition_order(c for c in retired if c in scores and len(scores[c][grid].seeds)):
+            x = scores[c][grid]
+            rows.append(
+                {
+                    "grid": grid,
+                    "condition": c,
+                    "runs": len(x.seeds),
+                    "mean": float(x.runs.mean()),
+                    "retired": retired[c],
+                }
             )
-            key = f"{a},{b}"
-            diff_ci = [float(ci[key][0, 1]), float(ci[key][1, 1])]
+        for a, b in pairs:
+            paired, point, ci = pair_estimates(have[a], have[b])
+            runs = f"{len(have[a].seeds)} vs {len(have[b].seeds)}"
+            diff_ci = [float(ci[0, 0]), float(ci[1, 0])]
             rows.append(
                 {
                     "grid": grid,
                     "condition": f"P({a} > {b})",
                     "pair": f"{a} − {b}",
-                    "runs": f"{len(have[a])} vs {len(have[b])}",
-                    "poi": float(point[key][0]),
-                    "poi_ci": [float(ci[key][0, 0]), float(ci[key][1, 0])],
-                    "mean_diff": float(point[key][1]),
+                    "runs": runs,
+                    "paired_by_seed": paired,
+                    "poi": float(point[1]),
+                    "poi_ci": [float(ci[0, 1]), float(ci[1, 1])],
+                    "mean_diff": float(point[0]),
                     "mean_diff_ci": diff_ci,
                     "resolves_10_points": bool((diff_ci[1] - diff_ci[0]) / 2 < 0.10),
                     "verdict": verdict(diff_ci),
                 }
             )
-    return rows
-
-
-def study_task_rows(scores: Mapping[str, Mapping[str, np.ndarray]]) -> list[dict[str, Any]]:
-    """Where the conditions differ: per grid, per task (each shell of the nominal grid, each fault
-    of the fault grid) and per pair of conditions with :data:`MIN_STUDY_RUNS` or more runs, the difference of their mean
-    success on that task with its 95 % bootstrap interval over runs (rliable's, one task)."""
-    from rliable import library as rly
-    from rliable import metrics
-
-    from sphere_env.evaluation.faults import FAULTS
-
-    rows = []
-    for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
-        have, pairs = compared(scores, grid)
-        for j, task in enumerate(tasks):
-            for a, b in pairs:
-                np.random.seed(0)
-                point, ci = rly.get_interval_estimates(
-                    {"d": (have[a][:, [j]], have[b][:, [j]])},
-                    lambda x, y: metrics.aggregate_mean(x) - metrics.aggregate_mean(y),
-                    reps=BOOTSTRAP_REPS,
-                )
-                lo, hi = (float(v) for v in np.ravel(ci["d"]))
-                rows.append(
+            for j, task in enumerate(tasks):
+                lo, hi = float(ci[0, 2 + j]), float(ci[1, 2 + j])
+                task_rows.append(
                     {
                         "grid": grid,
                         "task": task,
                         "pair": f"{a} − {b}",
-                        "runs": f"{len(have[a])} vs {len(have[b])}",
-                        "mean_diff": float(np.ravel(point["d"])[0]),
+                        "runs": runs,
+                        "paired_by_seed": paired,
+                        "mean_diff": float(point[2 + j]),
                         "mean_diff_ci": [lo, hi],
                         "verdict": verdict((lo, hi)),
                     }
                 )
-    return rows
+    return rows, task_rows
+
+
+def _runs_label(r: Mapping[str, Any], unit: str = "") -> str:
+    return f"{r['runs']}{unit}{', paired by seed' if r.get('paired_by_seed') else ''}"
 
 
 def study_task_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
-    """:func:`study_task_rows` as one table: a row per grid and task, a column per pair of
+    """The second table of :func:`study_tables`: a row per grid and task, a column per pair of
     conditions, each cell the mean difference in points [95 % CI] and its :func:`verdict`, in bold
     where the interval excludes 0."""
     if not rows:
@@ -181,24 +247,26 @@ def study_task_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     for r in rows:
         lo, hi = r["mean_diff_ci"]
         cell = f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] {r['verdict']}"
-        table.setdefault((r["grid"], r["task"]), {})[r["pair"]] = (
+        table.setdefault((GRIDS[r["grid"]], r["task"]), {})[r["pair"]] = (
             f"**{cell}**" if r["verdict"] in ("higher", "lower") else cell
         )
-    runs = {r["pair"]: r["runs"] for r in rows}
+    runs = {r["pair"]: _runs_label(r, " runs") for r in rows}
     return markdown_table(
         [[grid, task, *(cells.get(p, "") for p in pairs)] for (grid, task), cells in table.items()],
-        ["grid", "shell / fault", *(f"{p} ({runs[p]} runs)" for p in pairs)],
+        ["grid", "shell / fault", *(f"{p} ({runs[p]})" for p in pairs)],
     )
 
 
 def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
-    """The randomization study's table (:func:`study_rows`)."""
+    """The first table of :func:`study_tables`."""
     if not study:
         return ""
 
     def value(r: Mapping[str, Any]) -> str:
         if "poi" in r:
             return f"{r['poi']:.2f} [{r['poi_ci'][0]:.2f}, {r['poi_ci'][1]:.2f}]"
+        if "retired" in r:
+            return f"retired (mean {pct(r['mean'])}, no interval)"
         return f"{pct(r['iqm'])} [{pct(r['iqm_ci'][0])}, {pct(r['iqm_ci'][1])}]"
 
     def diff(r: Mapping[str, Any]) -> str:
@@ -208,7 +276,7 @@ def study_markdown(study: Sequence[Mapping[str, Any]]) -> str:
         return f"{100 * r['mean_diff']:+.0f} [{100 * lo:+.0f}, {100 * hi:+.0f}] ({'yes' if r['resolves_10_points'] else 'no'})"
 
     return markdown_table(
-        [[r["grid"], r["condition"], r["runs"], value(r), diff(r), r.get("verdict", "")] for r in study],
+        [[GRIDS[r["grid"]], r["condition"], _runs_label(r), value(r), diff(r), r.get("verdict", "")] for r in study],
         [
             "grid",
             "condition",

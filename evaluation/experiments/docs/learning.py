@@ -45,7 +45,7 @@ def learning_shipped_policy(res: Results) -> str:
     n = len(card["episodes"])
     return (
         f"the recipe `{card['recipe']}`'s seed {card['seed']} at {steps_k(card.get('env_steps') or card['checkpoint_steps'])} env steps; it "
-        f"wins {round(card['success_rate'] * n)} of {n} grid episodes (the PD {round(pd['success_rate'] * n)}) "
+        f"wins {round(card['success_rate'] * n)} of {n} development-grid episodes (the PD {round(pd['success_rate'] * n)}) "
         f"at a tracking RMSE of {card['tracking_rmse_rad_s']:.2f} rad/s (the PD {pd['tracking_rmse_rad_s']:.2f})"
     )
 
@@ -77,7 +77,7 @@ def learning_recipe_table(res: Results) -> str:
             "budget",
             "final model: mean (worst)",
             "validation-chosen: mean (worst)",
-            "best checkpoint of each seed",
+            "best checkpoint of each seed (development grid)",
             "at env steps",
         ],
         rows,
@@ -98,7 +98,7 @@ def _fall(res: Results, recipe: str) -> tuple[int, dict, dict]:
 def learning_batch_fall(res: Results) -> str:
     k, peak, last = _fall(res, "stable_wide_batch")
     return (
-        f"seed {k} from {percent(peak['success_rate'])} at {steps_k(peak['env_steps'])} steps to "
+        f"seed {k} from {percent(peak['success_rate'])} of the development grid at {steps_k(peak['env_steps'])} steps to "
         f"{percent(last['success_rate'])} at {steps_k(last['env_steps'])}"
     )
 
@@ -109,9 +109,9 @@ def learning_batch_peaks(res: Results) -> str:
     level = _summary(res)["pd"]["success_rate"] - PD_MARGIN
     high = [p for p in peaks if p >= level - 1e-9]
     return (
-        f"the best checkpoints of {len(high)} of {len(peaks)} seeds won {span(high, percent)} of the grid"
+        f"the best checkpoints of {len(high)} of {len(peaks)} seeds won {span(high, percent)} of the development grid"
         if high
-        else f"no seed's best checkpoint reached the PD's level (best {percent(peaks[-1])})"
+        else f"no seed's best checkpoint reached the PD's level on the development grid (best {percent(peaks[-1])})"
     )
 
 
@@ -143,7 +143,7 @@ def learning_best_recipe(res: Results) -> str:
     met = [k for k, ok in best["aims"].items() if ok]
     return (
         f"the best recipe over five seeds so far, `{best['recipe'].removesuffix('@selected')}`, wins "
-        f"{percent(best['mean_success'])} of the grid in the mean with each seed's validation-chosen checkpoint "
+        f"{percent(best['mean_success'])} of the development grid in the mean with each seed's validation-chosen checkpoint "
         f"(worst seed {percent(best['worst_seed_success'])}; point / injected / hydroelastic "
         f"{slash((percent(per[m]) for m in ('point', 'injected', 'hydroelastic')))}; rliable IQM "
         f"{percent(best['rliable_iqm'])}, 95 % CI {percent(best['rliable_iqm_ci'][0])}–"
@@ -153,23 +153,29 @@ def learning_best_recipe(res: Results) -> str:
 
 @renders("learning_shipped_recipe")
 def learning_shipped_recipe(res: Results) -> str:
-    """The figures over seeds of the recipe the shipped policy was trained with (its card's)."""
+    """The figures over seeds of the recipe the shipped policy was trained with (its card's), and
+    how many of its runs reached PD level on the validation grid."""
     card = json.loads(asset_path(*CARD).read_text())
+    s = _summary(res)
     r = _recipes(res).get(f"{card['recipe']}@selected")
     if r is None:
         raise DocsError(f"the shipped policy's recipe {card['recipe']!r} has no finished runs in learning/summary.json")
     per = r["per_shell_mean"]
     met = [k for k, ok in r["aims"].items() if ok]
-    lo, hi = r["env_steps_to_pd_level_range"] or (None, None)
-    reached = r["reached_pd_level"]
+    reached = r["validation_reached_pd_level"]
+    level = (
+        f"; {reached.split('/')[0]} of its {reached.split('/')[1]} runs reached PD level on the validation grid "
+        f"(the PD wins {percent(s['pd_validation']['success_rate'])} there)"
+        if reached
+        else "; PD level on the validation grid is not recorded"
+    )
     return (
-        f"`{card['recipe']}` wins {percent(r['mean_success'])} of the grid in the mean over {r['seeds']} seeds with each "
-        f"seed's validation-chosen checkpoint (worst seed {percent(r['worst_seed_success'])}; point / injected / "
-        f"hydroelastic {slash(percent(per[m]) for m in ('point', 'injected', 'hydroelastic'))}; tracking RMSE "
-        f"{r['mean_tracking_rmse_rad_s']:.2f} rad/s; rliable IQM {percent(r['rliable_iqm'])}, 95 % CI "
-        f"{percent(r['rliable_iqm_ci'][0])}–{percent(r['rliable_iqm_ci'][1])}) and meets {len(met)} of the "
-        f"{len(r['aims'])} aims; {reached.split('/')[0]} of its {reached.split('/')[1]} runs reached PD level"
-        + (f", at {steps_k(lo)}–{steps_k(hi)} env steps" if lo is not None else "")
+        f"`{card['recipe']}` wins {percent(r['mean_success'])} of the development grid in the mean over {r['seeds']} "
+        f"seeds with each seed's validation-chosen checkpoint (worst seed {percent(r['worst_seed_success'])}; point / "
+        f"injected / hydroelastic {slash(percent(per[m]) for m in ('point', 'injected', 'hydroelastic'))}; tracking "
+        f"RMSE {r['mean_tracking_rmse_rad_s']:.2f} rad/s; rliable IQM over whole runs {percent(r['rliable_iqm'])}, "
+        f"95 % CI {percent(r['rliable_iqm_ci'][0])}–{percent(r['rliable_iqm_ci'][1])}) and meets {len(met)} of the "
+        f"{len(r['aims'])} aims" + level
     )
 
 
@@ -178,7 +184,7 @@ def learning_batch32_vs_batch(res: Results) -> str:
     r = _recipes(res)
     a, b = r["stable_wide_batch32@selected"], r["stable_wide_batch@selected"]
     return (
-        f"mean {percent(a['mean_success'])} and worst seed {percent(a['worst_seed_success'])} against "
+        f"development grid: mean {percent(a['mean_success'])} and worst seed {percent(a['worst_seed_success'])} against "
         f"{percent(b['mean_success'])} and {percent(b['worst_seed_success'])}; point / injected / hydroelastic "
         f"{slash(percent(a['per_shell_mean'][m]) for m in ('point', 'injected', 'hydroelastic'))}"
     )
@@ -200,7 +206,7 @@ def learning_batch32_failures(res: Results) -> str:
 
     low = min(e["pressure_kpa"] for e in eps)
     return (
-        f"{len(at_runout)} of the {len(failed)} failed grid episodes of its final models reached the run-out in "
+        f"{len(at_runout)} of the {len(failed)} failed development-grid episodes of its final models reached the run-out in "
         f"the lane and failed on the tracking RMSE alone ({min(rmse):.2f}–{max(rmse):.2f} rad/s), most often on "
         f"the soft shells at {low:g} kPa (injected {share('injected', low)}, hydroelastic "
         f"{share('hydroelastic', low)}; point {share('point', low)})"
@@ -217,29 +223,37 @@ STUDY_CONDITIONS = {
 #: The seeds the study aims at per condition: 10 for each of the three conditions, 5 (the floor of a
 #: training claim) for the fourth arm, which continues study_faults's runs and costs as much again.
 STUDY_SEEDS = {"nominal": 10, "pressure": 10, "pressure_faults": 10, "pressure_faults_4m": 5}
+#: The grids' names on the page.
+GRID_NAMES = {"nominal": "development grid", "faults": "fault grid"}
 
 
 @renders("randomization_study")
 def randomization_study(res: Results) -> str:
-    """The randomization study as it stands, as a list: runs per condition and how many chose the
-    end of their budget, each grid's IQM per condition, each pair's difference of mean success per
-    grid with what its interval says and whether it can show 10 points, and per pair the shells and
-    faults by what their difference's interval says (:data:`VERDICTS`)."""
+    """The randomization study as it stands, as a list: runs per condition (a retired condition
+    marked so) and how many chose the end of their budget, each grid's IQM per compared condition,
+    each pair's difference of mean success per grid with what its interval says and whether it can
+    show 10 points, and per pair the shells and faults by what their difference's interval says
+    (:data:`VERDICTS`). Every interval resamples whole runs, paired by seed where the seeds match."""
     s = _summary(res)
+    rows = s.get("randomization_study") or []
+    retired = {r["condition"]: r["retired"] for r in rows if "retired" in r}
     runs: dict[str, int] = {}
     at_end: dict[str, int] = {}
     for r in s["runs"]:
         if r["method"] in STUDY_RECIPES:
             runs[r["condition"]] = runs.get(r["condition"], 0) + 1
             at_end[r["condition"]] = at_end.get(r["condition"], 0) + chose_budget_end(r)
-    counts = ", ".join(f"{STUDY_CONDITIONS[c]} {runs.get(c, 0)} of {STUDY_SEEDS[c]}" for c in STUDY_CONDITIONS)
+    counts = ", ".join(
+        f"{STUDY_CONDITIONS[c]} {runs.get(c, 0)} of {STUDY_SEEDS[c]}"
+        + (f" (retired: {retired[c]})" if c in retired else "")
+        for c in STUDY_CONDITIONS
+    )
     ends = ", ".join(f"{STUDY_CONDITIONS[c]} {at_end[c]} of {runs[c]}" for c in STUDY_CONDITIONS if c in runs)
     out = [
         f"Finished runs per condition, of the seeds it aims at: {counts}.",
         "Runs whose validation chose the end of their training budget (not past their best when training "
         f"stopped): {ends}.",
     ]
-    rows = s.get("randomization_study") or []
     for grid in ("nominal", "faults"):
         iqm = [r for r in rows if r["grid"] == grid and "iqm" in r]
         if not iqm:
@@ -249,7 +263,7 @@ def randomization_study(res: Results) -> str:
             f"{percent(r['iqm_ci'][1])}]"
             for r in iqm
         )
-        out.append(f"IQM on the {'nominal' if grid == 'nominal' else 'fault'} grid: {parts}.")
+        out.append(f"IQM over whole runs on the {GRID_NAMES[grid]}: {parts}.")
 
     def pair(p: str) -> str:
         a, b = p.split(" − ")
@@ -260,13 +274,15 @@ def randomization_study(res: Results) -> str:
         by_pair: dict[str, list[str]] = {}
         for r in diffs:
             lo, hi = r["mean_diff_ci"]
-            grid = "nominal grid" if r["grid"] == "nominal" else "fault grid"
             by_pair.setdefault(r["pair"], []).append(
-                f"{grid} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], {r['verdict']}"
+                f"{GRID_NAMES[r['grid']]} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], "
+                f"{r['verdict']}"
             )
+        paired = all(r.get("paired_by_seed") for r in diffs)
         out.append(
-            "Difference of mean success, first condition minus second [95 % CI], and what the interval says "
-            "of the first:"
+            "Difference of mean success, first condition minus second [95 % CI over whole runs"
+            + (", paired by seed" if paired else "")
+            + "], and what the interval says of the first:"
         )
         out += [f"  - {pair(p)}: {'; '.join(v)}." for p, v in by_pair.items()]
         wide = [r for r in diffs if not r["resolves_10_points"]]
