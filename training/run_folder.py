@@ -27,6 +27,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.schemas import validate
@@ -251,7 +252,7 @@ def load_config(run_dir: str | Path) -> TrainConfig:
     if not path.exists():
         raise ValueError(f"run: {str(run_dir)!r} has no config.yaml (not a training run folder)")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = safe_yaml.load_file(path)
     except (OSError, yaml.YAMLError) as err:
         raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
     validate(RunConfigFile, data, f"run: {str(path)!r}")  # a mapping holding env_id and algo
