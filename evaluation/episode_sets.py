@@ -15,9 +15,9 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, NamedTuple
 
-import yaml
 from pydantic import Field, model_validator
 
+from sphere_env import safe_yaml
 from sphere_env.params import SHELL_MODELS
 from sphere_env.schemas import Schema, validate
 
@@ -93,8 +93,7 @@ def _episodes(s: SetFields) -> tuple[Episode, ...]:
 @lru_cache(maxsize=4)
 def load(path: Path = EPISODE_SETS) -> EpisodeSetsFile:
     """The episode sets file, validated (``ValueError`` naming the file and the field)."""
-    with open(path) as f:
-        return validate(EpisodeSetsFile, yaml.safe_load(f), str(path))
+    return validate(EpisodeSetsFile, safe_yaml.load_file(path), str(path))
 
 
 def episodes(name: str, path: Path = EPISODE_SETS) -> tuple[Episode, ...]:

@@ -34,11 +34,26 @@ def renamed(parser: argparse.ArgumentParser, old: str, new: str) -> None:
     parser.add_argument(old, nargs="*", action=_Renamed, help=argparse.SUPPRESS)
 
 
+#: Deepest nesting of a command-line value (a Python literal or YAML); deeper input is refused by name.
+MAX_LITERAL_DEPTH = 50
+
+
+def _depth(value: Any, limit: int = MAX_LITERAL_DEPTH + 1) -> int:
+    """How deeply ``value``'s lists, tuples, sets and dicts nest (counted up to ``limit``)."""
+    if limit <= 0 or not isinstance(value, (list, tuple, set, frozenset, dict)):
+        return 0
+    items = list(value.keys()) + list(value.values()) if isinstance(value, dict) else list(value)
+    return 1 + max((_depth(v, limit - 1) for v in items), default=0)
+
+
 def parse_key_values(items: Sequence[str], field_name: str = "hyperparams") -> dict[str, Any]:
     """``["key:value", ...]`` as rl-zoo3's StoreDict reads them: each value a Python literal
     (``ast.literal_eval``); text that is not one stays a string (``lin_5e-4``), but text opening a
-    mapping or list must be a literal (``{'base': 'full'}``)."""
+    mapping or list must be a literal (``{'base': 'full'}``), nested at most
+    :data:`MAX_LITERAL_DEPTH` levels."""
     import ast
+
+    from sphere_env.schemas import shown
 
     out: dict[str, Any] = {}
     for item in items:
@@ -46,44 +61,43 @@ def parse_key_values(items: Sequence[str], field_name: str = "hyperparams") -> d
         key = key.strip()
         if not sep or not key:
             hint = " (a hyperparameter file goes to -conf/--conf-file)" if item.endswith((".yml", ".yaml")) else ""
-            raise ValueError(f"{field_name}: {item!r} must be key:value{hint}")
+            raise ValueError(f"{field_name}: {shown(item)} must be key:value{hint}")
         try:
             val = ast.literal_eval(text.strip())
-        except (ValueError, SyntaxError):
+        except (ValueError, SyntaxError, RecursionError, MemoryError):
             if text.strip().startswith(("{", "[", "(")):
                 raise ValueError(
-                    f"{field_name}.{key}: value {text!r} is not a Python literal (values are read as in "
-                    "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'})"
+                    f"{field_name}.{key}: value {shown(text)} is not a Python literal (values are read as in "
+                    "rl-zoo3: quote strings inside mappings, e.g. {'base': 'full'}; at most "
+                    f"{MAX_LITERAL_DEPTH} levels deep)"
                 ) from None
             val = text.strip()
+        if _depth(val) > MAX_LITERAL_DEPTH:
+            raise ValueError(
+                f"{field_name}.{key}: value {shown(text)} is nested deeper than {MAX_LITERAL_DEPTH} levels"
+            )
         out[key] = val
     return out
 
 
 def parse_yaml_mapping(text: str, field_name: str = "env_kwargs") -> dict[str, Any]:
-    """A YAML mapping without repeated keys (``{}`` for empty text)."""
+    """A YAML mapping without repeated keys (``{}`` for empty text), within the bounds of
+    :mod:`sphere_env.safe_yaml` (size, depth, alias expansion)."""
     import yaml
 
-    class _UniqueKeys(yaml.SafeLoader):
-        pass
+    from sphere_env import safe_yaml
+    from sphere_env.schemas import shown
 
-    def mapping(loader, node, deep=False):
-        keys = [loader.construct_object(k, deep=deep) for k, _ in node.value]
-        dup = sorted({str(k) for k in keys if keys.count(k) > 1})
-        if dup:
-            raise ValueError(f"{field_name}: key {dup[0]!r} given twice in {text!r}")
-        return loader.construct_mapping(node, deep=deep)
-
-    _UniqueKeys.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
     try:
-        value = yaml.load(text, Loader=_UniqueKeys)  # noqa: S506 - a SafeLoader subclass
+        value = safe_yaml.load(text)
     except yaml.YAMLError as err:
-        raise ValueError(f"{field_name}: {text!r} is not valid YAML: {err}".replace("\n", " ")) from None
+        problem = " ".join(str(err).split())
+        raise ValueError(f"{field_name}: {shown(text)} is not valid YAML: {problem}") from None
     if value is None:
         return {}
     if not isinstance(value, dict):
         raise ValueError(
-            f"{field_name}: value {value!r} must be a YAML mapping such as '{{observation_noise_scale: 0.5}}'"
+            f"{field_name}: value {shown(value)} must be a YAML mapping such as '{{observation_noise_scale: 0.5}}'"
         )
     return value
 
@@ -91,13 +105,15 @@ def parse_yaml_mapping(text: str, field_name: str = "env_kwargs") -> dict[str, A
 def parse_env_kwargs(items: str | Sequence[str], field_name: str = "env_kwargs") -> dict[str, Any]:
     """``--env-kwargs``, the same in every subcommand: one YAML mapping (``'{shell_model: point}'``)
     or rl-zoo3's ``key:value`` items (:func:`parse_key_values`)."""
+    from sphere_env.schemas import shown
+
     items = [items] if isinstance(items, str) else list(items)
     if len(items) == 1 and (not items[0].strip() or items[0].strip().startswith("{")):
         return parse_yaml_mapping(items[0], field_name)
     for item in items:
         if ":" not in item or not item.partition(":")[0].strip():
             raise ValueError(
-                f"{field_name}: {item!r} must be a YAML mapping such as '{{shell_model: point}}' or key:value items"
+                f"{field_name}: {shown(item)} must be a YAML mapping such as '{{shell_model: point}}' or key:value items"
             )
     return parse_key_values(items, field_name)
 

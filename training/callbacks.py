@@ -5,7 +5,9 @@ episodes that choose ``best/`` (with its VecNormalize statistics), the run's own
 (``callback`` in the hyperparameters, e.g. :class:`sphere_env.training.curriculum.SuccessCurriculum`)
 and the log of every finished training episode (``learning_curve_train.csv``); on resume, earlier evaluations stay in the log.
 :func:`save_checkpoint` writes a checkpoint at the model's current step count, named as the
-checkpoint callback names them, for the end of a session or an interrupted one.
+checkpoint callback names them, for the end of a session or an interrupted one. Every checkpoint
+keeps the run's random state beside it (:mod:`sphere_env.training.training_state`), taken after
+every other callback has seen the step.
 """
 
 from __future__ import annotations
@@ -16,14 +18,24 @@ from pathlib import Path
 
 import numpy as np
 
+from sphere_env.training import training_state
 from sphere_env.training.config import TrainConfig, make_callbacks
 from sphere_env.training.run_folder import CHECKPOINT_PREFIX, _ckpt_file
 
 
 def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
-    """The run's callbacks: periodic checkpoints (``checkpoint_freq`` > 0), evaluations that choose
-    ``best/`` (with an ``eval_env``) and the training-episode log, in that order."""
+    """The run's callbacks: its own (``callback``), evaluations that choose ``best/`` (with an
+    ``eval_env``), the training-episode log and periodic checkpoints (``checkpoint_freq`` > 0), in
+    that order: a checkpoint holds what every other callback made of its step."""
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
+
+    class Checkpoint(CheckpointCallback):
+        """SB3's checkpoint, with the run's random state beside it."""
+
+        def _on_step(self) -> bool:
+            if self.n_calls % self.save_freq == 0:
+                training_state.save(self.model, own, run_dir)
+            return super()._on_step()
 
     class FixedEpisodesEvalCallback(EvalCallback):
         """EvalCallback whose every evaluation plays the same episodes (:class:`EvaluationEpisodes`)."""
@@ -84,11 +96,11 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
 
     n = cfg.n_envs
     # the run's own callbacks (hyperparams ``callback``) see each step before the episode log
-    callbacks: list[BaseCallback] = [*make_callbacks(cfg), EpisodeLog()]
+    own = make_callbacks(cfg)
+    callbacks: list[BaseCallback] = [*own, EpisodeLog()]
     if cfg.checkpoint_freq > 0:
-        callbacks.insert(
-            0,
-            CheckpointCallback(
+        callbacks.append(
+            Checkpoint(
                 save_freq=max(cfg.checkpoint_freq // n, 1),
                 save_path=str(run_dir / "checkpoints"),
                 name_prefix=CHECKPOINT_PREFIX,
@@ -108,7 +120,7 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
         deterministic=True,
         verbose=0,
     )
-    callbacks.insert(len(callbacks) - 1, ev)
+    callbacks.insert(len(own), ev)
     old = run_dir / "eval" / "evaluations.npz"
     if old.exists():  # resume: keep earlier evaluations in the log
         d = np.load(old)
@@ -121,10 +133,12 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
     return CallbackList(callbacks)
 
 
-def save_checkpoint(model, run_dir: Path, cfg: TrainConfig) -> None:
-    """Checkpoint at the model's current step count (same names as CheckpointCallback)."""
+def save_checkpoint(model, run_dir: Path, cfg: TrainConfig, callbacks=()) -> None:
+    """Checkpoint at the model's current step count (same names as CheckpointCallback), with the
+    run's random state (its envs', the process's and that of ``callbacks`` that keep one)."""
     n = model.num_timesteps
     (run_dir / "checkpoints").mkdir(parents=True, exist_ok=True)
+    training_state.save(model, callbacks, run_dir)
     model.save(run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{n}_steps.zip")
     vn = model.get_vec_normalize_env()
     if vn is not None:

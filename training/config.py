@@ -58,6 +58,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.resources import hyperparams_path
 from sphere_env.schemas.training import (
     MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
@@ -179,7 +180,7 @@ def load_section(path: str | Path, env_id: str) -> Any:
     by :func:`~sphere_env.schemas.training.check_section`)."""
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = safe_yaml.load_file(path)
     except (OSError, yaml.YAMLError) as err:
         raise ValueError(f"hyperparams: cannot read {str(path)!r}: {err}") from None
     if not isinstance(data, Mapping) or env_id not in data:

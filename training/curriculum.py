@@ -26,9 +26,10 @@ shell at 7–14 kPa in 83–100 % of their training episodes and at 3–5 kPa in
 condition the grid evaluates at 3 kPa), while about a third of all episodes went to cells already
 won.
 
-The success counts start empty when a run is resumed (every cell then has s = 1/2 and the
-allocation is even until the cells have episodes again). The envs' randomization is only changed
-for training: evaluation envs keep theirs.
+A checkpoint keeps the curriculum's state (:meth:`SuccessCurriculum.state_dict`: the success
+counts, the generator and each env's cell), and a resumed run continues from it: the envs start at
+the cells they had, with the counts they had (:mod:`sphere_env.training.training_state`). The envs'
+randomization is only changed for training: evaluation envs keep theirs.
 """
 
 from __future__ import annotations
@@ -140,6 +141,7 @@ class SuccessCurriculum(BaseCallback):
         self._rng: np.random.Generator | None = None  # draws the cells when envs are fewer
         self._assigned: list[int] = []  # cell of each env's next episode
         self._current: list[int | None] = []  # cell of each env's running episode (None: before any)
+        self._resumed = False  # state restored by load_state_dict
 
     def check_env(self, env: Any, n_envs: int) -> None:
         """Refuse, before training, a cell the env's randomization refuses (a pressure outside the
@@ -170,15 +172,30 @@ class SuccessCurriculum(BaseCallback):
     def _allocate(self) -> None:
         n = self.training_env.num_envs
         counts = allocate([1.0 - s for s in self.success()], n, self.min_share, self._rng)
-        assigned = [c for c, k in enumerate(counts) for _ in range(k)]
-        for i, (old, new) in enumerate(zip(self._assigned or [None] * n, assigned)):
+        self._assign(self.training_env, [c for c, k in enumerate(counts) for _ in range(k)])
+        self._log()
+
+    def _assign(self, venv: Any, assigned: list[int]) -> None:
+        """Give env i the cell ``assigned[i]`` from its next episode on."""
+        for i, (old, new) in enumerate(zip(self._assigned or [None] * len(assigned), assigned)):
             if old != new:
-                self.training_env.env_method("set_randomization", self.spec(self._base, self.cells[new]), indices=[i])
-        self._assigned = assigned
+                venv.env_method("set_randomization", self.spec(self._base, self.cells[new]), indices=[i])
+        self._assigned = list(assigned)
+
+    def _log(self) -> None:
         for c, (m, lo, hi) in enumerate(self.cells):
-            self.logger.record(f"curriculum/envs_{m}" + ("" if lo is None else f"_{lo:g}-{hi:g}_kpa"), counts[c])
+            name = f"curriculum/envs_{m}" + ("" if lo is None else f"_{lo:g}-{hi:g}_kpa")
+            self.logger.record(name, self._assigned.count(c))
 
     def _on_training_start(self) -> None:
+        if self._resumed and self._assigned:  # load_state_dict gave the envs their cells before their first episode
+            self._current = list(self._assigned)
+            self._log()
+            return
+        if self._resumed:  # saved before any allocation: allocate now, with the saved generator
+            self._current = [None] * self.training_env.num_envs
+            self._allocate()
+            return
         self._base = self.training_env.get_attr("randomization", [0])[0]
         self._rng = np.random.default_rng(self.model.seed)
         self._current = [None] * self.training_env.num_envs
@@ -196,3 +213,54 @@ class SuccessCurriculum(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         self._allocate()
+
+    # ---- resume ------------------------------------------------------------------------------------
+    def state_dict(self) -> dict[str, Any]:
+        """The curriculum's state as plain data: its cells, their recent outcomes, its generator
+        and each env's cell."""
+        from sphere_env.training.training_state import generator_state
+
+        return {
+            "cells": [list(c) for c in self.cells],
+            "outcomes": [[bool(x) for x in o] for o in self.outcomes],
+            "rng": None if self._rng is None else generator_state(self._rng),
+            "assigned": list(self._assigned),
+        }
+
+    def load_state_dict(self, state: Any, venv: Any) -> None:
+        """Continue from ``state`` (:meth:`state_dict`) on the training envs ``venv`` of a resumed
+        run: the counts and the generator as saved, and each env at its saved cell from its next
+        episode on. ``ValueError`` naming the field, before anything changes, when ``state`` is
+        not this curriculum's (other cells, another number of envs)."""
+        from sphere_env.training.training_state import generator_from_state
+
+        name = "callbacks.SuccessCurriculum"
+        if not isinstance(state, dict):
+            raise ValueError(f"field {name!r} is a {type(state).__name__}, not a mapping")
+        cells = [list(c) for c in self.cells]
+        if state.get("cells") != cells:
+            raise ValueError(f"field '{name}.cells': saved cells differ from the run's {cells}")
+        outcomes = state.get("outcomes")
+        if not (
+            isinstance(outcomes, list)
+            and len(outcomes) == len(cells)
+            and all(isinstance(o, list) and all(isinstance(x, bool) for x in o) for o in outcomes)
+        ):
+            raise ValueError(f"field '{name}.outcomes': not one list of booleans per cell ({len(cells)})")
+        assigned = state.get("assigned")
+        n = venv.num_envs
+        if not (
+            isinstance(assigned, list)
+            and len(assigned) in (0, n)
+            and all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c < len(cells) for c in assigned)
+        ):
+            raise ValueError(f"field '{name}.assigned': not one cell index in [0, {len(cells) - 1}] per env ({n})")
+        rng = None if state.get("rng") is None else generator_from_state(state["rng"], f"{name}.rng")
+        # ---- checked
+        self.outcomes = [deque(o, maxlen=self.window_episodes) for o in outcomes]
+        self._rng = rng
+        self._base = venv.get_attr("randomization", [0])[0]
+        self._assigned = []
+        if assigned:
+            self._assign(venv, assigned)
+        self._resumed = True

@@ -2,7 +2,8 @@
 
     <run>/config.yaml                 the resolved configuration, the command, resumes
     <run>/.lock                       held by the one process writing the folder
-    <run>/checkpoints/                rl_model_<steps>_steps.zip (+ VecNormalize, SAC replay buffer)
+    <run>/checkpoints/                rl_model_<steps>_steps.zip (+ VecNormalize, SAC replay buffer,
+                                      the run's random state: rl_model_training_state_<steps>_steps.json)
     <run>/monitor/                    SB3 Monitor CSVs, one per training env
     <run>/learning_curve_train.csv    every training episode at its exact global step
     <run>/learning_curve.csv, .png    training and evaluation curves
@@ -26,10 +27,12 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.schemas import validate
 from sphere_env.schemas.training import RunConfigFile
+from sphere_env.training import training_state
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
 
 RUNS = Path("runs")
@@ -69,6 +72,12 @@ def _checkpoint_problem(cls, cfg: TrainConfig, run_dir: Path, steps: int, path: 
                 pickle.load(f)
         except Exception as err:  # noqa: BLE001
             return f"{vn.name} cannot be read ({type(err).__name__}: {err})"
+    state = training_state.state_path(run_dir, steps)
+    if state.exists():  # absent in folders written before it was saved: the streams then restart
+        try:
+            training_state.read(state)
+        except ValueError as err:
+            return str(err)
     return None
 
 
@@ -243,7 +252,7 @@ def load_config(run_dir: str | Path) -> TrainConfig:
     if not path.exists():
         raise ValueError(f"run: {str(run_dir)!r} has no config.yaml (not a training run folder)")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = safe_yaml.load_file(path)
     except (OSError, yaml.YAMLError) as err:
         raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
     validate(RunConfigFile, data, f"run: {str(path)!r}")  # a mapping holding env_id and algo

@@ -18,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+from sphere_env.training import training_state
 from sphere_env.training.callbacks import build_callbacks, save_checkpoint
 from sphere_env.training.config import TrainConfig
 from sphere_env.training.env_factory import make_vec_env, wrap_normalize
@@ -50,13 +51,14 @@ def unchecked_distributions():
         torch.distributions.Distribution.set_default_validate_args(previous)
 
 
-def save_model(model, run_dir: Path, cfg: TrainConfig) -> None:
-    """``model.zip``, its VecNormalize statistics (``vecnormalize.pkl``) and a checkpoint at its step count."""
+def save_model(model, run_dir: Path, cfg: TrainConfig, callbacks=()) -> None:
+    """``model.zip``, its VecNormalize statistics (``vecnormalize.pkl``) and a checkpoint at its step
+    count, with the run's random state (that of ``callbacks`` included)."""
     model.save(run_dir / "model.zip")
     vn = model.get_vec_normalize_env()
     if vn is not None:
         vn.save(str(run_dir / "vecnormalize.pkl"))
-    save_checkpoint(model, run_dir, cfg)
+    save_checkpoint(model, run_dir, cfg, callbacks)
 
 
 def train_session(
@@ -86,6 +88,8 @@ def train_session(
         if cfg.eval_freq > 0:
             eval_env = wrap_normalize(cfg, make_vec_env(cfg, run_dir, evaluation=True), evaluation=True)
         tb = cfg.tensorboard_log or str(run_dir / "tb")
+        callbacks = build_callbacks(cfg, run_dir, eval_env)
+        own = training_state.stateful(callbacks.callbacks)
         if resume:
             model = cls.load(ckpt[1], env=venv, device=cfg.device, tensorboard_log=tb)
             rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
@@ -93,6 +97,7 @@ def train_session(
                 model.load_replay_buffer(rb)
             elif cfg.algo == "sac":
                 say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
+            _restore_random_state(model, run_dir, start_steps, own)
         elif agent is not None:
             # As rl-zoo3's -i: the saved network with the configuration's other hyperparameters
             # (schedules, batch sizes, ...), and a fresh step count up to n_timesteps.
@@ -117,20 +122,20 @@ def train_session(
             with unchecked_distributions():
                 model.learn(
                     total_timesteps=cfg.n_timesteps - start_steps,
-                    callback=build_callbacks(cfg, run_dir, eval_env),
+                    callback=callbacks,
                     progress_bar=progress_bar,
                     reset_num_timesteps=not resume,
                     tb_log_name=cfg.algo,
                 )
         except KeyboardInterrupt:
             # the rollout in progress is dropped; everything trained so far is saved and resumable
-            save_model(model, run_dir, cfg)
+            save_model(model, run_dir, cfg, own)
             raise TrainingInterrupted(
                 f"interrupted at {model.num_timesteps} env steps; saved model.zip, vecnormalize.pkl and a "
                 f"checkpoint in {run_dir}; continue with --resume {run_dir}"
             ) from None
         wall = time.perf_counter() - t0
-        save_model(model, run_dir, cfg)
+        save_model(model, run_dir, cfg, own)
         steps = model.num_timesteps - start_steps
         (run_dir / "timing.json").write_text(
             json.dumps(
@@ -146,3 +151,17 @@ def train_session(
     finally:
         venv.close()
     return model
+
+
+def _restore_random_state(model, run_dir: Path, steps: int, callbacks) -> None:
+    """The random state saved with the checkpoint at ``steps``, back in ``model``, its envs and
+    ``callbacks`` (:mod:`sphere_env.training.training_state`); a checkpoint without one (written by
+    an older version) resumes with the streams restarted, saying so."""
+    path = training_state.state_path(run_dir, steps)
+    if not path.exists():
+        say(
+            f"resume: {path.name} is missing (a checkpoint written before random states were saved); "
+            "the envs' and the callbacks' random streams restart from the run's seeds"
+        )
+        return
+    training_state.restore(model, training_state.read(path), callbacks)

@@ -30,6 +30,7 @@ import numpy as np
 import yaml
 from pydantic import Field
 
+from sphere_env import safe_yaml
 from sphere_env.files import write_text_atomic
 from sphere_env.schemas import allowed, checker
 from sphere_env.training.config import TrainConfig
@@ -175,7 +176,7 @@ def aggregate_learning_curves(sweep_dir: str | Path) -> tuple[Path, Path] | None
     per configuration and evaluation step, the mean over seeds of the evaluation return, its
     bootstrap interval and the mean success rate. None when no trial evaluated."""
     sweep_dir = Path(sweep_dir)
-    trials = yaml.safe_load((sweep_dir / "sweep.yaml").read_text())["trials"]
+    trials = safe_yaml.load_file((sweep_dir / "sweep.yaml"))["trials"]
     by_config: dict[int, list[tuple]] = {}
     for t in trials:
         curve = _eval_curve(sweep_dir / t["folder"])

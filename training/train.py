@@ -29,7 +29,9 @@ A run folder holds::
                              (drake, torch, sb3, sphere_env, ...) and the command
     model.zip                final model          vecnormalize.pkl   its VecNormalize statistics
     best/best_model.zip      best on the evaluation episodes, best/vecnormalize.pkl
-    checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_, SAC: _replay_buffer_)
+    checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_, SAC: _replay_buffer_, and
+                             _training_state_ .json: the envs', curriculum's and process's random
+                             state, which --resume restores)
     learning_curve.csv/.png  training episodes and evaluations against env steps
     monitor/                 Monitor CSVs (info keywords: pressure_kpa, is_success)
     eval/evaluations.npz     EvalCallback log          tb/  TensorBoard logs (or -tb)

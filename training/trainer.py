@@ -18,6 +18,7 @@ from typing import Any, Sequence
 
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.training.config import TrainConfig, algo_class
 from sphere_env.training.run_folder import (
     _clear_outputs,
@@ -85,7 +86,7 @@ def _train_locked(
     previous: dict[str, Any] = {}
     if resume:  # train() checked that config.yaml exists; gone since (another process): cannot be read
         try:
-            previous = yaml.safe_load((run_dir / "config.yaml").read_text()) or {}
+            previous = safe_yaml.load_file((run_dir / "config.yaml")) or {}
         except (OSError, yaml.YAMLError) as err:
             raise ValueError(
                 f"resume: {str(run_dir / 'config.yaml')!r} cannot be read: " + " ".join(str(err).split())

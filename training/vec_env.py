@@ -211,17 +211,47 @@ def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
     block = _Block(fns.var)
     try:
         while True:
-            cmd, data = remote.recv()
+            cmd, number, data = remote.recv()
             if cmd == "close":
                 block.close()
                 remote.close()
                 break
-            remote.send(_answer(block, cmd, data))
+            remote.send((number, _answer(block, cmd, data)))
     except (EOFError, KeyboardInterrupt):
         pass
 
 
-class BatchedSubprocVecEnv(VecEnv):
+class _Replies:
+    """Numbered messages to the workers: each reply repeats its message's number, and a reader takes
+    the reply to its own message, dropping older ones. A command interrupted (Ctrl-C) between
+    sending and receiving leaves replies in the pipes; they are never mistaken for a later
+    command's (an interrupted run's checkpoint asks every env for its random state right after the
+    interrupted step)."""
+
+    _number = 0
+
+    def _send(self, messages: list[tuple[Any, tuple[str, Any]]]) -> tuple[int, list]:
+        """Send each (remote, (command, data)); the ticket that :meth:`_replies` redeems."""
+        self._number += 1
+        for remote, (cmd, data) in messages:
+            remote.send((cmd, self._number, data))
+        return self._number, [remote for remote, _ in messages]
+
+    @staticmethod
+    def _replies(ticket: tuple[int, list]) -> list:
+        """The replies to the messages of ``ticket``, in the order they went out."""
+        number, remotes = ticket
+        out = []
+        for remote in remotes:
+            while True:
+                got, reply = remote.recv()
+                if got == number:
+                    out.append(reply)
+                    break
+        return out
+
+
+class BatchedSubprocVecEnv(_Replies, VecEnv):
     """``len(env_fns)`` envs in ``n_workers`` contiguous blocks stepped in parallel (env i in block
     i // ceil(n / n_workers)): the calling process steps the first block itself, one worker process
     each of the others.
@@ -267,14 +297,15 @@ class BatchedSubprocVecEnv(VecEnv):
 
     # ---- stepping ----------------------------------------------------------------------------------
     def step_async(self, actions: np.ndarray) -> None:
-        for remote, block in zip(self.remotes, self.blocks[1:]):
-            remote.send(("step", [actions[i] for i in block]))
+        self._ticket = self._send(
+            [(remote, ("step", [actions[i] for i in block])) for remote, block in zip(self.remotes, self.blocks[1:])]
+        )
         self._local_actions = [actions[i] for i in self.blocks[0]]
         self.waiting = True
 
     def step_wait(self):
         results = self.local.step(self._local_actions)
-        results += [r for remote in self.remotes for r in remote.recv()]
+        results += [r for reply in self._replies(self._ticket) for r in reply]
         self.waiting = False
         obs, rews, dones, infos, self.reset_infos = zip(*results)
         self.reset_infos = list(self.reset_infos)
@@ -282,10 +313,9 @@ class BatchedSubprocVecEnv(VecEnv):
 
     def reset(self):
         data = [[(self._seeds[i], self._options[i]) for i in block] for block in self.blocks]
-        for remote, d in zip(self.remotes, data[1:]):
-            remote.send(("reset", d))
+        ticket = self._send([(remote, ("reset", d)) for remote, d in zip(self.remotes, data[1:])])
         results = self.local.handle("reset", data[0])
-        results += [r for remote in self.remotes for r in remote.recv()]
+        results += [r for reply in self._replies(ticket) for r in reply]
         obs, self.reset_infos = zip(*results)
         self.reset_infos = list(self.reset_infos)
         self._reset_seeds()
@@ -297,11 +327,10 @@ class BatchedSubprocVecEnv(VecEnv):
             return
         for remote in self.remotes:
             try:  # a worker that died (or failed to start) has nothing to answer
-                # a step interrupted (Ctrl-C) between sending and receiving may have left no answer
-                # to wait for: drain what came, never block on it
-                if self.waiting and remote.poll(1.0):
+                # replies still in the pipe (a command interrupted by Ctrl-C): taken, never waited for
+                while remote.poll(0.05):
                     remote.recv()
-                remote.send(("close", None))
+                remote.send(("close", 0, None))
             except (EOFError, OSError):
                 pass
         for p in self.processes:
@@ -319,17 +348,15 @@ class BatchedSubprocVecEnv(VecEnv):
     def _gather(self, cmd: str, indices, *payload) -> list[Any]:
         """``cmd`` on the envs ``indices`` (all for ``render``), the replies in env order."""
         idx = None if cmd == "render" else self._get_indices(indices)
-        routes = []  # (remote or None for the calling process's block, data)
+        routes = []  # (remote or None for the calling process's block, data); the calling process's first
         for k, block in enumerate(self.blocks):
             local = [block.index(i) for i in idx if i in block] if idx is not None else None
             if local is None or local:
                 routes.append((self.remotes[k - 1] if k else None, None if local is None else (local, *payload)))
-        for remote, data in routes:
-            if remote is not None:
-                remote.send((cmd, data))
+        ticket = self._send([(remote, (cmd, data)) for remote, data in routes if remote is not None])
+        here = [_answer(self.local, cmd, data) for remote, data in routes if remote is None]
         out, failed = [], None
-        for remote, data in routes:  # every reply is received, so the pipes stay in step
-            reply = _answer(self.local, cmd, data) if remote is None else remote.recv()
+        for reply in here + self._replies(ticket):  # every reply is received, so the pipes stay in step
             if isinstance(reply, _Failed):
                 failed = failed or reply
             elif reply is not None:
@@ -364,7 +391,9 @@ class _SafeCalls(gym.Wrapper):
     def get_wrapper_attr(self, name: str):
         try:
             attr = (
-                getattr(self, name) if name in ("safe_get_attr", "safe_set_attr") else self.env.get_wrapper_attr(name)
+                getattr(self, name)
+                if name in ("safe_get_attr", "safe_set_attr", "numbered_call")
+                else self.env.get_wrapper_attr(name)
             )
         except AttributeError as err:  # no such method: the call answers with the error
             failed = _Failed(err)
@@ -383,8 +412,19 @@ class _SafeCalls(gym.Wrapper):
     def safe_get_attr(self, name: str):
         return self.env.get_wrapper_attr(name)
 
+    def numbered_call(self, number: int, name: str, args, kwargs) -> "_Numbered":
+        """``name(*args, **kwargs)`` as ``env_method`` runs it, its reply numbered."""
+        return _Numbered(number, self.get_wrapper_attr(name)(*args, **kwargs))
+
     def safe_set_attr(self, name: str, value: Any) -> None:
         setattr(self.env, name, value)  # the Monitor passes settable env properties through, validated
+
+
+class _Numbered:
+    """A reply and the number of the message it answers."""
+
+    def __init__(self, number: int, value: Any):
+        self.number, self.value = number, value
 
 
 def _safe_env(fn):
@@ -401,16 +441,34 @@ def _raise_failed(replies: list[Any]) -> list[Any]:
 class SafeSubprocVecEnv(SubprocVecEnv):
     """SB3's ``SubprocVecEnv`` (one process per env) whose ``env_method``, ``get_attr`` and
     ``set_attr`` raise a bad call's error in the caller; the worker stays alive and its env
-    unchanged (SB3's worker loop ends on any exception, which killed a training run)."""
+    unchanged (SB3's worker loop ends on any exception, which killed a training run). Their replies
+    are numbered (:meth:`_SafeCalls.numbered_call`): a reply left in a pipe by an interrupted
+    command is dropped, never taken for a later one's."""
+
+    _number = 0
 
     def __init__(self, env_fns, start_method: str | None = None):
         super().__init__([partial(_safe_env, fn) for fn in env_fns], start_method)
 
+    def _call(self, method_name: str, args, kwargs, indices) -> list[Any]:
+        self._number += 1
+        remotes = self._get_target_remotes(indices)
+        for remote in remotes:
+            remote.send(("env_method", ("numbered_call", (self._number, method_name, args, kwargs), {})))
+        out = []
+        for remote in remotes:
+            while True:
+                reply = remote.recv()
+                if isinstance(reply, _Numbered) and reply.number == self._number:
+                    out.append(reply.value)
+                    break
+        return _raise_failed(out)
+
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
-        return _raise_failed(super().env_method(method_name, *method_args, indices=indices, **method_kwargs))
+        return self._call(method_name, method_args, method_kwargs, indices)
 
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        return _raise_failed(super().env_method("safe_get_attr", attr_name, indices=indices))
+        return self._call("safe_get_attr", (attr_name,), {}, indices)
 
     def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        _raise_failed(super().env_method("safe_set_attr", attr_name, value, indices=indices))
+        self._call("safe_set_attr", (attr_name, value), {}, indices)

@@ -35,8 +35,8 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.evaluation.episode_sets import check_training_seed, episodes
 from sphere_env.evaluation.experiments.run_provenance import from_scratch
 from sphere_env.evaluation.faults import PRESSURES_KPA, SHELLS, grid_jobs
@@ -53,8 +53,7 @@ PD_MARGIN = 0.03  # "PD level": grid success ≥ the PD's − 3 points
 
 def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
     """The recipes of ``recipes.yml``, each with its ``conf``: its own, else the file's default."""
-    with open(path) as f:
-        data = yaml.safe_load(f)
+    data = safe_yaml.load_file(path)
     return {name: {"conf": data["conf"], **recipe} for name, recipe in data["recipes"].items()}
 
 

@@ -45,6 +45,7 @@ from typing import Any, Sequence
 import numpy as np
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.calibration.logs import MIN_MOTION_RAD, LogError, RobotLog
 from sphere_env.files import write_text_atomic
 from sphere_env.reporting import markdown_table
@@ -216,7 +217,7 @@ def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], 
     path = Path(path)
     if path.exists():
         try:
-            data = yaml.safe_load(path.read_text()) or {}
+            data = safe_yaml.load_file(path) or {}
         except yaml.YAMLError as err:
             raise LogError(f"manifest {str(path)!r}: cannot read: {err}") from err
         if not isinstance(data, dict) or not isinstance(data.get("trials", []), list):

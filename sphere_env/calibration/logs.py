@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.calibration.channels import (
     ANGLE_CHANNELS,
     ROBOBALL_CHANNELS,
@@ -61,6 +62,7 @@ from sphere_env.calibration.channels import (
     ROBOBALL_TIME,
     STATE_CHANNELS,
 )
+from sphere_env.schemas import shown
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
@@ -141,7 +143,7 @@ class ColumnMapping:
         """Read a user mapping YAML (see module docstring)."""
         p = str(path)
         try:
-            data = yaml.safe_load(Path(path).read_text())
+            data = safe_yaml.load_file(Path(path))
         except (OSError, yaml.YAMLError) as err:
             raise LogError(f"column mapping {p!r}: cannot read: {err}") from err
         if not isinstance(data, Mapping) or "time" not in data or "channels" not in data:
@@ -308,14 +310,16 @@ def load_log(
 
     tcol, tunit = mapping.time
     if tcol not in df.columns:
-        raise _fail(p, f"time column {tcol!r} missing; found columns {list(df.columns)} (mapping {mapping.source})")
+        raise _fail(
+            p, f"time column {tcol!r} missing; found columns {shown(list(df.columns))} (mapping {mapping.source})"
+        )
 
     def numeric(col: str) -> np.ndarray:
         vals = pd.to_numeric(df[col], errors="coerce")
         bad = vals.isna() & df[col].notna()
         if bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise _fail(p, f"line {i + 2}, column {col!r}: value {df[col].iloc[i]!r} is not a number")
+            raise _fail(p, f"line {i + 2}, column {shown(col)}: value {shown(df[col].iloc[i])} is not a number")
         return vals.to_numpy(dtype=float)
 
     t_raw = numeric(tcol)
@@ -399,7 +403,7 @@ def load_log(
     for chan in need:
         if chan not in channels:
             cols = [c for c, _ in mapping.channels.get(chan, ())]
-            raise _fail(p, f"column for {chan!r} missing (looked for {cols}); found columns {list(df.columns)}")
+            raise _fail(p, f"column for {chan!r} missing (looked for {cols}); found columns {shown(list(df.columns))}")
     if not channels:
         raise _fail(p, f"no known channel columns; found {list(df.columns)} (mapping {mapping.source})")
     return RobotLog(name or Path(p).stem, p, t, channels, derived=derived)

@@ -26,6 +26,7 @@ from typing import Literal
 import yaml
 from pydantic import Field
 
+from sphere_env import safe_yaml
 from sphere_env.calibration.logs import (
     PLAUSIBLE_PRESSURE_KPA,
     TIME_UNITS,
@@ -156,7 +157,7 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
     :data:`~sphere_env.calibration.logs.MIN_MOTION_RAD` peak to peak)."""
     p = str(path)
     try:
-        data = yaml.safe_load(Path(path).read_text())
+        data = safe_yaml.load_file(Path(path))
     except (OSError, yaml.YAMLError) as err:
         raise LogError(f"manifest {p!r}: cannot read: {err}") from err
     spec = validate(ManifestFile, data, f"manifest {p!r}", LogError)

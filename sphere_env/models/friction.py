@@ -15,6 +15,7 @@ from typing import Annotated, Any, Callable, Literal, Mapping
 import yaml
 from pydantic import Field
 
+from sphere_env import safe_yaml
 from sphere_env.models.mathbackend import NUMPY
 from sphere_env.resources import asset_path
 from sphere_env.schemas import allowed, checker, validate
@@ -103,7 +104,7 @@ def load_friction_presets(path: str | Path | None = None) -> dict[str, FrictionM
     path = Path(path) if path is not None else DEFAULT_PRESETS
     where = f"friction preset file {str(path)!r}"
     try:
-        data = yaml.safe_load(path.read_text())
+        data = safe_yaml.load_file(path)
     except (OSError, yaml.YAMLError) as err:
         # the reason only: a YAML error quotes the file's text
         raise ValueError(f"{where}: cannot read: {getattr(err, 'strerror', None) or type(err).__name__}") from None

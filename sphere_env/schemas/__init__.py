@@ -13,6 +13,7 @@ error message quotes it, else it says what pydantic expected.
 from __future__ import annotations
 
 import math
+import reprlib
 import tempfile
 from argparse import ArgumentTypeError
 from pathlib import Path
@@ -24,6 +25,21 @@ from pydantic.fields import FieldInfo
 
 S = TypeVar("S", bound="Schema")
 FIELD = "field '"  # how every message names a field
+
+
+#: The longest echo of an input value in a message [characters].
+SHOWN_CHARS = 200
+
+
+def shown(value: Any, limit: int = SHOWN_CHARS) -> str:
+    """``repr(value)`` cut for a message: a few items per level, a few levels, at most ``limit``
+    characters (an input can be megabytes, or a few bytes of YAML aliases that expand to billions
+    of items)."""
+    r = reprlib.Repr()
+    r.maxlevel, r.maxdict, r.maxlist, r.maxtuple, r.maxset, r.maxfrozenset = 3, 6, 6, 6, 6, 6
+    r.maxstring, r.maxother, r.maxlong = limit, limit, 60
+    text = r.repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 class Schema(BaseModel):
@@ -108,7 +124,7 @@ def _ordered(strict: bool) -> Callable[[tuple[Any, Any]], tuple[Any, Any]]:
     def check(pair: tuple[Any, Any]) -> tuple[Any, Any]:
         low, high = np.asarray(pair[0], dtype=float), np.asarray(pair[1], dtype=float)
         if np.any(low > high) or (strict and np.any(low == high)):
-            raise ValueError(f"low {pair[0]!r} is {'not below' if strict else 'above'} high {pair[1]!r}")
+            raise ValueError(f"low {shown(pair[0])} is {'not below' if strict else 'above'} high {shown(pair[1])}")
         return pair
 
     return check
@@ -250,7 +266,7 @@ def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> s
     where = _path(((root,) if root else ()) + loc)
     if e["type"] == "missing" and loc and isinstance(loc[-1], int):  # a sequence too short
         where = _path(((root,) if root else ()) + loc[:-1])
-        return f"field {where!r} = {e.get('input')!r}: too few items" + _allowed(field)
+        return f"field {where!r} = {shown(e.get('input'))}: too few items" + _allowed(field)
     if e["type"] == "missing":
         return f"field {where!r} is missing"
     if e["type"] == "extra_forbidden":
@@ -263,7 +279,8 @@ def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> s
     # a nested schema's message may already say what is allowed
     value = e.get("input")
     value = str(value) if isinstance(value, Path) else value  # a path as its text, as the user typed it
-    return f"field {where!r} = {value!r}: {msg}" + ("" if "allowed" in msg else _allowed(field))
+    msg = msg if len(msg) <= 4 * SHOWN_CHARS else msg[: 4 * SHOWN_CHARS - 3] + "..."
+    return f"field {where!r} = {shown(value)}: {msg}" + ("" if "allowed" in msg else _allowed(field))
 
 
 def _allowed(field: FieldInfo | None) -> str:
@@ -345,7 +362,7 @@ def checker(annotation: Any) -> Callable[..., Any]:
             return adapter.validate_python(value)
         except ValidationError as err:
             problem = err.errors()[0]["msg"].removeprefix("Value error, ")
-            raise error(f"{name} = {value!r}: {problem}" + (f"; allowed: {words}" if words else "")) from None
+            raise error(f"{name} = {shown(value)}: {problem}" + (f"; allowed: {words}" if words else "")) from None
 
     return check
 
@@ -370,13 +387,13 @@ def cli_type(annotation: Any, parse: Callable[[str], Any] = float, name: str = "
             value = parse(text)
         except ValueError:
             raise ArgumentTypeError(
-                f"{text!r} is not {'an integer' if parse is int else 'a number'}; allowed: {words}"
+                f"{shown(text)} is not {'an integer' if parse is int else 'a number'}; allowed: {words}"
             ) from None
         try:
             return adapter.validate_python(value)
         except ValidationError as err:
             problem = err.errors()[0]["msg"].removeprefix("Value error, ")
-            raise ArgumentTypeError(f"{text!r}: {problem}; allowed: {words}") from None
+            raise ArgumentTypeError(f"{shown(text)}: {problem}; allowed: {words}") from None
 
     read.__name__ = name  # argparse names the type in some messages
     return read

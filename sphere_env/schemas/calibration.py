@@ -22,6 +22,7 @@ import numpy as np
 import yaml
 from pydantic import Discriminator, Field, Tag, model_validator
 
+from sphere_env import safe_yaml
 from sphere_env.schemas import Finite, Schema, allowed, checker, number, ordered_pair, validate
 
 #: Gauge pressures [kPa] a calibration may cover: RoboBall runs 3-14 kPa and a fabric/rubber shell
@@ -354,7 +355,7 @@ def read_calibration_file(path: str | Path) -> tuple[dict[str, Any], Calibration
     """The file's mapping as written and its validated schema; ``ValueError`` naming the file when it
     cannot be read or parsed."""
     try:
-        data = yaml.safe_load(Path(path).read_text())
+        data = safe_yaml.load_file(Path(path))
     except (OSError, yaml.YAMLError) as err:
         raise ValueError(f"calibration file {str(path)!r}: cannot read: {err}") from err
     return data, check_calibration(data, str(path))

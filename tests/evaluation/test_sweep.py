@@ -31,7 +31,8 @@ def _need(what: str, ok: bool):
 
 def chromium_screenshot(html, png, size=(800, 600)):
     exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    _need("chromium", exe is not None)
+    if exe is None:  # a system package: `make chromium` installs it (as root); `make test` never does
+        pytest.skip("chromium not found: the replay screenshot needs a browser (`make chromium` installs it, as root)")
     profile = png.parent / "chromium-profile"
     cmd = [
         exe,

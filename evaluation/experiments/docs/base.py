@@ -11,6 +11,7 @@ from typing import Any
 
 import yaml
 
+from sphere_env import safe_yaml
 from sphere_env.evaluation.reporting import RESULTS
 from sphere_env.reporting import markdown_table
 from sphere_env.resources import asset_path
@@ -44,7 +45,7 @@ class Results:
         if key not in self._read:
             path = asset_path("calibration", f"{name}.yaml")
             try:
-                self._read[key] = yaml.safe_load(path.read_text())
+                self._read[key] = safe_yaml.load_file(path)
             except (OSError, yaml.YAMLError) as e:
                 raise DocsError(f"cannot read calibration file {path}: {e}") from e
         return self._read[key]
