@@ -128,12 +128,14 @@ def floor_and_profile(args, info: dict) -> tuple[dict, dict, list[str]]:
         from sphere_env.evaluation.experiments.benchmark_floor import floor_markdown, run_paired, summary
 
         floor = run_paired(args.seconds, args.floor_repeats)
-        floor["summary"] = summary(floor)
+        floor.update(
+            summary=summary(floor), commit=info["commit"], run_utc=f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M}"
+        )
         md += [
             "",
             FLOOR_HEADING,
             "",
-            f"Run {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC at commit {info['commit']}.",
+            f"Run {floor['run_utc']} UTC at commit {info['commit']}.",
             "",
             floor_markdown(floor),
         ]
@@ -142,7 +144,7 @@ def floor_and_profile(args, info: dict) -> tuple[dict, dict, list[str]]:
 
         load0 = os.getloadavg()
         profile = profile_cases(args.profile_seconds)
-        profile["load_avg_start"] = load0
+        profile.update(load_avg_start=load0, commit=info["commit"])
         md += [
             "",
             PROFILE_HEADING,
