@@ -220,14 +220,24 @@ class PolicyController:
 
 def env_kwargs_of(spec: str) -> dict[str, Any]:
     """Env kwargs a controller needs (a trained policy: its training env kwargs, e.g. observation
-    layout and torque limits), without the sweep's own axes."""
+    layout and torque limits), without the sweep's own axes and without a training-only contact
+    solver: a policy is evaluated under the reference physics (each shell model's default solver)
+    whatever it was trained with."""
     rf = run_folder(spec)
     if rf is None:
         return {}
     from sphere_env.training.train import load_config
 
     kw = dict(load_config(rf[0]).env_kwargs)
-    for k in ("shell_model", "friction_model", "randomization", "render_mode", "record_replay", "meshcat"):
+    for k in (
+        "shell_model",
+        "friction_model",
+        "randomization",
+        "render_mode",
+        "record_replay",
+        "meshcat",
+        "contact_approximation",
+    ):
         kw.pop(k, None)
     return kw
 
