@@ -220,9 +220,8 @@ class PolicyController:
 
 def env_kwargs_of(spec: str) -> dict[str, Any]:
     """Env kwargs a controller needs (a trained policy: its training env kwargs, e.g. observation
-    layout and torque limits), without the sweep's own axes and without a training-only contact
-    solver: a policy is evaluated under the reference physics (each shell model's default solver)
-    whatever it was trained with."""
+    layout and torque limits), without the sweep's own axes and without the training-only contact
+    solver (``contact_approximation``): a policy is always evaluated under the reference physics."""
     rf = run_folder(spec)
     if rf is None:
         return {}
