@@ -4,11 +4,15 @@ Twin section: 10 s of free rolling from rest down the 16° ramp (4 m, then a fla
 run-out), Majd friction on both joints, advanced in 20 ms chunks as an environment would; per
 shell model, plus the same run on the bare plant (no friction system, no injected torques) of the
 same contact model. Real-time factor = simulated seconds / wall seconds; best of ``--repeats``.
+Floor section: every setting against Drake's floor (the robot URDF alone on the same ground), paired
+and interleaved in one run (``evaluation.experiments.benchmark_floor``). Profile section: where a
+20 ms chunk goes, from Linux ``perf`` samples (``evaluation.experiments.profile_twin``).
 Environment section: ``evaluation.experiments.benchmark_env.run_env_benchmarks``.
 Training section: ``evaluation.experiments.benchmark_train.run_train_benchmark`` (PPO layouts against the
 single-env rate, 1 and all cores, interleaved).
 
-    python -m evaluation.experiments.benchmark [--seconds 10] [--repeats 3] [--skip-env] [--skip-train]
+    python -m evaluation.experiments.benchmark [--seconds 10] [--repeats 3] [--skip-floor] [--skip-profile]
+        [--skip-env] [--skip-train]
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import time
 from datetime import datetime, timezone
 
@@ -111,18 +116,96 @@ def run_twin_benchmarks(seconds: float = 10.0, repeats: int = 3) -> list[dict]:
     return rows
 
 
+FLOOR_HEADING = "## Against Drake's floor: the same states, interleaved (point and hydroelastic contact)"
+PROFILE_HEADING = "## Where a 20 ms chunk goes"
+BEFORE_FLOOR = "## Environments"
+
+
+def floor_and_profile(args, info: dict) -> tuple[dict, dict, list[str]]:
+    """The floor and profile sections (unless skipped): their results and Markdown lines."""
+    floor, profile, md = {}, {}, []
+    if not args.skip_floor:
+        from sphere_env.evaluation.experiments.benchmark_floor import floor_markdown, run_paired, summary
+
+        floor = run_paired(args.seconds, args.floor_repeats)
+        floor.update(
+            summary=summary(floor), commit=info["commit"], run_utc=f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M}"
+        )
+        md += [
+            "",
+            FLOOR_HEADING,
+            "",
+            f"Run {floor['run_utc']} UTC at commit {info['commit']}.",
+            "",
+            floor_markdown(floor),
+        ]
+    if not args.skip_profile:
+        from sphere_env.evaluation.experiments.profile_twin import FREQUENCY_HZ, profile_cases, profile_markdown
+
+        load0 = os.getloadavg()
+        profile = profile_cases(args.profile_seconds)
+        profile.update(load_avg_start=load0, commit=info["commit"])
+        md += [
+            "",
+            PROFILE_HEADING,
+            "",
+            f"Linux `perf` sampling the stepping loop at {FREQUENCY_HZ} Hz with DWARF call stacks, "
+            f"{args.profile_seconds:g} s of wall time per case, each rolling down the ramp from rest (its own "
+            "trajectory); each sample goes to the first piece whose frames it contains, in the order of the rows "
+            "(`evaluation/experiments/profile_twin.py`). The twin has no Python leaf systems: its joint friction and "
+            "shell law are `SymbolicVectorSystem`s evaluated in C++. Shares of this process's CPU time, so they hold "
+            f"under load (1-min load average {load0[0]:.1f} at the start).",
+            "",
+            profile_markdown(profile),
+        ]
+    return floor, profile, md
+
+
+def merge_floor_and_profile(floor: dict, profile: dict, lines: list[str]) -> None:
+    """Put the floor and profile sections into the written results in place of their last run,
+    the other sections left as their own run wrote them."""
+    md = (RESULTS / "benchmark.md").read_text()
+    head, found, rest = md.partition("\n" + FLOOR_HEADING)
+    if found:  # up to the next heading that is not the profile's
+        at = rest.find("\n## ")
+        while at >= 0 and rest.startswith("\n" + PROFILE_HEADING, at):
+            at = rest.find("\n## ", at + 1)
+        tail = rest[at:] if at >= 0 else ""
+    else:  # no floor section yet: before the environments, else at the end
+        head, sep, tail = md.partition("\n" + BEFORE_FLOOR)
+        tail = sep + tail
+    write_text_atomic(RESULTS / "benchmark.md", head.rstrip("\n") + "\n" + "\n".join(lines) + "\n" + tail)
+    data = json.loads((RESULTS / "benchmark.json").read_text())
+    data.update(floor=floor, profile=profile)
+    write_text_atomic(RESULTS / "benchmark.json", json.dumps(data, indent=2))
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per case")
     parser.add_argument("--repeats", type=int, default=3, help="repeats per case (best is kept)")
+    parser.add_argument("--skip-floor", action="store_true", help="skip the section against Drake's floor")
+    parser.add_argument("--floor-repeats", type=int, default=2, help="repeats of the paired floor section")
+    parser.add_argument("--skip-profile", action="store_true", help="skip the perf profile of a chunk")
+    parser.add_argument("--profile-seconds", type=float, default=8.0, help="wall seconds sampled per profiled case")
     parser.add_argument("--skip-env", action="store_true", help="skip the Gymnasium environment section")
     parser.add_argument("--env-seconds", type=float, default=10.0, help="wall seconds per env case")
     parser.add_argument("--skip-train", action="store_true", help="skip the PPO training-throughput section")
     parser.add_argument("--train-seconds", type=float, default=24.0, help="wall seconds per training case")
     parser.add_argument("--train-rounds", type=int, default=3, help="interleaved rounds of the training cases")
+    parser.add_argument(
+        "--floor-only",
+        action="store_true",
+        help="run only the floor and profile sections and put them into the written results in place of their last run",
+    )
     args = parser.parse_args(argv)
 
     info = machine_info()
+    if args.floor_only:
+        merge_floor_and_profile(*floor_and_profile(args, info))
+        print((RESULTS / "benchmark.md").read_text())
+        return
+    load0 = os.getloadavg()
     twin_rows = run_twin_benchmarks(args.seconds, args.repeats)
     cols = [
         ("case", "case", ""),
@@ -138,6 +221,8 @@ def main(argv: list[str] | None = None) -> None:
         f"(commit {info['commit']}), single process.",
         f"Machine: {info['cpu']}, {info['cores']} cores; Python {info['python']}, drake {info['drake']}, "
         f"torch {info['torch']}, sb3 {info['stable_baselines3']}, gymnasium {info['gymnasium']}.",
+        f"1-min load average {load0[0]:.1f} at the start (other jobs share the machine: the paired and interleaved "
+        "ratios hold under load, the absolute rates do not).",
         "",
         "## Twin: 10 s rolling down the 16° ramp, 20 ms chunks, plant step 5 ms",
         "",
@@ -149,6 +234,8 @@ def main(argv: list[str] | None = None) -> None:
         "",
         markdown_table(twin_rows, cols),
     ]
+    floor, profile, lines = floor_and_profile(args, info)
+    md += lines
     env_rows = []
     if not args.skip_env:
         from sphere_env.evaluation.experiments.benchmark_env import ENV_COLUMNS, run_env_benchmarks
@@ -162,21 +249,47 @@ def main(argv: list[str] | None = None) -> None:
         ]
     train = {}
     if not args.skip_train:
+        from sphere_env.evaluation.experiments.benchmark_recipe import run_solver_benchmark, solver_markdown
         from sphere_env.evaluation.experiments.benchmark_train import report_markdown, run_train_benchmark
 
         train = run_train_benchmark(args.train_seconds, rounds=args.train_rounds)
+        train["solvers"] = run_solver_benchmark()
         md += [
             "",
             "## Training: PPO throughput against the single-env rate (RampDescent, shipped hyperparameters)",
             "",
             report_markdown(train),
+            "",
+            "## Training: the learning recipe with the fast contact solver",
+            "",
+            solver_markdown(train["solvers"]),
+        ]
+    else:
+        md += [
+            "",
+            "## Training",
+            "",
+            "Not run (`--skip-train`): `evaluation/results/benchmark_train.md` has the last training-throughput run "
+            "(`python -m evaluation.experiments.benchmark_train`), the learning recipe with the fast contact solver "
+            "included.",
         ]
     text = "\n".join(md) + "\n"
     RESULTS.mkdir(parents=True, exist_ok=True)
     write_text_atomic(RESULTS / "benchmark.md", text)
     write_text_atomic(
         RESULTS / "benchmark.json",
-        json.dumps({"machine": info, "twin": twin_rows, "env": env_rows, "train": train}, indent=2),
+        json.dumps(
+            {
+                "machine": info,
+                "load_avg_start": load0,
+                "twin": twin_rows,
+                "floor": floor,
+                "profile": profile,
+                "env": env_rows,
+                "train": train,
+            },
+            indent=2,
+        ),
     )
     print(text)
 

@@ -31,7 +31,11 @@ shipped block layout with n envs on N cores as ``u + (c0 + c1 n) / n + e_b / min
 PPO update per sample, c0 + c1 n the main process's work per vectorized step outside the env
 stepping, e_b one env step inside a block, all measured.
 
+Then the learning recipe (RampDescent-v3) with the env under the reference contact solver and under
+``contact_approximation: tamsi`` (:func:`run_solver_benchmark`).
+
     python -m evaluation.experiments.benchmark_train [--seconds 24] [--rounds 3] [--shell-models point injected]
+        [--solver-updates 2] [--no-solvers | --solvers-only]
 
 writes ``evaluation/results/benchmark_train.{md,json}`` (with the commit; ``--no-write``: print only).
 """
@@ -109,13 +113,14 @@ def _cpu_s(pid: int) -> float:
 class SingleEnv:
     """One env as a training worker builds it, random actions, resets included."""
 
-    def __init__(self, shell_model: str, seed: int = 0):
+    def __init__(self, shell_model: str, seed: int = 0, env_id: str = ENV_ID, env_kwargs: dict | None = None):
         from sphere_env.training.config import resolve_config
         from sphere_env.training.train import make_env
 
         # env_kwargs= merges over the YAML's env kwargs (an "env_kwargs" override would replace them,
         # dropping the randomization and the observation options of the shipped config).
-        cfg = resolve_config(ENV_ID, "ppo", env_kwargs={"shell_model": shell_model}, seed=seed, build_env=False)
+        kwargs = {"shell_model": shell_model, **(env_kwargs or {})}
+        cfg = resolve_config(env_id, "ppo", env_kwargs=kwargs, seed=seed, build_env=False)
         self.env = make_env(cfg.env_id, cfg.make_kwargs(), seed)
         self.rng = np.random.default_rng(seed)
         self.twin = self.env.unwrapped.twin
@@ -150,17 +155,24 @@ class SingleEnv:
 class TrainCase:
     """A PPO model on a layout; ``run`` learns whole updates for about ``seconds``."""
 
-    def __init__(self, shell_model: str, layout: str, cores: int | None = None, seed: int = 0):
+    def __init__(
+        self,
+        shell_model: str,
+        layout: str,
+        cores: int | None = None,
+        seed: int = 0,
+        env_id: str = ENV_ID,
+        env_kwargs: dict | None = None,
+    ):
         from sphere_env.training.config import algo_class, resolve_config
         from sphere_env.training.train import make_vec_env, wrap_normalize
 
         label, over = LAYOUTS[layout]
         if "n_envs" in over:
             over = dict(over, n_steps=ROLLOUT // over["n_envs"])
-        cfg = resolve_config(
-            ENV_ID, "ppo", overrides=over, env_kwargs={"shell_model": shell_model}, seed=seed, build_env=False
-        )
-        if cfg.n_envs * cfg.hyperparams["n_steps"] != ROLLOUT:
+        kwargs = {"shell_model": shell_model, **(env_kwargs or {})}
+        cfg = resolve_config(env_id, "ppo", overrides=over, env_kwargs=kwargs, seed=seed, build_env=False)
+        if env_id == ENV_ID and cfg.n_envs * cfg.hyperparams["n_steps"] != ROLLOUT:
             raise ValueError(
                 f"layout {layout!r}: {cfg.n_envs} x {cfg.hyperparams['n_steps']} samples per update, "
                 f"not the shipped {ROLLOUT} (ROLLOUT)"
@@ -207,6 +219,15 @@ class TrainCase:
 
         with unchecked_distributions():  # as the trainer runs
             self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
+
+    def run_updates(self, updates: int) -> None:
+        """Learn ``updates`` whole updates (rollout and PPO update each), timed as :meth:`run`."""
+        s0, c0, t0 = self.model.num_timesteps, _cpu_s(os.getpid()), time.perf_counter()
+        for _ in range(updates):
+            self._learn()
+        self.wall += time.perf_counter() - t0
+        self.cpu_main += _cpu_s(os.getpid()) - c0
+        self.steps += self.model.num_timesteps - s0
 
     @property
     def processes(self):
@@ -425,6 +446,7 @@ def main(argv: list[str] | None = None) -> None:
     import sys
     from datetime import datetime, timezone
 
+    from sphere_env.evaluation.experiments.benchmark_recipe import SOLVER_HEADING, run_solver_benchmark, solver_markdown
     from sphere_env.evaluation.reporting import RESULTS, machine_info
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -437,12 +459,37 @@ def main(argv: list[str] | None = None) -> None:
         action="store_true",
         help="print only (default: also write evaluation/results/benchmark_train.{md,json})",
     )
+    parser.add_argument("--solver-updates", type=int, default=2, help="timed PPO updates per contact solver")
+    parser.add_argument("--no-solvers", action="store_true", help="skip the recipe's contact-solver comparison")
+    parser.add_argument(
+        "--solvers-only",
+        action="store_true",
+        help="run only the contact-solver comparison and put it into the written results in place of its last run",
+    )
     args = parser.parse_args(argv)
-    result = run_train_benchmark(args.seconds, tuple(args.shell_models), args.rounds, one_core=not args.no_one_core)
     info = machine_info()
     command = " ".join(
         ["python -m evaluation.experiments.benchmark_train", *(argv if argv is not None else sys.argv[1:])]
     )
+    solvers = None if args.no_solvers else run_solver_benchmark(args.solver_updates)
+    solver_text = (
+        ""
+        if solvers is None
+        else f"\n{SOLVER_HEADING}\n\nGenerated {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC by `{command}` "
+        f"(commit {info['commit']}).\n\n{solver_markdown(solvers)}\n"
+    )
+    if args.solvers_only:
+        print(solver_text)
+        if not args.no_write and solvers is not None:
+            from sphere_env.files import write_text_atomic
+
+            md = (RESULTS / "benchmark_train.md").read_text().split(f"\n{SOLVER_HEADING}")[0]
+            data = json.loads((RESULTS / "benchmark_train.json").read_text())
+            data["solvers"] = solvers | {"machine": info}
+            write_text_atomic(RESULTS / "benchmark_train.md", md.rstrip("\n") + "\n" + solver_text)
+            write_text_atomic(RESULTS / "benchmark_train.json", json.dumps(data, indent=2))
+        return
+    result = run_train_benchmark(args.seconds, tuple(args.shell_models), args.rounds, one_core=not args.no_one_core)
     text = (
         "\n".join(
             [
@@ -458,6 +505,7 @@ def main(argv: list[str] | None = None) -> None:
             ]
         )
         + "\n"
+        + solver_text
     )
     print(text)
     if not args.no_write:
@@ -465,7 +513,10 @@ def main(argv: list[str] | None = None) -> None:
 
         RESULTS.mkdir(parents=True, exist_ok=True)
         write_text_atomic(RESULTS / "benchmark_train.md", text)
-        write_text_atomic(RESULTS / "benchmark_train.json", json.dumps({"machine": info, "train": result}, indent=2))
+        write_text_atomic(
+            RESULTS / "benchmark_train.json",
+            json.dumps({"machine": info, "train": result, "solvers": solvers}, indent=2),
+        )
 
 
 if __name__ == "__main__":

@@ -91,9 +91,10 @@ class EnvKwargs(Schema):
         randomization draws from the widened range.
     :param contact_approximation: Drake's discrete contact solver, one of ``sap``, ``lagged``,
         ``similar``, ``tamsi`` (default ``None``: ``sap`` for point/injected, ``lagged`` for
-        hydroelastic). ``tamsi`` steps point contact about 2.5× faster than SAP and is offered for
-        training only (``docs/training.md``); SAP stays the reference physics of evaluation. A
-        solver the installed Drake no longer offers falls back to ``sap`` with a warning.
+        hydroelastic). ``tamsi`` steps the twin about twice as fast as SAP and is offered for
+        training only; SAP stays the reference physics of evaluation (speed and accuracy:
+        ``docs/results/speed.md``). A solver the installed Drake no longer offers falls back to
+        ``sap`` with a warning.
     :param incline_deg: ground incline [deg] within [0, 30] (ramp tasks).
     :param ramp_length_m: ramp length along the slope [m] within (0, 100]; ``None`` = infinite plane.
     :param render_mode: ``None`` | ``"human"`` (Meshcat) | ``"rgb_array"`` (VTK/EGL frames).

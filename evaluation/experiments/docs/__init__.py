@@ -24,7 +24,16 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from sphere_env.evaluation.experiments.docs import calibration, demo, learning, physics, registry, speed, training
+from sphere_env.evaluation.experiments.docs import (
+    calibration,
+    demo,
+    learning,
+    physics,
+    registry,
+    speed,
+    speed_floor,
+    training,
+)
 from sphere_env.evaluation.experiments.docs.base import RENDERERS, DocsError, Results
 from sphere_env.files import write_text_atomic
 
@@ -40,7 +49,7 @@ PAGES = (
     "docs/envs.md",
 )
 #: The modules whose renderers fill them (importing one registers its renderers by block name).
-BLOCK_MODULES = (demo, speed, training, physics, calibration, registry, learning)
+BLOCK_MODULES = (demo, speed, speed_floor, training, physics, calibration, registry, learning)
 BLOCK = re.compile(r"<!-- generated: (?P<name>[^\s>]+) -->(?P<body>.*?)<!-- /generated -->", re.S)
 OPEN, CLOSE = "<!-- generated:", "<!-- /generated -->"
 
