@@ -150,6 +150,14 @@ def condition_rates(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, di
     return out
 
 
+def _what(cond: Condition) -> str:
+    if cond.kind == "fault":
+        return GRADED_FAULTS[cond.key].title
+    if cond.kind == "calibration":
+        return f"the env built with assets/calibration/{cond.key}.yaml"
+    return "the grid as given"
+
+
 def conditions_markdown(rows: Sequence[Mapping[str, Any]], spec: SweepSpec) -> str:
     """The report's section on the conditions: success per controller under each (the nominal grid
     first), with each fault's title; empty when the sweep has no condition but the nominal one."""
@@ -164,7 +172,7 @@ def conditions_markdown(rows: Sequence[Mapping[str, Any]], spec: SweepSpec) -> s
         mine = [r for r in rows if r["condition"] == cond.name]
         line: dict[str, Any] = {
             "condition": cond.name,
-            "what": GRADED_FAULTS[cond.key].title if cond.kind == "fault" else cond.env_kwargs.get("calibration", ""),
+            "what": _what(cond),
             "episodes": len([r for r in mine if r["controller"] == labels[0]]),
         }
         for lab in labels:

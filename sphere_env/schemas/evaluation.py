@@ -214,7 +214,8 @@ class ControllerSpec(Schema):
 
 class SweepFields(Loaded):
     """A grid to evaluate (see ``SweepSpec``): every controller × shell model × friction preset ×
-    pressure [kPa] × seed."""
+    pressure [kPa] × seed, and the conditions added to it (``faults``, ``calibrations``: each once
+    more over the grid, for ``condition_controllers``; the faults at ``fault_seeds``)."""
 
     controllers: list[ControllerSpec] = Field(
         min_length=1, json_schema_extra=allowed("at least one controller, each label once")
@@ -476,6 +477,12 @@ class DemoOptions(Schema):
     seed: Seed
     seeds: list[Seed] = Field(
         min_length=1, max_length=100, json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1]")
+    )
+    fault_seeds: list[Seed] | None = Field(
+        None,
+        min_length=1,
+        max_length=100,
+        json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1], or none for the first evaluation seed"),
     )
     out: OutputFolder
     run_dir: OutputFolder | None = None

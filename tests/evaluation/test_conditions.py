@@ -1,13 +1,16 @@
 """Faults and calibrations as conditions of an evaluation sweep: the flags parse and refuse bad names
 with the flag named before anything runs; each condition really changes the env its episodes run
-in; the results and the report carry every condition."""
+in; the results, the report and the demo's summary carry every condition."""
 
 from __future__ import annotations
+
+import json
 
 import pytest
 
 from sphere_env.evaluation.cells import _env
 from sphere_env.evaluation.conditions import condition_rates, fault_curves
+from sphere_env.evaluation.demo import controller_summary
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main
 from sphere_env.evaluation.faults import FAULTS, GRADED_FAULTS
 
@@ -90,7 +93,7 @@ def test_each_condition_changes_the_env_its_episodes_run_in(sweep):
     assert built.raw["name"] == "roboball-free-robot" and built.omega_n_intercept == 2.17215
 
 
-def test_the_results_and_report_carry_every_condition(sweep):
+def test_the_results_report_and_demo_summary_carry_every_condition(sweep):
     spec, out, res = sweep
     rows = {r["condition"]: r for r in res["rows"]}
     assert set(rows) == {"nominal", "fault:friction_drive_150pct", "calibration:free_robot"}
@@ -107,6 +110,14 @@ def test_the_results_and_report_carry_every_condition(sweep):
     assert (out / "plots" / "fault_curves.png").stat().st_size > 0
     curve = fault_curves(res["rows"])["friction_drive"]["pd"]
     assert [level for level, _, _ in curve] == [1.0, 1.5]
+    summary = json.loads(json.dumps(controller_summary(res, spec.shell_models)))
+    pd = summary["pd"]
+    assert (
+        pd["faults"]["friction_drive_150pct"]["success_rate"]
+        == rates["faults"]["friction_drive_150pct"]["success_rate"]
+    )
+    assert pd["calibrations"]["free_robot"]["success_rate"] in (0.0, 1.0)
+    assert pd["per_shell"]["injected"]["success_rate"] == float(rows["nominal"]["is_success"])
 
 
 def test_condition_rates_leave_a_controller_without_conditions_empty():
