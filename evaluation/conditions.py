@@ -167,12 +167,16 @@ def conditions_markdown(rows: Sequence[Mapping[str, Any]], spec: SweepSpec) -> s
     if len(conds) == 1:
         return ""
     labels = [lab for lab in spec.labels if any(r["controller"] == lab and r["condition"] != NOMINAL for r in rows)]
+    groups = [(cond.name, _what(cond), [r for r in rows if r["condition"] == cond.name]) for cond in conds]
+    if spec.faults and spec.fault_seeds and set(spec.fault_seeds) != set(spec.seeds):
+        at = [r for r in groups[0][2] if r["seed"] in spec.fault_seeds]  # the faults' baseline: same commands
+        name = f"{NOMINAL}, seeds {', '.join(map(str, spec.fault_seeds))}"
+        groups.insert(1, (name, "the grid at the faults' seeds: their baseline", at))
     table = []
-    for cond in conds:
-        mine = [r for r in rows if r["condition"] == cond.name]
+    for name, what, mine in groups:
         line: dict[str, Any] = {
-            "condition": cond.name,
-            "what": _what(cond),
+            "condition": name,
+            "what": what,
             "episodes": len([r for r in mine if r["controller"] == labels[0]]),
         }
         for lab in labels:
@@ -196,26 +200,27 @@ def conditions_markdown(rows: Sequence[Mapping[str, Any]], spec: SweepSpec) -> s
 
 
 def fault_curves(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, list[tuple[float, float, int]]]]:
-    """Per fault family and controller, ``(level, success rate, episodes)`` sorted by level: the
-    nominal grid at the family's nominal level, then each fault of the family in the rows; the
-    pressure family per pressure, from the nominal rows and its faults' rows. Families without a
-    fault in the rows are left out."""
+    """Per fault family and controller, ``(level, success rate, episodes)`` sorted by level: each
+    fault of the family in the rows, and the nominal grid's episodes at the seeds those faults ran
+    at (so that every point of a curve has the same commands) at the family's nominal level; the
+    pressure family per pressure. Families without a fault in the rows are left out."""
     by_family: dict[str, dict[str, dict[float, list[bool]]]] = {}
-    nominal = [r for r in rows if r["condition"] == NOMINAL]
-    faulted = [r for r in rows if r["condition"].startswith(FAULT)]
-    for r in faulted:
+    seeds: dict[tuple[str, str], set[int]] = {}
+    for r in rows:
+        if not r["condition"].startswith(FAULT):
+            continue
         fault = GRADED_FAULTS[r["condition"][len(FAULT) :]]
         level = r["pressure_kpa"] if fault.level is None else fault.level
         by_family.setdefault(fault.family, {}).setdefault(r["controller"], {}).setdefault(level, []).append(
             bool(r["is_success"])
         )
+        seeds.setdefault((fault.family, r["controller"]), set()).add(r["seed"])
     for family, per_ctrl in by_family.items():
         for ctrl, levels in per_ctrl.items():
-            for r in nominal:
-                if r["controller"] != ctrl:
-                    continue
-                level = r["pressure_kpa"] if FAMILIES[family].nominal is None else FAMILIES[family].nominal
-                levels.setdefault(level, []).append(bool(r["is_success"]))
+            for r in rows:
+                if r["condition"] == NOMINAL and r["controller"] == ctrl and r["seed"] in seeds[family, ctrl]:
+                    level = r["pressure_kpa"] if FAMILIES[family].nominal is None else FAMILIES[family].nominal
+                    levels.setdefault(level, []).append(bool(r["is_success"]))
     return {
         fam: {
             ctrl: [(lev, float(np.mean(v)), len(v)) for lev, v in sorted(levels.items())]

@@ -130,3 +130,21 @@ def test_condition_rates_leave_a_controller_without_conditions_empty():
     rates = condition_rates(rows)
     assert rates["pd"]["faults"]["leak"] == {"success_rate": 0.5, "episodes": 2}
     assert rates["zero"] == {"faults": {}, "calibrations": {}}
+
+
+def test_a_fault_curve_compares_with_the_nominal_episodes_of_the_same_seeds():
+    def row(condition, seed, success, pressure=8.5):
+        return {
+            "controller": "pd",
+            "condition": condition,
+            "seed": seed,
+            "is_success": success,
+            "pressure_kpa": pressure,
+        }
+
+    rows = [row("nominal", 0, True), row("nominal", 1, False), row("nominal", 2, False), row("nominal", 0, True, 3.0)]
+    rows += [row("fault:latency_3", 0, False), row("fault:pressure_beyond_range", 0, True, 16.0)]
+    curves = fault_curves(rows)
+    assert curves["latency"]["pd"] == [(0.0, 1.0, 2), (3, 0.0, 1)]  # seeds 1 and 2 left out of the baseline
+    assert curves["pressure"]["pd"] == [(3.0, 1.0, 1), (8.5, 1.0, 1), (16.0, 1.0, 1)]
+    assert set(curves) == {"latency", "pressure"}
