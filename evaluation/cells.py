@@ -1,7 +1,8 @@
 """One evaluation cell: an episode of a controller in a fixed env, run inside a worker process.
 
 A job (a picklable mapping: ``controller``, ``spec``, ``env_id``, ``shell_model``, ``friction``,
-``pressure_kpa``, ``seed``, ``env_kwargs``) is rolled out by :func:`rollout` into a row of metrics
+``pressure_kpa``, ``seed``, ``env_kwargs``, optionally ``randomization`` (a fault's events) and
+``condition`` (default ``nominal``)) is rolled out by :func:`rollout` into a row of metrics
 (:data:`sphere_env.evaluation.metrics.KEY_COLUMNS` and the episode metrics) and a trace of
 :data:`~sphere_env.evaluation.metrics.TRACE_CHANNELS`. A worker keeps its envs and controllers
 between jobs; :func:`run_jobs` runs jobs in-process, on a local process pool or on Ray, results in
@@ -90,7 +91,7 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
         tr["on_ramp"].append(float(pos[0] < ramp_end))
         tr["reward"].append(float(r))
     trace = {k: np.asarray(v) for k, v in tr.items()}
-    row = {k: job[k] for k in KEY_COLUMNS}
+    row = {k: job.get(k, "nominal") if k == "condition" else job[k] for k in KEY_COLUMNS}
     row.update(
         {
             "return": ret,

@@ -6,18 +6,26 @@
     python -m evaluation.evaluate --controller zero --pme-log my_ramp_log.csv --pme-log-pressure-kpa 8
     python -m evaluation.evaluate ... --ray-address local      # or auto / ray://host:10001
     python -m evaluation.evaluate --controller pd --shell-models point --seeds 0 --video out/videos
+    python -m evaluation.evaluate --controller zero pd pretrained --faults all --fault-seeds 0 \
+        --calibrations free_robot v0_linear
 
 Every cell is a controlled experiment: the env's randomization is off, the pressure is fixed
 through ``reset(options={"pressure_kpa": p})``, and the seed fixes the episode's command (ω_ref),
-so all controllers, models and pressures see the same commands. Cells run in parallel on a local
+so all controllers, models and pressures see the same commands. ``--faults NAME... | all`` and
+``--calibrations NAME...`` add conditions, each evaluated over the same grid: a named fault of
+:data:`sphere_env.evaluation.faults.GRADED_FAULTS` (its events and env kwargs; ``all``: the
+graded grid; ``--fault-seeds``: fewer seeds for them) or a shipped calibration
+(``calibration=<name>``); free randomization stays refused (:mod:`sphere_env.evaluation.conditions`).
+Cells run in parallel on a local
 process pool (default) or on a Ray cluster (``--ray-address``; ``pip install -e .[ray]``); each
 cell is a pure function of its job, so the CSV is identical either way.
 
-Writes into ``--out``: ``episodes.csv`` (one row per episode, metrics of
+Writes into ``--out``: ``episodes.csv`` (one row per episode and its ``condition``, metrics of
 :mod:`sphere_env.evaluation.metrics`), ``traces.npz``, ``report.md`` (tables;
 :mod:`sphere_env.evaluation.sweep_report`), ``plots/*.png`` (drive
 velocity vs time per pressure and model; error bars per pressure and model as in the paper's
-Figs. 13–14; success and tracking error vs pressure; PME) and ``replay_*.html`` (Meshcat).
+Figs. 13–14; success and tracking error vs pressure; PME; all of the nominal grid; with faults,
+success vs each fault family's level) and ``replay_*.html`` (Meshcat).
 ``--video FOLDER`` also renders every episode of the grid (``rgb_array``, in the workers) into
 ``FOLDER/<controller>_<shell model>_<pressure>kPa_s<seed>.mp4`` through ``RecordVideo``
 (:mod:`sphere_env.evaluation.video`; the ``video`` extra); rendering leaves the episodes unchanged.
@@ -47,6 +55,14 @@ from pydantic import Field
 
 from sphere_env.cli import parse_env_kwargs, renamed
 from sphere_env.evaluation.cells import run_jobs, save_replay
+from sphere_env.evaluation.conditions import (
+    NOMINAL,
+    check_condition_envs,
+    condition_jobs,
+    condition_rates,
+    conditions_markdown,
+    plot_fault_curves,
+)
 from sphere_env.evaluation.controller_specs import check_action, check_spec, env_kwargs_of, make_controller
 from sphere_env.evaluation.plots import plot_drive_velocity, plot_error_bars, plot_pme, plot_success_tracking
 from sphere_env.evaluation.sweep_report import (
@@ -59,7 +75,7 @@ from sphere_env.evaluation.sweep_report import (
     write_report,
 )
 from sphere_env.files import staged_folder, swap_folder
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.parallel import default_workers
 from sphere_env.schemas import allowed, checker, validate
 from sphere_env.schemas.evaluation import EvaluateOptions, ReplayCell, SweepFields
@@ -74,27 +90,9 @@ class SweepSpec(SweepFields):
     (:mod:`sphere_env.evaluation.controller_specs`)."""
 
     def jobs(self) -> list[dict[str, Any]]:
-        """One picklable job per cell, grouped so that a worker reuses its envs."""
-        out = []
-        for c in self.controllers:
-            kw = {**env_kwargs_of(c.spec), **self.env_kwargs}
-            for model in self.shell_models:
-                for fr in self.frictions:
-                    for p in self.pressures_kpa:
-                        for s in self.seeds:
-                            out.append(
-                                dict(
-                                    controller=c.label,
-                                    spec=c.spec,
-                                    env_id=self.env_id,
-                                    shell_model=model,
-                                    friction=fr,
-                                    pressure_kpa=float(p),
-                                    seed=int(s),
-                                    env_kwargs=kw,
-                                )
-                            )
-        return out
+        """One picklable job per cell, grouped so that a worker reuses its envs: per controller the
+        nominal grid, then its conditions (:func:`sphere_env.evaluation.conditions.condition_jobs`)."""
+        return condition_jobs(self, {c.label: {**env_kwargs_of(c.spec), **self.env_kwargs} for c in self.controllers})
 
     def check(self) -> None:
         """Refuse controllers that cannot run on this grid, before any worker starts (ValueError
@@ -130,27 +128,22 @@ class SweepSpec(SweepFields):
         finally:
             for env in envs.values():
                 env.close()
+        check_condition_envs(self.jobs())
 
 
 def video_name_of(job: Mapping[str, Any], spec: SweepSpec) -> str:
     """An episode's video file stem (the friction preset is named only when the grid has several)."""
     from sphere_env.evaluation.video import video_name
 
-    return video_name(
-        job["controller"],
-        job["shell_model"],
-        job["pressure_kpa"],
-        job["seed"],
-        job["friction"] if len(spec.frictions) > 1 else "",
-    )
+    extra = [job["condition"].partition(":")[2]] if job.get("condition", NOMINAL) != NOMINAL else []
+    extra += [job["friction"]] if len(spec.frictions) > 1 else []
+    return video_name(job["controller"], job["shell_model"], job["pressure_kpa"], job["seed"], "_".join(extra))
 
 
 def replay_job(cell: ReplayCell, spec: SweepSpec, i: int = 0) -> dict[str, Any]:
     """The job of replay ``i`` (``cell``'s blank fields: the grid's first controller, shell model and
     seed, its middle pressure), refused unless its controller is one of the grid's and its pressure
     inside the calibrated range."""
-    from sphere_env.models.shell import ShellCalibration
-
     ctrl = checker(
         Annotated[
             Literal[tuple(spec.labels)],
@@ -195,7 +188,9 @@ def evaluate(
     The options are loaded as :class:`~sphere_env.schemas.evaluation.EvaluateOptions` and the
     controllers checked (:meth:`SweepSpec.check`) before anything runs.
 
-    :returns: dict with ``rows``, ``pme``, ``files`` (name -> path), ``wall_s``.
+    :returns: dict with ``rows`` (every episode, each naming its ``condition``), ``conditions``
+        (:func:`~sphere_env.evaluation.conditions.condition_rates`), ``pme``, ``files`` (name ->
+        path), ``wall_s``, and the nominal grid's aggregates ``agg_controller``, ``agg_model``.
     """
     from sphere_env.evaluation.video import check_video_support, staged_videos
 
@@ -258,11 +253,14 @@ def _sweep(
     t0 = time.perf_counter()
     results = run_jobs(jobs, opts.workers, opts.ray_address, opts.progress)
     wall = time.perf_counter() - t0
-    rows = [r for r, _ in results]
-    traces = [t for _, t in results]
-    files: dict[str, Path] = {"episodes CSV": write_csv(rows, out / "episodes.csv")}
-    np.savez_compressed(out / "traces.npz", **{f"{i}_{k}": v for i, t in enumerate(traces) for k, v in t.items()})
+    all_rows = [r for r, _ in results]
+    files: dict[str, Path] = {"episodes CSV": write_csv(all_rows, out / "episodes.csv")}
+    np.savez_compressed(out / "traces.npz", **{f"{i}_{k}": v for i, (_, t) in enumerate(results) for k, v in t.items()})
     files["traces"] = out / "traces.npz"
+    # the nominal grid's episodes: the summaries, plots and PME; the conditions are summarized apart
+    nominal = [(r, t) for r, t in results if r["condition"] == NOMINAL]
+    rows = [r for r, _ in nominal]
+    traces = [t for _, t in nominal]
     pmes: list[dict[str, Any]] = []
     if "zero" in spec.labels:
         pmes = pme_rows(rows, traces, "zero")
@@ -281,6 +279,10 @@ def _sweep(
         p = plot_pme(pmes, out / "plots" / "pme.png", ref)
         if p is not None:
             files["PME plot"] = p
+        calibrated = ShellCalibration.load(spec.env_kwargs.get("calibration")).pressure_range_kpa
+        p = plot_fault_curves(all_rows, spec.labels, out / "plots" / "fault_curves.png", calibrated)
+        if p is not None:
+            files["fault curves plot"] = p
     for rj in replay_jobs:
         name = f"replay_{rj['controller']}_{rj['shell_model']}_{rj['pressure_kpa']:g}kPa_s{rj['seed']}.html"
         files[f"replay {rj['controller']} {rj['shell_model']} {rj['pressure_kpa']:g} kPa"] = save_replay(rj, out / name)
@@ -291,9 +293,23 @@ def _sweep(
         if opts.ray_address
         else (f"process pool of {workers} workers" if workers > 1 else "in-process")
     )
-    files["report"] = write_report(out, spec, rows, agg_model, agg_ctrl, pmes, files, wall, executor, opts.extra_report)
+    files["report"] = write_report(
+        out,
+        spec,
+        rows,
+        agg_model,
+        agg_ctrl,
+        pmes,
+        files,
+        wall,
+        executor,
+        opts.extra_report,
+        conditions_markdown(all_rows, spec),
+        len(all_rows),
+    )
     return {
-        "rows": rows,
+        "rows": all_rows,
+        "conditions": condition_rates(all_rows),
         "pme": pmes,
         "files": files,
         "wall_s": wall,
@@ -328,6 +344,23 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     )
     parser.add_argument(
         "--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds (default: the demo's 0 1 2)"
+    )
+    parser.add_argument(
+        "--faults",
+        nargs="+",
+        default=[],
+        metavar="NAME",
+        help="add one condition per named fault (or 'all': the graded fault grid), each over the same grid",
+    )
+    parser.add_argument(
+        "--calibrations",
+        nargs="+",
+        default=[],
+        metavar="NAME",
+        help="add one condition per shipped calibration (default, free_robot, hydroelastic_fast, v0_linear)",
+    )
+    parser.add_argument(
+        "--fault-seeds", type=int, nargs="+", default=None, help="seeds of the fault conditions (default: --seeds)"
     )
     parser.add_argument(
         "--env-kwargs",
@@ -376,6 +409,9 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
             seeds=args.seeds,
             env_kwargs=env_kwargs,
             allow_env_mismatch=args.allow_env_mismatch,
+            faults=args.faults,
+            calibrations=args.calibrations,
+            fault_seeds=args.fault_seeds,
         )
         with sigterm_as_interrupt():
             res = evaluate(

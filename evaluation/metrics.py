@@ -25,8 +25,9 @@ from typing import Mapping
 
 import numpy as np
 
-#: Columns naming an episode's cell, then its metrics, in a row of the episodes CSV.
-KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed")
+#: Columns naming an episode's cell, then its metrics, in a row of the episodes CSV (``condition``:
+#: ``nominal``, or the fault or calibration the cell ran under, :mod:`sphere_env.evaluation.conditions`).
+KEY_COLUMNS = ("controller", "env_id", "shell_model", "friction", "pressure_kpa", "seed", "condition")
 METRIC_COLUMNS = (
     "return",
     "length",

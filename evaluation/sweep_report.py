@@ -159,7 +159,12 @@ def write_report(
     wall_s: float,
     executor: str,
     extra: str = "",
+    conditions: str = "",
+    total_episodes: int | None = None,
 ) -> Path:
+    """``report.md``: the nominal grid's ``rows`` and aggregates, the PME, then ``conditions`` (the
+    section on the sweep's faults and calibrations, Markdown; ``total_episodes``: the sweep's
+    episodes with them) and the files."""
     from sphere_env.evaluation.reporting import machine_info
     from sphere_env.reporting import markdown_table
 
@@ -169,7 +174,9 @@ def write_report(
         "",
         f"`{spec.env_id}`, randomization off; pressures {', '.join(f'{p:g}' for p in spec.pressures_kpa)} kPa × "
         f"shell models {', '.join(spec.shell_models)} × friction {', '.join(spec.frictions)} × seeds "
-        f"{', '.join(map(str, spec.seeds))} → {len(rows)} episodes in {wall_s:.0f} s ({executor}).",
+        f"{', '.join(map(str, spec.seeds))} → {len(rows)} episodes"
+        + (f" ({total_episodes} with the conditions below)" if total_episodes not in (None, len(rows)) else "")
+        + f" in {wall_s:.0f} s ({executor}).",
         f"Machine: {info['cpu']}, {info['cores']} cores; drake {info['drake']}, torch {info['torch']}, "
         f"sb3 {info['stable_baselines3']}, commit {info['commit']}.",
         "",
@@ -213,6 +220,8 @@ def write_report(
         ),
         "",
     ]
+    if conditions:
+        lines += [conditions]
     if pmes:
         pm = aggregate_pme(pmes)
         lines += [

@@ -21,7 +21,7 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, ValidationError, field_validator, model_validator
 
-from sphere_env.params import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS, SHIPPED_CALIBRATIONS
 from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, validate
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
@@ -119,6 +119,44 @@ def _friction(name: str) -> str:
 Friction = Annotated[str, AfterValidator(_friction)]
 
 
+def _fault_names() -> list[str]:
+    from sphere_env.evaluation.faults import GRADED_FAULTS
+
+    return list(GRADED_FAULTS)
+
+
+def _fault(name: str) -> str:
+    """A fault's name, or ``all`` (expanded by :class:`SweepFields`)."""
+    if name != "all" and name not in _fault_names():
+        raise ValueError("not a fault of --faults")
+    return name
+
+
+FaultName = Annotated[
+    str,
+    AfterValidator(_fault),
+    Field(
+        json_schema_extra=allowed(
+            "all (the graded grid, alone) or fault names of sphere_env.evaluation.faults.GRADED_FAULTS: "
+            + ", ".join(_fault_names())
+        )
+    ),
+]
+
+
+def _shipped_calibration(name: str) -> str:
+    if name not in SHIPPED_CALIBRATIONS:
+        raise ValueError("not a shipped calibration of --calibrations")
+    return name
+
+
+CalibrationName = Annotated[
+    str,
+    AfterValidator(_shipped_calibration),
+    Field(json_schema_extra=allowed(f"names of shipped calibrations {list(SHIPPED_CALIBRATIONS)}")),
+]
+
+
 def _env_kwargs_without(own: Mapping[str, str], command: str):
     """An after-validator refusing env kwargs that ``command`` sets itself (``own``: kwarg -> the
     option that sets it)."""
@@ -176,7 +214,8 @@ class ControllerSpec(Schema):
 
 class SweepFields(Loaded):
     """A grid to evaluate (see ``SweepSpec``): every controller × shell model × friction preset ×
-    pressure [kPa] × seed."""
+    pressure [kPa] × seed, and the conditions added to it (``faults``, ``calibrations``: each once
+    more over the grid, for ``condition_controllers``; the faults at ``fault_seeds``)."""
 
     controllers: list[ControllerSpec] = Field(
         min_length=1, json_schema_extra=allowed("at least one controller, each label once")
@@ -202,6 +241,40 @@ class SweepFields(Loaded):
         default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs")
     )
     allow_env_mismatch: bool = False  # evaluate a policy on an env id it was not trained on
+    #: Conditions added to the grid, each evaluated over it: faults (``all``: the graded grid) and
+    #: shipped calibrations (:mod:`sphere_env.evaluation.conditions`).
+    faults: list[FaultName] = Field(default_factory=list)
+    calibrations: list[CalibrationName] = Field(default_factory=list)
+    fault_seeds: list[Seed] | None = Field(
+        None,
+        min_length=1,
+        json_schema_extra=allowed(
+            f"at least one integer within [0, {MAX_SEED}] (the seeds of the fault conditions), or none for the grid's"
+        ),
+    )
+    condition_controllers: list[str] | None = Field(
+        None,
+        min_length=1,
+        json_schema_extra=allowed("labels of the sweep's controllers, or none for every controller"),
+    )
+
+    @field_validator("faults")
+    @classmethod
+    def _all_alone(cls, value: list[str]) -> list[str]:
+        if "all" in value:
+            if len(value) > 1:
+                raise ValueError("'all' (the graded grid) stands alone")
+            return _fault_names()
+        if len(set(value)) != len(value):
+            raise ValueError("each fault once")
+        return value
+
+    @field_validator("calibrations")
+    @classmethod
+    def _each_calibration_once(cls, value: list[str]) -> list[str]:
+        if len(set(value)) != len(value):
+            raise ValueError("each calibration once")
+        return value
 
     @field_validator("controllers")
     @classmethod
@@ -215,6 +288,12 @@ class SweepFields(Loaded):
     def _grid(self) -> "SweepFields":
         from sphere_env.models.shell import ShellCalibration
 
+        for i, label in enumerate(self.condition_controllers or ()):
+            if label not in self.labels:
+                raise ValueError(
+                    f"field 'condition_controllers[{i}]' = {label!r}: not a controller of the sweep; "
+                    f"allowed: labels of the sweep's controllers {self.labels}"
+                )
         axes = ("controllers", "shell_models", "frictions", "pressures_kpa", "seeds")
         sizes = [len(getattr(self, a)) for a in axes]
         if math.prod(sizes) > MAX_SWEEP_EPISODES:
@@ -222,10 +301,29 @@ class SweepFields(Loaded):
                 f"field '{' × '.join(axes)}' = {' × '.join(map(str, sizes))} = {math.prod(sizes)} "
                 f"episodes; allowed: at most {MAX_SWEEP_EPISODES} per sweep"
             )
-        cal = ShellCalibration.load(self.env_kwargs.get("calibration"))
-        for i, p in enumerate(self.pressures_kpa):
-            cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
+        n = self.episodes()
+        if n > MAX_SWEEP_EPISODES:
+            raise ValueError(
+                f"field 'faults' = {self.faults}: with the grid and the calibrations {self.calibrations}, {n} "
+                f"episodes; allowed: at most {MAX_SWEEP_EPISODES} per sweep"
+            )
+        for cal_name in [self.env_kwargs.get("calibration"), *self.calibrations]:
+            cal = ShellCalibration.load(cal_name)
+            for i, p in enumerate(self.pressures_kpa):
+                cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
         return self
+
+    def episodes(self) -> int:
+        """The sweep's episodes: the grid per controller, and per controller with conditions the
+        grid under each calibration and each fault (at the fault's pressures and ``fault_seeds``)."""
+        from sphere_env.evaluation.faults import GRADED_FAULTS
+
+        cells = len(self.shell_models) * len(self.frictions)
+        grid = cells * len(self.pressures_kpa) * len(self.seeds)
+        seeds = len(self.fault_seeds or self.seeds)
+        per_fault = sum(cells * len(GRADED_FAULTS[f].pressures_kpa or self.pressures_kpa) * seeds for f in self.faults)
+        with_conditions = len(self.condition_controllers or self.controllers)
+        return len(self.controllers) * grid + with_conditions * (len(self.calibrations) * grid + per_fault)
 
     @property
     def labels(self) -> list[str]:
@@ -379,6 +477,12 @@ class DemoOptions(Schema):
     seed: Seed
     seeds: list[Seed] = Field(
         min_length=1, max_length=100, json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1]")
+    )
+    fault_seeds: list[Seed] | None = Field(
+        None,
+        min_length=1,
+        max_length=100,
+        json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1], or none for the first evaluation seed"),
     )
     out: OutputFolder
     run_dir: OutputFolder | None = None

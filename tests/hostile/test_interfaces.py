@@ -125,6 +125,12 @@ EVALUATE = [
     ("pme_reference-unknown", ["--controller", "zero", "--pme-reference", "jelly"], "pme_reference"),
     ("workers-zero", ["--controller", "zero", "--workers", "0"], "workers"),
     ("out-is-a-file", ["--controller", "zero", "--out", f"{INPUTS}/a_file.txt"], "out"),
+    ("faults-unknown", ["--controller", "zero", "--faults", "latency_9"], "--faults"),
+    ("faults-all-and-another", ["--controller", "zero", "--faults", "all", "leak"], "faults"),
+    ("faults-empty", ["--controller", "zero", "--faults"], "--faults"),
+    ("calibrations-unknown", ["--controller", "zero", "--calibrations", "free_robots"], "--calibrations"),
+    ("calibrations-a-path", ["--controller", "zero", "--calibrations", f"{INPUTS}/a_file.txt"], "--calibrations"),
+    ("fault_seeds-negative", ["--controller", "zero", "--faults", "leak", "--fault-seeds", "-1"], "fault_seeds"),
 ]
 
 # ---- sphere-env calibrate: (id, argv, field) ---------------------------------------------------------
