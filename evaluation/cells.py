@@ -62,6 +62,8 @@ def rollout(job: Mapping[str, Any], env=None, controller=None) -> tuple[dict[str
         controller = _CONTROLLERS.get(ck)
         if controller is None:
             controller = _CONTROLLERS[ck] = make_controller(job["spec"], env)
+    elif getattr(controller, "needs_env", False):  # a loaded policy whose action combination needs an env
+        controller.check_env(env, job["spec"])
     if hasattr(controller, "reset"):
         controller.reset()
     obs, info = env.reset(seed=job["seed"], options={"pressure_kpa": job["pressure_kpa"]})

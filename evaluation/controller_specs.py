@@ -188,6 +188,12 @@ class PolicyController:
             for path, kwargs in item.items()
         ]
 
+    @property
+    def needs_env(self) -> bool:
+        """Whether the run's action combination (a residual's PD) is not yet bound to an env
+        (:meth:`check_env` binds it)."""
+        return self._combiners is None
+
     def reset(self) -> None:
         for c in self._combiners or ():
             c.reset()

@@ -125,7 +125,10 @@ class EnvKwargs(Schema):
     observe_pressure: bool = False
     pressure_reading: Literal["current", "at_reset"] = "current"
     observe_shell_model: bool = False
-    observe_params: tuple[Literal[OBSERVABLE_PARAMETERS], ...] = ()  # type: ignore[valid-type]
+    observe_params: Annotated[
+        tuple[Literal[OBSERVABLE_PARAMETERS], ...],  # type: ignore[valid-type]
+        BeforeValidator(lambda v: tuple(v) if isinstance(v, list) else v),  # a YAML list
+    ] = ()
     observation_history_steps: count(0, 20) = 0
     observation_noise_scale: parameter("observation_noise_scale") = 0.0
     incline_deg: parameter("incline_deg") = 0.0

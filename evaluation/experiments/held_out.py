@@ -1,0 +1,195 @@
+"""Held-out figures: controllers on the test set, nominal, under every graded fault and under every
+shipped calibration.
+
+The test set (``evaluation/episode_sets.yml``) is used for reported figures only: no choice reads
+it. For every finished run of the learning study this adds ``test`` to its result file: its
+validation-chosen checkpoint (``selected``) and its final model on the test set, the chosen one
+also under each fault of :data:`~sphere_env.evaluation.faults.GRADED_FAULTS` and under each
+calibration of :data:`CALIBRATIONS`, and the final model's validation figures (how far a run fell
+from its best validation checkpoint by the end). For the PD, zero torque and the shipped policy it
+adds the same to ``baselines.json``. Every episode runs with deterministic actions under the
+reference physics (SAP: a policy trained with the TAMSI solver is evaluated without it,
+:func:`~sphere_env.evaluation.controller_specs.env_kwargs_of`). Each figure is cached in the run
+folder as it finishes, so an interrupted pass continues.
+
+    python -m evaluation.experiments.held_out runs [--recipe NAME ...]
+    python -m evaluation.experiments.held_out baselines
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from sphere_env.evaluation.episode_sets import episodes
+from sphere_env.evaluation.experiments.learning import (
+    ENV_ID,
+    RESULTS,
+    RUNS,
+    VALIDATION_SEEDS,
+    evaluate_policy,
+    grid_figures,
+    phase_offset,
+)
+from sphere_env.evaluation.faults import GRADED_FAULTS, episode_jobs, fault_episodes
+from sphere_env.files import write_text_atomic
+
+#: The shipped calibrations whose physics a controller is tested under: the project's two fits of
+#: the one robot (``hydroelastic_fast`` is ``default`` with a coarser mesh, ``v0_linear`` a
+#: superseded law).
+CALIBRATIONS = ("default", "free_robot")
+
+
+def set_figures(
+    spec: str,
+    controller: Any,
+    set_name: str,
+    env_kwargs: Mapping[str, Any],
+    fault: str | None = None,
+    cache: Path | None = None,
+) -> dict[str, Any]:
+    """``controller`` (``pd``, ``zero`` or a loaded policy of run ``spec``) on the episodes of
+    ``set_name``, under ``fault`` (a name of :data:`GRADED_FAULTS`) or none: :func:`grid_figures`
+    with the episodes' outcomes, cached as ``cache`` when given."""
+    from sphere_env.evaluation.cells import rollout
+
+    if cache is not None and cache.exists():
+        return json.loads(cache.read_text())
+    eps = list(episodes(set_name))
+    kind = "policy" if controller is not None else spec
+    if fault is None:
+        jobs = episode_jobs(kind, spec, ENV_ID, env_kwargs, eps)
+    else:
+        f = GRADED_FAULTS[fault]
+        jobs = episode_jobs(
+            kind, spec, ENV_ID, {**env_kwargs, **f.env_kwargs}, fault_episodes(f, eps), randomization=f.randomization
+        )
+    rows = [rollout(job, controller=controller)[0] for job in jobs]
+    out = {
+        "set": set_name,
+        **grid_figures(rows),
+        "episodes_detail": [
+            {k: r[k] for k in ("shell_model", "pressure_kpa", "seed", "is_success", "tracking_rmse_rad_s")}
+            for r in rows
+        ],
+    }
+    if cache is not None:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(cache, json.dumps(out) + "\n")
+    return out
+
+
+def held_out_figures(spec: str, cache: Path, final_spec: str | None = None) -> dict[str, Any]:
+    """One controller's held-out figures: nominal, per fault, per calibration on the test set;
+    with ``final_spec`` (a run's final model) also that model's test and validation figures."""
+    from sphere_env.evaluation.controller_specs import PolicyController, env_kwargs_of, run_folder
+
+    def load(s):
+        return None if s in ("pd", "zero") else PolicyController(*run_folder(s))
+
+    ctrl, kw = load(spec), env_kwargs_of(spec)
+    out: dict[str, Any] = {"nominal": set_figures(spec, ctrl, "test", kw, cache=cache / "test.json")}
+    out["faults"] = {}
+    for name in GRADED_FAULTS:
+        fig = set_figures(spec, ctrl, "test", kw, fault=name, cache=cache / f"test_fault_{name}.json")
+        out["faults"][name] = {k: v for k, v in fig.items() if k != "episodes_detail"}
+        print(f"  {spec} test {name}: {fig['success_rate']:.0%}", flush=True)
+    out["calibrations"] = {}
+    for cal in CALIBRATIONS:
+        fig = set_figures(spec, ctrl, "test", {**kw, "calibration": cal}, cache=cache / f"test_calibration_{cal}.json")
+        out["calibrations"][cal] = {k: v for k, v in fig.items() if k != "episodes_detail"}
+    if final_spec is not None:
+        fctrl, fkw = load(final_spec), env_kwargs_of(final_spec)
+        out["final"] = set_figures(final_spec, fctrl, "test", fkw, cache=cache / "final_test.json")
+        out["final_validation"] = set_figures(
+            final_spec, fctrl, "validation", fkw, cache=cache / "final_validation.json"
+        )
+    return out
+
+
+def validation_curve(run_dir: Path, offset: int = 0) -> list[dict[str, Any]]:
+    """Every checkpoint of a run on the validation set (cached as ``grid_eval/val_<steps>.json``,
+    the checkpoint choice's own cache): env steps (from zero of a first phase, ``offset``),
+    success, tracking RMSE and per-shell success. The PD-level crossing is read on it."""
+    from sphere_env.training.train import CHECKPOINT_PREFIX
+
+    cache = run_dir / "grid_eval"
+    cache.mkdir(exist_ok=True)
+    steps = sorted(
+        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
+    )
+    curve = []
+    for n in steps:
+        done = cache / f"val_{n}.json"
+        if done.exists():
+            val = json.loads(done.read_text())
+        else:
+            val = evaluate_policy(f"{run_dir}@{n}", seeds=VALIDATION_SEEDS)
+            val.pop("episodes_detail")
+            write_text_atomic(done, json.dumps(val) + "\n")
+        curve.append(
+            {"env_steps": offset + n, **{k: val[k] for k in ("success_rate", "tracking_rmse_rad_s", "per_shell")}}
+        )
+    return curve
+
+
+def add_to_runs(recipes: Sequence[str] | None = None, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
+    """Add ``test`` to every finished run's result file that has a validation-chosen checkpoint
+    and a run folder, and lacks it (``recipes``: only these)."""
+    import torch
+
+    torch.set_num_threads(1)
+    for f in sorted((results / "runs").glob("*/seed*.json")):
+        if recipes and f.parent.name not in recipes:
+            continue
+        res = json.loads(f.read_text())
+        run_dir = runs_root / f.parent.name / f.stem
+        if "test" in res or "selected" not in res or not run_dir.is_dir():
+            continue
+        n = res["selected"]["checkpoint_steps"]
+        res["validation_curve"] = validation_curve(run_dir, phase_offset(res["recipe"]))
+        res["test"] = held_out_figures(f"{run_dir}@{n}", run_dir / "grid_eval" / f"held_out_{n}", str(run_dir))
+        write_text_atomic(f, json.dumps(res, indent=1) + "\n")
+        print(f"{f}: test added", flush=True)
+
+
+def add_to_baselines(results: Path = RESULTS) -> None:
+    """Add ``test`` to the PD's, zero torque's and the shipped policy's entries of ``baselines.json``."""
+    import torch
+
+    from sphere_env.resources import shipped_policy_path
+
+    torch.set_num_threads(1)
+    path = results / "baselines.json"
+    base = json.loads(path.read_text())
+    specs = {"pd": "pd", "zero": "zero", "pretrained": str(shipped_policy_path("pretrained"))}
+    for name, spec in specs.items():
+        if "test" in base.get(name, {}):
+            continue
+        base.setdefault(name, {})["test"] = held_out_figures(spec, RUNS / "baselines" / f"held_out_{name}")
+        write_text_atomic(path, json.dumps(base, indent=1) + "\n")
+        print(f"{name}: test added", flush=True)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    p = argparse.ArgumentParser(
+        prog="python -m evaluation.experiments.held_out",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("runs", help="add the test-set figures to every finished run's result file")
+    r.add_argument("--recipe", nargs="+", default=None)
+    sub.add_parser("baselines", help="add the test-set figures of the PD, zero torque and the shipped policy")
+    args = p.parse_args(argv)
+    if args.cmd == "runs":
+        add_to_runs(args.recipe)
+    else:
+        add_to_baselines()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
