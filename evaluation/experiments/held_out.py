@@ -14,6 +14,7 @@ folder as it finishes, so an interrupted pass continues.
 
     python -m evaluation.experiments.held_out runs [--recipe NAME ...]
     python -m evaluation.experiments.held_out baselines
+    python -m evaluation.experiments.held_out summary     # held_out.json: per recipe, the aims it meets
 """
 
 from __future__ import annotations
@@ -174,6 +175,95 @@ def add_to_baselines(results: Path = RESULTS) -> None:
         print(f"{name}: test added", flush=True)
 
 
+#: The robust recipe's aims on the test set (points of success against the PD's, fractions).
+AIMS = {"pd_margin": 0.03, "worst_run": 0.85, "every_shell": 0.80, "max_env_steps": 4_000_000, "stable_within": 0.05}
+
+
+def summarize(results: Path = RESULTS) -> dict[str, Any]:
+    """Per recipe with held-out figures: each run's test-set scores (its validation-chosen
+    checkpoint), the mean with a bootstrap interval over whole runs, the worst run, per shell,
+    per fault and per calibration against the PD's on the same episodes, stability (final model
+    against the chosen checkpoint on the validation set) and the first validation-set crossing of
+    the PD's level; and which aims (:data:`AIMS`) hold."""
+    from sphere_env.evaluation.experiments.intervals import SHELLS, interval_estimates
+
+    base = json.loads((results / "baselines.json").read_text())
+    pd = base.get("pd", {}).get("test")
+    val_pd = json.loads((results / "baselines_validation.json").read_text())["pd"]["success_rate"]
+    out: dict[str, Any] = {"set": "test", "aims": AIMS, "baselines": {}, "recipes": {}}
+    for name in ("pd", "zero", "pretrained"):
+        t = base.get(name, {}).get("test")
+        if t:
+            out["baselines"][name] = {
+                "success_rate": t["nominal"]["success_rate"],
+                "per_shell": t["nominal"]["per_shell"],
+                "faults": {k: v["success_rate"] for k, v in t["faults"].items()},
+                "calibrations": {k: v["success_rate"] for k, v in t["calibrations"].items()},
+            }
+    by_recipe: dict[str, list[dict[str, Any]]] = {}
+    for f in sorted((results / "runs").glob("*/seed*.json")):
+        r = json.loads(f.read_text())
+        if "test" in r:
+            by_recipe.setdefault(f.parent.name, []).append(r)
+    for name, runs in by_recipe.items():
+        runs.sort(key=lambda r: r["seed"])
+        nominal = [r["test"]["nominal"]["success_rate"] for r in runs]
+        ci = interval_estimates({name: nominal})[name]
+        faults = {
+            k: float(sum(r["test"]["faults"][k]["success_rate"] for r in runs) / len(runs)) for k in GRADED_FAULTS
+        }
+        cals = {
+            k: float(sum(r["test"]["calibrations"][k]["success_rate"] for r in runs) / len(runs)) for k in CALIBRATIONS
+        }
+        drops = [
+            r["selected"]["validation"]["success_rate"] - r["test"]["final_validation"]["success_rate"] for r in runs
+        ]
+        crossings = [
+            next(
+                (
+                    c["env_steps"]
+                    for c in r.get("validation_curve", [])
+                    if c["success_rate"] >= val_pd - AIMS["pd_margin"]
+                ),
+                None,
+            )
+            for r in runs
+        ]
+        row = {
+            "seeds": [r["seed"] for r in runs],
+            "runs": len(runs),
+            "success_rate": nominal,
+            "mean": ci["mean"],
+            "mean_ci": ci["mean_ci"],
+            "worst_run": min(nominal),
+            "per_shell_mean": {
+                m: float(sum(r["test"]["nominal"]["per_shell"][m] for r in runs) / len(runs)) for m in SHELLS
+            },
+            "faults_mean": faults,
+            "calibrations_mean": cals,
+            "final_below_chosen_on_validation": drops,
+            "env_steps": [r["env_steps"] for r in runs],
+            "validation_pd_level_crossing_env_steps": crossings,
+        }
+        if pd:
+            row["aims"] = {
+                "nominal_mean": row["mean"] >= pd["nominal"]["success_rate"] - AIMS["pd_margin"],
+                "worst_run": row["worst_run"] >= AIMS["worst_run"],
+                "every_shell": min(row["per_shell_mean"].values()) >= AIMS["every_shell"],
+                "every_fault": all(
+                    faults[k] >= pd["faults"][k]["success_rate"] - AIMS["pd_margin"] for k in GRADED_FAULTS
+                ),
+                "every_calibration": all(
+                    cals[k] >= pd["calibrations"][k]["success_rate"] - AIMS["pd_margin"] for k in CALIBRATIONS
+                ),
+                "budget": max(row["env_steps"]) <= AIMS["max_env_steps"],
+                "stable_to_the_end": max(drops) <= AIMS["stable_within"],
+                "runs": len(runs) >= 10,
+            }
+        out["recipes"][name] = row
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     p = argparse.ArgumentParser(
         prog="python -m evaluation.experiments.held_out",
@@ -184,11 +274,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     r = sub.add_parser("runs", help="add the test-set figures to every finished run's result file")
     r.add_argument("--recipe", nargs="+", default=None)
     sub.add_parser("baselines", help="add the test-set figures of the PD, zero torque and the shipped policy")
+    sub.add_parser("summary", help="write held_out.json: the test-set figures per recipe and the aims they meet")
     args = p.parse_args(argv)
     if args.cmd == "runs":
         add_to_runs(args.recipe)
-    else:
+    elif args.cmd == "baselines":
         add_to_baselines()
+    else:
+        path = RESULTS / "held_out.json"
+        write_text_atomic(path, json.dumps(summarize(), indent=1) + "\n")
+        print(path)
 
 
 if __name__ == "__main__":
