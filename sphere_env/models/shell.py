@@ -59,7 +59,7 @@ import numpy as np
 
 from sphere_env.models.mathbackend import NUMPY
 from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
-from sphere_env.params import ParameterSpace
+from sphere_env.params import SHIPPED_CALIBRATIONS, ParameterSpace
 from sphere_env.resources import asset_path
 from sphere_env.schemas.calibration import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
@@ -91,9 +91,10 @@ def calibration_file(calibration: str | Path | None) -> Path:
 def calibration_name(calibration: str | Path | None) -> str:
     """How a parameter set names a calibration: a shipped one by its name (``None``: ``default``),
     any other by its path."""
-    path = calibration_file(calibration)
-    shipped = asset_path("calibration", f"{path.stem}.yaml")
-    return path.stem if path.resolve() == Path(shipped).resolve() else str(calibration)
+    path = Path(calibration_file(calibration)).resolve()
+    return next(
+        (name for name in SHIPPED_CALIBRATIONS if Path(calibration_file(name)).resolve() == path), str(calibration)
+    )
 
 
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:

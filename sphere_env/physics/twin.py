@@ -264,6 +264,11 @@ class Twin:
         """Scale each joint's friction torque (domain randomization); 1 = nominal (:meth:`apply`)."""
         self.apply({"steer_friction_scale": steer, "drive_friction_scale": drive})
 
+    def set_shell_law_scale(self, stiffness: float = 1.0, damping: float = 1.0) -> None:
+        """Scale the shell's springs and dampers (the shell law's uncertainty); 1 = the calibration's
+        (:meth:`apply`)."""
+        self.apply({"shell_stiffness_scale": stiffness, "shell_damping_scale": damping})
+
     def _apply_gains(self) -> None:
         if self._forces is None:  # bare plant
             return

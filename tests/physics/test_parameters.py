@@ -15,6 +15,8 @@ ALL = {
     "ground_friction": 0.8,
     "payload_mass_kg": 2.0,
     "payload_com_offset_m": (0.01, 0.0, -0.02),
+    "shell_stiffness_scale": 1.2,
+    "shell_damping_scale": 0.8,
 }
 
 
@@ -50,6 +52,7 @@ def test_apply_of_every_parameter_at_once_is_the_setters_in_turn(make_twin):
         t.set_friction_scale(ALL["steer_friction_scale"], ALL["drive_friction_scale"])
         t.set_ground_friction(ALL["ground_friction"])
         t.set_payload(ALL["payload_mass_kg"], ALL["payload_com_offset_m"])
+        t.set_shell_law_scale(ALL["shell_stiffness_scale"], ALL["shell_damping_scale"])
         t.set_pressure(p)
 
     np.testing.assert_array_equal(at_once, _episode(b, setters))
