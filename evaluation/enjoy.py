@@ -6,7 +6,7 @@
     sphere-env enjoy runs/<run> --stochastic --seed 4
 
 The run folder is what ``training/train.py`` writes (``config.yaml``, ``model.zip``,
-``vecnormalize.pkl``; ``<run>@best`` takes ``best/``). The policy is loaded as the evaluation loads a
+``vecnormalize.json``; ``<run>@best`` takes ``best/``). The policy is loaded as the evaluation loads a
 ``<run>`` controller (:class:`sphere_env.evaluation.controller_specs.PolicyController`: its
 VecNormalize statistics and training env kwargs come with it) and each episode is rolled out as one
 evaluation cell (:func:`sphere_env.evaluation.cells.rollout`): randomization off, the pressure
@@ -221,7 +221,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
     )
     parser.add_argument(
-        "run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best for its best model"
+        "run", help="training run folder (config.yaml, model.zip, vecnormalize.json); <run>@best for its best model"
     )
     parser.add_argument("--episodes", type=int, default=1, help="number of episodes (seeds seed, seed+1, ...)")
     parser.add_argument(

@@ -34,6 +34,7 @@ from sphere_env.schemas import validate
 from sphere_env.schemas.training import RunConfigFile
 from sphere_env.training import training_state
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
+from sphere_env.training.saved import load_model, read_stats, stats_path
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -58,20 +59,17 @@ def _checkpoint_problem(cls, cfg: TrainConfig, run_dir: Path, steps: int, path: 
             bad = z.testzip()
         if bad is not None:
             return f"{path.name} is corrupt ({bad})"
-        cls.load(path, device="cpu")
+        load_model(cls, path, cfg.algo_kwargs(), device="cpu")
     except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
         return f"{path.name} cannot be read ({type(err).__name__}: {err})"
     if cfg.normalize is not None:
-        vn = _ckpt_file(run_dir, "vecnormalize", steps)
+        vn = stats_path(_ckpt_file(run_dir, "vecnormalize", steps, ""))
         if not vn.exists():
             return f"{vn.name} (its VecNormalize statistics) is missing"
         try:
-            import pickle
-
-            with open(vn, "rb") as f:
-                pickle.load(f)
-        except Exception as err:  # noqa: BLE001
-            return f"{vn.name} cannot be read ({type(err).__name__}: {err})"
+            read_stats(vn)
+        except ValueError as err:
+            return f"{vn.name} cannot be read ({err})"
     state = training_state.state_path(run_dir, steps)
     if state.exists():  # absent in folders written before it was saved: the streams then restart
         try:
@@ -98,8 +96,8 @@ def usable_checkpoint(cls, cfg: TrainConfig, run_dir: Path) -> tuple[tuple[int, 
     return None, skipped
 
 
-def _ckpt_file(run_dir: Path, kind: str, steps: int) -> Path:
-    return run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps.pkl"
+def _ckpt_file(run_dir: Path, kind: str, steps: int, suffix: str = ".pkl") -> Path:
+    return run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps{suffix}"
 
 
 def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
@@ -275,6 +273,7 @@ RUN_OUTPUTS = (
     "learning_curve.csv",
     "learning_curve.png",
     "model.zip",
+    "vecnormalize.json",
     "vecnormalize.pkl",
     "timing.json",
 )

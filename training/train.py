@@ -27,9 +27,9 @@ A run folder holds::
     config.yaml              resolved config: env kwargs (randomization spec as given and resolved),
                              evaluation env kwargs and pressures, hyperparameters, seeds, versions
                              (drake, torch, sb3, sphere_env, ...) and the command
-    model.zip                final model          vecnormalize.pkl   its VecNormalize statistics
-    best/best_model.zip      best on the evaluation episodes, best/vecnormalize.pkl
-    checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_, SAC: _replay_buffer_, and
+    model.zip                final model          vecnormalize.json  its VecNormalize statistics
+    best/best_model.zip      best on the evaluation episodes, best/vecnormalize.json
+    checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_ .json, SAC: _replay_buffer_, and
                              _training_state_ .json: the envs', curriculum's and process's random
                              state, which --resume restores)
     learning_curve.csv/.png  training episodes and evaluations against env steps

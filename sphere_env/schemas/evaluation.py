@@ -303,7 +303,7 @@ def _run_folder(run: str) -> str:
     from sphere_env.evaluation.controller_specs import run_path
 
     if not run_path(run.partition("@")[0]).is_dir():
-        raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.pkl)")
+        raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.json)")
     return run
 
 
