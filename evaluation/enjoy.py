@@ -51,6 +51,7 @@ class EnjoySpec(EnjoyFields):
         ``friction``, ``pressure_kpa``, ``env_kwargs``, ``label``."""
         from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, run_path
         from sphere_env.models.shell import ShellCalibration
+        from sphere_env.schemas.env import check_episode_length
         from sphere_env.training.train import load_config
 
         path, _, which = self.run.partition("@")
@@ -63,6 +64,7 @@ class EnjoySpec(EnjoyFields):
         except ValueError as err:
             raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
         env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **self.env_kwargs}
+        check_episode_length(env_id, env_kwargs)
         shell = self.shell_model or cfg.env_kwargs.get("shell_model", "injected")
         cal = ShellCalibration.load(env_kwargs.get("calibration"))
         pressure = cal.nominal_pressure_kpa if self.pressure_kpa is None else self.pressure_kpa

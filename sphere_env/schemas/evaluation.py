@@ -225,6 +225,9 @@ class SweepFields(Loaded):
         cal = ShellCalibration.load(self.env_kwargs.get("calibration"))
         for i, p in enumerate(self.pressures_kpa):
             cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
+        from sphere_env.schemas.env import check_episode_length
+
+        check_episode_length(self.env_id, self.env_kwargs)
         return self
 
     @property
