@@ -21,7 +21,6 @@ A label can precede any spec: ``ppo=runs/ppo_RampDescent-v2_...``.
 from __future__ import annotations
 
 import importlib
-import pickle
 from pathlib import Path
 from typing import Any, Callable
 
@@ -68,16 +67,22 @@ def run_folder(spec: str) -> tuple[Path, str] | None:
 
 
 def model_files(folder: Path, which: str) -> tuple[Path, Path]:
-    """(model zip, VecNormalize file) of a run folder's final model (``"model"``), best model
-    (``"best"``) or checkpoint (its step count, as written by the trainer's checkpoints)."""
+    """(model zip, VecNormalize statistics) of a run folder's final model (``"model"``), best model
+    (``"best"``) or checkpoint (its step count, as written by the trainer's checkpoints). The
+    statistics are ``vecnormalize.json``, or an older folder's ``vecnormalize.pkl`` when only that
+    exists (:func:`sphere_env.training.saved.stats_path`)."""
+    from sphere_env.training.saved import stats_path
+
     if which == "best":
-        return folder / "best" / "best_model.zip", folder / "best" / "vecnormalize.pkl"
+        return folder / "best" / "best_model.zip", stats_path(folder / "best" / "vecnormalize")
     if which.isdigit():
         from sphere_env.training.train import CHECKPOINT_PREFIX
 
         ck = folder / "checkpoints"
-        return ck / f"{CHECKPOINT_PREFIX}_{which}_steps.zip", ck / f"{CHECKPOINT_PREFIX}_vecnormalize_{which}_steps.pkl"
-    return folder / "model.zip", folder / "vecnormalize.pkl"
+        return ck / f"{CHECKPOINT_PREFIX}_{which}_steps.zip", stats_path(
+            ck / f"{CHECKPOINT_PREFIX}_vecnormalize_{which}_steps"
+        )
+    return folder / "model.zip", stats_path(folder / "vecnormalize")
 
 
 def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = False) -> None:
@@ -90,6 +95,7 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
     rf = run_folder(spec)
     if rf is not None:
         from sphere_env.training.config import algo_class
+        from sphere_env.training.saved import load_model, read_stats
         from sphere_env.training.train import load_config
 
         folder, which = rf
@@ -106,7 +112,7 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
                 f"{env_id!r}; pass --allow-env-mismatch to evaluate it there anyway"
             )
         try:
-            algo_class(cfg.algo).load(model, device="cpu")
+            load_model(algo_class(cfg.algo), model, cfg.algo_kwargs(), device="cpu")
         except Exception as err:  # noqa: BLE001 - truncated or foreign zip
             raise ValueError(
                 f"controller: {spec!r}: {model} cannot be loaded ({type(err).__name__}: {err}); "
@@ -119,10 +125,9 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
             )
         if vn.exists():
             try:
-                with open(vn, "rb") as f:
-                    pickle.load(f)
-            except Exception as err:  # noqa: BLE001
-                raise ValueError(f"controller: {spec!r}: {vn} cannot be loaded ({type(err).__name__}: {err})") from None
+                read_stats(vn)
+            except ValueError as err:
+                raise ValueError(f"controller: {spec!r}: {err}") from None
         return
     load_callable(spec)
 
@@ -143,23 +148,20 @@ def load_callable(spec: str) -> Callable:
 class PolicyController:
     """A trained SB3 policy with its VecNormalize observation statistics; deterministic actions.
 
-    :param run_dir: training run folder (``config.yaml``, ``model.zip``, ``vecnormalize.pkl``).
+    :param run_dir: training run folder (``config.yaml``, ``model.zip``, ``vecnormalize.json``).
     :param which: ``"model"`` (final), ``"best"`` (best on the eval env) or a checkpoint's step count.
     """
 
     def __init__(self, run_dir: str | Path, which: str = "model"):
         from sphere_env.training.config import algo_class
+        from sphere_env.training.saved import load_model, read_stats
         from sphere_env.training.train import load_config
 
         run_dir = Path(run_dir)
         self.config = load_config(run_dir)
         zip_path, vn = model_files(run_dir, which)
-        self.model = algo_class(self.config.algo).load(zip_path, device="cpu")
-        self.vecnormalize = None
-        if vn.exists():
-            with open(vn, "rb") as f:
-                self.vecnormalize = pickle.load(f)  # only obs_rms/clip_obs are used: no venv needed
-            self.vecnormalize.training = False
+        self.model = load_model(algo_class(self.config.algo), zip_path, self.config.algo_kwargs(), device="cpu")
+        self.vecnormalize = read_stats(vn) if vn.exists() else None  # no venv needed
         # the wrappers that change the action (innermost first); training-only ones choose episodes
         self.env_wrapper = [item for item in self.config.env_wrapper if not set(item) <= set(TRAINING_ONLY_WRAPPERS)]
         unknown = [path for item in self.env_wrapper for path in item if path not in ACTION_COMBINERS]

@@ -6,7 +6,7 @@
     sphere-env enjoy runs/<run> --stochastic --seed 4
 
 The run folder is what ``training/train.py`` writes (``config.yaml``, ``model.zip``,
-``vecnormalize.pkl``; ``<run>@best`` takes ``best/``). The policy is loaded as the evaluation loads a
+``vecnormalize.json``; ``<run>@best`` takes ``best/``). The policy is loaded as the evaluation loads a
 ``<run>`` controller (:class:`sphere_env.evaluation.controller_specs.PolicyController`: its
 VecNormalize statistics and training env kwargs come with it) and each episode is rolled out as one
 evaluation cell (:func:`sphere_env.evaluation.cells.rollout`): randomization off, the pressure
@@ -51,6 +51,7 @@ class EnjoySpec(EnjoyFields):
         ``friction``, ``pressure_kpa``, ``env_kwargs``, ``label``."""
         from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, run_path
         from sphere_env.models.shell import ShellCalibration
+        from sphere_env.schemas.env import check_episode_length
         from sphere_env.training.train import load_config
 
         path, _, which = self.run.partition("@")
@@ -63,6 +64,7 @@ class EnjoySpec(EnjoyFields):
         except ValueError as err:
             raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
         env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **self.env_kwargs}
+        check_episode_length(env_id, env_kwargs)
         shell = self.shell_model or cfg.env_kwargs.get("shell_model", "injected")
         cal = ShellCalibration.load(env_kwargs.get("calibration"))
         pressure = cal.nominal_pressure_kpa if self.pressure_kpa is None else self.pressure_kpa
@@ -221,7 +223,7 @@ def main(argv: Sequence[str] | None = None) -> list[dict[str, Any]]:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
     )
     parser.add_argument(
-        "run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best for its best model"
+        "run", help="training run folder (config.yaml, model.zip, vecnormalize.json); <run>@best for its best model"
     )
     parser.add_argument("--episodes", type=int, default=1, help="number of episodes (seeds seed, seed+1, ...)")
     parser.add_argument(

@@ -404,7 +404,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
     )
-    parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.pkl); <run>@best")
+    parser.add_argument("run", help="training run folder (config.yaml, model.zip, vecnormalize.json); <run>@best")
     parser.add_argument("--format", default="onnx", help=f"{' | '.join(EXPORT_FORMATS)} (default onnx)")
     parser.add_argument("--out", default=None, help="output folder (default <run>/export)")
     parser.add_argument(

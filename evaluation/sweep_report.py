@@ -73,8 +73,17 @@ def write_pme_csv(pmes: Sequence[Mapping[str, Any]], path: Path) -> Path:
 
 
 def load_user_log(path: str | Path) -> dict[str, np.ndarray]:
-    """A user ramp log: CSV with ``t_s``, ``omega_d`` [rad/s], optional ``on_ramp`` (0/1)."""
+    """A user ramp log: CSV with ``t_s``, ``omega_d`` [rad/s], optional ``on_ramp`` (0/1).
+
+    :raises ValueError: ``pme_log: ...`` naming the line and column: a missing column, a time that
+        does not increase, an ω_d that is not finite or beyond what the robot can do
+        (:data:`sphere_env.calibration.logs.MAX_RATE_RAD_S`), an ``on_ramp`` other than 0/1, fewer
+        than 2 samples on the ramp.
+    """
     import pandas as pd
+
+    from sphere_env.calibration.logs import MAX_RATE_RAD_S
+    from sphere_env.schemas import shown
 
     try:
         df = pd.read_csv(path)
@@ -92,7 +101,28 @@ def load_user_log(path: str | Path) -> dict[str, np.ndarray]:
         raise ValueError(f"pme_log: {str(path)!r}: t_s and omega_d must be numbers ({err})") from None
     if not (np.all(np.isfinite(t)) and np.all(np.diff(t) > 0)):
         raise ValueError(f"pme_log: {str(path)!r} column t_s must be finite and strictly increasing")
-    on = df["on_ramp"].to_numpy(bool) if "on_ramp" in df else np.ones(len(t), bool)
+    bad = ~(np.abs(w) <= MAX_RATE_RAD_S)  # NaN and inf too
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"pme_log: {str(path)!r} line {i + 2}, column 'omega_d': {float(w[i])} rad/s; allowed: a finite rate with "
+            f"|omega_d| <= {MAX_RATE_RAD_S:g} rad/s (no joint of the robot turns faster; is it in deg/s?)"
+        )
+    on = np.ones(len(t), bool)
+    if "on_ramp" in df:
+        flags = pd.to_numeric(df["on_ramp"], errors="coerce").to_numpy(float)
+        odd = np.flatnonzero(~np.isin(flags, (0.0, 1.0)))  # text and missing cells are NaN
+        if len(odd):
+            raise ValueError(
+                f"pme_log: {str(path)!r} line {odd[0] + 2}, column 'on_ramp': {shown(df['on_ramp'].astype(object).iloc[odd[0]])}; "
+                "allowed: 0 or 1"
+            )
+        on = flags == 1.0
+    if on.sum() < 2:
+        raise ValueError(
+            f"pme_log: {str(path)!r} has {int(on.sum())} samples with on_ramp = 1; at least 2 are needed to "
+            "compare a descent"
+        )
     return {"t_s": t - t[0], "omega_d": w, "on_ramp": on}
 
 

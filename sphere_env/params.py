@@ -37,6 +37,19 @@ from sphere_env.schemas import count, fixed_tuple, number
 GRAVITY_M_S2 = 9.81
 #: Plant time step [s] of the twin and the environments (see ``evaluation/results/timestep_study.md``).
 DEFAULT_TIME_STEP_S = 0.005
+#: The finest plant time step [s]. Cost: a simulated second takes 1/time_step_s plant steps of about
+#: 0.2-0.5 ms each (measured on the injected shell; the hydroelastic one costs more): 10 000 steps,
+#: several seconds of compute, at this bound (50 × the default step's cost); the studies go to 0.5 ms.
+MIN_TIME_STEP_S = 1e-4
+#: The slowest and fastest policy rates [Hz]. Cost: an episode of the registered length (500-600
+#: control steps) lasts 500-600 simulated seconds at 1 Hz; each control step is one policy call.
+CONTROL_FREQUENCY_RANGE_HZ = (1.0, 1000.0)
+#: The most plant steps one env step may simulate (control period / time step). Cost: about 0.2-0.5 s
+#: of compute per env step at this bound (4 plant steps at the defaults).
+MAX_PLANT_STEPS_PER_ACTION = 1000
+#: The longest episode [simulated s] (control steps x control period). Cost: 300 s / time_step_s plant
+#: steps, 60 000 (about 30 s of compute) at the default step; the registered episodes last 8-12 s.
+MAX_EPISODE_S = 300.0
 #: Coulomb friction coefficient the shell's contact geometry keeps [-]. Drake combines shell and
 #: ground coefficients as 2 μ_s μ_g / (μ_s + μ_g), so any effective μ in (0, 2 μ_s) is reachable
 #: by changing only the ground's coefficient; that is the ground-friction bound below.
@@ -80,6 +93,8 @@ class Parameter:
     bounds_from: Literal["calibration"] | None = None
     #: the bounds in words when a :class:`ParameterSpace` filled them in (they say where from)
     bounds_text: str | None = None
+    #: what a value near a bound costs (compute, memory), quoted after the bounds
+    cost: str = ""
 
     @property
     def schedulable(self) -> bool:
@@ -110,7 +125,8 @@ class Parameter:
         lo = "-inf" if self.low is None else f"{self.low:g}"
         hi = "inf" if self.high is None else f"{self.high:g}"
         unit = "" if self.unit == "-" else f" {self.unit}"
-        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high_open or self.high is None else ']'}{unit}"
+        cost = f" ({self.cost})" if self.cost else ""
+        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high_open or self.high is None else ']'}{unit}{cost}"
 
     def contains(self, value: Any) -> bool:
         if self.choices:
@@ -368,7 +384,17 @@ PARAMETERS: dict[str, Parameter] = dict(
             randomizable=True,
         ),
         # ---- fixed when built ----
-        _p("time_step_s", "s", DEFAULT_TIME_STEP_S, 0.0, 0.05, "build", "plant time step", low_open=True),
+        _p(
+            "time_step_s",
+            "s",
+            DEFAULT_TIME_STEP_S,
+            MIN_TIME_STEP_S,
+            0.05,
+            "build",
+            "plant time step",
+            cost=f"cost: a simulated second takes 1/time_step_s plant steps, {1 / MIN_TIME_STEP_S:.0f} at "
+            f"{MIN_TIME_STEP_S:g} s, {1 / DEFAULT_TIME_STEP_S:.0f} at the default",
+        ),
         _p(
             "ramp_length_m",
             "m",
@@ -379,7 +405,16 @@ PARAMETERS: dict[str, Parameter] = dict(
             "ramp length along the slope; None = infinite plane",
             low_open=True,
         ),
-        _p("control_frequency_hz", "Hz", 50.0, 0.0, 1000.0, "build", "policy rate", low_open=True),
+        _p(
+            "control_frequency_hz",
+            "Hz",
+            50.0,
+            *CONTROL_FREQUENCY_RANGE_HZ,
+            "build",
+            "policy rate",
+            cost="cost: an episode of 600 control steps lasts 600 simulated s at 1 Hz, and each control step "
+            "is a policy call",
+        ),
         # The pressure laws are analytic in p (ω_n linear, ζ exponential, hydroelastic modulus ∝ p,
         # tables held at their end values), so they can be evaluated a little outside the range they were
         # calibrated on; the fault grid does so to test pressures the calibration never saw.

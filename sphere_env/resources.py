@@ -59,7 +59,7 @@ def hyperparams_path(algo: str) -> Path:
 
 
 #: Policies shipped with the package: name -> folder under ``assets/policies`` (a training run
-#: folder: config.yaml, model.zip, vecnormalize.pkl, plus card.json with how it was trained and
+#: folder: config.yaml, model.zip, vecnormalize.json, plus card.json with how it was trained and
 #: what it scored).
 SHIPPED_POLICIES = {"pretrained": "ramp_descent_v3"}
 
@@ -72,6 +72,6 @@ def shipped_policy_path(name: str) -> Path:
     if name not in SHIPPED_POLICIES:
         raise FileNotFoundError(f"no shipped policy {name!r}; shipped: {sorted(SHIPPED_POLICIES)}")
     folder = resources.files(ASSETS_PACKAGE).joinpath("policies", SHIPPED_POLICIES[name])
-    for part in ("config.yaml", "model.zip", "vecnormalize.pkl"):
+    for part in ("config.yaml", "model.zip", "vecnormalize.json"):
         _as_path(folder.joinpath(part))
     return _as_path(folder)

@@ -21,6 +21,7 @@ import numpy as np
 from sphere_env.training import training_state
 from sphere_env.training.config import TrainConfig, make_callbacks
 from sphere_env.training.run_folder import CHECKPOINT_PREFIX, _ckpt_file
+from sphere_env.training.saved import STATS_SUFFIX, save_stats
 
 
 def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
@@ -30,11 +31,15 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
 
     class Checkpoint(CheckpointCallback):
-        """SB3's checkpoint, with the run's random state beside it."""
+        """SB3's checkpoint, with the run's random state and its VecNormalize statistics (JSON)
+        beside it."""
 
         def _on_step(self) -> bool:
             if self.n_calls % self.save_freq == 0:
                 training_state.save(self.model, own, run_dir)
+                vn = self.model.get_vec_normalize_env()
+                if vn is not None:
+                    save_stats(vn, _ckpt_file(run_dir, "vecnormalize", self.num_timesteps, STATS_SUFFIX))
             return super()._on_step()
 
     class FixedEpisodesEvalCallback(EvalCallback):
@@ -51,7 +56,7 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
         def _on_step(self) -> bool:
             vn = self.model.get_vec_normalize_env()
             if vn is not None:
-                vn.save(str(run_dir / "best" / "vecnormalize.pkl"))
+                save_stats(vn, run_dir / "best" / f"vecnormalize{STATS_SUFFIX}")
             return True
 
     class EpisodeLog(BaseCallback):
@@ -104,7 +109,7 @@ def build_callbacks(cfg: TrainConfig, run_dir: Path, eval_env):
                 save_freq=max(cfg.checkpoint_freq // n, 1),
                 save_path=str(run_dir / "checkpoints"),
                 name_prefix=CHECKPOINT_PREFIX,
-                save_vecnormalize=cfg.normalize is not None,
+                save_vecnormalize=False,  # saved as JSON by Checkpoint
                 save_replay_buffer=cfg.algo == "sac" and cfg.save_replay_buffer,
             ),
         )
@@ -142,6 +147,6 @@ def save_checkpoint(model, run_dir: Path, cfg: TrainConfig, callbacks=()) -> Non
     model.save(run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{n}_steps.zip")
     vn = model.get_vec_normalize_env()
     if vn is not None:
-        vn.save(str(_ckpt_file(run_dir, "vecnormalize", n)))
+        save_stats(vn, _ckpt_file(run_dir, "vecnormalize", n, STATS_SUFFIX))
     if cfg.algo == "sac" and cfg.save_replay_buffer:
         model.save_replay_buffer(_ckpt_file(run_dir, "replay_buffer", n))

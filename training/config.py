@@ -60,6 +60,7 @@ import yaml
 
 from sphere_env import safe_yaml
 from sphere_env.resources import hyperparams_path
+from sphere_env.schemas.env import check_episode_length
 from sphere_env.schemas.training import (
     MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
     MAX_N_ENVS,  # noqa: F401
@@ -292,6 +293,8 @@ def resolve_config(
     kwargs = dict(spec.env_kwargs)
     kwargs.update(copy.deepcopy(opts.env_kwargs))
     eval_kwargs = {"randomization": "off", **copy.deepcopy(opts.eval_env_kwargs)}
+    check_episode_length(env_id, kwargs)
+    check_episode_length(env_id, {**kwargs, **eval_kwargs}, "eval_env_kwargs")
     policy, n_envs, n_threads, n_workers, n_timesteps = (
         spec.policy,
         spec.n_envs,

@@ -176,15 +176,24 @@ def make_vec_env(cfg: TrainConfig, run_dir: Path | None, evaluation: bool = Fals
 
 
 def wrap_normalize(cfg: TrainConfig, venv, evaluation: bool = False, stats: Path | None = None):
-    """VecNormalize per ``cfg.normalize`` (loaded from ``stats`` when given)."""
+    """VecNormalize per ``cfg.normalize``, with the statistics and settings saved in ``stats`` when
+    given (:func:`sphere_env.training.saved.read_stats`; refused by name when they do not fit the
+    envs' observations)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     if cfg.normalize is None:
         return venv
+    venv = VecNormalize(venv, **cfg.normalize)
     if stats is not None:
-        venv = VecNormalize.load(str(stats), venv)
-    else:
-        venv = VecNormalize(venv, **cfg.normalize)
+        from sphere_env.training.saved import read_stats
+
+        saved = read_stats(stats)
+        if saved.obs_rms.mean.shape != venv.obs_rms.mean.shape:
+            raise ValueError(
+                f"{stats}: statistics of observations of shape {saved.obs_rms.mean.shape}; the envs give "
+                f"{venv.obs_rms.mean.shape}"
+            )
+        saved.into(venv)
     if evaluation:
         venv.training = False
         venv.norm_reward = False

@@ -30,10 +30,11 @@ import yaml
 from sphere_env import safe_yaml
 from sphere_env.files import write_text_atomic
 from sphere_env.provenance import software_versions
-from sphere_env.schemas import validate
+from sphere_env.schemas import shown, validate
 from sphere_env.schemas.training import RunConfigFile
 from sphere_env.training import training_state
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
+from sphere_env.training.saved import load_model, read_stats, stats_path
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"
@@ -58,20 +59,17 @@ def _checkpoint_problem(cls, cfg: TrainConfig, run_dir: Path, steps: int, path: 
             bad = z.testzip()
         if bad is not None:
             return f"{path.name} is corrupt ({bad})"
-        cls.load(path, device="cpu")
+        load_model(cls, path, cfg.algo_kwargs(), device="cpu")
     except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
         return f"{path.name} cannot be read ({type(err).__name__}: {err})"
     if cfg.normalize is not None:
-        vn = _ckpt_file(run_dir, "vecnormalize", steps)
+        vn = stats_path(_ckpt_file(run_dir, "vecnormalize", steps, ""))
         if not vn.exists():
             return f"{vn.name} (its VecNormalize statistics) is missing"
         try:
-            import pickle
-
-            with open(vn, "rb") as f:
-                pickle.load(f)
-        except Exception as err:  # noqa: BLE001
-            return f"{vn.name} cannot be read ({type(err).__name__}: {err})"
+            read_stats(vn)
+        except ValueError as err:
+            return f"{vn.name} cannot be read ({err})"
     state = training_state.state_path(run_dir, steps)
     if state.exists():  # absent in folders written before it was saved: the streams then restart
         try:
@@ -98,8 +96,8 @@ def usable_checkpoint(cls, cfg: TrainConfig, run_dir: Path) -> tuple[tuple[int, 
     return None, skipped
 
 
-def _ckpt_file(run_dir: Path, kind: str, steps: int) -> Path:
-    return run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps.pkl"
+def _ckpt_file(run_dir: Path, kind: str, steps: int, suffix: str = ".pkl") -> Path:
+    return run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps{suffix}"
 
 
 def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
@@ -245,8 +243,24 @@ def write_config(
     return write_text_atomic(run_dir / "config.yaml", yaml.safe_dump(plain_data(data), sort_keys=False))
 
 
+#: The keys of a run's ``config.yaml`` besides a ``TrainConfig``'s fields: what :func:`write_config`
+#: and a resume record (``randomization``: folders written before it moved into ``env_kwargs``).
+RUN_RECORD_KEYS = (
+    "randomization_resolved",
+    "seeds",
+    "monitor_info_keywords",
+    "versions",
+    "command",
+    "created_utc",
+    "resume_commands",
+    "resumed_from_steps",
+    "randomization",
+)
+
+
 def load_config(run_dir: str | Path) -> TrainConfig:
-    """The TrainConfig stored in ``run_dir/config.yaml``."""
+    """The TrainConfig stored in ``run_dir/config.yaml``; a top-level key that is neither a
+    configuration field nor one of :data:`RUN_RECORD_KEYS` is refused by name."""
     run_dir = Path(run_dir)
     path = run_dir / "config.yaml"
     if not path.exists():
@@ -257,6 +271,12 @@ def load_config(run_dir: str | Path) -> TrainConfig:
         raise ValueError(f"run: {str(path)!r} cannot be read: " + " ".join(str(err).split())) from None
     validate(RunConfigFile, data, f"run: {str(path)!r}")  # a mapping holding env_id and algo
     fields = TrainConfig.__dataclass_fields__
+    unknown = sorted(str(k) for k in data if k not in fields and k not in RUN_RECORD_KEYS)
+    if unknown:
+        raise ValueError(
+            f"run: {str(path)!r}: unknown top-level key {shown(unknown[0])}; allowed: the fields of a training "
+            f"configuration and the records the trainer writes ({', '.join(RUN_RECORD_KEYS[:-1])})"
+        )
     data = dict(data)
     if "randomization" in data and "randomization" not in (data.get("env_kwargs") or {}):
         # run folders written before randomization moved into env_kwargs
@@ -275,6 +295,7 @@ RUN_OUTPUTS = (
     "learning_curve.csv",
     "learning_curve.png",
     "model.zip",
+    "vecnormalize.json",
     "vecnormalize.pkl",
     "timing.json",
 )

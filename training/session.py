@@ -23,6 +23,7 @@ from sphere_env.training.callbacks import build_callbacks, save_checkpoint
 from sphere_env.training.config import TrainConfig
 from sphere_env.training.env_factory import make_vec_env, wrap_normalize
 from sphere_env.training.run_folder import _ckpt_file
+from sphere_env.training.saved import load_model, load_replay_buffer, save_stats, stats_path
 
 
 class TrainingInterrupted(Exception):
@@ -52,12 +53,12 @@ def unchecked_distributions():
 
 
 def save_model(model, run_dir: Path, cfg: TrainConfig, callbacks=()) -> None:
-    """``model.zip``, its VecNormalize statistics (``vecnormalize.pkl``) and a checkpoint at its step
+    """``model.zip``, its VecNormalize statistics (``vecnormalize.json``) and a checkpoint at its step
     count, with the run's random state (that of ``callbacks`` included)."""
     model.save(run_dir / "model.zip")
     vn = model.get_vec_normalize_env()
     if vn is not None:
-        vn.save(str(run_dir / "vecnormalize.pkl"))
+        save_stats(vn, run_dir / "vecnormalize.json")
     save_checkpoint(model, run_dir, cfg, callbacks)
 
 
@@ -77,7 +78,9 @@ def train_session(
     resume = ckpt is not None
     venv = make_vec_env(cfg, run_dir)
     try:
-        stats = _ckpt_file(run_dir, "vecnormalize", start_steps) if resume and cfg.normalize is not None else None
+        stats = None
+        if resume and cfg.normalize is not None:
+            stats = stats_path(_ckpt_file(run_dir, "vecnormalize", start_steps, ""))
         agent = None
         if not resume and cfg.trained_agent is not None:
             from sphere_env.training.trained_agent import trained_agent_files
@@ -91,10 +94,10 @@ def train_session(
         callbacks = build_callbacks(cfg, run_dir, eval_env)
         own = training_state.stateful(callbacks.callbacks)
         if resume:
-            model = cls.load(ckpt[1], env=venv, device=cfg.device, tensorboard_log=tb)
+            model = load_model(cls, ckpt[1], cfg.algo_kwargs(), env=venv, device=cfg.device, tensorboard_log=tb)
             rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
             if cfg.algo == "sac" and rb.exists():
-                model.load_replay_buffer(rb)
+                load_replay_buffer(model, rb)
             elif cfg.algo == "sac":
                 say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
             _restore_random_state(model, run_dir, start_steps, own)
@@ -102,11 +105,20 @@ def train_session(
             # As rl-zoo3's -i: the saved network with the configuration's other hyperparameters
             # (schedules, batch sizes, ...), and a fresh step count up to n_timesteps.
             kwargs = {k: v for k, v in cfg.algo_kwargs().items() if k != "policy_kwargs"}
-            model = cls.load(agent, env=venv, device=cfg.device, verbose=verbose, tensorboard_log=tb, **kwargs)
+            model = load_model(
+                cls,
+                agent,
+                cfg.algo_kwargs(),
+                env=venv,
+                device=cfg.device,
+                verbose=verbose,
+                tensorboard_log=tb,
+                **kwargs,
+            )
             model.set_random_seed(cfg.seed)
             rb = agent.parent / "replay_buffer.pkl"
             if cfg.algo == "sac" and rb.exists():
-                model.load_replay_buffer(rb)
+                load_replay_buffer(model, rb)
         else:
             model = cls(
                 cfg.policy,
@@ -131,7 +143,7 @@ def train_session(
             # the rollout in progress is dropped; everything trained so far is saved and resumable
             save_model(model, run_dir, cfg, own)
             raise TrainingInterrupted(
-                f"interrupted at {model.num_timesteps} env steps; saved model.zip, vecnormalize.pkl and a "
+                f"interrupted at {model.num_timesteps} env steps; saved model.zip, vecnormalize.json and a "
                 f"checkpoint in {run_dir}; continue with --resume {run_dir}"
             ) from None
         wall = time.perf_counter() - t0

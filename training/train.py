@@ -27,9 +27,9 @@ A run folder holds::
     config.yaml              resolved config: env kwargs (randomization spec as given and resolved),
                              evaluation env kwargs and pressures, hyperparameters, seeds, versions
                              (drake, torch, sb3, sphere_env, ...) and the command
-    model.zip                final model          vecnormalize.pkl   its VecNormalize statistics
-    best/best_model.zip      best on the evaluation episodes, best/vecnormalize.pkl
-    checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_, SAC: _replay_buffer_, and
+    model.zip                final model          vecnormalize.json  its VecNormalize statistics
+    best/best_model.zip      best on the evaluation episodes, best/vecnormalize.json
+    checkpoints/             rl_model_<steps>_steps.zip (+ _vecnormalize_ .json, SAC: _replay_buffer_, and
                              _training_state_ .json: the envs', curriculum's and process's random
                              state, which --resume restores)
     learning_curve.csv/.png  training episodes and evaluations against env steps
@@ -96,7 +96,7 @@ class StoreDict(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None):
         try:
             parse = parse_env_kwargs if self.dest.endswith("env_kwargs") else parse_key_values
-            setattr(namespace, self.dest, {**(getattr(namespace, self.dest) or {}), **parse(values, self.dest)})
+            setattr(namespace, self.dest, {**(getattr(namespace, self.dest, None) or {}), **parse(values, self.dest)})
         except ValueError as err:
             parser.exit(2, f"{parser.prog}: error: {err}\n")
 
@@ -171,7 +171,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="exact run (or sweep) folder (default <log-folder>/<algo>_<env>_<time>_s<seed>)",
     )
-    parser.add_argument("--resume", type=Path, default=None, help="continue this run folder from its last checkpoint")
+    parser.add_argument(
+        "--resume",
+        type=Path,
+        default=None,
+        help="continue this run folder from its last checkpoint, with its config.yaml (takes -n, --no-progress, -v only)",
+    )
     parser.add_argument(
         "-i",
         "--trained-agent",
@@ -218,11 +223,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: What a resume takes from its command line; everything else comes from the run's config.yaml.
+RESUME_FLAGS = ("resume", "n_timesteps", "no_progress", "verbose")
+
+
+def refuse_resume_flags(argv: Sequence[str]) -> None:
+    """Refuse, naming them, the flags given with ``--resume`` that a resume would not apply (the
+    run continues with the configuration in its ``config.yaml``: env, algorithm, hyperparameters,
+    env kwargs, seeds, evaluation and checkpoint periods...)."""
+    parser = build_parser()
+    for action in parser._actions:
+        action.default = argparse.SUPPRESS  # only what the command line gives is in the namespace
+    given = vars(parser.parse_args(argv))
+    ignored = [a for a in parser._actions if a.dest in given and a.dest not in RESUME_FLAGS]
+    if ignored:
+        names = ", ".join("/".join(a.option_strings) for a in ignored)
+        raise ValueError(
+            f"resume: {names} cannot change a resumed run, which continues with the configuration in its "
+            "config.yaml; a resume takes -n/--n-timesteps, --no-progress and -v only (train a new run, "
+            "or -i <run>/model.zip, to change the rest)"
+        )
+
+
 def main(argv: Sequence[str] | None = None) -> Path:
     parser = build_parser()
     args = parser.parse_args(argv)
-    command = [sys.executable, "-m", "sphere_env.training.train", *(argv if argv is not None else sys.argv[1:])]
+    argv = list(argv if argv is not None else sys.argv[1:])
+    command = [sys.executable, "-m", "sphere_env.training.train", *argv]
     try:
+        if args.resume is not None:
+            refuse_resume_flags(argv)
         if args.resume is None:
             validate(RunFolders, {"log_folder": args.log_folder, "run_dir": args.run_dir})
         with sigterm_as_interrupt():

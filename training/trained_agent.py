@@ -22,9 +22,10 @@ _EXISTING_FILE = checker(
 def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
     """The model zip ``cfg.trained_agent`` and the VecNormalize statistics saved with it (None
     without normalization). Statistics are looked for where this trainer and rl-zoo3 put them:
-    ``vecnormalize.pkl`` beside the zip (a run's ``model.zip``, ``best/best_model.zip``),
-    ``checkpoints/rl_model_vecnormalize_<n>_steps.pkl`` for ``rl_model_<n>_steps.zip``, and
-    rl-zoo3's ``<dir>/<env id with / as ->/vecnormalize.pkl``.
+    ``vecnormalize.json`` beside the zip (a run's ``model.zip``, ``best/best_model.zip``),
+    ``checkpoints/rl_model_vecnormalize_<n>_steps.json`` for ``rl_model_<n>_steps.zip``, and
+    rl-zoo3's ``<dir>/<env id with / as ->/vecnormalize.pkl``; each also as the ``.pkl`` of older
+    folders (read as data: :func:`sphere_env.training.saved.read_stats`).
 
     :raises ValueError: ``trained_agent: ...`` (missing, unreadable, statistics missing).
     """
@@ -36,10 +37,13 @@ def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
     path = _EXISTING_FILE(_ZIP_NAME(str(path), "trained_agent"), "trained_agent")
     if cfg.normalize is None:
         return path, None
-    candidates = [path.parent / "vecnormalize.pkl", path.parent / cfg.env_id.replace("/", "-") / "vecnormalize.pkl"]
+    from sphere_env.training.saved import stats_path
+
+    bases = [path.parent / "vecnormalize", path.parent / cfg.env_id.replace("/", "-") / "vecnormalize"]
     m = re.fullmatch(r"(.+)_(\d+)_steps\.zip", path.name)
     if m:
-        candidates.insert(0, path.parent / f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl")
+        bases.insert(0, path.parent / f"{m.group(1)}_vecnormalize_{m.group(2)}_steps")
+    candidates = [stats_path(b) for b in bases]
     for c in candidates:
         if c.is_file():
             return path, c
@@ -52,11 +56,11 @@ def trained_agent_files(cfg: TrainConfig) -> tuple[Path, Path | None]:
 
 def check_trained_agent(cfg: TrainConfig, env) -> None:
     """Load ``cfg.trained_agent`` and its statistics; refuse them unless they fit ``env``'s spaces."""
-    import pickle
+    from sphere_env.training.saved import load_model, read_stats
 
     path, stats = trained_agent_files(cfg)
     try:
-        model = algo_class(cfg.algo).load(path, device="cpu")
+        model = load_model(algo_class(cfg.algo), path, cfg.algo_kwargs(), device="cpu")
     except Exception as err:  # noqa: BLE001 - any failure to read means "not usable"
         raise ValueError(
             f"trained_agent: {str(path)!r} cannot be loaded as {cfg.algo.upper()}: {type(err).__name__}: {err}"
@@ -82,10 +86,9 @@ def check_trained_agent(cfg: TrainConfig, env) -> None:
             )
     if stats is not None:
         try:
-            with open(stats, "rb") as f:
-                vn = pickle.load(f)
-        except Exception as err:  # noqa: BLE001
-            raise ValueError(f"trained_agent: {str(stats)!r} cannot be read: {type(err).__name__}: {err}") from None
+            vn = read_stats(stats)
+        except ValueError as err:
+            raise ValueError(f"trained_agent: {err}") from None
         shape = getattr(getattr(vn, "obs_rms", None), "mean", None)
         if shape is None or np_shape(shape) != env.observation_space.shape:
             raise ValueError(

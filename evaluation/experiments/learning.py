@@ -446,6 +446,7 @@ def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
     from sphere_env.evaluation.controller_specs import model_files, run_folder
     from sphere_env.files import staged_folder
     from sphere_env.resources import ASSETS_PACKAGE, SHIPPED_POLICIES
+    from sphere_env.training.saved import read_stats, save_stats
 
     torch.set_num_threads(1)
     runs = [_candidate(c, runs_root) for c in candidates]  # refuse a bad list before any work
@@ -475,7 +476,7 @@ def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
     with staged_folder(target, replace) as stage:
         shutil.copy2(folder / "config.yaml", stage / "config.yaml")
         shutil.copy2(model, stage / "model.zip")
-        shutil.copy2(stats, stage / "vecnormalize.pkl")
+        save_stats(read_stats(stats), stage / "vecnormalize.json")  # JSON, whatever the run wrote
         card = {
             "env_id": ENV_ID,
             "algo": "ppo",

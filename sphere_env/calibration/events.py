@@ -211,17 +211,24 @@ def manifest_entries(
 def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], data_root: str | Path) -> Path:
     """Add ``entries`` to the manifest at ``path`` (created with ``data_root`` if missing).
 
-    Refuses, writing nothing, a name that is already in the manifest. Written atomically: a temp
-    file in the same folder, then renamed over ``path``.
+    Refuses, writing nothing, a name that is already in the manifest, and a manifest that holds
+    comments (a hand-written one: rewriting it would drop them). Written atomically: a temp file in
+    the same folder, then renamed over ``path``.
     """
     path = Path(path)
     if path.exists():
         try:
             data = safe_yaml.load_file(path) or {}
+            line = _comment_line(path.read_text())
         except yaml.YAMLError as err:
             raise LogError(f"manifest {str(path)!r}: cannot read: {err}") from err
         if not isinstance(data, dict) or not isinstance(data.get("trials", []), list):
             raise LogError(f"manifest {str(path)!r}: field 'trials' must be a list")
+        if line is not None:
+            raise LogError(
+                f"manifest {str(path)!r}: holds comments (line {line}), which rewriting it would drop; nothing "
+                "written: give --write-manifest a new file and copy its trials over"
+            )
     else:
         data = {"data_root": str(data_root), "trials": []}
     trials = list(data.get("trials") or [])
@@ -231,6 +238,19 @@ def write_manifest_entries(path: str | Path, entries: Sequence[dict[str, Any]], 
             raise LogError(f"manifest {str(path)!r}: field 'name' = {e['name']!r} is already a trial; nothing written")
     data["trials"] = trials + list(entries)
     return write_text_atomic(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=110))
+
+
+def _comment_line(text: str) -> int | None:
+    """The first line of a YAML text that holds a comment (a ``#`` outside every scalar), or None."""
+    import bisect
+
+    spans = [(t.start_mark.index, t.end_mark.index) for t in yaml.scan(text) if isinstance(t, yaml.ScalarToken)]
+    starts = [lo for lo, _ in spans]  # in text order
+    for pos in (i for i, ch in enumerate(text) if ch == "#"):
+        k = bisect.bisect_right(starts, pos) - 1
+        if k < 0 or pos >= spans[k][1]:
+            return text.count("\n", 0, pos) + 1
+    return None
 
 
 def events_table(events: Sequence[Event]) -> str:

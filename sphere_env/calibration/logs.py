@@ -306,6 +306,14 @@ def load_log(
         raise _fail(p, f"cannot parse as CSV: {err}") from err
     if len(df) == 0:
         raise _fail(p, f"file is empty: header {list(df.columns)} but no data rows")
+    header = _header(p)  # pandas renames a repeated name ("x", "x.1"): the file's own names
+    seen: set[str] = set()
+    for i, column in enumerate(header):
+        if column in seen:
+            raise _fail(
+                p, f"header, column {i + 1}: the name {shown(column)} is given twice; column names must be unique"
+            )
+        seen.add(column)
     df.columns = [str(c).strip() for c in df.columns]
 
     tcol, tunit = mapping.time
@@ -314,15 +322,20 @@ def load_log(
             p, f"time column {tcol!r} missing; found columns {shown(list(df.columns))} (mapping {mapping.source})"
         )
 
-    def numeric(col: str) -> np.ndarray:
+    def numeric(col: str, time: bool = False) -> np.ndarray:
         vals = pd.to_numeric(df[col], errors="coerce")
         bad = vals.isna() & df[col].notna()
         if bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
             raise _fail(p, f"line {i + 2}, column {shown(col)}: value {shown(df[col].iloc[i])} is not a number")
-        return vals.to_numpy(dtype=float)
+        x = vals.to_numpy(dtype=float)
+        infinite = np.isinf(x)
+        if infinite.any() and not time:  # a missing sample is NaN (interpolated when short); inf is none
+            i = int(np.flatnonzero(infinite)[0])
+            raise _fail(p, f"line {i + 2}, column {shown(col)}: value {x[i]} is not finite")
+        return x
 
-    t_raw = numeric(tcol)
+    t_raw = numeric(tcol, time=True)  # its own checks name a missing or infinite time
     if np.isnan(t_raw).any():
         i = int(np.flatnonzero(np.isnan(t_raw))[0])
         raise _fail(p, f"line {i + 2}, column {tcol!r}: time is missing (NaN)")
@@ -407,6 +420,18 @@ def load_log(
     if not channels:
         raise _fail(p, f"no known channel columns; found {list(df.columns)} (mapping {mapping.source})")
     return RobotLog(name or Path(p).stem, p, t, channels, derived=derived)
+
+
+def _header(path: str) -> list[str]:
+    """The column names of a CSV file's first line, stripped (a name longer than the csv module's
+    field limit, 131 072 characters, is refused by name)."""
+    import csv
+
+    try:
+        with open(path, newline="", encoding="utf-8", errors="replace") as f:
+            return [name.strip() for name in next(csv.reader(f), [])]
+    except csv.Error as err:
+        raise _fail(path, f"header: {err}") from None
 
 
 def _check_rate_units(path: str, t: np.ndarray, channels: Mapping[str, np.ndarray], columns: Mapping[str, str]) -> None:

@@ -24,8 +24,15 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, create_model, field_validator, model_validator
 
-from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, RANDOMIZABLE, SHELL_MODELS
-from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number
+from sphere_env.params import (
+    DEFAULT_TIME_STEP_S,
+    MAX_EPISODE_S,
+    MAX_PLANT_STEPS_PER_ACTION,
+    PARAMETERS,
+    RANDOMIZABLE,
+    SHELL_MODELS,
+)
+from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number, shown
 from sphere_env.schemas.randomization import fixed_value
 from sphere_env.schemas.twin import CONTACT_APPROXIMATIONS, InitialStateFields, joint_friction, parameter
 from sphere_env.tasks.ramp_descent import RampDescentKwargs
@@ -165,6 +172,12 @@ class EnvKwargs(Schema):
                 f"field 'control_frequency_hz' = {self.control_frequency_hz!r} must make the control "
                 f"period an integer multiple of time_step_s = {self.time_step_s} s"
             )
+        if round(ratio) > MAX_PLANT_STEPS_PER_ACTION:
+            raise ValueError(
+                f"field 'control_frequency_hz' = {self.control_frequency_hz!r} with time_step_s = "
+                f"{self.time_step_s} s makes every env step simulate {round(ratio)} plant steps; allowed: at "
+                f"most {MAX_PLANT_STEPS_PER_ACTION} (cost: about 0.2-0.5 ms of compute per plant step)"
+            )
         return self
 
 
@@ -257,3 +270,32 @@ class ResidualKwargs(Schema):
     """The kwargs of :class:`sphere_env.wrappers.PDResidualAction` (and its evaluation combiner)."""
 
     scale: number(gt=0.0, le=2.0, words="a number in (0, 2]") = 0.5
+
+
+def check_episode_length(env_id: str, kwargs: Mapping[str, Any], where: str = "env_kwargs") -> None:
+    """Refuse env kwargs whose episode, ``max_episode_steps`` (gymnasium's ``make`` kwarg, else the
+    registered length) control steps at ``control_frequency_hz``, lasts longer than
+    :data:`~sphere_env.params.MAX_EPISODE_S` simulated seconds: its cost is that duration over the
+    time step in plant steps.
+
+    :raises ValueError: naming ``<where>.max_episode_steps`` (or ``.control_frequency_hz`` when the
+        registered length is kept), the value and the longest allowed.
+    """
+    import gymnasium as gym
+
+    registered = gym.spec(env_id).max_episode_steps
+    steps = kwargs.get("max_episode_steps", registered)
+    rate = kwargs.get("control_frequency_hz", PARAMETERS["control_frequency_hz"].nominal)
+    step_s = kwargs.get("time_step_s", DEFAULT_TIME_STEP_S)
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (rate, step_s)) or rate <= 0:
+        return  # refused by name when the env is built
+    longest = int(MAX_EPISODE_S * rate)
+    field = "max_episode_steps" if "max_episode_steps" in kwargs else "control_frequency_hz"
+    shown_value = shown(kwargs.get(field))
+    if not isinstance(steps, int) or isinstance(steps, bool) or not 1 <= steps <= longest:
+        cost = f"{MAX_EPISODE_S * (1 / step_s if step_s > 0 else 0):.0f} plant steps at time_step_s = {step_s:g} s"
+        raise ValueError(
+            f"field '{where}.{field}' = {shown_value}: an episode of {shown(steps)} control steps at "
+            f"{rate:g} Hz; allowed: whole episodes of at most {MAX_EPISODE_S:g} simulated s ({longest} "
+            f"control steps at {rate:g} Hz; cost: {cost})"
+        )

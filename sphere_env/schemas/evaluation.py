@@ -311,6 +311,9 @@ class SweepFields(Loaded):
             cal = ShellCalibration.load(cal_name)
             for i, p in enumerate(self.pressures_kpa):
                 cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
+        from sphere_env.schemas.env import check_episode_length
+
+        check_episode_length(self.env_id, self.env_kwargs)
         return self
 
     def episodes(self) -> int:
@@ -401,7 +404,7 @@ def _run_folder(run: str) -> str:
     from sphere_env.evaluation.controller_specs import run_path
 
     if not run_path(run.partition("@")[0]).is_dir():
-        raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.pkl)")
+        raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.json)")
     return run
 
 

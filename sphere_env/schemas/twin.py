@@ -17,7 +17,8 @@ from pydantic import BeforeValidator, Field, field_validator, model_validator
 
 from sphere_env.models.friction import resolve_friction
 from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS, SHELL_MODELS
-from sphere_env.schemas import Finite, Schema, _as_tuple, _real, allowed, fixed_tuple, number
+from sphere_env.schemas import Finite, Schema, _as_tuple, _real, allowed, fixed_tuple
+from sphere_env.schemas.calibration import ResolutionHint
 
 FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
 CONTACT_APPROXIMATIONS = ("sap", "lagged", "similar", "tamsi")
@@ -71,7 +72,7 @@ class TwinConfigFields(Schema):
         None, json_schema_extra=allowed("the path of a shell calibration YAML, the name of a shipped one, or None")
     )
     urdf: str | Path | None = Field(None, json_schema_extra=allowed("the path of a URDF, or None"))
-    resolution_hint_m: number(gt=0.0) | None = None
+    resolution_hint_m: ResolutionHint | None = None  # a calibration's bounds: the mesh's cost
     contact_approximation: Literal[CONTACT_APPROXIMATIONS] | None = None  # type: ignore[valid-type]
     bare_plant: bool = False
     inclines_deg: Annotated[

@@ -30,7 +30,8 @@ def test_kd_step_refuses_a_bad_step_and_writes_nothing(tmp_path, capsys):
         main(["kd-step", "--time-step-s", "0", "--out", str(out)])
     assert refused.value.code == 2
     assert (
-        "argument --time-step-s: '0': Input should be greater than 0; allowed: (0, 0.05] s" in capsys.readouterr().err
+        "argument --time-step-s: '0': Input should be greater than or equal to 0.0001; allowed: [0.0001, 0.05] s"
+        in capsys.readouterr().err
     )
     assert not out.exists()
 

@@ -55,7 +55,7 @@ def test_bad_pressure_schedule_is_refused_at_make(rate):
         (
             ROLL,
             {"time_step_s": "0.005"},
-            "field 'time_step_s' = '0.005': Input should be a valid number; allowed: (0, 0.05] s",
+            "field 'time_step_s' = '0.005': Input should be a valid number; allowed: [0.0001, 0.05] s (cost: ",
         ),
         (ROLL, {"steer_torque_limit_nm": True}, "field 'steer_torque_limit_nm' = True: Input should be a valid number"),
         (

@@ -143,8 +143,8 @@ def test_missing_vecnormalize_refused(tiny_run, tmp_path, capsys):
 
     run = tmp_path / "run"
     shutil.copytree(tiny_run, run)
-    (run / "vecnormalize.pkl").unlink()
-    _refused(capsys, ["--controller", str(run), "--out", str(tmp_path / "o"), *GRID], "vecnormalize.pkl", "is missing")
+    (run / "vecnormalize.json").unlink()
+    _refused(capsys, ["--controller", str(run), "--out", str(tmp_path / "o"), *GRID], "vecnormalize.json", "is missing")
     assert not (tmp_path / "o").exists()
 
 

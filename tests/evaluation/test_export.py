@@ -6,7 +6,6 @@ its layout file matches the env; bad inputs are refused by name with nothing wri
 from __future__ import annotations
 
 import json
-import pickle
 import shutil
 
 import gymnasium as gym
@@ -18,6 +17,7 @@ from sphere_env.controllers import controller_for
 from sphere_env.evaluation.export import export
 from sphere_env.evaluation.export import main as export_main
 from sphere_env.training.config import algo_class
+from sphere_env.training.saved import read_stats
 
 ENV = "sphere_env/RampDescent-v2"
 
@@ -47,8 +47,7 @@ def recorded_observations(env_kwargs) -> np.ndarray:
 
 def sb3_actions(run, algo, obs):
     model = algo_class(algo).load(run / "model.zip", device="cpu")
-    with open(run / "vecnormalize.pkl", "rb") as f:
-        vecnormalize = pickle.load(f)
+    vecnormalize = read_stats(run / "vecnormalize.json")
     actions, _ = model.predict(vecnormalize.normalize_obs(obs), deterministic=True)
     raw, _ = model.predict(obs, deterministic=True)  # without the statistics
     return actions, raw
@@ -105,8 +104,7 @@ def test_layout_file_describes_the_env(tiny_ppo_run, tmp_path):
         "ppo",
         "policy.pt",
     )
-    with open(tiny_ppo_run / "vecnormalize.pkl", "rb") as f:
-        rms = pickle.load(f).obs_rms
+    rms = read_stats(tiny_ppo_run / "vecnormalize.json").obs_rms
     assert [o["normalization_mean"] for o in layout["observation"]] == pytest.approx(rms.mean.tolist(), rel=1e-12)
     assert layout["check"]["max_abs_action_diff"] < 1e-5 and layout["versions"]["torch"]
     env.close()
@@ -131,7 +129,7 @@ def test_action_layout_is_what_step_applies():
         ("out_file", ["field 'out'", "is a file"]),
         ("tol", ["field 'tol' = -1"]),
         ("tiny_tol", ["check:", "nothing written"]),
-        ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
+        ("no_vecnormalize", ["run:", "vecnormalize.json", "is missing"]),
         ("other_env", ["env:", "--allow-env-mismatch"]),
     ],
 )
@@ -142,7 +140,7 @@ def test_bad_export_refused_with_nothing_written(tiny_ppo_run, tmp_path, capsys,
     if case == "no_vecnormalize":
         run = str(tmp_path / "copy")
         shutil.copytree(tiny_ppo_run, run)
-        (tmp_path / "copy" / "vecnormalize.pkl").unlink()
+        (tmp_path / "copy" / "vecnormalize.json").unlink()
     argv = {
         "format": [run, "--format", "tflite", *out],
         "out_file": [run, "--out", str(tmp_path / "file" / "x")],

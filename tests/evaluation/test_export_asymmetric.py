@@ -5,7 +5,6 @@ on the full observation, whatever those components hold."""
 from __future__ import annotations
 
 import json
-import pickle
 
 import gymnasium as gym
 import numpy as np
@@ -14,6 +13,7 @@ import pytest
 import sphere_env  # noqa: F401
 from sphere_env.evaluation.export import export, run_exported
 from sphere_env.training.config import algo_class
+from sphere_env.training.saved import read_stats
 
 
 @pytest.mark.parametrize("fmt", ["torchscript", "onnx"])
@@ -25,8 +25,7 @@ def test_the_exported_actor_takes_the_robot_observation_only(tiny_recipe_run, tm
     assert layout["input"]["shape"] == ["batch", len(names)]
 
     model = algo_class("ppo").load(tiny_recipe_run / "model.zip", device="cpu")
-    with open(tiny_recipe_run / "vecnormalize.pkl", "rb") as f:
-        vn = pickle.load(f)
+    vn = read_stats(tiny_recipe_run / "vecnormalize.json")
     env = gym.make(
         "sphere_env/RampDescent-v3",
         shell_model="hydroelastic",

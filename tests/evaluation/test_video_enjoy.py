@@ -125,7 +125,7 @@ def _broken_copy(run, tmp_path, remove=None, truncate=None):
     [
         ("no_config", ["run:", "config.yaml"]),
         ("no_model", ["run:", "model.zip", "is missing"]),
-        ("no_vecnormalize", ["run:", "vecnormalize.pkl", "is missing"]),
+        ("no_vecnormalize", ["run:", "vecnormalize.json", "is missing"]),
         ("truncated_model", ["run:", "model.zip", "truncated"]),
         ("not_a_folder", ["field 'run'", "is not a folder"]),
         ("bad_which", ["field 'run' = ", "@last", "@best"]),
@@ -144,7 +144,7 @@ def test_enjoy_refuses_bad_input_by_name(tiny_ppo_run, tmp_path, capsys, case, n
     argv = {
         "no_config": lambda: [_broken_copy(tiny_ppo_run, tmp_path, remove="config.yaml")],
         "no_model": lambda: [_broken_copy(tiny_ppo_run, tmp_path, remove="model.zip")],
-        "no_vecnormalize": lambda: [_broken_copy(tiny_ppo_run, tmp_path, remove="vecnormalize.pkl")],
+        "no_vecnormalize": lambda: [_broken_copy(tiny_ppo_run, tmp_path, remove="vecnormalize.json")],
         "truncated_model": lambda: [_broken_copy(tiny_ppo_run, tmp_path, truncate="model.zip")],
         "not_a_folder": [str(tmp_path / "nothing")],
         "bad_which": [run + "@last"],

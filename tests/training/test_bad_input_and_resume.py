@@ -160,7 +160,7 @@ def test_resume_falls_back_past_truncated_checkpoint_and_missing_vecnormalize(tm
     ck = run / "checkpoints"
     data = (ck / "rl_model_64_steps.zip").read_bytes()
     (ck / "rl_model_64_steps.zip").write_bytes(data[: len(data) // 2])  # truncated newest
-    (ck / "rl_model_vecnormalize_32_steps.pkl").unlink()  # the one before has no statistics
+    (ck / "rl_model_vecnormalize_32_steps.json").unlink()  # the one before has no statistics
     # a 3rd, older good one
     import shutil
 
@@ -176,7 +176,7 @@ def test_resume_falls_back_past_truncated_checkpoint_and_missing_vecnormalize(tm
     assert (run / "config.yaml").read_text() == before
     # restore the statistics of step 32: resume falls back to it and says so
     (ck / "rl_model_0_steps.zip").unlink()
-    shutil.copy(run / "vecnormalize.pkl", ck / "rl_model_vecnormalize_32_steps.pkl")
+    shutil.copy(run / "vecnormalize.json", ck / "rl_model_vecnormalize_32_steps.json")
     main(["--resume", str(run), "--n-timesteps", "96", "--no-progress"])
     err = capsys.readouterr().err
     assert "falling back to the checkpoint at 32 steps" in err

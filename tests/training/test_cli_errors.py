@@ -71,6 +71,14 @@ def test_sac_checkpoints_hold_the_replay_buffer_only_when_asked(tmp_path):
         progress_bar=False,
     )
     assert list((kept / "checkpoints").glob("*replay_buffer*"))
+    # a resume reads the buffer back (as data: sphere_env.training.saved.load_replay_buffer)
+    from stable_baselines3 import SAC
+
+    from sphere_env.training.saved import load_replay_buffer
+
+    model = SAC("MlpPolicy", "Pendulum-v1", buffer_size=10)
+    load_replay_buffer(model, kept / "checkpoints" / "rl_model_replay_buffer_64_steps.pkl")
+    assert model.replay_buffer.buffer_size == 500 and model.replay_buffer.pos == 64
 
 
 def test_help_is_clean_for_every_calibrate_subcommand():

@@ -60,7 +60,7 @@ def test_an_interrupted_training_is_saved_and_resumes(tmp_path, sig):
     lines = [ln for ln in err.splitlines() if ln.strip() and "Warn" not in ln and "logger" not in ln]
     assert len(lines) == 1 and "interrupted at" in lines[0] and "--resume" in lines[0], err[-2000:]
     assert "Traceback" not in err
-    assert (run / "model.zip").exists() and (run / "vecnormalize.pkl").exists()
+    assert (run / "model.zip").exists() and (run / "vecnormalize.json").exists()
     steps, _ = latest_checkpoint(run)
     assert steps > 0
     resumed = main(["--resume", str(run), "-n", str(steps + 128), "--no-progress"])

@@ -234,9 +234,9 @@ def test_short_run_loads_with_vecnormalize_and_acts_the_same(tmp_path, algo):
     for f in [
         "config.yaml",
         "model.zip",
-        "vecnormalize.pkl",
+        "vecnormalize.json",
         "best/best_model.zip",
-        "best/vecnormalize.pkl",
+        "best/vecnormalize.json",
         "learning_curve.csv",
         "learning_curve.png",
         "eval/evaluations.npz",
@@ -280,7 +280,7 @@ def test_resume_continues_step_count(tmp_path):
     from stable_baselines3 import PPO
 
     assert PPO.load(run / "model.zip").num_timesteps == 512
-    assert (run / "checkpoints" / "rl_model_vecnormalize_512_steps.pkl").exists()
+    assert (run / "checkpoints" / "rl_model_vecnormalize_512_steps.json").exists()
     curve = np.genfromtxt(run / "learning_curve.csv", delimiter=",", names=True, dtype=None, encoding=None)
     ev = curve[curve["kind"] == "eval"]["timesteps"]
     assert ev.min() <= 256 < ev.max() <= 512  # evaluations from both sessions, continuing counts
@@ -364,9 +364,9 @@ def test_evaluation_episodes_repeat_after_restart():
 @pytest.mark.slow
 def test_trained_agent_continues_with_its_vecnormalize(tmp_path):
     """-i: a new run folder starting from the saved network and VecNormalize statistics."""
-    import pickle
-
     from stable_baselines3 import PPO
+
+    from sphere_env.training.saved import read_stats
 
     common = [
         "--env",
@@ -384,8 +384,7 @@ def test_trained_agent_continues_with_its_vecnormalize(tmp_path):
     ]
     first = main([*common, "-n", "64", "--run-dir", str(tmp_path / "a")])
     second = main([*common, "-n", "32", "--run-dir", str(tmp_path / "b"), "-i", str(first / "model.zip")])
-    vn_a = pickle.loads((first / "vecnormalize.pkl").read_bytes())
-    vn_b = pickle.loads((second / "vecnormalize.pkl").read_bytes())
+    vn_a, vn_b = read_stats(first / "vecnormalize.json"), read_stats(second / "vecnormalize.json")
     assert vn_b.obs_rms.count == vn_a.obs_rms.count + 1 + 32  # continued (+ the first reset, 32 steps)
     a, b = PPO.load(first / "model.zip"), PPO.load(second / "model.zip")
     assert b.num_timesteps == 32
