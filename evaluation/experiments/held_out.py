@@ -5,7 +5,8 @@ The test set (``evaluation/episode_sets.yml``) is used for reported figures only
 it. For every finished run of the learning study this adds ``test`` to its result file: its
 validation-chosen checkpoint (``selected``) and its final model on the test set, the chosen one
 also under each fault of :data:`~sphere_env.evaluation.faults.GRADED_FAULTS` and under each
-calibration of :data:`CALIBRATIONS`, and the final model's validation figures (how far a run fell
+calibration of :data:`~sphere_env.evaluation.demo.CALIBRATIONS` (the nominal figures are the
+default calibration's), and the final model's validation figures (how far a run fell
 from its best validation checkpoint by the end). For the PD, zero torque and the shipped policy it
 adds the same to ``baselines.json``. Every episode runs with deterministic actions under the
 reference physics (SAP: a policy trained with the TAMSI solver is evaluated without it,
@@ -25,6 +26,7 @@ import sys
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from sphere_env.evaluation.demo import CALIBRATIONS  # the shipped calibrations that are other physics
 from sphere_env.evaluation.episode_sets import episodes
 from sphere_env.evaluation.experiments.learning import (
     ENV_ID,
@@ -37,11 +39,6 @@ from sphere_env.evaluation.experiments.learning import (
 )
 from sphere_env.evaluation.faults import GRADED_FAULTS, episode_jobs, fault_episodes
 from sphere_env.files import write_text_atomic
-
-#: The shipped calibrations whose physics a controller is tested under: the project's two fits of
-#: the one robot (``hydroelastic_fast`` is ``default`` with a coarser mesh, ``v0_linear`` a
-#: superseded law).
-CALIBRATIONS = ("default", "free_robot")
 
 
 def set_figures(
