@@ -77,13 +77,13 @@ def load_user_log(path: str | Path) -> dict[str, np.ndarray]:
 
     :raises ValueError: ``pme_log: ...`` naming the line and column: a missing column, a time that
         does not increase, an ω_d that is not finite or beyond what the robot can do
-        (:data:`sphere_env.calibration.logs.MAX_RATE_RAD_S`), an ``on_ramp`` other than 0/1, fewer
+        (:data:`sphere_env.tasks.termination.MAX_RATE_RAD_S`), an ``on_ramp`` other than 0/1, fewer
         than 2 samples on the ramp.
     """
     import pandas as pd
 
-    from sphere_env.calibration.logs import MAX_RATE_RAD_S
     from sphere_env.schemas import shown
+    from sphere_env.tasks.termination import MAX_RATE_RAD_S
 
     try:
         df = pd.read_csv(path)

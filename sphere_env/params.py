@@ -375,11 +375,11 @@ PARAMETERS: dict[str, Parameter] = dict(
         _p(
             "calibration",
             "-",
-            None,
+            "default",
             None,
             None,
             "reset",
-            "shell calibration (a shipped one, by name); nominal: the env's calibration kwarg",
+            "shell calibration (a shipped one, by name); nominal: the env's calibration kwarg (default: default)",
             choices=SHIPPED_CALIBRATIONS,
             randomizable=True,
         ),

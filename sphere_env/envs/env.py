@@ -214,6 +214,13 @@ class SphereEnv(gym.Env, EzPickle):
         return EventManager(spec, nominal, space, self._quantize_pressure, {"incline_deg": self._snap_incline})
 
     @property
+    def nominal_params(self) -> dict[str, Any]:
+        """Every parameter's value in this env when no event sets it: the registry's nominal values
+        resolved against the calibration, and the env's own kwargs (shell model, incline,
+        calibration, noise scale)."""
+        return self._events.nominal
+
+    @property
     def events(self) -> list[dict[str, Any]]:
         """The events in force (name, mode, parameter), as the event manager describes them."""
         return self._events.describe()

@@ -16,6 +16,7 @@ import math
 import reprlib
 import tempfile
 from argparse import ArgumentTypeError
+from itertools import islice
 from pathlib import Path
 from typing import Annotated, Any, Callable, Mapping, TypeVar, get_args
 
@@ -31,11 +32,23 @@ FIELD = "field '"  # how every message names a field
 SHOWN_CHARS = 200
 
 
+class _InOrder(reprlib.Repr):
+    """reprlib's cut ``repr`` with a mapping's items in their own order (reprlib sorts them)."""
+
+    def repr_dict(self, x, level):
+        if not x:
+            return "{}"
+        if level <= 0:
+            return "{...}"
+        items = [f"{self.repr1(k, level - 1)}: {self.repr1(v, level - 1)}" for k, v in islice(x.items(), self.maxdict)]
+        return "{" + ", ".join(items + (["..."] if len(x) > self.maxdict else [])) + "}"
+
+
 def shown(value: Any, limit: int = SHOWN_CHARS) -> str:
     """``repr(value)`` cut for a message: a few items per level, a few levels, at most ``limit``
     characters (an input can be megabytes, or a few bytes of YAML aliases that expand to billions
     of items)."""
-    r = reprlib.Repr()
+    r = _InOrder()
     r.maxlevel, r.maxdict, r.maxlist, r.maxtuple, r.maxset, r.maxfrozenset = 3, 6, 6, 6, 6, 6
     r.maxstring, r.maxother, r.maxlong = limit, limit, 60
     text = r.repr(value)

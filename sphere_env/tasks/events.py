@@ -87,6 +87,11 @@ class EventManager:
         self._delay_s = 0.0
         self.active = False
 
+    @property
+    def nominal(self) -> dict[str, Any]:
+        """Every parameter's value when no event sets it."""
+        return dict(self._nominal)
+
     def describe(self) -> list[dict[str, Any]]:
         """The events as data: name, mode, parameter (and interval, or schedule delay)."""
 

@@ -115,6 +115,7 @@ def run_case(case: dict[str, Any]) -> dict[str, np.ndarray]:
         warnings.simplefilter("ignore")  # gymnasium flags the superseded versions as out of date
         env = gym.make(case["env_id"], **case["kwargs"])
     try:
+        nominal = env.unwrapped.nominal_params
         rng = np.random.default_rng(ACTION_SEED)
         obs, info = env.reset(seed=SEED)
         steps = [(np.full(2, np.nan), obs, np.nan, False, False, info)]
@@ -139,6 +140,7 @@ def run_case(case: dict[str, Any]) -> dict[str, np.ndarray]:
         "info": np.array([[numeric.get(k, np.nan) for k in names] for numeric, _ in infos], dtype=np.float64),
         "info_present": np.array([[k in numeric for k in names] for numeric, _ in infos]),
         "info_other": np.array([json.dumps(other, sort_keys=True, default=str) for _, other in infos]),
+        "nominal": np.array(json.dumps(nominal, sort_keys=True, default=str)),
     }
 
 
@@ -159,13 +161,16 @@ def record(names: list[str]) -> None:
 def _added_at_nominal(now: dict[str, np.ndarray], recorded: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """``now`` without the ``params/<name>`` entries the recording lacks whose ``<name>`` is a
     registry parameter holding its nominal value at every step (a parameter added since the
-    recording, left at its nominal value)."""
+    recording, left at its nominal value: the env's own, ``now["nominal"]``, where it has one,
+    such as a calibration kwarg, else the registry's)."""
+    env_nominal = json.loads(str(now["nominal"])) if "nominal" in now else {}
 
     def nominal(key: str, values) -> bool:
         name = key.removeprefix("params/").split("[")[0]
         if not key.startswith("params/") or name not in PARAMETERS:
             return False
-        nom = PARAMETERS[name].nominal
+        nom = env_nominal.get(name, PARAMETERS[name].nominal)
+        nom = tuple(nom) if isinstance(nom, list) else nom
         nom = nom[int(key.split("[")[1].rstrip("]"))] if "[" in key and isinstance(nom, tuple) else nom
         return all(v == nom for v in values)
 

@@ -88,7 +88,6 @@ TRAIN = [
     ("seed-string", ["--seed", "x"], "--seed"),
     ("eval_pressures_kpa-below-range", ["--eval-pressures-kpa", "2"], "eval_pressures_kpa"),
     ("trained_agent-missing", ["-i", "missing.zip"], "trained_agent"),
-    ("resume-with-bad-n_timesteps", ["--resume", f"{INPUTS}/broken_config_run", "--n-timesteps", "nan"], "n_timesteps"),
     ("sac-ent_coef-negative-auto", ["--algo", "sac", "--params", "ent_coef:auto_-1"], "hyperparams.ent_coef"),
     ("sac-train_freq-not-a-literal", ["--algo", "sac", "--params", "train_freq:[1, hour]"], "hyperparams.train_freq"),
     ("sac-tau-zero", ["--algo", "sac", "--params", "tau:0"], "hyperparams.tau"),
@@ -391,6 +390,12 @@ def test_train_refuses(argv, field, inputs, out, capsys):
     # the tiny env kwargs first: a case's own --env-kwargs are merged over them
     full = [*TINY, *own, *(["--params", *params] if params else []), "--run-dir", str(out / "run")]
     _refused(["train", *_resolve(full, inputs)], field, capsys, out)
+
+
+def test_train_resume_refuses_a_bad_step_count(inputs, out, capsys):
+    # a resume takes no other flag than -n, so the tiny run's flags of test_train_refuses are left out
+    argv = ["train", "--resume", f"{INPUTS}/broken_config_run", "--n-timesteps", "nan", "--no-progress"]
+    _refused(_resolve(argv, inputs), "n_timesteps", capsys, out)
 
 
 @pytest.mark.parametrize("folder, field", _ids(TRAIN_RESUME))

@@ -15,7 +15,7 @@ def _nominal(rec: Parameter) -> str:
         return f"the {rec.bounds_from}'s"
     if rec.nominal is None:
         return "the env's kwarg"
-    return str(rec.nominal) if isinstance(rec.nominal, tuple) else f"{rec.nominal:g}"
+    return str(rec.nominal) if isinstance(rec.nominal, (tuple, str)) else f"{rec.nominal:g}"
 
 
 def _bounds(rec: Parameter) -> str:
