@@ -102,15 +102,18 @@ def test_shown_cuts_and_marks_the_cut():
 
 
 # ---- through the command lines, memory measured -----------------------------------------------------------
+# The command's own peak: VmHWM of /proc/self/status, the high-water mark of the address space exec
+# made. (ru_maxrss would carry over the forking test worker's peak, which Linux keeps across exec.)
 PEAK = textwrap.dedent(
     """
-    import resource, sys
+    import sys
     from sphere_env.cli import main
     try:
         code = main(sys.argv[1:])
     except SystemExit as exc:
         code = exc.code
-    print("peak_mb", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, file=sys.stderr)
+    hwm = next(line for line in open("/proc/self/status") if line.startswith("VmHWM:"))
+    print("peak_mb", int(hwm.split()[1]) / 1024, file=sys.stderr)
     sys.exit(code)
     """
 )
