@@ -32,10 +32,10 @@ from sphere_env.evaluation.experiments.learning import (
     ENV_ID,
     RESULTS,
     RUNS,
-    VALIDATION_SEEDS,
-    evaluate_policy,
+    checkpoint_steps,
     grid_figures,
     phase_offset,
+    validation_figures,
 )
 from sphere_env.evaluation.faults import GRADED_FAULTS, episode_jobs, fault_episodes
 from sphere_env.files import write_text_atomic
@@ -109,25 +109,13 @@ def held_out_figures(spec: str, cache: Path, final_spec: str | None = None) -> d
 
 
 def validation_curve(run_dir: Path, offset: int = 0) -> list[dict[str, Any]]:
-    """Every checkpoint of a run on the validation set (cached as ``grid_eval/val_<steps>.json``,
-    the checkpoint choice's own cache): env steps (from zero of a first phase, ``offset``),
-    success, tracking RMSE and per-shell success. The PD-level crossing is read on it."""
-    from sphere_env.training.train import CHECKPOINT_PREFIX
-
-    cache = run_dir / "grid_eval"
-    cache.mkdir(exist_ok=True)
-    steps = sorted(
-        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
-    )
+    """Every checkpoint of a run on the validation set (the checkpoint choice's own cache,
+    :func:`~sphere_env.evaluation.experiments.learning.validation_figures`): env steps (from zero of
+    a first phase, ``offset``), success, tracking RMSE and per-shell success. The PD-level crossing
+    is read on it."""
     curve = []
-    for n in steps:
-        done = cache / f"val_{n}.json"
-        if done.exists():
-            val = json.loads(done.read_text())
-        else:
-            val = evaluate_policy(f"{run_dir}@{n}", seeds=VALIDATION_SEEDS)
-            val.pop("episodes_detail")
-            write_text_atomic(done, json.dumps(val) + "\n")
+    for n in checkpoint_steps(run_dir):
+        val = validation_figures(run_dir, n)
         curve.append(
             {"env_steps": offset + n, **{k: val[k] for k in ("success_rate", "tracking_rmse_rad_s", "per_shell")}}
         )

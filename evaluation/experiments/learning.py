@@ -16,7 +16,6 @@ from the run folders).
     python -m evaluation.experiments.learning select        # each finished run's checkpoint chosen on validation
     python -m evaluation.experiments.learning faults        # PD, zero, pretrained and every run on the fault grid
     python -m evaluation.experiments.learning summary       # summary.json, tables and plots
-    python -m evaluation.experiments.learning ship --candidates shipped:0 shipped_annealed:0  # -> assets/policies/
 
 The result of a run holds its learning curve (grid success, per shell and tracking RMSE at every
 checkpoint), the final checkpoint's figures, the env steps and training wall-clock at which the grid
@@ -49,6 +48,8 @@ RECIPES = HERE / "recipes.yml"
 RESULTS = HERE.parent / "results" / "learning"
 RUNS = Path("runs") / "learning"
 PD_MARGIN = 0.03  # "PD level": grid success ≥ the PD's − 3 points
+# the validation set's seeds (evaluation/episode_sets.yml): every choice is made on these
+VALIDATION_SEEDS = tuple(sorted({e.seed for e in episodes("validation")}))
 
 
 def load_recipes(path: Path = RECIPES) -> dict[str, dict[str, Any]]:
@@ -122,31 +123,40 @@ def fault_figures(
 SELECT_FROM = 0.5  # the validation choice looks at checkpoints from this fraction of the budget on
 
 
+def checkpoint_steps(run_dir: Path) -> list[int]:
+    """The env steps of a run folder's checkpoints, in order."""
+    from sphere_env.training.train import CHECKPOINT_PREFIX
+
+    return sorted(
+        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
+    )
+
+
+def validation_figures(run_dir: Path, n: int, env_id: str = ENV_ID) -> dict[str, Any]:
+    """Checkpoint ``n`` of a run on the validation set, cached as ``grid_eval/val_<n>.json``."""
+    done = run_dir / "grid_eval" / f"val_{n}.json"
+    if done.exists():
+        return json.loads(done.read_text())
+    val = evaluate_policy(f"{run_dir}@{n}", env_id, seeds=VALIDATION_SEEDS)
+    val.pop("episodes_detail")
+    done.parent.mkdir(exist_ok=True)
+    write_text_atomic(done, json.dumps(val) + "\n")
+    return val
+
+
 def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) -> dict[str, Any]:
     """The run's checkpoint (from ``from_steps`` on) with the highest success on the validation
     grid (seeds 100-102; ties: lower tracking RMSE, then the later checkpoint), and its figures on
     the reported grid: the model an rl-zoo3 user keeps as ``best_model``, chosen on episodes the
-    reported figures never use. Validation results are cached as ``grid_eval/val_<steps>.json``."""
-    from sphere_env.training.train import CHECKPOINT_PREFIX
-
-    cache = run_dir / "grid_eval"
-    cache.mkdir(exist_ok=True)
-    ckpts = sorted(
-        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
-    )
+    reported figures never use (:func:`validation_figures`)."""
     scored = []
-    for n in (c for c in ckpts if c >= from_steps):
-        done = cache / f"val_{n}.json"
-        if done.exists():
-            val = json.loads(done.read_text())
-        else:
-            val = evaluate_policy(f"{run_dir}@{n}", env_id, seeds=VALIDATION_SEEDS)
-            val.pop("episodes_detail")
-            write_text_atomic(done, json.dumps(val) + "\n")
+    for n in (c for c in checkpoint_steps(run_dir) if c >= from_steps):
+        val = validation_figures(run_dir, n, env_id)
         scored.append((val["success_rate"], -val["tracking_rmse_rad_s"], n, val))
     if not scored:
         raise ValueError(f"{run_dir}: no checkpoint from {from_steps} env steps on")
     _, _, n, val = max(scored, key=lambda x: x[:3])
+    cache = run_dir / "grid_eval"
     grid = json.loads((cache / f"{n}.json").read_text()) if (cache / f"{n}.json").exists() else None
     if grid is None:
         grid = evaluate_policy(f"{run_dir}@{n}", env_id)
@@ -314,9 +324,7 @@ def run_job(
     timing = json.loads((run_dir / "timing.json").read_text())
     wall_per_step = timing["wall_s"] / max(timing["steps_this_session"], 1)
     curve = []
-    ckpts = sorted(
-        int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
-    )
+    ckpts = checkpoint_steps(run_dir)
     cache = run_dir / "grid_eval"  # one file per evaluated checkpoint: a longer budget re-uses them
     cache.mkdir(exist_ok=True)
     for n in ckpts:
@@ -407,93 +415,6 @@ def baselines(results: Path = RESULTS) -> Path:
     return path
 
 
-# the validation set's seeds (evaluation/episode_sets.yml): every choice is made on these
-VALIDATION_SEEDS = tuple(sorted({e.seed for e in episodes("validation")}))
-
-
-def _candidate(spec: str, runs_root: Path) -> tuple[str, dict[str, Any]]:
-    """``recipe:seed`` (final model) or ``recipe:seed:steps`` (a checkpoint) -> (the run spec of
-    :mod:`sphere_env.evaluation.controller_specs`, description), refused unless it loads."""
-    from sphere_env.evaluation.controller_specs import check_spec
-
-    parts = spec.split(":")
-    if len(parts) not in (2, 3) or not all(p.isdigit() for p in parts[1:]):
-        raise ValueError(f"candidates: {spec!r}; allowed: recipe:seed or recipe:seed:steps")
-    run = str(runs_root / parts[0] / f"seed{parts[1]}") + (f"@{parts[2]}" if len(parts) == 3 else "")
-    check_spec(run, ENV_ID)
-    steps = int(parts[2]) if len(parts) == 3 else None
-    offset = phase_offset(load_recipes().get(parts[0], {}))
-    return run, {
-        "recipe": parts[0],
-        "seed": int(parts[1]),
-        "checkpoint_steps": steps,
-        "env_steps": None if steps is None else offset + steps,
-    }
-
-
-def ship(candidates: Sequence[str], runs_root: Path = RUNS) -> Path:
-    """Choose among ``candidates`` (``recipe:seed[:steps]``) the one with the highest success on the
-    validation grid (evaluation seeds 100-102, the same shells and pressures: episodes the reported
-    figures never use), evaluate it on the demo grid, and copy it into the package as the
-    ``pretrained`` policy: ``assets/policies/<folder>/`` with the run's config, the model and its
-    VecNormalize statistics, and ``card.json`` (how it was trained and chosen, its figures), through
-    a staging folder that replaces the previous one whole."""
-    import shutil
-    from importlib import resources
-
-    import torch
-
-    from sphere_env.evaluation.controller_specs import model_files, run_folder
-    from sphere_env.files import staged_folder
-    from sphere_env.resources import ASSETS_PACKAGE, SHIPPED_POLICIES
-    from sphere_env.training.saved import read_stats, save_stats
-
-    torch.set_num_threads(1)
-    runs = [_candidate(c, runs_root) for c in candidates]  # refuse a bad list before any work
-    scores = []
-    for c, (run, desc) in zip(candidates, runs):
-        val = evaluate_policy(run, seeds=VALIDATION_SEEDS)
-        val.pop("episodes_detail")
-        scores.append({"candidate": c, **desc, "validation": val})
-        print(f"{c}: validation success {val['success_rate']:.0%}", flush=True)
-    best = max(
-        range(len(scores)),
-        key=lambda i: (scores[i]["validation"]["success_rate"], -scores[i]["validation"]["tracking_rmse_rad_s"]),
-    )
-    run, desc = runs[best]
-    grid = evaluate_policy(run)
-    folder, which = run_folder(run)
-    model, stats = model_files(folder, which)
-    target = Path(str(resources.files(ASSETS_PACKAGE))) / "policies" / SHIPPED_POLICIES["pretrained"]
-
-    def replace(work: Path, old: Path) -> None:
-        aside = old.with_name(f".{old.name}.old")
-        shutil.rmtree(aside, ignore_errors=True)
-        old.rename(aside)
-        work.rename(old)
-        shutil.rmtree(aside)
-
-    with staged_folder(target, replace) as stage:
-        shutil.copy2(folder / "config.yaml", stage / "config.yaml")
-        shutil.copy2(model, stage / "model.zip")
-        save_stats(read_stats(stats), stage / "vecnormalize.json")  # JSON, whatever the run wrote
-        card = {
-            "env_id": ENV_ID,
-            "algo": "ppo",
-            **desc,
-            "success_rate": grid["success_rate"],
-            "tracking_rmse_rad_s": grid["tracking_rmse_rad_s"],
-            "per_shell": grid["per_shell"],
-            "episodes": grid["episodes_detail"],
-            "grid": {"shells": list(SHELLS), "pressures_kpa": list(PRESSURES_KPA), "seeds": list(EVAL_SEEDS)},
-            "chosen_on": {"seeds": list(VALIDATION_SEEDS), "candidates": scores},
-            "recipes": {name: load_recipes()[name] for name in {s["recipe"] for s in scores}},
-            "commit": _commit(),
-        }
-        (stage / "card.json").write_text(json.dumps(card, indent=1) + "\n")
-    return target
-
-
 def main(argv: Sequence[str] | None = None) -> None:
     p = argparse.ArgumentParser(
         prog="python -m evaluation.experiments.learning",
@@ -525,18 +446,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
     sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
     sub.add_parser("faults", help="evaluate PD, zero, the pretrained policy and every finished run on the fault grid")
-    sp = sub.add_parser(
-        "ship",
-        help="choose among runs on the validation grid and copy the best into the package as the pretrained policy",
-    )
-    sp.add_argument("--candidates", nargs="+", required=True, help="recipe:seed (final model) or recipe:seed:steps")
     args = p.parse_args(argv)
-    if args.cmd == "ship":
-        try:
-            print(ship(args.candidates))
-        except ValueError as err:
-            p.exit(2, f"{p.prog}: error: {err}\n")
-        return
     if args.cmd == "pd":
         print(baselines())
         return
