@@ -1,26 +1,62 @@
-"""Writing output files so that a failure never leaves one half-written."""
+"""Writing output files so that a failure never leaves one half-written: file names made from
+labels, temporary names beside an output and staged folders."""
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
+import re
+import secrets
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Callable, Iterator
 
+#: What a file name made from a label keeps; every other character becomes ``-``.
+_UNSAFE = re.compile(r"[^A-Za-z0-9.@_-]")
+#: Longest file-name part made from a label (:func:`file_stem`).
+MAX_STEM = 64
+#: Longest part of an output's name in the temporary names beside it: a name may be as long as the
+#: file system allows (255 bytes), so the temporary name cannot hold all of it and more.
+_TEMP_STEM = 40
 
-def write_text_atomic(path: str | Path, text: str, exclusive: bool = False) -> Path:
+
+def file_stem(text: str, limit: int = MAX_STEM) -> str:
+    """``text`` (a controller label, say) as one safe part of a file name: every character other than
+    letters, digits, ``.``, ``-``, ``@`` and ``_`` becomes ``-`` (no path separator, so no way out
+    of the folder), and so does a leading ``.`` (no hidden file, never ``.`` or ``..``). A result
+    longer than ``limit`` characters is cut and ends in 8 hex digits of a hash of ``text``. Two
+    texts can give one stem (``a/b``, ``a-b``): a caller naming several files checks them apart."""
+    stem = _UNSAFE.sub("-", text)
+    stem = "-" + stem[1:] if stem.startswith(".") else stem or "-"
+    if len(stem) > limit:
+        stem = f"{stem[: limit - 9]}-{hashlib.sha256(text.encode()).hexdigest()[:8]}"
+    return stem
+
+
+def _temp_prefix(path: Path, kind: str) -> str:
+    """The start of a hidden temporary name beside ``path``: ``.<name>.<kind>-``, of bounded length."""
+    return f".{file_stem(path.name, _TEMP_STEM)}.{kind}-"
+
+
+def write_text_atomic(
+    path: str | Path, text: str, exclusive: bool = False, check: Callable[[Path], object] | None = None
+) -> Path:
     """Write ``text`` to a temporary file beside ``path``, then rename it into place (parents
     created). A failure on the way leaves ``path`` as it was and no temporary file behind. With
     ``exclusive``, only when ``path`` does not exist yet: the complete file is linked into place,
-    which fails (``FileExistsError``) when another process got there first."""
+    which fails (``FileExistsError``) when another process got there first. ``check(temporary
+    path)``, when given, runs on the complete file before it goes into place; what it raises
+    leaves ``path`` as it was."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f"{file_stem(path.name, _TEMP_STEM)}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
+        if check is not None:
+            check(Path(tmp))
         (os.link if exclusive else os.replace)(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -37,7 +73,7 @@ def staged_folder(folder: str | Path, publish: Callable[[Path, Path], None]) -> 
     folder = Path(folder)
     created = [p for p in (folder, *folder.parents) if not p.exists()]
     folder.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{folder.name}.partial-", dir=folder.parent))
+    work = Path(tempfile.mkdtemp(prefix=_temp_prefix(folder, "partial"), dir=folder.parent))
     umask = os.umask(0)
     os.umask(umask)
     work.chmod(0o777 & ~umask)  # mkdtemp makes it private; the folder it becomes should not be
@@ -64,7 +100,7 @@ def swap_folder(work: Path, out: Path, produced: Callable[[str], bool]) -> None:
     for p in out.iterdir():
         if not produced(p.name):
             (shutil.copytree if p.is_dir() else shutil.copy2)(p, work / p.name)
-    old = out.with_name(f".{out.name}.old-{os.getpid()}")
+    old = out.with_name(f"{_temp_prefix(out, 'old')}{os.getpid()}-{secrets.token_hex(4)}")
     out.rename(old)
     work.rename(out)
     shutil.rmtree(old, ignore_errors=True)
