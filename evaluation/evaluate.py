@@ -35,7 +35,8 @@ field name), then the controllers are checked (model files load, the policy's tr
 ``--env`` unless ``--allow-env-mismatch``, each controller returns 2 numbers); outputs
 are then written into a temporary folder beside ``--out`` and moved into place at the end, replacing
 the files an earlier sweep wrote there (other files are kept). A failure leaves ``--out`` as it was.
-A controller's label names its files through
+``--out`` is locked while the sweep runs (``--out/.lock``, as a run folder): a second evaluation
+into it is refused, naming the process that holds it. A controller's label names its files through
 :func:`sphere_env.files.file_stem` (characters other than letters, digits, ``.``, ``-``, ``@`` and
 ``_`` become ``-``); two labels that give the same name are refused.
 
@@ -236,10 +237,10 @@ def _replace_outputs(work: Path, out: Path) -> None:
 
 
 def _staging(out: Path):
-    """A fresh temporary folder beside ``out``; on success its contents replace what an earlier sweep
-    wrote into ``out``, on failure it is removed and ``out`` is left as it was
-    (:func:`sphere_env.files.staged_folder`)."""
-    return staged_folder(out, _replace_outputs)
+    """A fresh temporary folder beside ``out``, ``out`` locked meanwhile (a second sweep into it is
+    refused by name); on success its contents replace what an earlier sweep wrote into ``out``, on
+    failure it is removed and ``out`` is left as it was (:func:`sphere_env.files.staged_folder`)."""
+    return staged_folder(out, _replace_outputs, lock="out")
 
 
 def _sweep(
