@@ -15,14 +15,9 @@ import pytest
 
 from sphere_env.cli import main
 from tests.conftest import REPO
+from tests.processes import as_from_a_terminal
 
 GRID = ["--shell-models", "point", "--pressure-kpa", "8.5", "--seeds", "0", "--workers", "1", "--replay"]
-
-
-def _as_from_a_terminal() -> None:
-    """SIGINT with its default action and unblocked, as a terminal's command has it."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def _holds(proc: subprocess.Popen, lock, timeout: float = 180) -> None:
@@ -80,7 +75,7 @@ def test_export_refuses_a_run_folder_a_resumed_training_is_writing(tmp_path, cap
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        preexec_fn=_as_from_a_terminal,
+        preexec_fn=as_from_a_terminal,
     )
     try:
         _holds(resumed, run / ".lock")

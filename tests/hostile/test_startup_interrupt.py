@@ -10,37 +10,15 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
-from tests.processes import alive
+from tests.processes import alive, as_from_a_terminal, session
 
 #: Seconds from the interrupt to the training process's exit: about 2 s measured on 2 loaded cores,
 #: where waiting for the worker to finish starting (importing torch, SB3 and Drake, building its four
 #: envs) took 8 s.
 PROMPT_S = 5.0
-
-
-def _session(sid: int) -> dict[int, int]:
-    """pid -> parent pid of every live process of session ``sid`` (orphans keep their session)."""
-    out = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[3]) == sid and fields[0] != "Z":
-            out[int(stat.parent.name)] = int(fields[1])
-    return out
-
-
-def _as_from_a_terminal() -> None:
-    """SIGINT and SIGTERM with their default action and unblocked, as a terminal's command has them
-    (a test worker's may differ, and a child inherits that)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
 
 @pytest.mark.parametrize("to", ["process group", "training process"])
@@ -72,17 +50,17 @@ def test_ctrl_c_while_the_workers_start_stops_train_promptly_and_leaves_no_proce
             stdout=subprocess.DEVNULL,
             stderr=err_file,
             start_new_session=True,  # its own process group (a terminal's Ctrl-C) and session
-            preexec_fn=_as_from_a_terminal,
+            preexec_fn=as_from_a_terminal,
         )
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
-            procs = _session(proc.pid)
+            procs = session(proc.pid)
             if any(parent != proc.pid for pid, parent in procs.items() if pid != proc.pid):
                 break  # a grandchild: the forkserver has started the worker, which now starts up
             time.sleep(0.05)
         assert proc.poll() is None, (tmp_path / "stderr").read_text()[-2000:]
-        started = set(_session(proc.pid))
+        started = set(session(proc.pid))
         t0 = time.monotonic()
         if to == "process group":
             os.killpg(proc.pid, signal.SIGINT)
@@ -91,9 +69,9 @@ def test_ctrl_c_while_the_workers_start_stops_train_promptly_and_leaves_no_proce
         proc.wait(timeout=60)
         took = time.monotonic() - t0
         deadline = time.monotonic() + 10  # the forkserver and resource tracker end when their pipes close
-        while _session(proc.pid) and time.monotonic() < deadline:
+        while session(proc.pid) and time.monotonic() < deadline:
             time.sleep(0.05)
-        left = _session(proc.pid)
+        left = session(proc.pid)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
