@@ -35,6 +35,10 @@ field name), then the controllers are checked (model files load, the policy's tr
 ``--env`` unless ``--allow-env-mismatch``, each controller returns 2 numbers); outputs
 are then written into a temporary folder beside ``--out`` and moved into place at the end, replacing
 the files an earlier sweep wrote there (other files are kept). A failure leaves ``--out`` as it was.
+``--out`` is locked while the sweep runs (``--out/.lock``, as a run folder): a second evaluation
+into it is refused, naming the process that holds it. A controller's label names its files through
+:func:`sphere_env.files.file_stem` (characters other than letters, digits, ``.``, ``-``, ``@`` and
+``_`` become ``-``); two labels that give the same name are refused.
 
 PME (eq. 12) for zero torque: every ordered pair of shell models (reference = "experiment") over
 the reference's on-ramp samples, and optionally against a user log: a CSV with columns ``t_s`` and
@@ -74,7 +78,7 @@ from sphere_env.evaluation.sweep_report import (
     write_pme_csv,
     write_report,
 )
-from sphere_env.files import staged_folder, swap_folder
+from sphere_env.files import file_stem, staged_folder, swap_folder
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.parallel import default_workers
 from sphere_env.schemas import allowed, checker, validate
@@ -233,10 +237,10 @@ def _replace_outputs(work: Path, out: Path) -> None:
 
 
 def _staging(out: Path):
-    """A fresh temporary folder beside ``out``; on success its contents replace what an earlier sweep
-    wrote into ``out``, on failure it is removed and ``out`` is left as it was
-    (:func:`sphere_env.files.staged_folder`)."""
-    return staged_folder(out, _replace_outputs)
+    """A fresh temporary folder beside ``out``, ``out`` locked meanwhile (a second sweep into it is
+    refused by name); on success its contents replace what an earlier sweep wrote into ``out``, on
+    failure it is removed and ``out`` is left as it was (:func:`sphere_env.files.staged_folder`)."""
+    return staged_folder(out, _replace_outputs, lock="out")
 
 
 def _sweep(
@@ -284,7 +288,7 @@ def _sweep(
         if p is not None:
             files["fault curves plot"] = p
     for rj in replay_jobs:
-        name = f"replay_{rj['controller']}_{rj['shell_model']}_{rj['pressure_kpa']:g}kPa_s{rj['seed']}.html"
+        name = f"replay_{file_stem(rj['controller'])}_{rj['shell_model']}_{rj['pressure_kpa']:g}kPa_s{rj['seed']}.html"
         files[f"replay {rj['controller']} {rj['shell_model']} {rj['pressure_kpa']:g} kPa"] = save_replay(rj, out / name)
     files.update(videos)
     workers = opts.workers or default_workers()

@@ -29,7 +29,9 @@ nominal and highest pressures, and compared with ``model.predict(vecnormalize.no
 deterministic=True)``; a largest difference above ``--tol`` (default 1e-5) refuses the export.
 Both files are written into a staging folder beside ``--out`` that replaces it whole at the end (files
 of ``--out`` that no export writes are carried over), so the policy file and ``policy.json`` always
-come from the same export; a failed or interrupted export leaves ``--out`` as it was.
+come from the same export; a failed or interrupted export leaves ``--out`` as it was. The run folder
+is read under its lock (``<run>/.lock``): while a training (a resumed run) holds it, the export is
+refused, naming that process, rather than reading a model in the middle of being written.
 
 ONNX needs the ``export`` extra (onnx, onnxscript for ``torch.onnx.export``; onnxruntime for the
 check: about 120 MB); TorchScript needs nothing beyond torch (recent torch marks TorchScript deprecated; it still works and
@@ -48,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from sphere_env.files import swap_folder
+from sphere_env.files import folder_lock, swap_folder
 from sphere_env.schemas import validate
 from sphere_env.schemas.evaluation import EXPORT_FORMATS, ExportOptions
 from sphere_env.tasks.sensors import FROM_OPERATOR, FROM_SENSORS
@@ -263,7 +265,7 @@ def export(
     import gymnasium as gym
     import torch
 
-    from sphere_env.evaluation.controller_specs import PolicyController
+    from sphere_env.evaluation.controller_specs import PolicyController, run_path
     from sphere_env.evaluation.enjoy import EnjoySpec
     from sphere_env.models.shell import ShellCalibration
 
@@ -273,10 +275,13 @@ def export(
     fmt, tol = opts.format, opts.tol
     if fmt == "onnx":
         check_onnx_support()
-    r = EnjoySpec(run=opts.run, env_id=opts.env_id, allow_env_mismatch=opts.allow_env_mismatch).resolve()
-    out = opts.out
     torch.set_num_threads(1)
-    controller = PolicyController(r["folder"], r["which"])
+    # the run folder is read under its lock: never while a training (a resumed run) writes it
+    folder = run_path(opts.run.partition("@")[0])
+    with folder_lock(folder, "run", "export it once that process (a training writing the run) has ended", create=False):
+        r = EnjoySpec(run=opts.run, env_id=opts.env_id, allow_env_mismatch=opts.allow_env_mismatch).resolve()
+        controller = PolicyController(r["folder"], r["which"])
+    out = opts.out
     cfg = r["config"]
     if controller.env_wrapper:
         raise ValueError(

@@ -12,13 +12,12 @@ from __future__ import annotations
 
 import contextlib
 import os
-import re
 import shutil
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-from sphere_env.files import staged_folder
+from sphere_env.files import file_stem, staged_folder
 
 
 def check_video_support() -> None:
@@ -30,10 +29,11 @@ def check_video_support() -> None:
 
 
 def video_name(controller: str, shell_model: str, pressure_kpa: float, seed: int, extra: str = "") -> str:
-    """File stem of an episode's video: ``<controller>_<shell model>[_<extra>]_<pressure>kPa_s<seed>``
-    (characters other than letters, digits, ``.``, ``-``, ``@`` and ``_`` become ``-``)."""
+    """File stem of an episode's video: ``<controller>_<shell model>[_<extra>]_<pressure>kPa_s<seed>``,
+    each part a :func:`sphere_env.files.file_stem` (characters other than letters, digits, ``.``,
+    ``-``, ``@`` and ``_`` become ``-``; a long label is cut)."""
     parts = [controller, shell_model, *([extra] if extra else []), f"{pressure_kpa:g}kPa", f"s{seed}"]
-    return re.sub(r"[^A-Za-z0-9.@_-]", "-", "_".join(str(p) for p in parts))
+    return "_".join(file_stem(str(p)) for p in parts)
 
 
 def record_episode(env: Any, folder: str | Path, name: str, run: Callable[[Any], Any]) -> Any:

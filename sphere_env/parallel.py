@@ -111,6 +111,31 @@ def sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
+def deferred_interrupts():
+    """Inside the block, Ctrl-C (and SIGTERM where it raises KeyboardInterrupt) is held and raised at
+    its end. For starting a worker process: an interrupt inside ``Process.start`` once the child
+    exists would leave a worker its parent knows nothing of, so never stops. Signals whose handler
+    is not Python's (ignored, default), and calls outside the main thread, are left as they are."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(sig)
+        if callable(handler):
+            previous[sig] = handler
+            signal.signal(sig, lambda signum, frame: held.append(signum))
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if held:
+            previous[held[0]](held[0], None)
+
+
 def _run_ray(fn: Callable[[Mapping[str, Any]], Any], jobs: list, address: str, workers: int | None) -> list:
     try:
         import ray

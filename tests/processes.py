@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 
@@ -29,3 +30,26 @@ def alive(pid: int) -> bool:
     except OSError:
         return False
     return state != "Z"
+
+
+def session(sid: int) -> dict[int, int]:
+    """pid -> parent pid of every live process of session ``sid`` (an orphan keeps its session)."""
+    out = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":
+            out[int(stat.parent.name)] = int(fields[1])
+    return out
+
+
+def as_from_a_terminal() -> None:
+    """In a child before exec: SIGINT and SIGTERM with their default action and unblocked, as a
+    command started from a terminal has them. A process inherits an ignored or blocked signal from
+    its parent, and a test worker's state is not a terminal's (a Python started with SIGINT
+    ignored never raises KeyboardInterrupt)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})

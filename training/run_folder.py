@@ -18,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import math
-import os
 import re
 from datetime import UTC, datetime
 from pathlib import Path
@@ -28,7 +27,7 @@ import numpy as np
 import yaml
 
 from sphere_env import safe_yaml
-from sphere_env.files import write_text_atomic
+from sphere_env.files import folder_lock, write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.schemas import shown, validate
 from sphere_env.schemas.training import RunConfigFile
@@ -196,30 +195,14 @@ def default_run_dir(cfg: TrainConfig, root: Path = RUNS) -> Path:
     return root / f"{cfg.algo}_{cfg.env_id.split('/')[-1]}_{stamp}_s{cfg.seed}_{secrets.token_hex(3)}"
 
 
-LOCK_FILE = ".lock"
-
-
 @contextlib.contextmanager
 def run_lock(run_dir: Path):
-    """Hold an exclusive lock on a run folder for the whole training (``<run>/.lock``, ``flock``: the
-    system releases it when the process ends, however it ends). A second writer on the same folder
-    is refused with a ValueError naming the folder, before it reads or changes anything there."""
-    import fcntl
-
-    fd = os.open(run_dir / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise ValueError(
-                f"run_dir: {str(run_dir)!r} is in use by another training process (it holds "
-                f"{LOCK_FILE}); wait for it to end or use another folder"
-            ) from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
+    """Hold an exclusive lock on a run folder for the whole training (``<run>/.lock``,
+    :func:`sphere_env.files.folder_lock`: released by the system when the process ends, however it
+    ends). A second writer on the same folder is refused with a ValueError naming the folder and the
+    holder's pid, before it reads or changes anything there."""
+    with folder_lock(run_dir, "run_dir", "wait for it to end or use another folder"):
         yield
-    finally:
-        os.close(fd)
 
 
 def write_config(

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import time
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from typing import Any, Callable, Sequence
@@ -29,7 +30,12 @@ import numpy as np
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from stable_baselines3.common.vec_env.base_vec_env import CloudpickleWrapper, VecEnv
 
+from sphere_env.parallel import deferred_interrupts
 from sphere_env.schemas import checker, count
+
+#: Seconds :meth:`BatchedSubprocVecEnv.close` waits, for all workers together, before stopping the
+#: ones that have not ended.
+CLOSE_TIMEOUT_S = 10.0
 
 
 def usable_cores() -> int:
@@ -207,6 +213,7 @@ def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
     # Ctrl-C reaches the whole process group: the training process saves and then closes the
     # workers itself, so a worker must not die under it first.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # forked, it has its parent's handlers: terminate() must end it
     parent_remote.close()
     block = _Block(fns.var)
     try:
@@ -285,14 +292,20 @@ class BatchedSubprocVecEnv(_Replies, VecEnv):
                     remote, work_remote = ctx.Pipe()
                     args = (work_remote, remote, CloudpickleWrapper([env_fns[i] for i in block]))
                     p = ctx.Process(target=_worker, args=args, daemon=True)
-                    p.start()
+                    with deferred_interrupts():  # a started worker is always one this object stops
+                        p.start()
+                        self.processes.append(p)
                     work_remote.close()
                     self.remotes.append(remote)
-                    self.processes.append(p)
             observation_space, action_space = self.local.handle("get_spaces", None)
             super().__init__(n, observation_space, action_space)  # asks every env for its render_mode
         except BaseException:
-            self.close()
+            # an interrupt or a failure while the workers start: they are stopped now, not asked to
+            # close (a worker still importing or building its envs reads no command, and ignores
+            # Ctrl-C)
+            self._stop_workers()
+            self.local.close()
+            self.closed = True
             raise
 
     # ---- stepping ----------------------------------------------------------------------------------
@@ -333,13 +346,20 @@ class BatchedSubprocVecEnv(_Replies, VecEnv):
                 remote.send(("close", 0, None))
             except (EOFError, OSError):
                 pass
+        deadline = time.monotonic() + CLOSE_TIMEOUT_S
         for p in self.processes:
-            p.join(10)
-            if p.is_alive():  # a worker that missed its close (its pipe out of step) is stopped
-                p.terminate()
-                p.join()
+            p.join(max(deadline - time.monotonic(), 0.0))
+        self._stop_workers()  # a worker that missed its close (busy, or its pipe out of step)
         self.local.close()
         self.closed = True
+
+    def _stop_workers(self) -> None:
+        """Terminate the workers still running and wait for them to end."""
+        for p in self.processes:
+            if p.is_alive():
+                p.terminate()
+        for p in self.processes:
+            p.join()
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return self._gather("render", None)

@@ -24,6 +24,7 @@ from scipy.optimize import least_squares
 from sphere_env.analysis.metrics import rmse
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, simulate_log
+from sphere_env.files import write_text_atomic
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.plotting import save_figure
@@ -244,15 +245,7 @@ def write_preset(path: str | Path, name: str, model: FrictionModel, comment: str
             out.append(line)
     if not replaced:
         out.extend(notes + [entry])
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp.write_text("\n".join(out) + "\n")
-    try:
-        load_friction_presets(tmp)
-    except ValueError:
-        tmp.unlink()
-        raise
-    tmp.replace(path)
+    write_text_atomic(path, "\n".join(out) + "\n", check=load_friction_presets)
     return path
 
 

@@ -21,8 +21,9 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, ValidationError, field_validator, model_validator
 
+from sphere_env.files import file_stem
 from sphere_env.params import SHELL_MODELS, SHIPPED_CALIBRATIONS
-from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, validate
+from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, shown, validate
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
 GRID_KWARGS = {
@@ -281,7 +282,16 @@ class SweepFields(Loaded):
     def _unique_labels(cls, value: list[ControllerSpec]) -> list[ControllerSpec]:
         labels = [c.label for c in value]
         if len(set(labels)) != len(labels):
-            raise ValueError(f"labels must be unique, got {labels}")
+            raise ValueError(f"labels must be unique, got {shown(labels)}")
+        stems: dict[str, str] = {}
+        for label in labels:  # each label names its replay and video files
+            other = stems.setdefault(file_stem(label), label)
+            if other != label:
+                raise ValueError(
+                    f"labels {shown(other)} and {shown(label)} make the same file name part "
+                    f"{file_stem(label)!r} (replays, videos); allowed: labels whose file names differ "
+                    "(letters, digits, '.', '-', '@' and '_' are kept, any other character becomes '-')"
+                )
         return value
 
     @model_validator(mode="after")

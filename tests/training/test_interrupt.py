@@ -11,16 +11,7 @@ import time
 import pytest
 
 from sphere_env.training.train import latest_checkpoint, main
-
-
-def _as_from_a_terminal() -> None:
-    """In the child before exec: SIGINT and SIGTERM with their default action and unblocked, as a
-    command started from a terminal has them. A process inherits an ignored or blocked signal from
-    its parent, and a test worker's state is not a terminal's (a Python started with SIGINT
-    ignored never raises KeyboardInterrupt)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+from tests.processes import as_from_a_terminal
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
@@ -46,7 +37,7 @@ def test_an_interrupted_training_is_saved_and_resumes(tmp_path, sig):
         "n_epochs:1",
     ]
     proc = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_as_from_a_terminal
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=as_from_a_terminal
     )
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline:  # wait for the first finished episode: training is under way

@@ -47,9 +47,9 @@ def test_a_second_writer_on_a_folder_in_use_is_refused_and_changes_nothing(tmp_p
     try:
         assert ready.wait(60)
         longer = resolve_config(ENV, "ppo", overrides={**TINY, "n_timesteps": 64}, eval_freq=0)
-        with pytest.raises(ValueError, match="in use by another training process"):
+        with pytest.raises(ValueError, match="in use by another process"):
             train(longer, run, resume=True, progress_bar=False)
-        with pytest.raises(ValueError, match="in use by another training process"):
+        with pytest.raises(ValueError, match="in use by another process"):
             train(cfg, run, progress_bar=False)
     finally:
         release.set()
