@@ -275,7 +275,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--whole", default="drive_all", help="the whole segment, replayed only ('' for none)")
     p.add_argument("--calibrations", nargs="+", default=["default", "free_robot"], help="calibrations replayed")
-    p.add_argument("--base", default="free_robot", help="calibration the fit starts from")
+    p.add_argument("--base", nargs="+", default=["free_robot", "default"], help="calibrations the fits start from")
+    p.add_argument(
+        "--steer-group",
+        default="free_robot",
+        help="free-motion windows replayed without and with each soft fit ('' for none)",
+    )
     p.add_argument("--max-nfev", type=MAX_NFEV, default=20, help="replays allowed per fit")
     p.add_argument(
         "--json", default=None, metavar="PATH", help="write the results (evaluation/results/validation/drive_fit.json)"

@@ -335,7 +335,8 @@ def cmd_drive_fit(args) -> int:
         if (log.meta or {}).get("kind") != "driven":
             raise LogError(f"manifest {args.manifest!r}: trial {name!r} is not a driven window (kind: driven)")
     whole = man.by_name(args.whole).load() if args.whole else None
-    out = drive_study(parts, whole, args.calibrations, args.base, args.max_nfev, log_to=print)
+    steer = [t.load() for t in man.group(args.steer_group)] if args.steer_group else []
+    out = drive_study(parts, whole, args.calibrations, args.base, args.max_nfev, print, steer)
     if args.json:
         write_text_atomic(Path(args.json), json.dumps(out, indent=1) + "\n")
         print(f"wrote {args.json}")

@@ -38,10 +38,10 @@ from sphere_env.physics.twin import Twin
 
 #: Search range of each drive-direction parameter.
 DRIVE_BOUNDS = {
-    "drive_friction_scale": (0.0, 5.0),
+    "drive_friction_scale": (0.0, 10.0),  # the registry's range
     "injected_rolling_damping_factor": (0.0, 10.0),
     "dissipation_s_per_m": (0.0, 20.0),
-    "spin_damping_nms_per_rad": (0.0, 60.0),
+    "spin_damping_nms_per_rad": (0.0, 100.0),  # the calibration schema's range
 }
 DRIVE_PARAMS = {
     "point": ("drive_friction_scale",),
@@ -95,7 +95,8 @@ class DriveTwin:
         self.twin: Twin = fixture_twin("free", model)
         self.twin.set_calibration(base, self.pressure_kpa)
 
-    def replay(self, log: RobotLog, values: Mapping[str, float] | None = None) -> DrivenTrace:
+    def install(self, values: Mapping[str, float] | None = None) -> None:
+        """Set the drive-direction ``values`` (:data:`DRIVE_PARAMS`; the base calibration's for the others)."""
         values = dict(values or {})
         cal = self.base
         if any(k != "drive_friction_scale" for k in values):
@@ -103,6 +104,10 @@ class DriveTwin:
             cal = ShellCalibration.from_dict(raw, source="<drive fit>", check_stand_still=False)
         self.twin.set_calibration(cal, self.pressure_kpa)
         self.twin.apply({"drive_friction_scale": values.get("drive_friction_scale", 1.0)})
+
+    def replay(self, log: RobotLog, values: Mapping[str, float] | None = None) -> DrivenTrace:
+        """The driven replay of ``log`` with the drive-direction ``values``."""
+        self.install(values)
         return driven_replay(self.twin, log, self.tracking, pressure_kpa=self.pressure_kpa)
 
 
@@ -189,7 +194,8 @@ def diagnose(trace: DrivenTrace, log: RobotLog, max_lag_s: float = 1.0) -> dict[
     the RMSE left after it, the gain that scales the twin's ω_d onto the log's (least squares: a rolling
     radius or slip would scale it), and the turning ratio ψ̇ / (−ω_d sin φ) of the log and of the twin
     over the samples that roll (|ω_d| > 0.2 rad/s): 1 when the shell rolls without spinning about the
-    ground normal, the kinematics of a tilted shaft."""
+    ground normal, the kinematics of a tilted shaft; the twin's mean φ error while rolling, and the ψ̇
+    RMSE left when the twin's ψ̇ is rescaled to the log's lean (× sin φ_log / sin φ_twin)."""
     out = {f"rmse_tracking_{ch}_rad": _rmse(trace[ch], log[ch]) for ch in ("theta", "pendulum_pitch")}
     dt = float(np.median(np.diff(log.t_s)))
     n, k_max = len(log.t_s), int(max_lag_s / dt)
@@ -204,6 +210,16 @@ def diagnose(trace: DrivenTrace, log: RobotLog, max_lag_s: float = 1.0) -> dict[
         out[f"{ch}_rmse_after_lag"] = float(errs[best])
     sim, real = trace["omega_d"], log["omega_d"]
     out["omega_d_gain"] = float(np.dot(sim, real) / max(float(np.dot(sim, sim)), 1e-12))
+    # the lean: the twin's mean φ error while rolling, and ψ̇ as the twin would turn at the log's lean
+    # (ψ̇ ∝ sin φ at a given ω_d on a tilted shaft): what of the ψ̇ error the lean accounts for
+    rolling = np.abs(log["omega_d"]) > 0.2
+    out["phi_mean_error_rolling_rad"] = float(np.mean(trace["phi"][rolling] - log["phi"][rolling]))
+    s_twin = np.sin(trace["phi"])
+    ok = np.abs(s_twin) > 0.05
+    at_log_lean = np.where(
+        ok, trace["heading_rate"] * np.sin(log["phi"]) / np.where(ok, s_twin, 1.0), trace["heading_rate"]
+    )
+    out["heading_rate_rmse_at_log_lean"] = _rmse(at_log_lean, log["heading_rate"])
     for who, src in (("log", log), ("twin", trace)):
         rolling = np.abs(src["omega_d"]) > 0.2
         expected = -src["omega_d"][rolling] * np.sin(src["phi"][rolling])

@@ -96,6 +96,7 @@ def drive_fit_table(res: Results) -> str:
         soft = r["model"] != "point"
         rows.append(
             [
+                f"`{r['base_calibration']}`",
                 r["model"],
                 f"{SHORT[r['fit_on']]} → **{SHORT[r['test']]}**",
                 "; ".join(_param(r["fit"], k) for k in r["fit"]["params"]),
@@ -111,6 +112,7 @@ def drive_fit_table(res: Results) -> str:
         )
     return table(
         [
+            "from",
             "model",
             "fit on → **held out**",
             "fitted, 95 % interval",
@@ -120,7 +122,7 @@ def drive_fit_table(res: Results) -> str:
             "aims ω_d ≤ 0.15 / ψ̇ ≤ 0.10",
         ],
         rows,
-        ["left", "left", "left", "right", "right", "right", "left"],
+        ["left", "left", "left", "left", "right", "right", "right", "left"],
     )
 
 
@@ -132,6 +134,7 @@ def drive_fit_diagnosis(res: Results) -> str:
         g = r["diagnosis"]
         rows.append(
             [
+                f"`{r['base_calibration']}`",
                 r["model"],
                 SHORT[r["test"]],
                 f"{g['rmse_tracking_theta_rad']:.3f} / {g['rmse_tracking_pendulum_pitch_rad']:.3f}",
@@ -139,11 +142,14 @@ def drive_fit_diagnosis(res: Results) -> str:
                 f"{g['heading_rate_lag_s']:+.2f} s → {g['heading_rate_rmse_after_lag']:.3f}",
                 f"{g['omega_d_gain']:.2f}",
                 f"{g['turning_ratio_log']:.2f} / {g['turning_ratio_twin']:.2f}",
+                f"{g['phi_mean_error_rolling_rad']:+.3f}",
+                f"{g['heading_rate_rmse_at_log_lean']:.3f}",
                 f"{r['torques']['steer']['peak_requested_nm']:.0f} / {r['torques']['drive']['peak_requested_nm']:.0f}",
             ]
         )
     return table(
         [
+            "from",
             "model",
             "held out",
             "tracking θ / α RMSE [rad]",
@@ -151,10 +157,12 @@ def drive_fit_diagnosis(res: Results) -> str:
             "ψ̇: best shift → RMSE",
             "ω_d gain log / twin",
             "turning ratio log / twin",
+            "twin's φ − log's while rolling [rad]",
+            "ψ̇ RMSE at the log's lean [rad/s]",
             "peak torque steer / drive [N m]",
         ],
         rows,
-        ["left", "left", "right", "right", "right", "right", "right", "right"],
+        ["left", "left", "left", "right", "right", "right", "right", "right", "right", "right", "right"],
     )
 
 
@@ -171,8 +179,10 @@ def _miss_reason(r: dict, ch: str) -> str:
         parts.append(f"the log's ω_d is {g['omega_d_gain']:.2f} × the twin's (least squares)")
     else:
         parts.append(
-            f"per unit of −ω_d sin φ the log turns {g['turning_ratio_log']:.2f} and the twin "
-            f"{g['turning_ratio_twin']:.2f} (1 = rolling without spin about the ground normal)"
+            f"the twin leans {g['phi_mean_error_rolling_rad']:+.3f} rad off the log while rolling, and turned at the "
+            f"log's lean its ψ̇ RMSE would be {g['heading_rate_rmse_at_log_lean']:.3f} rad/s; per unit of −ω_d sin φ "
+            f"the log turns {g['turning_ratio_log']:.2f} and the twin {g['turning_ratio_twin']:.2f} (1 = rolling "
+            "without spin about the ground normal)"
         )
     return "; ".join(parts)
 
@@ -198,3 +208,29 @@ def drive_fit_summary(res: Results) -> str:
             line += ". " + " ".join(f"{names[ch]}: {_miss_reason(r, ch)}." for ch in misses)
         lines.append(line)
     return "\n".join(lines)
+
+
+@renders("drive_fit_steer_windows")
+def drive_fit_steer_windows(res: Results) -> str:
+    """What each soft fit does to the free robot's rocking windows (φ / θ RMSE before → after, worst window)."""
+    rows = []
+    for r in _drive(res)["fits"]:
+        w = r.get("steer_windows_rmse")
+        if not w:
+            continue
+        cells = [
+            f"{max(v[when][ch] for v in w.values()):.3f}" for when in ("before", "after") for ch in ("phi", "theta")
+        ]
+        rows.append(
+            [
+                f"`{r['base_calibration']}`",
+                r["model"],
+                SHORT[r["fit_on"]],
+                f"{cells[0]} / {cells[1]} → {cells[2]} / {cells[3]}",
+            ]
+        )
+    return table(
+        ["from", "model", "fit on", "worst φ / θ RMSE over the rocking windows, before → after [rad]"],
+        rows,
+        ["left", "left", "left", "right"],
+    )
