@@ -144,7 +144,18 @@ def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, gr
         p = np.array([Variable(n) for n in PROJECTION_NAMES])
         # the shell's spin about the ground normal: ω_shell·n̂ with ω_shell = ω_PC − q̇_d ŷ_PC
         spin = _dot(w_W, n_W) - drive_rate * s
-        p_exprs = np.array([s, *yxn, y_dot_n, *y_W, omega_d, spin, *map(Expression, n_W)], dtype=object)
+        p_exprs = np.array(
+            [
+                s,
+                *yxn,
+                y_dot_n,
+                *y_W,
+                omega_d,
+                spin,
+                *(c if isinstance(c, Expression) else Expression(float(c)) for c in n_W),
+            ],
+            dtype=object,
+        )
         phi, phi_dot, axis = pipe_angle_from_projections(p[0], p[1:4], p[4])
         k = np.array([Variable(n) for n in KINEMATICS_NAMES])
         k_exprs = np.array([phi, phi_dot, *axis, *(Expression(c) for c in p[5:13])], dtype=object)
