@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from sphere_env.evaluation.experiments.docs.base import Results, renders, slash, table
 
+#: α tracked this closely [rad] counts as followed: no tracking lag.
+TRACKED_RAD = 0.02
 SHORT = {"drive_forward": "forward", "drive_backward": "backward", "drive_all": "whole"}
 #: Parameter names as the page writes them.
 PARAM_TEXT = {
@@ -159,10 +161,23 @@ def drive_fit_diagnosis(res: Results) -> str:
             "turning ratio log / twin",
             "twin's φ − log's while rolling [rad]",
             "ψ̇ RMSE at the log's lean [rad/s]",
-            "peak torque steer / drive [N m]",
+            "peak torque asked, steer / drive [N m]",
         ],
         rows,
         ["left", "left", "left", "right", "right", "right", "right", "right", "right", "right", "right"],
+    )
+
+
+def _tracking(r: dict) -> str:
+    """Whether the pendulum followed the log in the held-out replay (tracking lag), measured."""
+    alpha = r["diagnosis"]["rmse_tracking_pendulum_pitch_rad"]
+    if alpha <= TRACKED_RAD:
+        return f"The pendulum is tracked within {alpha:.3f} rad in α (no tracking lag)"
+    drive = r["torques"]["drive"]
+    return (
+        f"The pendulum is not tracked: α misses by {alpha:.3f} rad, the drive motor at its {drive['limit_nm']:.0f} "
+        f"N m limit {100 * drive['saturated_fraction']:.0f} % of the time (the fitted resistance asks more torque "
+        "than the motor has)"
     )
 
 
@@ -171,10 +186,11 @@ def _miss_reason(r: dict, ch: str) -> str:
     time shift, a gain and the turning kinematics each account for."""
     g = r["diagnosis"]
     lag, after = g[f"{ch}_lag_s"], g[f"{ch}_rmse_after_lag"]
-    parts = [
-        f"the pendulum is tracked within {g['rmse_tracking_pendulum_pitch_rad']:.3f} rad in α (not tracking lag)",
-        f"shifting the twin by {lag:+.2f} s leaves {after:.3f} rad/s",
-    ]
+    parts = []
+    parts.append(
+        f"the best match moves the twin {abs(lag):.2f} s {'later' if lag < 0 else 'earlier'} (it "
+        f"{'leads' if lag < 0 else 'trails'} the log) and leaves {after:.3f} rad/s"
+    )
     if ch == "omega_d":
         parts.append(f"the log's ω_d is {g['omega_d_gain']:.2f} × the twin's (least squares)")
     else:
@@ -200,12 +216,13 @@ def drive_fit_summary(res: Results) -> str:
             f"{names[ch]} {h[ch]:.3f} rad/s ({'meets' if r['aims_met'][ch] else '**misses**'} ≤ {aims[ch]:g})"
             for ch in aims
         ]
-        line = f"- {r['model']}, fitted on the {SHORT[r['fit_on']]} part, held out {SHORT[r['test']]}: " + ", ".join(
-            verdicts
+        line = (
+            f"- {r['model']} from `{r['base_calibration']}`, fitted on the {SHORT[r['fit_on']]} part, held out "
+            f"{SHORT[r['test']]}: " + ", ".join(verdicts)
         )
         misses = [ch for ch in aims if not r["aims_met"][ch]]
         if misses:
-            line += ". " + " ".join(f"{names[ch]}: {_miss_reason(r, ch)}." for ch in misses)
+            line += ". " + _tracking(r) + ". " + " ".join(f"{names[ch]}: {_miss_reason(r, ch)}." for ch in misses)
         lines.append(line)
     return "\n".join(lines)
 
