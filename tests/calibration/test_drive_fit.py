@@ -80,3 +80,17 @@ def test_drive_fit_refuses_free_motion_windows_by_name(roboball_dir, capsys, tmp
     argv = ["drive-fit", "--data-root", str(roboball_dir), "--fit-on", "push_1", "push_2", "--json", str(out)]
     assert main(argv) == 2 and not out.exists()
     assert "'push_1' is not a driven window" in capsys.readouterr().err
+
+
+@pytest.mark.realdata
+def test_validate_replays_a_driven_window_and_records_the_torques(roboball_dir, tmp_path):
+    from sphere_env.calibration.__main__ import main
+
+    out = tmp_path / "v.json"
+    argv = ["validate", "--data-root", str(roboball_dir), "--trial", "drive_forward", "--models", "injected"]
+    assert main([*argv, "--calibration", "free_robot", "--json", str(out), "--tol", "heading_rate=5"]) == 0
+    (rec,) = json.loads(out.read_text())
+    assert rec["kind"] == "driven" and rec["window_s"] == [10.0, 16.0]
+    assert rec["rmse_heading_rate_rad_s"] > 0 and rec["rmse_omega_d_rad_s"] > 0
+    drive = rec["torques"]["drive"]
+    assert drive["limit_nm"] == 22.0 and 0 < drive["peak_nm"] <= drive["limit_nm"]
