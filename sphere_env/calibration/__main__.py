@@ -265,7 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
         "drive-fit",
         help="driven windows replayed (pendulum tracking the log), drive direction fitted on one part, tested on the other",
     )
-    common(p, "free_robot_driven")
+    p.add_argument("--manifest", default=str(DEFAULT_MANIFEST), help="trial manifest YAML")
+    p.add_argument("--data-root", default=None, help="override the manifest's data_root")
     p.add_argument(
         "--fit-on",
         nargs=2,
