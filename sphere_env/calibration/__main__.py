@@ -11,6 +11,7 @@ Commands
   pressure-study both shipped calibrations with a pressure per shared recording -> evaluation/results/validation/
   events       free-motion events (release or push, then free decay) in a long log [-> manifest entries]
   validate     any manifest's logs against any shell models; exit 1 if a tolerance is exceeded
+  drive-fit    driven windows replayed, the drive direction fitted on one part and tested on the other
   report       regenerate evaluation/results/validation/ from the real logs
 Every command reads a trial manifest (``--manifest``, default ``assets/logs/roboball.yaml``).
 Bad input exits with status 2 and a message naming the file, line/column or field.
@@ -23,6 +24,7 @@ import sys
 from pathlib import Path
 
 from sphere_env.calibration.commands import (
+    cmd_drive_fit,
     cmd_events,
     cmd_friction,
     cmd_kd_pressure,
@@ -258,6 +260,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=WORKERS, default=1, help="processes for the (trial, model) runs (default 1)")
     p.add_argument("--plot")
     p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser(
+        "drive-fit",
+        help="driven windows replayed (pendulum tracking the log), drive direction fitted on one part, tested on the other",
+    )
+    p.add_argument("--manifest", default=str(DEFAULT_MANIFEST), help="trial manifest YAML")
+    p.add_argument("--data-root", default=None, help="override the manifest's data_root")
+    p.add_argument(
+        "--fit-on",
+        nargs=2,
+        default=["drive_forward", "drive_backward"],
+        metavar=("FIRST", "SECOND"),
+        help="the two driven windows: fitted on each, tested on the other",
+    )
+    p.add_argument("--whole", default="drive_all", help="the whole segment, replayed only ('' for none)")
+    p.add_argument("--calibrations", nargs="+", default=["default", "free_robot"], help="calibrations replayed")
+    p.add_argument("--base", nargs="+", default=["free_robot", "default"], help="calibrations the fits start from")
+    p.add_argument(
+        "--steer-group",
+        default="free_robot",
+        help="free-motion windows replayed without and with each soft fit ('' for none)",
+    )
+    p.add_argument("--max-nfev", type=MAX_NFEV, default=20, help="replays allowed per fit")
+    p.add_argument(
+        "--json", default=None, metavar="PATH", help="write the results (evaluation/results/validation/drive_fit.json)"
+    )
+    p.set_defaults(func=cmd_drive_fit)
 
     p = sub.add_parser("report", help="regenerate the committed validation report")
     p.add_argument("--manifest", default=str(DEFAULT_MANIFEST))

@@ -325,6 +325,24 @@ def cmd_validate(args) -> int:
     return 1 if bad else 0
 
 
+def cmd_drive_fit(args) -> int:
+    from sphere_env.calibration.drive_study import drive_study
+    from sphere_env.files import write_text_atomic
+
+    man = load_manifest(args.manifest, args.data_root)
+    parts = {name: man.by_name(name).load() for name in args.fit_on}
+    for name, log in parts.items():
+        if (log.meta or {}).get("kind") != "driven":
+            raise LogError(f"manifest {args.manifest!r}: trial {name!r} is not a driven window (kind: driven)")
+    whole = man.by_name(args.whole).load() if args.whole else None
+    steer = [t.load() for t in man.group(args.steer_group)] if args.steer_group else []
+    out = drive_study(parts, whole, args.calibrations, args.base, args.max_nfev, print, steer)
+    if args.json:
+        write_text_atomic(Path(args.json), json.dumps(out, indent=1) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
 def cmd_pressure_fit(args) -> int:
     from sphere_env.calibration.pressure_fit import by_recording, fit_pressure
     from sphere_env.files import write_text_atomic

@@ -9,6 +9,8 @@ types and out-of-range values refused by name before anything is read)::
          pressure_kpa: null, transient_s: 0.0, notes: "..."}
       - {name: push_1, group: free_robot, file: free_robot/run.csv, fixture: free,
          window_s: [32.80, 35.80], time_unit: ns}   # seconds from the file's first sample
+      - {name: drive_forward, group: free_robot_driven, file: free_robot/run.csv, fixture: free,
+         window_s: [10.0, 16.0], kind: driven}   # replayed with the pendulum tracking θ and α
 
 Every ``file`` resolves against ``data_root`` and must stay inside it (``..``, absolute paths
 elsewhere and symlinks out of it are refused without opening anything); a ``mapping`` resolves
@@ -40,6 +42,9 @@ from sphere_env.physics.twin import FIXTURES
 from sphere_env.schemas import Schema, allowed, ordered_pair, validate
 
 _P_LO, _P_HI = PLAUSIBLE_PRESSURE_KPA
+#: What a window holds: free motion (replayed from its first state, no torque) or driving (replayed
+#: with the pendulum tracking the logged θ and α: :mod:`sphere_env.calibration.driven`).
+WINDOW_KINDS = ("free_motion", "driven")
 
 
 class TrialEntry(Schema):
@@ -71,6 +76,9 @@ class TrialEntry(Schema):
     time_unit: Literal[tuple(TIME_UNITS)] | None = Field(  # type: ignore[valid-type]
         None, json_schema_extra=allowed(str(list(TIME_UNITS)))
     )
+    kind: Literal[WINDOW_KINDS] = Field(  # type: ignore[valid-type]
+        "free_motion", json_schema_extra=allowed(str(list(WINDOW_KINDS)))
+    )
 
 
 class ManifestFile(Schema):
@@ -98,6 +106,7 @@ class TrialSpec:
     ramp_window_s: tuple[float, float] | None = None
     window_s: tuple[float, float] | None = None
     time_unit: str | None = None
+    kind: str = "free_motion"
 
     def load(self, required: tuple[str, ...] = ()) -> RobotLog:
         mapping: ColumnMapping | Path | None = self.mapping
@@ -107,7 +116,8 @@ class TrialSpec:
         log = load_log(self.file, mapping, required=required, name=self.name)
         if self.window_s is not None:
             log = log.window(*self.window_s, where=f"trial {self.name!r}: window_s")
-            check_motion(log, f"trial {self.name!r}: window_s")
+            if self.kind == "free_motion":
+                check_motion(log, f"trial {self.name!r}: window_s")
         if self.transient_s > 0:
             log = log.after(self.transient_s)
         log.fixture, log.pressure_kpa, log.notes = self.fixture, self.pressure_kpa, self.notes
@@ -116,7 +126,12 @@ class TrialSpec:
             "transient_s": self.transient_s,
             "ramp_window_s": self.ramp_window_s,
             "window_s": self.window_s,
+            "kind": self.kind,
         }
+        if self.kind == "driven":
+            from sphere_env.calibration.driven import check_driven
+
+            check_driven(log, f"trial {self.name!r} (kind driven)")
         return log
 
 
@@ -201,6 +216,7 @@ def load_manifest(path: str | Path, data_root: str | Path | None = None) -> Mani
                 ramp_window_s=None if entry.ramp_window_s is None else tuple(entry.ramp_window_s),
                 window_s=None if entry.window_s is None else tuple(entry.window_s),
                 time_unit=entry.time_unit,
+                kind=entry.kind,
             )
         )
     return Manifest(p, root, tuple(trials))

@@ -374,6 +374,19 @@ def unidentified(
     return out
 
 
+def jacobian_ci95(res, names: Sequence[str]) -> dict[str, tuple[float, float]]:
+    """95 % intervals of a scipy ``least_squares`` result's parameters from the Jacobian at the optimum
+    (residual variance × (JᵀJ)⁻¹); optimistic where the residuals are correlated, as a decay's are."""
+    J = res.jac
+    dof = max(J.shape[0] - J.shape[1], 1)
+    try:
+        cov = np.linalg.pinv(J.T @ J) * (2 * res.cost / dof)
+        std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    except np.linalg.LinAlgError:
+        std = np.full(len(names), np.nan)
+    return {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(names, res.x, std)}
+
+
 def _moving(log: RobotLog, min_swing_rad: float = 0.02) -> bool:
     return float(np.ptp(log["phi"])) >= min_swing_rad or float(np.ptp(log["theta"])) >= min_swing_rad
 
@@ -499,14 +512,7 @@ def fit_shell(
         if tr.diverged:
             raise FitError(f"{where}: the twin diverged on {log.name!r} at the optimum. Nothing written.")
         per[log.name] = {"phi": rmse(tr["phi"], log["phi"]), "theta": rmse(tr["theta"], log["theta"])}
-    J = res.jac
-    dof = max(J.shape[0] - J.shape[1], 1)
-    try:
-        cov = np.linalg.pinv(J.T @ J) * (2 * res.cost / dof)
-        std = np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:
-        std = np.full(len(names), np.nan)
-    ci = {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(names, res.x, std)}
+    ci = jacobian_ci95(res, names)
     values = {k: float(v) for k, v in zip(names, res.x)}
     poor = unidentified(values, ci, {k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)})
     if "log10_modulus_pa" in values:

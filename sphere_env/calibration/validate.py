@@ -52,6 +52,8 @@ class ValidationRow:
     trace: SimTrace | None = None
     derived: dict[str, str] = field(default_factory=dict)
     window_s: tuple[float, float] | None = None
+    #: A driven window's motor torques (:meth:`~sphere_env.calibration.driven.DrivenTrace.torque_summary`).
+    torques: dict[str, dict[str, float]] | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -84,6 +86,10 @@ class ValidationRow:
                 out["omega_d_derived_from"] = self.derived["omega_d"]
         if math.isfinite(self.rmse.get("pendulum_pitch", math.nan)):
             out["rmse_pendulum_pitch_rad"] = self.rmse["pendulum_pitch"]
+        if math.isfinite(self.rmse.get("heading_rate", math.nan)):
+            out["rmse_heading_rate_rad_s"] = self.rmse["heading_rate"]
+        if self.torques is not None:
+            out["kind"], out["torques"] = "driven", self.torques
         if math.isfinite(self.pme_percent):
             out["pme_percent"] = self.pme_percent
         if self.window_s is not None:
@@ -109,6 +115,8 @@ def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> Va
             dict(log.derived),
             log.window_s,
         )
+    if (log.meta or {}).get("kind") == "driven":
+        return _validate_driven(twin, log)
     # A free window starts from the logged state (the log's θ, θ̇, φ, φ̇, α, α̇, q̇_d at the
     # window start): simulate_log builds it with simulate.initial_state_from_log.
     tr = simulate_log(twin, log, theta_offset_rad, pressure_kpa=log.pressure_kpa)
@@ -125,6 +133,18 @@ def validate_log(twin: Twin, log: RobotLog, theta_offset_rad: float = 0.0) -> Va
     return ValidationRow(
         log.name, twin.config.shell_model, twin.config.fixture, out, pme, tr, dict(log.derived), log.window_s
     )
+
+
+def _validate_driven(twin: Twin, log: RobotLog) -> ValidationRow:
+    """A driven window: the pendulum tracks the logged θ and α, the shell responds
+    (:mod:`~sphere_env.calibration.driven`); RMSE of ω_d, ψ̇ (``heading_rate``), φ and the tracked θ, α."""
+    from sphere_env.calibration.driven import driven_replay, driven_rmse
+
+    tr = driven_replay(twin, log, pressure_kpa=log.pressure_kpa)
+    err = driven_rmse(tr, log)
+    row = ValidationRow(log.name, twin.config.shell_model, twin.config.fixture, err, math.nan, None, dict(log.derived))
+    row.window_s, row.torques = log.window_s, tr.torque_summary()
+    return row
 
 
 _TWINS: dict[tuple, Twin] = {}  # per process: one twin per configuration, reused across jobs
@@ -236,13 +256,14 @@ Limit = Annotated[bounded(gt=0.0, words="NAME=LIMIT with LIMIT a finite number >
 
 
 class Tolerances(Schema):
-    """``--tol`` limits: RMSE of φ ``phi``, θ ``theta`` [rad], ω_d ``omega_d`` [rad/s], α
+    """``--tol`` limits: RMSE of φ ``phi``, θ ``theta`` [rad], ω_d ``omega_d``, ψ̇ ``heading_rate`` [rad/s], α
     ``pendulum_pitch`` [rad] and |PME| ``pme`` [%]."""
 
     phi: Limit = None  # None: not checked
     theta: Limit = None
     omega_d: Limit = None
     pendulum_pitch: Limit = None
+    heading_rate: Limit = None
     pme: Limit = None
 
 

@@ -64,6 +64,7 @@ from sphere_env.resources import asset_path
 from sphere_env.schemas.calibration import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
     CalibrationFile,
+    DriveLawSection,
     calibration_form,
     calibration_ref,
     check_calibration,
@@ -231,6 +232,10 @@ class ShellCalibration:
     steer_law: SteerLaw = SteerLaw()
     couple_stiffness_factor: float = 0.0
     couple_damping_factor: float = 0.0
+    #: Drive direction (section ``drive_law``): C_drive = factor × C_inject for the injected shell,
+    #: and the couple −C_spin (ω_shell·n̂) n̂ [N m s/rad] against spinning about the ground normal.
+    injected_rolling_damping_factor: float = 1.0
+    spin_damping_nms_per_rad: float = 0.0
     stand_still_checked: bool = True
     #: (below_kpa, resolution_hint_m) of the optional low-pressure mesh, or None.
     low_pressure_mesh: tuple[float, float] | None = None
@@ -264,7 +269,7 @@ class ShellCalibration:
         cls, spec: CalibrationFile, data: Mapping[str, Any], source: str, check_stand_still: bool = True
     ) -> "ShellCalibration":
         """The calibration of a validated file (``data``: the mapping as written, kept as ``raw``)."""
-        hyd, vol = spec.hydroelastic, spec.contact_volume
+        hyd, vol, drive = spec.hydroelastic, spec.contact_volume, spec.drive_law or DriveLawSection()
         mesh = hyd.low_pressure_mesh
         steps = hyd.k_d_by_time_step or ()
         cal = cls(
@@ -284,6 +289,8 @@ class ShellCalibration:
             steer_law=SteerLaw() if spec.steer_law is None else SteerLaw(**spec.steer_law.parameters()),
             couple_stiffness_factor=hyd.couple_stiffness_factor,
             couple_damping_factor=hyd.couple_damping_factor,
+            injected_rolling_damping_factor=drive.injected_rolling_damping_factor,
+            spin_damping_nms_per_rad=drive.spin_damping_nms_per_rad,
             stand_still_checked=check_stand_still,
             low_pressure_mesh=None if mesh is None else (mesh.below_kpa, mesh.resolution_hint_m),
             k_d_by_time_step=tuple((e.time_step_s, e.k_d) for e in steps),
@@ -526,7 +533,7 @@ class BoundShell:
         K, C = self.injected_gains(pressure_kpa)
         rest, A, B, Q = self.calibration.steer_law.gains_tail()
         if shell_model == "injected":
-            return np.array([K, C, C, rest, A, B, Q])
+            return np.array([K, C, self.calibration.injected_rolling_damping_factor * C, rest, A, B, Q])
         if shell_model == "hydroelastic":
             fk, fc = self.calibration.couple_stiffness_factor, self.calibration.couple_damping_factor
             return np.array([fk * K, fc * C, 0.0, rest, fk * A, B, fk * Q])

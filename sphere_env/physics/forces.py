@@ -24,7 +24,8 @@ from pydrake.symbolic import Expression, Variable, if_then_else
 from sphere_env.models.shell import LAW_GAIN_NAMES, injected_torques
 
 COS_PHI_FLOOR = 1e-3
-GAIN_NAMES = (*LAW_GAIN_NAMES, "steer_friction_scale", "drive_friction_scale")
+#: C_spin [N m s/rad]: the soft shell's couple against spinning about the ground normal (``drive_law``).
+GAIN_NAMES = (*LAW_GAIN_NAMES, "C_spin", "steer_friction_scale", "drive_friction_scale")
 
 
 class SymbolicMath:
@@ -86,9 +87,15 @@ def pipe_angle_expressions(y_W, w_W, n_W):
 
 
 # Stage 1 of the shell kinematics (in the state x): ŷ·n, ŷ×n, ẏ·n, ŷ, ω_d.
-PROJECTION_NAMES = ("s", "yxn_x", "yxn_y", "yxn_z", "y_dot_n", "p_y_x", "p_y_y", "p_y_z", "p_omega_d")
+PROJECTION_NAMES = (
+    *("s", "yxn_x", "yxn_y", "yxn_z", "y_dot_n", "p_y_x", "p_y_y", "p_y_z", "p_omega_d"),
+    *("p_spin", "p_n_x", "p_n_y", "p_n_z"),
+)
 # Stage 2 (in the stage-1 outputs): what the shell law reads.
-KINEMATICS_NAMES = ("phi", "phi_dot", "axis_x", "axis_y", "axis_z", "y_x", "y_y", "y_z", "omega_d")
+KINEMATICS_NAMES = (
+    *("phi", "phi_dot", "axis_x", "axis_y", "axis_z", "y_x", "y_y", "y_z", "omega_d"),
+    *("spin", "n_x", "n_y", "n_z"),
+)
 
 
 def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, ground_normal_fn):
@@ -115,7 +122,8 @@ def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, gr
     x = np.array([Variable(f"x{i}") for i in range(nq + nv)])
     g = np.array([Variable(n) for n in GAIN_NAMES])
     q, v = x[:nq], x[nq:]
-    law_g, (s_steer, s_drive) = g[: len(LAW_GAIN_NAMES)], g[len(LAW_GAIN_NAMES) :]
+    n_law = len(LAW_GAIN_NAMES)
+    law_g, c_spin, (s_steer, s_drive) = g[:n_law], g[n_law], g[n_law + 1 :]
     out = [Expression(0.0) for _ in range(nv)]
     kinematics = None
 
@@ -134,19 +142,34 @@ def build_force_expressions(layout, steer_law, drive_law, shell_couple: bool, gr
         omega_d = _dot(w_W, y_W) - drive_rate
         s, yxn, y_dot_n = pipe_projections(y_W, w_W, n_W)
         p = np.array([Variable(n) for n in PROJECTION_NAMES])
-        p_exprs = np.array([s, *yxn, y_dot_n, *y_W, omega_d], dtype=object)
+        # the shell's spin about the ground normal: ω_shell·n̂ with ω_shell = ω_PC − q̇_d ŷ_PC
+        spin = _dot(w_W, n_W) - drive_rate * s
+        p_exprs = np.array(
+            [
+                s,
+                *yxn,
+                y_dot_n,
+                *y_W,
+                omega_d,
+                spin,
+                *(c if isinstance(c, Expression) else Expression(float(c)) for c in n_W),
+            ],
+            dtype=object,
+        )
         phi, phi_dot, axis = pipe_angle_from_projections(p[0], p[1:4], p[4])
         k = np.array([Variable(n) for n in KINEMATICS_NAMES])
-        k_exprs = np.array([phi, phi_dot, *axis, *(Expression(c) for c in p[5:9])], dtype=object)
+        k_exprs = np.array([phi, phi_dot, *axis, *(Expression(c) for c in p[5:13])], dtype=object)
         kinematics = (p, p_exprs, k, k_exprs)
-        k_phi, k_phi_dot, k_axis, k_y, k_omega_d = k[0], k[1], k[2:5], k[5:8], k[8]
+        k_phi, k_phi_dot, k_axis, k_y, k_omega_d, k_spin, k_n = k[0], k[1], k[2:5], k[5:8], k[8], k[9], k[10:13]
         # eq. 9 / the calibration's steer law, and §IV's drive damper (no K_inject there)
         tau_phi, tau_d = injected_torques(k_phi, k_phi_dot, k_omega_d, *law_g, m=SYMBOLIC)
-        torque_W = [tau_phi * a + tau_d * y for a, y in zip(k_axis, k_y)]  # a pure couple on the shell
+        # ... and the couple −C_spin (ω_shell·n̂) n̂ against spinning about the ground normal (drilling)
+        tau_spin = -c_spin * k_spin
+        torque_W = [tau_phi * a + tau_d * y + tau_spin * n for a, y, n in zip(k_axis, k_y, k_n)]  # on the shell
         for j in range(3):
             out[wi + j] += torque_W[j]
         if not layout["drive_locked"]:
-            out[layout["drive_v"]] += -tau_d  # the drive joint axis is −ŷ
+            out[layout["drive_v"]] += -tau_d - tau_spin * _dot(k_n, k_y)  # the drive joint axis is −ŷ
     elif shell_couple and layout["base"] == "planar":
         # Planar steer-plane fixture: coordinates (y_W, z_W, φ) on flat ground.
         phi, phi_dot = q[layout["base_q"] + 2], v[layout["base_v"] + 2]

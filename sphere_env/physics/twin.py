@@ -277,8 +277,9 @@ class Twin:
         # (LAW_GAIN_NAMES: K_inject, C_steer, C_drive, rest angle, amplitude torque, 1/scale, K_2)
         k, c = self._params["shell_stiffness_scale"], self._params["shell_damping_scale"]
         law = law * np.array([k, c, c, 1.0, k, 1.0, k])
-        scales = np.array([self._params["steer_friction_scale"], self._params["drive_friction_scale"]])
-        self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(np.concatenate([law, scales]))
+        spin = 0.0 if self.config.shell_model == "point" else self.calibration.spin_damping_nms_per_rad
+        scales = [self._params["steer_friction_scale"], self._params["drive_friction_scale"]]
+        self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(np.concatenate([law, [c * spin], scales]))
 
     def _apply_pressure_to_context(self) -> None:
         """Push the current pressure into the context.

@@ -170,6 +170,15 @@ class Hydroelastic(Schema):
     notes: Notes = None
 
 
+class DriveLawSection(Schema):
+    """The drive-direction law, opt-in: absent, the injected shell damps rolling with C_inject (paper
+    §IV) and no shell resists spinning about the ground normal (``calibrate drive-fit`` fits both)."""
+
+    injected_rolling_damping_factor: NonNegative = 1.0  # C_drive = factor × C_inject(p)
+    spin_damping_nms_per_rad: number(ge=0.0, le=100.0) = 0.0  # couple −C_spin (ω_shell·n̂) n̂ on the shell
+    notes: Notes = None
+
+
 class SteerLawSection(Schema):
     """The steer-direction law: its form, rest angle φ_0 and the form's own parameters."""
 
@@ -218,12 +227,14 @@ class CalibrationFile(Schema):
     omega_n: OmegaN
     zeta: Zeta
     steer_law: SteerLawSection | None = None
+    drive_law: DriveLawSection | None = None
     contact_volume: ContactVolume
     hydroelastic: Hydroelastic
     provenance: Notes = None
     fit_ci: Notes = None
     trial_fits: Notes = None
     steer_fit: Notes = None
+    drive_fit: Notes = None
     notes: Notes = None
 
     @property

@@ -156,7 +156,8 @@ def test_shipped_example_mapping_and_manifest_load():
     m = ColumnMapping.load(repo / "assets" / "logs" / "example_mapping.yaml")
     assert m.time == ("t_ms", "ms") and "theta" in m.required
     man = load_manifest(repo / "assets" / "logs" / "roboball.yaml")
-    assert {t.group for t in man.trials} == {"stand_swing", "steer_free", "free_robot"}
+    assert {t.group for t in man.trials} == {"stand_swing", "steer_free", "free_robot", "free_robot_driven"}
+    assert {t.kind for t in man.trials if t.group == "free_robot_driven"} == {"driven"}
     assert man.data_root.name == "roboball" and man.data_root.parent.name == "data"
 
 

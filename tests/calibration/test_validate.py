@@ -57,7 +57,10 @@ def test_tolerances_load_as_named_limits():
 @pytest.mark.parametrize(
     "item, message",
     [
-        ("bogus=1", "--tol: unknown field 'bogus'; allowed: ['omega_d', 'pendulum_pitch', 'phi', 'pme', 'theta']"),
+        (
+            "bogus=1",
+            "--tol: unknown field 'bogus'; allowed: ['heading_rate', 'omega_d', 'pendulum_pitch', 'phi', 'pme', 'theta']",
+        ),
         (
             "theta=abc",
             "--tol: field 'theta' = 'abc': Input should be a valid number; allowed: NAME=LIMIT with LIMIT a "

@@ -27,6 +27,7 @@ from pathlib import Path
 from sphere_env.evaluation.experiments.docs import (
     calibration,
     demo,
+    drive,
     learning,
     physics,
     registry,
@@ -49,7 +50,7 @@ PAGES = (
     "docs/envs.md",
 )
 #: The modules whose renderers fill them (importing one registers its renderers by block name).
-BLOCK_MODULES = (demo, speed, speed_floor, training, physics, calibration, registry, learning)
+BLOCK_MODULES = (demo, speed, speed_floor, training, physics, calibration, drive, registry, learning)
 BLOCK = re.compile(r"<!-- generated: (?P<name>[^\s>]+) -->(?P<body>.*?)<!-- /generated -->", re.S)
 OPEN, CLOSE = "<!-- generated:", "<!-- /generated -->"
 
