@@ -36,9 +36,9 @@ DRIVEN_CHANNELS = ("theta", "pendulum_pitch", "omega_d", "heading_rate", "phi")
 #: The responses a driven replay is judged on (rad/s, rad/s, rad); θ and α are the tracked angles.
 RESPONSES = ("omega_d", "heading_rate", "phi")
 TRACKED = ("theta", "pendulum_pitch")
-#: The motors' torque limits [N m] at the joints (assumed, see the module docstring).
 #: How far inside the steer joint's limits the θ reference is held [rad].
 THETA_LIMIT_MARGIN_RAD = 0.005
+#: The motors' torque limits [N m] at the joints (assumed, see the module docstring).
 TORQUE_LIMITS_NM = (PARAMETERS["steer_torque_limit_nm"].nominal, PARAMETERS["drive_torque_limit_nm"].nominal)
 
 
