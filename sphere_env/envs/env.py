@@ -32,7 +32,8 @@ from sphere_env.envs.twins import (
     shared_inclines,
     stability_problem,
 )
-from sphere_env.models.shell import SHELL_MODELS, ShellCalibration, calibration_name
+from sphere_env.models.calibration_files import calibration_name
+from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.params import ENV_PARAMETERS, SHIPPED_CALIBRATIONS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
