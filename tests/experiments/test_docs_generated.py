@@ -7,9 +7,9 @@ import shutil
 
 import pytest
 
+from sphere_env.evaluation.experiments import RESULTS
 from sphere_env.evaluation.experiments.docs import PAGES, ROOT, blocks, render_pages, render_text, stale_blocks
 from sphere_env.evaluation.experiments.docs.base import RENDERERS, DocsError, Results
-from sphere_env.evaluation.reporting import RESULTS
 
 
 @pytest.fixture(scope="module")
