@@ -195,7 +195,7 @@ def write_report(
     """``report.md``: the nominal grid's ``rows`` and aggregates, the PME, then ``conditions`` (the
     section on the sweep's faults and calibrations, Markdown; ``total_episodes``: the sweep's
     episodes with them) and the files."""
-    from sphere_env.evaluation.reporting import machine_info
+    from sphere_env.provenance import machine_info
     from sphere_env.reporting import markdown_table
 
     info = machine_info()

@@ -265,7 +265,7 @@ PARAMETERS: dict[str, Parameter] = dict(
         ),
         # The shell law's uncertainty (calibration-aware randomization): the calibrations report
         # intervals for the fitted ω_n, ζ and amplitude stiffness, and the shipped calibrations of
-        # the one robot disagree by more (ShellCalibration.law_scale_intervals). Explicit torques:
+        # the one robot disagree by more (calibration_files.law_scale_intervals). Explicit torques:
         # the twin's stability check covers the largest scales a spec can draw.
         _p(
             "shell_stiffness_scale",

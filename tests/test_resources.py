@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 import yaml
 
+from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 from sphere_env.models.friction import DEFAULT_PRESETS
 from sphere_env.models.rigid_body import DEFAULT_URDF
-from sphere_env.models.shell import DEFAULT_CALIBRATION
 from sphere_env.resources import asset_path, hyperparams_path
 
 

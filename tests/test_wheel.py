@@ -30,6 +30,9 @@ INSTALLED_AS = {
     "evaluation": "sphere_env/evaluation",
 }
 SOURCES = ("pyproject.toml", "README.md", *INSTALLED_AS)
+#: Development tooling of the repository that the wheel leaves out: the studies and the base their
+#: recipes override.
+NOT_INSTALLED = ("evaluation/experiments", "training/hyperparams/ppo_mixture.yml")
 COMMANDS = ("train", "evaluate", "calibrate", "demo")
 
 pytestmark = pytest.mark.slow
@@ -117,17 +120,32 @@ def fresh_venv(wheel, tmp_path_factory) -> Path:
     return venv
 
 
+def _installed(path: str) -> str:
+    """The wheel path of a repository path (its top folder mapped as ``INSTALLED_AS`` says)."""
+    top, _, rest = path.partition("/")
+    return f"{INSTALLED_AS[top]}/{rest}"
+
+
 def test_wheel_contents_and_metadata(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/", 1)[0] for n in names}
     assert tops == {"sphere_env", f"{wheel.name.split('-')[0]}-{wheel.name.split('-')[1]}.dist-info"}, tops
     results = [n for n in names if n.startswith("sphere_env/evaluation/results")]
     assert not results, f"committed results in the wheel: {results[:3]}"
-    # Every package of the repository is in the wheel (pyproject.toml lists them one by one).
+    left_out = [n for n in names for path in NOT_INSTALLED if n.startswith(_installed(path))]
+    assert not left_out, f"development tooling in the wheel: {left_out[:3]}"
+    # Every package of the repository but the tooling is in the wheel (pyproject.toml lists them).
     for folder, installed in INSTALLED_AS.items():
         for init in (REPO / folder).rglob("__init__.py"):
+            if any(init.is_relative_to(REPO / path) for path in NOT_INSTALLED):
+                continue
             rel = init.relative_to(REPO / folder).as_posix()
             assert f"{installed}/{rel}" in names, f"package {init.parent} is missing from the wheel"
+    # and no installed module imports the tooling
+    wheel_file = zipfile.ZipFile(wheel)
+    for name in (n for n in names if n.endswith(".py")):
+        text = wheel_file.read(name).decode()
+        assert not re.search(r"^\s*(from|import)\s+(sphere_env\.)?evaluation\.experiments", text, re.M), name
     for data in (
         "sphere_env/assets/robot/roboball.urdf",
         "sphere_env/assets/friction/presets.yaml",

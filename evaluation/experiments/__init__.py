@@ -14,3 +14,8 @@ that writes its results file under ``evaluation/results/``. No product module im
     python -m evaluation.experiments.tune_pd
     python -m evaluation.experiments.uncontrolled_descent
 """
+
+from pathlib import Path
+
+#: The committed results folder the studies write (``evaluation/results``; in a checkout only).
+RESULTS = Path(__file__).resolve().parents[1] / "results"

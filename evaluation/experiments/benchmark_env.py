@@ -148,7 +148,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     from datetime import datetime, timezone
 
-    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.evaluation.experiments import RESULTS
+    from sphere_env.provenance import machine_info
     from sphere_env.reporting import markdown_table
 
     info = machine_info()

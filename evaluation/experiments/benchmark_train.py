@@ -446,8 +446,9 @@ def main(argv: list[str] | None = None) -> None:
     import sys
     from datetime import datetime, timezone
 
+    from sphere_env.evaluation.experiments import RESULTS
     from sphere_env.evaluation.experiments.benchmark_recipe import SOLVER_HEADING, run_solver_benchmark, solver_markdown
-    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.provenance import machine_info
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=24.0, help="timed wall seconds per case (all rounds)")

@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = parser.parse_args(argv)
     if not (math.isfinite(args.hold_tolerance) and args.hold_tolerance > 0):
         parser.error(f"--hold-tolerance: value {args.hold_tolerance} must be > 0 rad/s")
-    from sphere_env.evaluation.reporting import machine_info
+    from sphere_env.provenance import machine_info
     from sphere_env.reporting import markdown_table
 
     rows = span_rows(hold_tolerance_rad_s=args.hold_tolerance)

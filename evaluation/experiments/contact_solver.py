@@ -339,8 +339,9 @@ def report_markdown(result: dict[str, Any]) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.evaluation.experiments import RESULTS
     from sphere_env.files import write_text_atomic
+    from sphere_env.provenance import machine_info
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--workers", type=int, default=2, help="processes for the episodes")

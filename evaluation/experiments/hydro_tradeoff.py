@@ -58,10 +58,12 @@ import numpy as np
 import yaml
 
 from sphere_env.analysis.decay import fit_free_decay
-from sphere_env.evaluation.reporting import RESULTS, machine_info
+from sphere_env.evaluation.experiments import RESULTS
 from sphere_env.files import write_text_atomic
-from sphere_env.models.shell import DEFAULT_CALIBRATION, ShellCalibration
+from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
+from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.provenance import machine_info
 from sphere_env.resources import asset_path
 
 CHUNK_S = 0.02

@@ -146,35 +146,84 @@ def fault_table(base: Mapping[str, Any], runs_by_recipe: Mapping[str, list[dict[
     return _md(rows) + "\n\nWhere each range comes from:\n\n" + why
 
 
-def plot_curves(runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path) -> Path:
-    """Development-grid success against env steps: per recipe the IQM over seeds with its 95 %
-    bootstrap band over whole runs (rliable), the PD's success and the PD level."""
+#: The learning-curve figure's colours: each panel's recipe, the shipped policy's recipe drawn in
+#: every other panel for reference, and the PD (its success, and PD level dashed).
+CURVE_COLOURS = {"recipe": "tab:blue", "shipped": "0.55", "pd": "black"}
+PANEL_COLUMNS = 4
+
+
+def _iqm_curve(runs: Sequence[Mapping[str, Any]]) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
+    """(env steps every run was evaluated at, the IQM over the runs there, its 95 % interval's low
+    and high ends)."""
+    steps = sorted(set.intersection(*[{c["env_steps"] for c in r["curve"]} for r in runs]))
+    if not steps:
+        return [], np.array([]), np.array([]), np.array([])
+    scores = {
+        str(n): np.array([next(c for c in r["curve"] if c["env_steps"] == n)["success_rate"] for r in runs])
+        for n in steps
+    }
+    by_step = interval_estimates(scores)
+    est = [by_step[str(n)] for n in steps]
+    return steps, np.array([e["iqm"] for e in est]), *(np.array([e["iqm_ci"][i] for e in est]) for i in (0, 1))
+
+
+def shipped_recipe() -> str:
+    """The recipe the shipped policy was trained with (its card's)."""
+    from sphere_env.resources import shipped_policy_path
+
+    return json.loads((shipped_policy_path("pretrained") / "card.json").read_text())["recipe"]
+
+
+def plot_curves(
+    runs_by_recipe: Mapping[str, list[dict[str, Any]]], pd: Mapping[str, Any], path: Path, shipped: str | None = None
+) -> Path:
+    """Development-grid success against env steps, one panel per recipe (:data:`CURVE_COLOURS`): the
+    recipe's IQM over its seeds with its 95 % bootstrap band over whole runs (rliable), the
+    ``shipped`` recipe's IQM in every other panel for reference, the PD's success and PD level."""
     from sphere_env.plotting import pyplot
 
+    curves = {name: _iqm_curve(runs) for name, runs in runs_by_recipe.items()}
+    curves = {name: c for name, c in curves.items() if c[0]}
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    for i, (name, runs) in enumerate(runs_by_recipe.items()):
-        steps = sorted(set.intersection(*[{c["env_steps"] for c in r["curve"]} for r in runs]))
-        if not steps:
-            continue
-        scores = {
-            str(n): np.array([next(c for c in r["curve"] if c["env_steps"] == n)["success_rate"] for r in runs])
-            for n in steps
-        }
-        est = interval_estimates(scores)
-        y = np.array([est[str(n)]["iqm"] for n in steps])
-        lo = np.array([est[str(n)]["iqm_ci"][0] for n in steps])
-        hi = np.array([est[str(n)]["iqm_ci"][1] for n in steps])
-        ax.plot(steps, y, marker="o", ms=3, color=f"C{i}", label=f"{name} ({len(runs)} seeds)")
-        ax.fill_between(steps, lo, hi, color=f"C{i}", alpha=0.2)
-    ax.axhline(pd["success_rate"], color="k", lw=1, label="PD")
-    ax.axhline(pd["success_rate"] - PD_MARGIN, color="k", lw=1, ls="--", label="PD level (PD − 3 points)")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("development-grid success (IQM over seeds, 95 % CI)")
-    ax.set_ylim(-0.02, 1.02)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
+    rows = max(1, -(-len(curves) // PANEL_COLUMNS))
+    fig, axes = plt.subplots(
+        rows, PANEL_COLUMNS, figsize=(11, 2.2 * rows + 0.9), sharex=True, sharey=True, squeeze=False
+    )
+    reference = curves.get(shipped) if shipped else None
+    for ax, (name, (steps, y, lo, hi)) in zip(axes.flat, curves.items()):
+        if reference is not None and name != shipped:
+            ax.plot(reference[0], reference[1], color=CURVE_COLOURS["shipped"], lw=1)
+        ax.fill_between(steps, lo, hi, color=CURVE_COLOURS["recipe"], alpha=0.25, lw=0)
+        ax.plot(steps, y, color=CURVE_COLOURS["recipe"], marker="o", ms=2, lw=1.2)
+        ax.axhline(pd["success_rate"], color=CURVE_COLOURS["pd"], lw=0.8)
+        ax.axhline(pd["success_rate"] - PD_MARGIN, color=CURVE_COLOURS["pd"], lw=0.8, ls="--")
+        ax.set_title(f"{name} ({len(runs_by_recipe[name])} seeds)", fontsize=8)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+        ax.xaxis.get_offset_text().set_fontsize(7)
+    for ax in list(axes.flat)[len(curves) :]:
+        ax.set_visible(False)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("success", fontsize=8)
+    for column in axes.T:  # the lowest panel of each column carries the steps axis
+        for lowest in [ax for ax in column if ax.get_visible()][-1:]:
+            lowest.xaxis.set_tick_params(labelbottom=True)
+            lowest.set_xlabel("environment steps", fontsize=8)
+    handles = [
+        plt.Line2D(
+            [], [], color=CURVE_COLOURS["recipe"], marker="o", ms=2, label="the panel's recipe: IQM over seeds, 95 % CI"
+        ),
+        plt.Line2D([], [], color=CURVE_COLOURS["pd"], label="PD"),
+        plt.Line2D([], [], color=CURVE_COLOURS["pd"], ls="--", label="PD level (PD − 3 points)"),
+    ]
+    if reference is not None:
+        handles.insert(
+            1, plt.Line2D([], [], color=CURVE_COLOURS["shipped"], label=f"{shipped} (the shipped policy's recipe)")
+        )
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=7, frameon=False)
+    fig.suptitle("Development-grid success against environment steps, one panel per recipe", fontsize=10)
+    fig.tight_layout(rect=(0, 0.04, 1, 0.97))
     tmp = path.with_name(path.stem + ".tmp.png")
     fig.savefig(tmp, dpi=110)
     plt.close(fig)
@@ -261,9 +310,11 @@ def markdown(
         "`<recipe>@selected`: each run reported by its checkpoint with the highest success on the validation "
         "grid, from half its budget on: the model an rl-zoo3 user keeps as best_model. The plain rows report "
         "each run's final model. From scratch: runs that did not continue another run's checkpoint (derived "
-        "from the recipe).\n\n"
-        + notes
-        + "\n\n![learning curves](learning_curves.png)\n"
+        "from the recipe).\n\n" + notes + "\n\n![learning curves](learning_curves.png)\n\n"
+        "Learning curves, one panel per recipe, development-grid success against env steps: the panel's recipe "
+        "as the IQM over its seeds (blue) with its 95 % bootstrap band over whole runs, the shipped policy's "
+        "recipe in grey in every other panel for reference, the PD's success (black) and PD level (black, "
+        "dashed).\n"
         + (
             "\n## Fault grid\n\nThe development grid under one fault at a time (`evaluation/faults.py`: what "
             "each fault is and where its range comes from), deterministic actions; runs by their "
@@ -387,7 +438,7 @@ def write_summary(results: Path, plot: bool = True) -> Path:
     }
     write_text_atomic(results / "summary.json", json.dumps(summary, indent=1) + "\n")
     if runs_by_recipe and plot:
-        plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png")
+        plot_curves(runs_by_recipe, base["pd"], results / "learning_curves.png", shipped_recipe())
     write_text_atomic(
         results / "README.md",
         markdown(

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from sphere_env.evaluation.reporting import RESULTS
+from sphere_env.evaluation.experiments import RESULTS
 from sphere_env.files import write_text_atomic
 
 OUT = RESULTS / "learning" / "normalization_swap.json"

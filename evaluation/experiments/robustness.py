@@ -292,7 +292,8 @@ def main(argv: list[str] | None = None) -> None:
     hydro_steps = args.soak_steps // 4 if args.hydroelastic_soak_steps is None else args.hydroelastic_soak_steps
     if min(args.soak_steps, hydro_steps, args.fuzz_steps) < 8:
         parser.error("--soak-steps, --hydroelastic-soak-steps and --fuzz-steps must be at least 8")
-    from sphere_env.evaluation.reporting import RESULTS, machine_info
+    from sphere_env.evaluation.experiments import RESULTS
+    from sphere_env.provenance import machine_info
     from sphere_env.reporting import markdown_table
 
     info = machine_info()  # at the start: the commit that is actually run

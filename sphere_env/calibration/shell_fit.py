@@ -341,7 +341,7 @@ def omega_n_floor(base: ShellCalibration, p0: float, robot: RobotParameters, mar
     K_g the free-pendulum gravity stiffness; ``margin`` < 1 keeps a little positive stiffness there.
     The slope of ω_n(p) carries p₀ to the weakest end of the range.
     """
-    from sphere_env.models.shell import PHI_REACH_RAD, gravity_stiffness_free_pendulum
+    from sphere_env.models.steer_law import PHI_REACH_RAD, gravity_stiffness_free_pendulum
 
     k_min = -margin * gravity_stiffness_free_pendulum(robot) * math.cos(PHI_REACH_RAD)
     w_min = math.sqrt(max(robot.K_eq + k_min, 0.0) / robot.M_eq)

@@ -4,10 +4,11 @@
 built once and reused by every reset (hydroelastic: one twin for every incline the randomization
 can draw, which moves its ground between episodes, so its cached shells serve all inclines);
 parameters (pressure, friction scales, ground friction,
-payload) change through :meth:`Twin.apply`. It turns actions into motor torques, samples the
-randomization, assembles observations and steps the physics; a :class:`~sphere_env.tasks.Task`
-supplies the command, reward terms, termination and default initial state. The registered ids
-are built by :mod:`sphere_env.envs.factories`.
+payload) change through :meth:`Twin.apply`. It turns actions into motor torques and steps the
+physics; :class:`~sphere_env.envs.parameters.EnvParameters` draws each episode's parameters,
+:class:`~sphere_env.envs.observer.EnvObserver` makes the observations, and a
+:class:`~sphere_env.tasks.Task` supplies the command, reward terms, termination and default
+initial state. The registered ids are built by :mod:`sphere_env.envs.factories`.
 """
 
 from __future__ import annotations
@@ -23,23 +24,21 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 
 from sphere_env.envs.interface import action_layout, failed_info, read_action, step_info
+from sphere_env.envs.observer import EnvObserver
+from sphere_env.envs.parameters import EnvParameters
 from sphere_env.envs.twins import (
     INCLINE_RESOLUTION_DEG,
     TwinCache,
     check_above_ground,
     drawn_shells,
-    quantize_incline,
     shared_inclines,
     stability_problem,
 )
-from sphere_env.models.shell import SHELL_MODELS, ShellCalibration, calibration_name
-from sphere_env.params import ENV_PARAMETERS, SHIPPED_CALIBRATIONS, TWIN_PARAMETERS
+from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
-from sphere_env.schemas.env import RENDER_MODES, EnvKwargs, reset_options
+from sphere_env.schemas.env import RENDER_MODES, EnvKwargs
 from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
-from sphere_env.tasks.observation import assemble_observation
-from sphere_env.tasks.randomization import PARAMETERS as RANDOMIZED
 from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
@@ -86,41 +85,30 @@ class SphereEnv(gym.Env, EzPickle):
         EzPickle.__init__(self, task, **{**kwargs, "meshcat": meshcat if isinstance(meshcat, bool) else True})
         if not isinstance(task, Task):
             raise ValueError(f"task: value {task!r} must be a sphere_env.tasks.Task")
-        where = f"{task.name} kwargs"
-        kw = validate(EnvKwargs, kwargs, where)
+        kw = validate(EnvKwargs, kwargs, f"{task.name} kwargs")
         self.task = task
         self.shell_model = shell_model = kw.shell_model
         self._steer_friction, self._drive_friction = kw.friction_model
         self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
-        try:
-            self.calibration = ShellCalibration.load(kw.calibration).extrapolated(self.pressure_extrapolation_kpa)
-        except ValueError as err:
-            raise ValueError(f"{where}: field 'calibration' = {kw.calibration!r}: {err}") from None
-        self._calibration_path = kw.calibration
         self._contact_approximation = kw.contact_approximation
-        #: the shipped calibrations a randomization drew, loaded once each (by name)
-        self._shipped_calibrations: dict[str, ShellCalibration] = {}
+        self._parameters = parameters = EnvParameters(task, kw)
+        self.calibration = parameters.calibrations.own
         #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
-        self.parameter_space = self.calibration.parameter_space()
+        self.parameter_space = parameters.space
         self.control_period_s = 1.0 / kw.control_frequency_hz
         self.time_step_s = kw.time_step_s
         self.steer_torque_limit_nm = kw.steer_torque_limit_nm
         self.drive_torque_limit_nm = kw.drive_torque_limit_nm
-        self._options_schema = reset_options(task)
         self._randomization = self._check_randomization(kw.randomization, steer_check=False)
-        self.observe_pressure = observe_pressure = kw.observe_pressure
-        self.observe_shell_model = observe_shell_model = kw.observe_shell_model
+        self.observe_pressure = kw.observe_pressure
+        self.observe_shell_model = kw.observe_shell_model
         self.pressure_reading = kw.pressure_reading
-        self._shell_one_hot = tuple(float(m == shell_model) for m in SHELL_MODELS) if observe_shell_model else ()
         self.observation_noise_scale = kw.observation_noise_scale
-        self._noise_std = task.observation_layout().noise_std()  # × the episode's observation_noise_scale
         self.incline_deg = kw.incline_deg
         self.ramp_length_m = kw.ramp_length_m
         self.render_mode = render_mode = kw.render_mode
         self.record_replay = record_replay = kw.record_replay
         self.render_size = kw.render_size
-        # Hydroelastic pressures are rounded to this grid so re-meshed shells can be cached.
-        self._hydro_step_kpa = kw.hydroelastic_pressure_step_kpa
         self.metadata = {**self.metadata, "render_fps": kw.control_frequency_hz}
 
         # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
@@ -134,17 +122,21 @@ class SphereEnv(gym.Env, EzPickle):
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        self.observation_history_steps = k = kw.observation_history_steps
+        self.observation_history_steps = kw.observation_history_steps
         self.observe_params = kw.observe_params
         self.observation_layout = layout = task.observation_layout(
-            observe_pressure, observe_shell_model, k, self.observe_params
+            kw.observe_pressure, kw.observe_shell_model, kw.observation_history_steps, kw.observe_params
         )
-        self._extra_names = layout.extra_names
-        # the last k observations (own components) and actions, most recent first
-        self._obs_history = np.zeros((k, layout.own.stop), dtype=np.float32)
-        self._action_history = np.zeros((k, 2), dtype=np.float32)
-        n_obs = len(layout)
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
+        self._observer = EnvObserver(
+            task,
+            layout,
+            shell_model,
+            kw.observe_pressure,
+            kw.pressure_reading,
+            kw.observe_shell_model,
+            kw.observe_params,
+        )
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(len(layout),), dtype=np.float32)
 
         # ---- physics ----
         shared = shared_inclines(self._randomization, shell_model, float(self.incline_deg), self.meshcat)
@@ -157,12 +149,10 @@ class SphereEnv(gym.Env, EzPickle):
             raise ValueError(problem)
         self._tau = np.zeros(2)
         self._params: dict[str, Any] = {}
-        self._events = self._event_manager(self._randomization)
+        self._events = parameters.event_manager(self._randomization)
         self._next_events: EventManager | None = None  # set_randomization's, from the next reset
         self._fired: list[str] = []
         self._pending: deque[tuple[float, float]] = deque()
-        self._obs = np.zeros(n_obs, dtype=np.float32)
-        self._obs_history_empty = True
         self._needs_reset = True
         self._ended: str | None = None
         self._copied_mid_episode = False
@@ -195,23 +185,11 @@ class SphereEnv(gym.Env, EzPickle):
         Copies (``copy.deepcopy``, ``pickle``) carry the new spec. Through a vector env:
         ``venv.env_method("set_randomization", spec)``. Returns the resolved spec."""
         resolved = self._check_randomization(spec)
-        events = self._event_manager(resolved)
+        events = self._parameters.event_manager(resolved)
         self._randomization = resolved
         self._ezpickle_kwargs["randomization"] = resolved
         self._next_events = events
         return resolved
-
-    def _event_manager(self, spec: RandomizationSpec) -> EventManager:
-        """The :class:`~sphere_env.tasks.events.EventManager` of ``spec`` for this environment."""
-        space = self.parameter_space
-        nominal = {
-            "shell_model": self.shell_model,
-            **{name: space.nominal(name) for name in TWIN_PARAMETERS + ENV_PARAMETERS},
-            "incline_deg": self.incline_deg,
-            "observation_noise_scale": self.observation_noise_scale,
-            "calibration": calibration_name(self._calibration_path),
-        }
-        return EventManager(spec, nominal, space, self._quantize_pressure, {"incline_deg": self._snap_incline})
 
     @property
     def nominal_params(self) -> dict[str, Any]:
@@ -227,7 +205,7 @@ class SphereEnv(gym.Env, EzPickle):
 
     def _check_randomization(self, spec: Any, steer_check: bool = True) -> RandomizationSpec:
         """Parse and resolve ``spec`` as the ``randomization`` kwarg; pure (raises, changes nothing)."""
-        resolved = RandomizationSpec.parse(spec, ramp=self.task.ramp).resolved(self.parameter_space)
+        resolved = self._parameters.resolve(spec)
         if steer_check:  # the constructor checks once its twin exists
             problem = self._stability_problem(resolved)
             if problem:
@@ -261,25 +239,12 @@ class SphereEnv(gym.Env, EzPickle):
             ramp_length_m=self.ramp_length_m,
             time_step_s=self.time_step_s,
             ground_friction=1.0,
-            calibration=self._calibration_path,
+            calibration=self._parameters.calibrations.path,
             inclines_deg=inclines_deg,
             pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
             contact_approximation=self._contact_approximation,
         )
         return Twin(cfg, meshcat=self.meshcat)
-
-    def _use_calibration(self, twin: Twin, params: Mapping[str, Any]) -> None:
-        """Give ``twin`` the episode's shell calibration (``params["calibration"]``: a shipped one, or
-        the env's own ``calibration`` kwarg as :func:`calibration_name` gives it); no rebuild."""
-        name = params["calibration"]
-        own = calibration_name(self._calibration_path)
-        cal = self.calibration if name == own else self._shipped_calibrations.get(name)
-        if cal is None:
-            cal = self._shipped_calibrations[name] = ShellCalibration.load(name).extrapolated(
-                self.pressure_extrapolation_kpa
-            )
-        if twin.calibration.source != cal.source:
-            twin.set_calibration(cal, params["pressure_kpa"])
 
     @property
     def ramp_end_x_m(self) -> float:
@@ -300,48 +265,6 @@ class SphereEnv(gym.Env, EzPickle):
         """Hydroelastic shells (one per distinct pressure) cached over all the env's twins."""
         return sum(t.cached_shell_count for t in self._all_twins())
 
-    # ---- parameters ----------------------------------------------------------------------------
-    def _snap_incline(self, incline_deg: float) -> float:
-        """A drawn incline on the 1° terrain grid (the env's own incline is kept as given)."""
-        return incline_deg if incline_deg == self.incline_deg else quantize_incline(incline_deg)
-
-    def _quantize_pressure(self, p: float, params: Mapping[str, Any] | None = None) -> float:
-        """Round to the hydroelastic pressure grid when the episode's shell model (in ``params``,
-        default the env's) is hydroelastic; identity for point/injected [kPa]."""
-        shell = (params or {}).get("shell_model") or self.shell_model
-        step = self._hydro_step_kpa if shell == "hydroelastic" else 0.0
-        if step <= 0.0:
-            return p
-        lo, hi = self.parameter_space.bounds("pressure_kpa")
-        q = lo + round((p - lo) / step) * step
-        return min(max(round(q, 9), lo), hi)
-
-    def _check_options(self, options: Any) -> tuple[dict[str, Any], dict[str, Any], InitialState | None]:
-        """Load the ``reset`` options through the task's options schema
-        (:func:`~sphere_env.schemas.env.reset_options`) and read the fixed randomization values;
-        returns (the options given, fixed parameter values, initial state or None). Pure: raises
-        ``ValueError`` naming the option before anything changes."""
-        if options is None:
-            return {}, {}, None
-        given = validate(self._options_schema, options, root="options").model_dump(exclude_unset=True)
-        fixed: dict[str, Any] = {}
-        for name, val in given.items():
-            if name in RANDOMIZED:
-                # a fixed value (the options schema types it so); a pressure within the calibration's range
-                spec = RandomizationSpec.parse({name: val}, ramp=self.task.ramp, kwarg="options")
-                term = spec.resolved(self.parameter_space, kwarg="options").terms[0]
-                fixed[name] = term.distribution.value
-            elif name == "pressure_rate_kpa_per_s":
-                fixed[name] = val
-        if "steer_friction_scale" in fixed or "drive_friction_scale" in fixed:
-            problem = self.twin.explicit_stability_problem(
-                fixed.get("steer_friction_scale", 1.0), fixed.get("drive_friction_scale", 1.0)
-            )
-            if problem:
-                raise ValueError(f"options: {problem}")
-        init = given.get("initial_state")
-        return given, fixed, None if init is None else InitialState(**init)
-
     # ---- gym API -------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
         """Start an episode. ``options`` (all optional):
@@ -361,7 +284,7 @@ class SphereEnv(gym.Env, EzPickle):
         episode, if any, carries on; a fresh env still needs a successful reset).
         """
         seed = _SEED(seed, "seed")
-        options, fixed, init = self._check_options(options)
+        options, fixed, init = self._parameters.check_options(options, self.twin)
         # Sample on a copy of the generator; it becomes the env's only once everything passed.
         if seed is not None:
             rng, seed = seeding.np_random(seed)
@@ -383,16 +306,14 @@ class SphereEnv(gym.Env, EzPickle):
             self.twin.stop_recording()
         self.twin = twin
         twin.set_incline(params["incline_deg"])
-        self._use_calibration(twin, params)
+        self._parameters.calibrations.use(twin, params)
         twin.apply(params)
         twin.reset(init)
         self._events, self._next_events = events, None
         events.start(params)
         self._params = events.params
-        self._pressure_at_reset_kpa = self._params["pressure_kpa"]
         self._fired = [e["name"] for e in events.describe()]  # every term draws at reset
-        if self.observe_shell_model:
-            self._shell_one_hot = tuple(float(m == params["shell_model"]) for m in SHELL_MODELS)
+        self._observer.reset(self._params)
         # Actions reach the motors action_latency_steps control steps late (zero torque until then).
         self._pending = deque([(0.0, 0.0)] * self._params["action_latency_steps"])
         if self.record_replay and twin.is_visualized:
@@ -405,12 +326,10 @@ class SphereEnv(gym.Env, EzPickle):
         self._copied_mid_episode = False
         state = twin.state()
         self._tau[:] = 0.0
-        self._action_history[:] = 0.0
-        self._obs_history_empty = True  # filled with the first observation
         self.task.reset(
             state, self.np_random, options, Scene(self.control_period_s, params["incline_deg"], twin.ramp_end_x_m)
         )
-        obs = self._observe(state)
+        obs = self._observer.observe(state, self._params, self.np_random)
         info = step_info(self.task, state, {}, False, self._params, self._tau, self._fired, self._reward_keys)
         if self.render_mode == "human":
             self.render()
@@ -460,15 +379,13 @@ class SphereEnv(gym.Env, EzPickle):
         if self._failed is not None:
             self._ended = "truncated: " + self._failed
             info = failed_info(self.task, self._params, self._failed, self._tau, self._fired)
-            return self._obs.copy(), 0.0, False, True, info
-        if self.observation_history_steps:
-            self._action_history[1:] = self._action_history[:-1]
-            self._action_history[0] = (a0, a1)
+            return self._observer.last.copy(), 0.0, False, True, info
+        self._observer.act(a0, a1)
         terms, terminated, success = self.task.step(state, (a0, a1), self.np_random)
         reward = 0.0
         for v in terms.values():
             reward += v
-        obs = self._observe(state)
+        obs = self._observer.observe(state, self._params, self.np_random)
         info = step_info(self.task, state, terms, success, self._params, self._tau, self._fired, self._reward_keys)
         if terminated:
             self._ended = "terminated"
@@ -484,47 +401,6 @@ class SphereEnv(gym.Env, EzPickle):
         twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS}
         if twin_changes:
             self.twin.apply(twin_changes)
-
-    def _pressure_observed_kpa(self) -> float:
-        """The pressure the observation reports [kPa]: the physics' current one, or the episode's
-        starting one under ``pressure_reading="at_reset"``."""
-        return self._pressure_at_reset_kpa if self.pressure_reading == "at_reset" else self._params["pressure_kpa"]
-
-    def _observe(self, state) -> np.ndarray:
-        noise = None
-        scale = self._params["observation_noise_scale"]
-        if scale > 0.0:
-            noise = self.np_random.normal(0.0, self._noise_std * scale)
-        obs = assemble_observation(
-            state,
-            self.task.command(state),
-            self._pressure_observed_kpa() if self.observe_pressure else None,
-            noise,
-            self._extra_names,
-            self._shell_one_hot,
-            tuple(self._param_value(n) for n in self.observe_params),
-        )
-        if self.observation_history_steps:
-            own = obs[self.observation_layout.own]
-            hist = self._obs_history
-            if self._obs_history_empty:  # at reset: the robot has been where it starts
-                hist[:] = own
-                self._obs_history_empty = False
-            obs = np.concatenate(
-                [own, hist.ravel(), self._action_history.ravel(), obs[self.observation_layout.own.stop :]]
-            )
-            hist[1:] = hist[:-1]
-            hist[0] = own
-        self._obs = obs
-        return obs
-
-    def _param_value(self, name: str) -> float:
-        """A privileged parameter's value this step (``calibration``: its index among the shipped
-        ones, -1 for another file)."""
-        value = self._params[name]
-        if name == "calibration":
-            return float(SHIPPED_CALIBRATIONS.index(value)) if value in SHIPPED_CALIBRATIONS else -1.0
-        return float(value)
 
     def action_layout(self) -> list[dict[str, Any]]:
         """The action components as :meth:`step` applies them: ``index``, ``name``, the normalized

@@ -5,9 +5,9 @@ valid pressure range, the steer-direction law (form, rest angle φ_0, amplitude 
 hydroelastic settings, loaded from one YAML file (``assets/calibration/default.yaml`` by default,
 or a user's own). Pressures are gauge pressures in **kPa** at this user-facing boundary.
 
-The laws are written once, here, against a math backend (``m``: numpy by default, Drake symbolic
-in :mod:`sphere_env.physics.forces`), as the friction laws are. :meth:`ShellCalibration.bind`
-evaluates a calibration for one robot (:class:`BoundShell`): injected gains, hydroelastic modulus
+The steer-direction law and its forms are :mod:`sphere_env.models.steer_law`; where a calibration's
+file is and how a parameter set names it, :mod:`sphere_env.models.calibration_files`.
+:meth:`ShellCalibration.bind` evaluates a calibration for one robot (:class:`BoundShell`): injected gains, hydroelastic modulus
 and dissipation, and the gain vector of the shell couple.
 
 Calibration file, steer-law section (optional; absent = linear about φ = 0, the paper's eq. 9)::
@@ -57,45 +57,19 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from sphere_env.models.mathbackend import NUMPY
+from sphere_env.models.calibration_files import calibration_file
+from sphere_env.models.steer_law import PHI_REACH_RAD, SteerLaw, gravity_stiffness_free_pendulum, injected_gains
 from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
-from sphere_env.params import SHIPPED_CALIBRATIONS, ParameterSpace
-from sphere_env.resources import asset_path
+from sphere_env.params import ParameterSpace
 from sphere_env.schemas.calibration import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
     CalibrationFile,
     DriveLawSection,
-    calibration_form,
-    calibration_ref,
     check_calibration,
     interpolate_k_d,
     read_calibration_file,
     table_pairs,
 )
-
-DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
-
-
-def calibration_file(calibration: str | Path | None) -> Path:
-    """The file of a calibration given as a path, as the name of a shipped one (a bare name such as
-    ``"hydroelastic_fast"``: no folder, no suffix, and no such file in the working folder), or
-    ``None`` (the shipped default); anything else is a ValueError naming ``calibration``
-    (:func:`~sphere_env.schemas.calibration.calibration_ref`)."""
-    calibration = calibration_ref()(calibration, "calibration")
-    if calibration is None:
-        return DEFAULT_CALIBRATION
-    if calibration_form(calibration) == "name":
-        return asset_path("calibration", f"{calibration}.yaml")
-    return Path(calibration)
-
-
-def calibration_name(calibration: str | Path | None) -> str:
-    """How a parameter set names a calibration: a shipped one by its name (``None``: ``default``),
-    any other by its path."""
-    path = Path(calibration_file(calibration)).resolve()
-    return next(
-        (name for name in SHIPPED_CALIBRATIONS if Path(calibration_file(name)).resolve() == path), str(calibration)
-    )
 
 
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:
@@ -108,96 +82,6 @@ def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: f
     a2 = min(area / math.pi, radius_m**2)
     delta = radius_m - math.sqrt(radius_m**2 - a2)
     return math.pi * delta**2 * (radius_m - delta / 3.0)
-
-
-def injected_gains(omega_n: float, zeta: float, M_eq: float, K_eq: float) -> tuple[float, float]:
-    """K_inject = ω_n² M_eq − K_eq (eq. 7) [N m/rad], C_inject = 2 M_eq ω_n ζ (eq. 8) [N m s/rad]."""
-    return omega_n**2 * M_eq - K_eq, 2.0 * M_eq * omega_n * zeta
-
-
-# ---- the steer-direction restoring law --------------------------------------------------------------
-# Forms of the steer-direction spring (calibration field ``steer_law.form``) and their extra fields.
-# Every form has a rest angle φ_0 (``rest_angle_rad``); Δ = φ − φ_0.
-#   linear      τ_s = −K_inject Δ                                   (paper eq. 9 when φ_0 = 0)
-#   saturating  τ_s = −K_inject Δ − K_a φ_a tanh(Δ / φ_a)           stiffness K_inject + K_a sech²(Δ/φ_a):
-#               K_a + K_inject at small swings, K_inject at large ones (bounded: no run-away)
-#   quadratic   τ_s = −K_inject Δ − K_2 Δ |Δ|                       stiffness K_inject + 2 K_2 |Δ|
-PHI_REACH_RAD = 1.2  # largest |φ| the robot reaches on flat ground (pendulum at its stop)
-
-# The law's numbers in the order the physics layer feeds them (one vector, updated in the context
-# when pressure or calibration change): K_inject [N m/rad], C_steer, C_drive [N m s/rad], φ_0 [rad],
-# A = K_a φ_a [N m], B = 1/φ_a [1/rad], K_2 [N m/rad²].
-LAW_GAIN_NAMES = ("K_inject", "C_steer", "C_drive", "rest_angle", "amp_torque", "amp_inv_scale", "quad_stiffness")
-
-
-def steer_torque(phi, phi_dot, K, C, rest, amp_torque, amp_inv_scale, quad, m=NUMPY):
-    """Steer-direction shell couple τ_φ [N m] about the rocking axis (numpy or symbolic via ``m``).
-
-    τ_φ = −K Δ − A tanh(B Δ) − K_2 Δ|Δ| − C φ̇,  Δ = φ − φ_0. With A = K_2 = φ_0 = 0 this is the
-    paper's eq. 9 (−K_inject φ − C_inject φ̇). Forms: see :data:`STEER_LAW_FORMS`.
-    """
-    d = phi - rest
-    return -K * d - amp_torque * m.tanh(amp_inv_scale * d) - quad * d * m.abs(d) - C * phi_dot
-
-
-def injected_torques(
-    phi, phi_dot, omega_d, K, C_steer, C_drive, rest=0.0, amp_torque=0.0, amp_inv_scale=1.0, quad=0.0, m=NUMPY
-):
-    """Injected shell torques (eq. 9 and §IV) [N m]: (τ_φ, τ_d).
-
-    Steer direction: :func:`steer_torque`. Drive direction: τ_d = −C_drive ω_d (the paper drops
-    K_inject there and damps the rolling velocity). Arguments in :data:`LAW_GAIN_NAMES` order.
-    """
-    return steer_torque(phi, phi_dot, K, C_steer, rest, amp_torque, amp_inv_scale, quad, m=m), -C_drive * omega_d
-
-
-@dataclass(frozen=True)
-class SteerLaw:
-    """The steer-direction spring's form and its pressure-independent numbers.
-
-    The linear stiffness K_inject(p) and damping C_inject(p) come from ω_n(p), ζ(p) (eqs. 7–8);
-    ``rest_angle_rad`` φ_0 [rad] and the amplitude terms are held over the pressure range.
-    """
-
-    form: str = "linear"
-    rest_angle_rad: float = 0.0
-    amplitude_stiffness_nm_per_rad: float = 0.0
-    amplitude_scale_rad: float = 1.0
-    quadratic_stiffness_nm_per_rad2: float = 0.0
-
-    def gains_tail(self) -> tuple[float, float, float, float]:
-        """(φ_0, A, B, K_2) of :data:`LAW_GAIN_NAMES`."""
-        if self.form == "saturating":
-            a = self.amplitude_scale_rad
-            return self.rest_angle_rad, self.amplitude_stiffness_nm_per_rad * a, 1.0 / a, 0.0
-        if self.form == "quadratic":
-            return self.rest_angle_rad, 0.0, 1.0, self.quadratic_stiffness_nm_per_rad2
-        return self.rest_angle_rad, 0.0, 1.0, 0.0
-
-    def stiffness(self, phi, K_inject: float):
-        """Tangent stiffness −∂τ_φ/∂φ [N m/rad] of the shell spring at pipe angle ``phi``."""
-        d = np.asarray(phi, dtype=float) - self.rest_angle_rad
-        _, A, B, Q = self.gains_tail()
-        return K_inject + A * B / np.cosh(B * d) ** 2 + 2.0 * Q * np.abs(d)
-
-    def as_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"form": self.form, "rest_angle_rad": self.rest_angle_rad}
-        for k in STEER_LAW_FORMS[self.form]:
-            out[k] = getattr(self, k)
-        return out
-
-
-def gravity_stiffness_free_pendulum(robot) -> float:
-    """Gravity's rocking stiffness at φ = 0 with the pendulum hanging free [N m/rad].
-
-    On flat ground the centre stays at height R; a pendulum free on the steer joint (axis through
-    the centre) hangs plumb and its weight passes through the contact point, so only the pitch
-    center's offset r_pc restores: K_g = m_pc r_pc g, and the moment is K_g sin φ. This is the least
-    gravity the robot can have, so it is the safe value for the stand-still check.
-    """
-    from sphere_env.models.rigid_body import GRAVITY_M_S2
-
-    return robot.m_pc * robot.r_pc * GRAVITY_M_S2
 
 
 @dataclass(frozen=True)
@@ -471,41 +355,6 @@ class BoundShell:
         """(K_inject [N m/rad], C_inject [N m s/rad]) at pressure p (eqs. 7–8)."""
         cal, r = self.calibration, self.robot
         return injected_gains(float(cal.omega_n(pressure_kpa)), float(cal.zeta(pressure_kpa)), r.M_eq, r.K_eq)
-
-    def law_scale_intervals(self) -> dict[str, tuple[float, float]]:
-        """The 95 % intervals of ``shell_stiffness_scale`` and ``shell_damping_scale`` (the
-        randomizable scales of the shell's springs and dampers, :mod:`sphere_env.params`) that the
-        calibration's own fit reports: its intervals of ω_n, ζ and the spring's amplitude or
-        quadratic stiffness, over windows where the fit has them (``steer_fit.models.injected.
-        ci95_over_windows``), else the fit's Jacobian ones (``provenance.injected_fit.ci95``),
-        mapped through eqs. 7-8 (K_inject = ω_n² M_eq − K_eq, C_inject = 2 M_eq ω_n ζ) at the fit's
-        own values. Empty when the calibration reports no interval."""
-        raw = self.calibration.raw or {}
-        fit = ((raw.get("steer_fit") or {}).get("models") or {}).get("injected") or {}
-        values, ci = fit.get("params"), fit.get("ci95_over_windows")
-        if not ci:
-            prov = (raw.get("provenance") or {}).get("injected_fit") or {}
-            values, ci = prov.get("values"), prov.get("ci95")
-        if not ci or not values:
-            return {}
-
-        def pick(d, *keys):
-            return next((d[k] for k in keys if k in d), None)
-
-        w, z = pick(values, "omega_n", "omega_n_rad_s"), pick(values, "zeta")
-        w_ci = pick(ci, "omega_n", "omega_n_rad_s") or (w, w)
-        z_ci = pick(ci, "zeta") or (z, z)
-        M, K_eq = self.robot.M_eq, self.robot.K_eq
-        K0, C0 = injected_gains(w, z, M, K_eq)
-        stiffness = [injected_gains(x, z, M, K_eq)[0] / K0 for x in w_ci]
-        for key in ("amplitude_stiffness_nm_per_rad", "quadratic_stiffness_nm_per_rad2"):
-            if key in ci and values.get(key):
-                stiffness += [x / values[key] for x in ci[key]]
-        damping = [injected_gains(x, y, M, K_eq)[1] / C0 for x, y in zip(w_ci, z_ci)]
-        return {
-            "shell_stiffness_scale": (float(min(stiffness)), float(max(stiffness))),
-            "shell_damping_scale": (float(min(damping)), float(max(damping))),
-        }
 
     def hydroelastic(self, pressure_kpa: float) -> tuple[float, float]:
         """(modulus [Pa], Hunt–Crossley dissipation [s/m]) at pressure p.

@@ -1,14 +1,14 @@
 """Joint friction and the shell couple as Drake systems evaluated in C++.
 
 The laws are the pure functions of :mod:`sphere_env.models` (friction laws, and the shell's
-:func:`~sphere_env.models.shell.injected_torques`), evaluated with Drake's symbolic math into
+:func:`~sphere_env.models.steer_law.injected_torques`), evaluated with Drake's symbolic math into
 ``SymbolicVectorSystem`` s. Drake then evaluates the expression trees in C++ at every plant step,
 which costs a few µs instead of the 25–70 µs of a Python ``LeafSystem``.
 
 The force system's input is the plant state [q; v] (for the injected couple on a floating base,
 the shell kinematics of the two stages before it, and the state entries the friction laws read).
 Its numeric parameter: :data:`GAIN_NAMES` — the shell law's numbers
-(:data:`~sphere_env.models.shell.LAW_GAIN_NAMES`: K_inject, C_steer, C_drive, φ_0, amplitude terms)
+(:data:`~sphere_env.models.steer_law.LAW_GAIN_NAMES`: K_inject, C_steer, C_drive, φ_0, amplitude terms)
 then the two friction scale factors, which the twin sets in the context when pressure or
 calibration change (``BoundShell.law_gains``).
 Output: generalized forces (size nv) for the plant's applied-generalized-force port."""
@@ -21,7 +21,7 @@ import numpy as np
 import pydrake.symbolic as sym
 from pydrake.symbolic import Expression, Variable, if_then_else
 
-from sphere_env.models.shell import LAW_GAIN_NAMES, injected_torques
+from sphere_env.models.steer_law import LAW_GAIN_NAMES, injected_torques
 
 COS_PHI_FLOOR = 1e-3
 #: C_spin [N m s/rad]: the soft shell's couple against spinning about the ground normal (``drive_law``).

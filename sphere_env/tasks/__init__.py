@@ -1,5 +1,12 @@
-"""Tasks: what an episode asks (command, observation layout, reward terms, termination), and
-the plain functions/data they use (observation assembly, rewards, termination, randomization).
+"""Tasks: what an episode asks, and the randomization that varies it.
+
+:class:`Task` objects (:class:`RampDescentTask`, :class:`RollTask`) hold an episode's command, the
+observation layout, the validated reward weights and the termination; they keep state across the
+steps of an episode (the command, the progress) and change their weights on request. The
+randomization is a frozen :class:`RandomizationSpec` and the stateful
+:class:`~sphere_env.tasks.events.EventManager` that draws its values at reset and applies its
+interval and schedule events during the episode. Reward terms, termination checks and observation
+assembly are pure functions the tasks call.
 
 Nothing here imports Drake; inputs are :class:`~sphere_env.physics.TwinState` snapshots (or
 anything with the same attributes) and plain numbers.

@@ -8,7 +8,8 @@ import yaml
 
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.sensitivity import decay_case, match_dissipation
-from sphere_env.models.shell import DEFAULT_CALIBRATION, ShellCalibration
+from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
+from sphere_env.models.shell import ShellCalibration
 
 
 @pytest.mark.slow

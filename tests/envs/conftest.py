@@ -1,8 +1,6 @@
 """Env test helpers."""
 
-import gymnasium as gym
 import numpy as np
-import pytest
 
 import sphere_env  # noqa: F401  (registers the ids)
 from sphere_env.models.shell import SHELL_MODELS  # noqa: F401  (imported by the env tests)
@@ -21,17 +19,3 @@ def rollout(env, n_steps, seed, action_seed=123, actions=None):
         if step[2] or step[3]:
             out.append(env.reset())
     return out
-
-
-@pytest.fixture
-def make():
-    envs = []
-
-    def _make(env_id, **kw):
-        env = gym.make(env_id, **kw)
-        envs.append(env)
-        return env
-
-    yield _make
-    for env in envs:
-        env.close()

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import sphere_env  # noqa: F401
+from sphere_env.models.calibration_files import law_scale_intervals
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import DEFAULT_URDF
@@ -74,7 +75,7 @@ def test_law_scale_intervals_follow_the_reported_fit_intervals():
     free = ShellCalibration.load("free_robot")
     fit = free.raw["steer_fit"]["models"]["injected"]
     z, (z_lo, z_hi) = fit["params"]["zeta"], fit["ci95_over_windows"]["zeta"]
-    got = free.bind(robot).law_scale_intervals()
+    got = law_scale_intervals(free, robot)
     # ω_n sits at its floor (its interval is one point): C_inject ∝ ζ alone
     assert got["shell_damping_scale"] == pytest.approx((z_lo / z, z_hi / z))
     k_a, (a_lo, a_hi) = (
@@ -82,7 +83,7 @@ def test_law_scale_intervals_follow_the_reported_fit_intervals():
         fit["ci95_over_windows"]["amplitude_stiffness_nm_per_rad"],
     )
     assert got["shell_stiffness_scale"] == pytest.approx((min(1.0, a_lo / k_a), max(1.0, a_hi / k_a)))
-    assert ShellCalibration.load("v0_linear").bind(robot).law_scale_intervals() == {}
+    assert law_scale_intervals(ShellCalibration.load("v0_linear"), robot) == {}
 
 
 def test_the_calibration_condition_draws_within_the_calibrations_intervals():
@@ -91,7 +92,7 @@ def test_the_calibration_condition_draws_within_the_calibrations_intervals():
     robot = RobotParameters.from_urdf(DEFAULT_URDF)
     spec = load_recipes()["study_calibration"]["env_kwargs"]["randomization"]
     for name in spec["calibration"]["values"]:
-        for scale, (lo, hi) in ShellCalibration.load(name).bind(robot).law_scale_intervals().items():
+        for scale, (lo, hi) in law_scale_intervals(ShellCalibration.load(name), robot).items():
             assert spec[scale][0] <= lo + 0.005 and spec[scale][1] >= hi - 0.005, (name, scale)
 
 

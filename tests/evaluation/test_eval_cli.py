@@ -11,6 +11,7 @@ from sphere_env.cli import parse_env_kwargs
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import train
+from tests.conftest import TINY_PPO
 
 GRID = [
     "--env",
@@ -43,24 +44,6 @@ class FailsLater:
         if self.calls > 1:
             raise RuntimeError("controller broke mid-episode")
         return np.zeros(2)
-
-
-@pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory):
-    cfg = resolve_config(
-        "sphere_env/RampDescent-v2",
-        "ppo",
-        overrides={
-            "n_envs": 1,
-            "n_steps": 32,
-            "batch_size": 32,
-            "n_epochs": 1,
-            "n_timesteps": 32,
-            "env_kwargs": {"shell_model": "point"},
-        },
-        eval_episodes=1,
-    )
-    return train(cfg, tmp_path_factory.mktemp("tiny") / "run", progress_bar=False)
 
 
 def _refused(capsys, argv, *needles):
@@ -127,37 +110,37 @@ def test_out_that_is_a_file_refused(tmp_path, capsys):
     assert f.read_text() == "keep"
 
 
-def test_truncated_model_refused(tiny_run, tmp_path, capsys):
+def test_truncated_model_refused(tiny_ppo_run, tmp_path, capsys):
     import shutil
 
     run = tmp_path / "run"
-    shutil.copytree(tiny_run, run)
+    shutil.copytree(tiny_ppo_run, run)
     data = (run / "model.zip").read_bytes()
     (run / "model.zip").write_bytes(data[: len(data) // 3])
     _refused(capsys, ["--controller", str(run), "--out", str(tmp_path / "o"), *GRID], "model.zip", "truncated")
     assert not (tmp_path / "o").exists()
 
 
-def test_missing_vecnormalize_refused(tiny_run, tmp_path, capsys):
+def test_missing_vecnormalize_refused(tiny_ppo_run, tmp_path, capsys):
     import shutil
 
     run = tmp_path / "run"
-    shutil.copytree(tiny_run, run)
+    shutil.copytree(tiny_ppo_run, run)
     (run / "vecnormalize.json").unlink()
     _refused(capsys, ["--controller", str(run), "--out", str(tmp_path / "o"), *GRID], "vecnormalize.json", "is missing")
     assert not (tmp_path / "o").exists()
 
 
-def test_policy_on_another_env_refused_unless_allowed(tiny_run, tmp_path, capsys):
+def test_policy_on_another_env_refused_unless_allowed(tiny_ppo_run, tmp_path, capsys):
     _refused(
         capsys,
-        ["--controller", str(tiny_run), *GRID, "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o")],
+        ["--controller", str(tiny_ppo_run), *GRID, "--env", "sphere_env/Roll-v1", "--out", str(tmp_path / "o")],
         "trained on 'sphere_env/RampDescent-v2'",
         "--allow-env-mismatch",
     )
     assert not (tmp_path / "o").exists()
     SweepSpec(
-        controllers=[str(tiny_run)],
+        controllers=[str(tiny_ppo_run)],
         env_id="sphere_env/RampDescent-v2",
         pressures_kpa=[8.5],
         shell_models=["point"],
@@ -217,10 +200,7 @@ def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baseli
         "sphere_env/RampDescent-v2",
         "ppo",
         overrides={
-            "n_envs": 1,
-            "n_steps": 32,
-            "batch_size": 32,
-            "n_epochs": 1,
+            **TINY_PPO,
             "n_timesteps": 32,
             "env_kwargs": {"shell_model": "point", "observe_tracking_state": True},
         },
@@ -240,20 +220,20 @@ def test_a_policy_with_its_own_observation_kwargs_is_evaluated_beside_the_baseli
     assert rows["pd"]["episodes"] == rows["ppo"]["episodes"] == 1
 
 
-def test_a_checkpoint_is_a_controller_spec(tiny_run):
+def test_a_checkpoint_is_a_controller_spec(tiny_ppo_run):
     """``<run>@<steps>`` loads the checkpoint the trainer wrote at that step count (here the final
     one, which is the final model), and a step count without a checkpoint is refused by name."""
     import numpy as np
 
     from sphere_env.evaluation.controller_specs import PolicyController, check_spec, run_folder
 
-    steps = sorted(int(p.stem.split("_")[-2]) for p in (tiny_run / "checkpoints").glob("rl_model_*_steps.zip"))[-1]
-    check_spec(f"{tiny_run}@{steps}", "sphere_env/RampDescent-v2")
-    ckpt, final = PolicyController(*run_folder(f"{tiny_run}@{steps}")), PolicyController(tiny_run)
+    steps = sorted(int(p.stem.split("_")[-2]) for p in (tiny_ppo_run / "checkpoints").glob("rl_model_*_steps.zip"))[-1]
+    check_spec(f"{tiny_ppo_run}@{steps}", "sphere_env/RampDescent-v2")
+    ckpt, final = PolicyController(*run_folder(f"{tiny_ppo_run}@{steps}")), PolicyController(tiny_ppo_run)
     obs = np.random.default_rng(0).normal(size=(5, ckpt.model.observation_space.shape[0])).astype(np.float32)
     for o in obs:
         np.testing.assert_array_equal(ckpt.act(o), final.act(o))
     with pytest.raises(ValueError, match="is missing"):
-        check_spec(f"{tiny_run}@999999", "sphere_env/RampDescent-v2")
+        check_spec(f"{tiny_ppo_run}@999999", "sphere_env/RampDescent-v2")
     with pytest.raises(ValueError, match="<run>@<checkpoint steps>"):
-        run_folder(f"{tiny_run}@latest")
+        run_folder(f"{tiny_ppo_run}@latest")

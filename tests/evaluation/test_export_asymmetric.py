@@ -14,6 +14,7 @@ import sphere_env  # noqa: F401
 from sphere_env.evaluation.export import export, run_exported
 from sphere_env.training.config import algo_class
 from sphere_env.training.saved import read_stats
+from tests.conftest import TINY_PPO
 
 
 @pytest.mark.parametrize("fmt", ["torchscript", "onnx"])
@@ -87,10 +88,7 @@ def test_an_actor_that_sees_the_pressure_exports_it_as_the_operators_reading(tmp
     from sphere_env.training.train import train
 
     over = {
-        "n_envs": 1,
-        "n_steps": 64,
-        "batch_size": 64,
-        "n_epochs": 1,
+        **TINY_PPO,
         "n_timesteps": 64,
         "n_workers": 1,
         "policy_kwargs": {"net_arch": [16], "privileged_dims": 3},

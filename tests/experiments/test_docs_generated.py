@@ -7,9 +7,9 @@ import shutil
 
 import pytest
 
+from sphere_env.evaluation.experiments import RESULTS
 from sphere_env.evaluation.experiments.docs import PAGES, ROOT, blocks, render_pages, render_text, stale_blocks
 from sphere_env.evaluation.experiments.docs.base import RENDERERS, DocsError, Results
-from sphere_env.evaluation.reporting import RESULTS
 
 
 @pytest.fixture(scope="module")
@@ -52,13 +52,13 @@ def test_changed_results_value_shows_in_its_block(tmp_path):
     point = next(r for r in bench["twin"] if r["case"] == "twin, point")
     point["rtf"] = 12.345
     (results / "benchmark.json").write_text(json.dumps(bench))
-    page = (ROOT / "README.md").read_text()
-    new = render_text(page, Results(results), page="README.md")
+    page = (ROOT / "docs/results/speed.md").read_text()
+    new = render_text(page, Results(results), page="docs/results/speed.md")
     old_table = dict(blocks(page))["speed_table"]
     new_table = dict(blocks(new))["speed_table"]
     assert "**12.3×** real time" in new_table and "**12.3×**" not in old_table
     assert "≥ 40× (missed)" in new_table
-    assert stale_blocks({"README.md": (page, new)}) == ["README.md: block speed_table"]
+    assert stale_blocks({"docs/results/speed.md": (page, new)}) == ["docs/results/speed.md: block speed_table"]
 
 
 def test_every_results_page_is_generated():

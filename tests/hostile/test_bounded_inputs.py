@@ -16,9 +16,9 @@ import yaml
 
 from sphere_env import safe_yaml
 from sphere_env.schemas import Schema, shown, validate
+from tests.conftest import TINY_PPO_PARAMS
 from tests.hostile.test_interfaces import (  # noqa: F401 - fixtures
     TINY,
-    TINY_PPO,
     _manifest,
     _refused,
     _write,
@@ -134,7 +134,7 @@ PEAK = textwrap.dedent(
     ids=["alias-bomb", "alias-bomb-within-bounds", "deep-yaml", "deep-literal"],
 )
 def test_a_refused_command_line_stays_under_1_gb(argv, field, tmp_path):
-    cmd = [sys.executable, "-c", PEAK, *argv, *TINY, "--params", *TINY_PPO, "--run-dir", str(tmp_path / "run")]
+    cmd = [sys.executable, "-c", PEAK, *argv, *TINY, "--params", *TINY_PPO_PARAMS, "--run-dir", str(tmp_path / "run")]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     errors = [line for line in proc.stderr.splitlines() if "error:" in line]
     assert proc.returncode == 2, proc.stderr[-3000:]
@@ -149,7 +149,7 @@ def test_a_refused_command_line_stays_under_1_gb(argv, field, tmp_path):
 def test_a_hyperparameter_file_with_an_alias_bomb_is_refused_naming_it(tmp_path, out, capsys):  # noqa: F811 - the fixture
     conf = _write(tmp_path / "bomb.yml", f"sphere_env/RampDescent-v0:\n  env_kwargs:\n    notes: {BOMB}\n")
     _refused(
-        ["train", *TINY, "-conf", str(conf), "--params", *TINY_PPO, "--run-dir", str(out / "r")],
+        ["train", *TINY, "-conf", str(conf), "--params", *TINY_PPO_PARAMS, "--run-dir", str(out / "r")],
         "bomb.yml",
         capsys,
         out,

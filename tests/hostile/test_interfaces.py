@@ -21,6 +21,7 @@ import yaml
 from sphere_env.cli import main as sphere_env_cli
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.resources import asset_path
+from tests.conftest import TINY_PPO_PARAMS
 
 pytestmark = pytest.mark.slow
 
@@ -37,7 +38,6 @@ def bad_shape_controller(obs, info=None):
 # ---- sphere-env train: (id, argv, field) -------------------------------------------------------------
 # Each runs with a tiny budget on the point shell (--params last: its values follow the tiny PPO ones).
 TINY = ["--n-timesteps", "10", "--no-progress", "--env-kwargs", "shell_model:'point'"]
-TINY_PPO = ["n_envs:1", "n_steps:32", "batch_size:32", "n_epochs:1"]
 TRAIN = [
     ("ent_coef-not-a-number", ["--params", "ent_coef:abc"], "hyperparams.ent_coef"),
     ("n_epochs-zero", ["--params", "n_epochs:0"], "hyperparams.n_epochs"),
@@ -164,14 +164,14 @@ CALIBRATE = [
 OUTPUTS = [
     (
         "train-tensorboard_log",
-        ["train", *TINY, "--params", *TINY_PPO, "-tb", f"{UNWRITABLE}/tb", "--run-dir", f"{OUT}/run"],
+        ["train", *TINY, "--params", *TINY_PPO_PARAMS, "-tb", f"{UNWRITABLE}/tb", "--run-dir", f"{OUT}/run"],
         "tensorboard_log",
     ),
-    ("train-log_folder", ["train", *TINY, "--params", *TINY_PPO, "-f", f"{UNWRITABLE}/runs"], "log_folder"),
-    ("train-run_dir", ["train", *TINY, "--params", *TINY_PPO, "--run-dir", f"{UNWRITABLE}/run"], "run_dir"),
+    ("train-log_folder", ["train", *TINY, "--params", *TINY_PPO_PARAMS, "-f", f"{UNWRITABLE}/runs"], "log_folder"),
+    ("train-run_dir", ["train", *TINY, "--params", *TINY_PPO_PARAMS, "--run-dir", f"{UNWRITABLE}/run"], "run_dir"),
     (
         "train-sweep-run_dir",
-        ["train", *TINY, "--params", *TINY_PPO, "--seeds", "0", "1", "--run-dir", f"{UNWRITABLE}/sweep"],
+        ["train", *TINY, "--params", *TINY_PPO_PARAMS, "--seeds", "0", "1", "--run-dir", f"{UNWRITABLE}/sweep"],
         "run_dir",
     ),
     ("evaluate-out", ["evaluate", *GRID, "--controller", "zero", "--out", f"{UNWRITABLE}/eval"], "out"),
@@ -320,7 +320,7 @@ def inputs(tmp_path_factory):
 def tiny_run(tmp_path_factory):
     """A run trained for ten steps by `sphere-env train`, and a copy whose model.zip is cut to a third."""
     d = tmp_path_factory.mktemp("hostile_runs")
-    assert sphere_env_cli(["train", *TINY, "--params", *TINY_PPO, "--run-dir", str(d / "run")]) == 0
+    assert sphere_env_cli(["train", *TINY, "--params", *TINY_PPO_PARAMS, "--run-dir", str(d / "run")]) == 0
     shutil.copytree(d / "run", d / "truncated_run")
     model = d / "truncated_run" / "model.zip"
     data = model.read_bytes()
@@ -386,7 +386,7 @@ def test_train_refuses(argv, field, inputs, out, capsys):
     own, extra = (
         (argv[: argv.index("--params")], argv[argv.index("--params") + 1 :]) if "--params" in argv else (argv, [])
     )
-    params = [*(TINY_PPO if algo == "ppo" else []), *extra]
+    params = [*(TINY_PPO_PARAMS if algo == "ppo" else []), *extra]
     # the tiny env kwargs first: a case's own --env-kwargs are merged over them
     full = [*TINY, *own, *(["--params", *params] if params else []), "--run-dir", str(out / "run")]
     _refused(["train", *_resolve(full, inputs)], field, capsys, out)

@@ -16,14 +16,13 @@ from sphere_env.training.curriculum import SuccessCurriculum
 from sphere_env.training.run_folder import latest_checkpoint
 from sphere_env.training.train import main, train
 from sphere_env.training.training_state import read, state_path
+from tests.conftest import TINY_PPO
 
 RAMP = "sphere_env/RampDescent-v0"
 # Two envs, short episodes (so each env plays several after the resume), pressures randomized.
 TINY_RUN = {
+    **TINY_PPO,
     "n_envs": 2,
-    "n_steps": 32,
-    "batch_size": 32,
-    "n_epochs": 1,
     "env_kwargs": {"shell_model": "point", "randomization": {"pressure_kpa": [3.0, 14.0]}},
     "env_wrapper": [{"gymnasium.wrappers.TimeLimit": {"max_episode_steps": 10}}],
 }

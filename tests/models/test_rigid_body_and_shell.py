@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 import yaml
 
+from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import DEFAULT_CALIBRATION, ShellCalibration, membrane_contact_volume_m3
+from sphere_env.models.shell import ShellCalibration, membrane_contact_volume_m3
 
 
 def test_equivalents_match_design_figures():

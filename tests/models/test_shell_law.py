@@ -7,9 +7,9 @@ import pytest
 import yaml
 
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import (
+from sphere_env.models.shell import ShellCalibration
+from sphere_env.models.steer_law import (
     PHI_REACH_RAD,
-    ShellCalibration,
     gravity_stiffness_free_pendulum,
     injected_gains,
     injected_torques,

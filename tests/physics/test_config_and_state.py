@@ -217,7 +217,7 @@ def test_meshcat_replay_is_self_contained_html(tmp_path):
 def test_hydroelastic_at_another_step_than_fitted_warns(caplog, tmp_path):
     import yaml
 
-    from sphere_env.models.shell import DEFAULT_CALIBRATION
+    from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 
     with caplog.at_level("WARNING", logger="sphere_env"):
         Twin(TwinConfig(shell_model="hydroelastic", time_step_s=0.002))

@@ -5,7 +5,7 @@ k_d against pressure (``k_d_by_pressure``) is applied on every pressure change."
 import pytest
 import yaml
 
-from sphere_env.models.shell import DEFAULT_CALIBRATION
+from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 from sphere_env.physics import InitialState
 
 

@@ -20,7 +20,7 @@ def _linear_law_calibration(tmp_path):
     exactly the locked-steer decay's frequency and damping (eqs. 7–8)."""
     import yaml
 
-    from sphere_env.models.shell import DEFAULT_CALIBRATION
+    from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 
     data = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
     data["steer_law"] = {"form": "linear", "rest_angle_rad": 0.0}
@@ -47,7 +47,7 @@ def test_injected_free_decay_follows_calibration_curves(make_twin, tmp_path):
 def test_hydroelastic_less_dissipation_less_damping(make_twin, tmp_path):
     import yaml
 
-    from sphere_env.models.shell import DEFAULT_CALIBRATION
+    from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 
     zetas = []
     for k_d in (0.5, 0.25):
@@ -68,7 +68,7 @@ def test_shipped_hydroelastic_mesh_is_converged(make_twin, tmp_path):
     depend on the mesh and would mask it)."""
     import yaml
 
-    from sphere_env.models.shell import DEFAULT_CALIBRATION
+    from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 
     data = yaml.safe_load(DEFAULT_CALIBRATION.read_text())
     data["hydroelastic"].update(couple_stiffness_factor=0.0, couple_damping_factor=0.0)

@@ -138,21 +138,30 @@ def test_a_pool_needs_one_worker_at_least():
     assert run_parallel(len, [{}, {"a": 1}], workers=1) == [0, 1]
 
 
-def _sleep_then_pid(job):
+def _pid_once_met(job):
+    """Job ``{"set": event}`` sets the event; job ``{"wait": event}`` holds its worker until the event
+    is set (at most a minute). Returns (the worker's pid, whether the wait was met)."""
     import os
-    import time
 
-    time.sleep(job["s"])
-    return os.getpid()
+    if "set" in job:
+        job["set"].set()
+    met = job["wait"].wait(timeout=60) if "wait" in job else True
+    return os.getpid(), met
 
 
 def test_long_jobs_go_one_at_a_time_to_whichever_worker_is_free():
-    """With ``chunksize=1`` the job after a long one starts on the other worker at once; with the
-    default chunks for many jobs it waits behind the long one in the same worker."""
+    """With ``chunksize=1`` the job after a long one starts on the other worker while the long one
+    still runs: job 0 holds its worker until job 1 has run. With the default chunks for many jobs,
+    job 1 shares job 0's chunk, so job 0's worker runs it too."""
+    import multiprocessing
+
     from sphere_env.parallel import run_parallel
 
-    jobs = [{"s": 3.0}] + [{"s": 0.01}] * 11  # 3 s: longer than a worker takes to start
-    one = run_parallel(_sleep_then_pid, jobs, workers=2, chunksize=1)
-    assert one[1] != one[0] and one.count(one[0]) == 1
-    chunked = run_parallel(_sleep_then_pid, jobs, workers=2)
-    assert chunked[1] == chunked[0]
+    with multiprocessing.get_context("spawn").Manager() as manager:
+        job1_ran = manager.Event()
+        jobs = [{"wait": job1_ran}, {"set": job1_ran}] + [{}] * 10
+        one = run_parallel(_pid_once_met, jobs, workers=2, chunksize=1)
+    assert one[0][1], "job 1 never ran while job 0 held its worker"
+    assert one[1][0] != one[0][0]
+    chunked = run_parallel(_pid_once_met, [{}] * 12, workers=2)
+    assert chunked[1][0] == chunked[0][0]

@@ -14,9 +14,10 @@ import yaml
 from sphere_env.schemas.training import check_section
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import latest_checkpoint, main, train
+from tests.conftest import TINY_PPO, TINY_PPO_PARAMS
 
 RAMP = "sphere_env/RampDescent-v0"
-TINY = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs": {"shell_model": "point"}}
+TINY = {**TINY_PPO, "env_kwargs": {"shell_model": "point"}}
 
 
 @pytest.mark.parametrize(
@@ -211,10 +212,7 @@ def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, cap
             "32",
             "--no-progress",
             "--hyperparams",
-            "n_envs:1",
-            "n_steps:32",
-            "batch_size:32",
-            "n_epochs:1",
+            *TINY_PPO_PARAMS,
             "--env-kwargs",
             "shell_model:'point'",
         ]

@@ -10,6 +10,7 @@ import pytest
 
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import main
+from tests.conftest import TINY_PPO_PARAMS
 
 TINY = [
     "--env",
@@ -20,10 +21,7 @@ TINY = [
     "-1",
     "--no-progress",
     "--hyperparams",
-    "n_envs:1",
-    "n_steps:32",
-    "batch_size:32",
-    "n_epochs:1",
+    *TINY_PPO_PARAMS,
 ]
 
 
@@ -99,10 +97,7 @@ def test_continuing_a_model_with_other_policy_kwargs_is_refused(tmp_path, capsys
                 "-i",
                 str(first / "model.zip"),
                 "--hyperparams",
-                "n_envs:1",
-                "n_steps:32",
-                "batch_size:32",
-                "n_epochs:1",
+                *TINY_PPO_PARAMS,
                 "policy_kwargs:dict(net_arch=[8, 8])",
             ]
         )

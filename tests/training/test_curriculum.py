@@ -15,6 +15,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from sphere_env.training.config import resolve_config
 from sphere_env.training.curriculum import SuccessCurriculum, allocate
 from sphere_env.training.train import train
+from tests.conftest import TINY_PPO
 
 RAMP = "sphere_env/RampDescent-v0"
 CURRICULUM = "sphere_env.training.curriculum.SuccessCurriculum"
@@ -48,10 +49,8 @@ def _later_episodes(tmp_path, env_kwargs, curriculum):
     """Train two envs for 256 steps with ``curriculum``; the logged training episodes after each
     env's first (which starts before training does)."""
     over = {
+        **TINY_PPO,
         "n_envs": 2,
-        "n_steps": 32,
-        "batch_size": 32,
-        "n_epochs": 1,
         "n_timesteps": 256,
         "env_kwargs": {"max_episode_steps": 10, **env_kwargs},
         "callback": [{CURRICULUM: curriculum}],
@@ -120,7 +119,7 @@ def test_the_cells_the_policy_fails_get_more_envs():
     ],
 )
 def test_a_curriculum_it_cannot_run_is_refused_by_name_before_training(tmp_path, kwargs, n_envs, needle):
-    over = {"n_envs": n_envs, "n_steps": 32, "batch_size": 32, "callback": [{CURRICULUM: kwargs}]}
+    over = {**TINY_PPO, "n_envs": n_envs, "callback": [{CURRICULUM: kwargs}]}
     with pytest.raises(ValueError, match="callback") as err:
         resolve_config(RAMP, "ppo", overrides=over, eval_freq=0)
     assert needle in str(err.value)
@@ -128,6 +127,6 @@ def test_a_curriculum_it_cannot_run_is_refused_by_name_before_training(tmp_path,
 
 
 def test_a_callback_that_is_not_one_is_refused_by_name():
-    over = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "callback": "sphere_env.wrappers.PDResidualAction"}
+    over = {**TINY_PPO, "callback": "sphere_env.wrappers.PDResidualAction"}
     with pytest.raises(ValueError, match="hyperparams.callback.*not a stable_baselines3 BaseCallback"):
         resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, build_env=False)

@@ -11,6 +11,7 @@ import time
 import pytest
 
 from sphere_env.training.train import latest_checkpoint, main
+from tests.conftest import TINY_PPO_PARAMS
 from tests.processes import as_from_a_terminal
 
 
@@ -31,10 +32,8 @@ def test_an_interrupted_training_is_saved_and_resumes(tmp_path, sig):
         "-1",
         "--no-progress",
         "--hyperparams",
+        *TINY_PPO_PARAMS,
         "n_envs:2",
-        "n_steps:64",
-        "batch_size:64",
-        "n_epochs:1",
     ]
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=as_from_a_terminal

@@ -13,6 +13,7 @@ import pytest
 import sphere_env  # noqa: F401
 from sphere_env.controllers import controller_for
 from sphere_env.wrappers import PDResidualAction
+from tests.conftest import TINY_PPO
 
 ENV = "sphere_env/RampDescent-v2"
 
@@ -117,10 +118,7 @@ def residual_run(tmp_path_factory):
         "ppo",
         hyperparams_path("ppo_residual"),
         overrides={
-            "n_envs": 1,
-            "n_steps": 64,
-            "batch_size": 64,
-            "n_epochs": 1,
+            **TINY_PPO,
             "n_timesteps": 128,
             "env_kwargs": {"shell_model": "point"},
         },

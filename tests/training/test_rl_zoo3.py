@@ -14,6 +14,7 @@ pytest.importorskip("rl_zoo3")
 
 from sphere_env.resources import hyperparams_path
 from sphere_env.training.train import load_config, main
+from tests.conftest import TINY_PPO_PARAMS
 
 RAMP = "sphere_env/RampDescent-v1"
 
@@ -41,10 +42,7 @@ def test_rl_zoo3_trains_with_the_shipped_yaml_and_this_trainer_continues_it(tmp_
         "--seed",
         "0",
         "-params",
-        "n_envs:1",
-        "n_steps:64",
-        "batch_size:64",
-        "n_epochs:1",
+        *TINY_PPO_PARAMS,
     ]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -66,10 +64,7 @@ def test_rl_zoo3_trains_with_the_shipped_yaml_and_this_trainer_continues_it(tmp_
             "--run-dir",
             str(tmp_path / "ours"),
             "--hyperparams",
-            "n_envs:1",
-            "n_steps:64",
-            "batch_size:64",
-            "n_epochs:1",
+            *TINY_PPO_PARAMS,
             "--no-progress",
         ]
     )
@@ -101,10 +96,7 @@ def test_rl_zoo3_trains_the_learning_recipe_with_its_asymmetric_policy(tmp_path)
         "--seed",
         "0",
         "-params",
-        "n_envs:1",
-        "n_steps:64",
-        "batch_size:64",
-        "n_epochs:1",
+        *TINY_PPO_PARAMS,
     ]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr[-2000:]

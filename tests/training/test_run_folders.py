@@ -9,16 +9,10 @@ import pytest
 
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import default_run_dir, run_lock, train
+from tests.conftest import TINY_PPO
 
 ENV = "sphere_env/RampDescent-v2"
-TINY = {
-    "n_envs": 1,
-    "n_steps": 32,
-    "batch_size": 32,
-    "n_epochs": 1,
-    "n_timesteps": 32,
-    "env_kwargs": {"shell_model": "point"},
-}
+TINY = {**TINY_PPO, "n_timesteps": 32, "env_kwargs": {"shell_model": "point"}}
 
 
 def test_default_run_folders_started_in_the_same_second_differ(tmp_path):

@@ -13,6 +13,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sphere_env.training.config import resolve_config
 from sphere_env.training.schedules import RewardSchedule
+from tests.conftest import TINY_PPO
 
 RAMP = "sphere_env/RampDescent-v3"
 SCHEDULE = "sphere_env.training.schedules.RewardSchedule"
@@ -65,7 +66,7 @@ def test_the_weights_change_at_the_given_step_and_not_before():
     ],
 )
 def test_a_schedule_it_cannot_run_is_refused_by_name_before_training(kwargs, needle):
-    over = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "callback": [{SCHEDULE: kwargs}]}
+    over = {**TINY_PPO, "callback": [{SCHEDULE: kwargs}]}
     with pytest.raises(ValueError, match="callback") as err:
         resolve_config(RAMP, "ppo", overrides=over, eval_freq=0)
     assert needle in str(err.value)

@@ -9,9 +9,10 @@ import pytest
 from sphere_env.training.config import resolve_config
 from sphere_env.training.sweep import aggregate_learning_curves, bootstrap_ci, run_sweep, trial_folders
 from sphere_env.training.train import main
+from tests.conftest import TINY_PPO
 
 RAMP = "sphere_env/RampDescent-v2"
-TINY = {"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 256}
+TINY = {**TINY_PPO, "n_timesteps": 256}
 
 
 def _configs(seeds=(0, 1)):

@@ -13,6 +13,7 @@ from sphere_env.resources import hyperparams_path
 from sphere_env.training import train as train_mod
 from sphere_env.training.config import resolve_config
 from sphere_env.training.train import latest_checkpoint, load_config, main, train
+from tests.conftest import TINY_PPO, TINY_PPO_PARAMS
 
 RAMP = "sphere_env/RampDescent-v0"
 IMPROVE_STEPS = int(__import__("os").environ.get("SPHERE_IMPROVE_STEPS", 16384))
@@ -322,7 +323,7 @@ def test_training_improves_evaluation_return(tmp_path):
     assert after > before + 0.1, (before, after)
 
 
-TINY1 = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1, "env_kwargs": {"shell_model": "point"}}
+TINY1 = {**TINY_PPO, "env_kwargs": {"shell_model": "point"}}
 
 
 @pytest.mark.slow
@@ -372,10 +373,7 @@ def test_trained_agent_continues_with_its_vecnormalize(tmp_path):
         "--env",
         RAMP,
         "--hyperparams",
-        "n_envs:1",
-        "n_steps:32",
-        "batch_size:32",
-        "n_epochs:1",
+        *TINY_PPO_PARAMS,
         "--env-kwargs",
         "shell_model:'point'",
         "--eval-freq",

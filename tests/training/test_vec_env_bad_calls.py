@@ -11,6 +11,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sphere_env.training.train import make_env
 from sphere_env.training.vec_env import BatchedSubprocVecEnv, SafeSubprocVecEnv, ThreadedVecEnv
+from tests.conftest import TINY_PPO
 
 KW = {"shell_model": "point", "randomization": {"pressure_kpa": {"distribution": "uniform"}}}
 
@@ -55,11 +56,9 @@ def test_training_with_one_process_per_env_runs_on_the_safe_layout(tmp_path):
     from sphere_env.training.train import make_vec_env, train
 
     over = {
+        **TINY_PPO,
         "n_envs": 2,
         "n_workers": None,
-        "n_steps": 32,
-        "batch_size": 32,
-        "n_epochs": 1,
         "n_timesteps": 64,
         "env_kwargs": {"shell_model": "point"},
     }

@@ -45,6 +45,7 @@ PAGES = (
     "docs/results/speed.md",
     "docs/results/training_speed.md",
     "docs/results/learning.md",
+    "docs/results/randomization.md",
     "docs/physics.md",
     "docs/calibration.md",
     "docs/envs.md",

@@ -12,7 +12,7 @@ from typing import Any
 import yaml
 
 from sphere_env import safe_yaml
-from sphere_env.evaluation.reporting import RESULTS
+from sphere_env.evaluation.experiments import RESULTS
 from sphere_env.reporting import markdown_table
 from sphere_env.resources import asset_path
 

@@ -14,8 +14,7 @@ from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.decay import PressureFit, calibration_dict
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.resources import asset_path
-
-from .conftest import write_manifest
+from tests.calibration.conftest import write_manifest
 
 BASE = yaml.safe_load(asset_path("calibration", "default.yaml").read_text())
 

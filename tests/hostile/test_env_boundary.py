@@ -13,8 +13,7 @@ import yaml
 
 from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M
 from sphere_env.resources import asset_path
-
-from .conftest import rollout
+from tests.envs.conftest import rollout
 
 ROLL, RAMP = "sphere_env/Roll-v0", "sphere_env/RampDescent-v0"
 ZERO = np.zeros(2, np.float32)

@@ -11,8 +11,7 @@ from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.logs import LogError, load_log, write_log_csv
 from sphere_env.calibration.manifest import load_manifest
-
-from .conftest import write_manifest
+from tests.calibration.conftest import write_manifest
 
 T = np.arange(101) * 0.02  # 2 s at 50 Hz
 THETA = 0.38 * np.exp(-0.4 * T) * np.cos(3.0 * T)  # a steer swing [rad]
