@@ -68,6 +68,7 @@ def run_parallel(
 
         it = tqdm(it, total=len(jobs))
     hook = threading.excepthook
+    manager = None  # the executor's manager thread, joined before the hook is restored
     try:
         return list(it)
     except BaseException:
@@ -77,6 +78,8 @@ def run_parallel(
             # traceback over the interrupt's one-line message. Nothing is lost: the job was cancelled.
             threading.excepthook = functools.partial(_unless_cancelled, hook)
             procs = list((getattr(pool, "_processes", None) or {}).values())  # no public terminate before 3.14
+            # shutdown(wait=False) forgets the manager thread, so a later shutdown() would not join it
+            manager = getattr(pool, "_executor_manager_thread", None)
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in procs:
                 proc.terminate()
@@ -85,7 +88,9 @@ def run_parallel(
         raise
     finally:
         if n > 1 and len(jobs) > 1:
-            pool.shutdown()  # joins the manager thread, so the hook below is no longer needed
+            pool.shutdown()  # joins the manager thread unless a stop above already let it go
+            if manager is not None:
+                manager.join(10)
             threading.excepthook = hook
 
 
