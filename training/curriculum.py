@@ -21,6 +21,13 @@ already wins get few envs, cells it fails get many. With fewer envs than cells (
 small machine) each env's cell is drawn after every rollout, distinct cells with the shares as
 probabilities, from a generator seeded with the model's seed, so every cell still takes turns.
 
+``widen_at_steps`` and ``widen_randomization`` make the curriculum staged: from the first rollout
+at or after ``widen_at_steps`` environment steps, the spec every cell is built on also draws the
+entries of ``widen_randomization`` (``with_entries`` of the env's spec: joint friction, the
+calibration, the shell law's scales, ...), so a run first learns the task on the nominal twin and
+then where the twin is unsure. A resumed run past the step starts widened. The cells and their
+success counts carry over the change.
+
 Why: under the uniform pressure draw, the better policies of the learning study won the injected
 shell at 7–14 kPa in 83–100 % of their training episodes and at 3–5 kPa in 49–70 % (the
 condition the grid evaluates at 3 kPa), while about a third of all episodes went to cells already
@@ -38,7 +45,7 @@ from collections import deque
 from typing import Annotated, Any, Sequence
 
 import numpy as np
-from pydantic import AfterValidator, Field
+from pydantic import AfterValidator, Field, model_validator
 from stable_baselines3.common.callbacks import BaseCallback
 
 from sphere_env.params import SHELL_MODELS
@@ -77,6 +84,21 @@ class CurriculumArgs(Schema):
     ] = ["injected", "point"]
     window_episodes: count(1, 100_000) = 100
     min_share: number(ge=0.0, le=1.0) = 0.02
+    widen_at_steps: number(ge=0.0, le=1e12) | None = None
+    widen_randomization: dict[str, Any] | None = Field(
+        default=None,
+        json_schema_extra=allowed("null or a non-empty mapping parameter -> randomization entry"),
+        min_length=1,
+    )
+
+    @model_validator(mode="after")
+    def _both_or_neither(self) -> "CurriculumArgs":
+        if (self.widen_at_steps is None) != (self.widen_randomization is None):
+            raise ValueError(
+                "widen_at_steps and widen_randomization: give both (a staged curriculum) or neither, "
+                f"got widen_at_steps={self.widen_at_steps!r}, widen_randomization={self.widen_randomization!r}"
+            )
+        return self
 
 
 def allocate(
@@ -115,6 +137,8 @@ class SuccessCurriculum(BaseCallback):
         shell_models: Sequence[str] = ("injected", "point"),
         window_episodes: int = 100,
         min_share: float = 0.02,
+        widen_at_steps: float | None = None,
+        widen_randomization: dict[str, Any] | None = None,
         verbose: int = 0,
     ):
         super().__init__(verbose)
@@ -125,6 +149,8 @@ class SuccessCurriculum(BaseCallback):
                 "shell_models": list(shell_models),
                 "window_episodes": window_episodes,
                 "min_share": min_share,
+                "widen_at_steps": widen_at_steps,
+                "widen_randomization": widen_randomization,
             },
             "callback SuccessCurriculum",
         )
@@ -132,6 +158,9 @@ class SuccessCurriculum(BaseCallback):
         self.shell_models = list(args.shell_models)
         self.window_episodes = args.window_episodes
         self.min_share = args.min_share
+        self.widen_at_steps = None if args.widen_at_steps is None else int(args.widen_at_steps)
+        self.widen_randomization = args.widen_randomization
+        self.widened = False
         #: the cells, (shell model, low kPa, high kPa), in a fixed order; (shell model, None, None)
         #: without pressure bins
         bins = [(None, None)] if self.edges is None else list(zip(self.edges, self.edges[1:]))
@@ -147,11 +176,18 @@ class SuccessCurriculum(BaseCallback):
         """Refuse, before training, a cell the env's randomization refuses (a pressure outside the
         calibration's range, a shell model the env cannot build); ``ValueError`` naming the field."""
         base = env.randomization
-        for cell in self.cells:
+        bases = [base]
+        if self.widen_randomization is not None:
             try:
-                env.set_randomization(self.spec(base, cell))
+                bases.append(base.with_entries(self.widen_randomization))
             except ValueError as err:
-                raise ValueError(f"callback SuccessCurriculum: cell {cell}: {err}") from None
+                raise ValueError(f"callback SuccessCurriculum: widen_randomization: {err}") from None
+        for spec_base in bases:
+            for cell in self.cells:
+                try:
+                    env.set_randomization(self.spec(spec_base, cell))
+                except ValueError as err:
+                    raise ValueError(f"callback SuccessCurriculum: cell {cell}: {err}") from None
         env.set_randomization(base)
 
     @staticmethod
@@ -169,7 +205,17 @@ class SuccessCurriculum(BaseCallback):
         """Each cell's recent training success, (successes + 1) / (episodes + 2)."""
         return [(sum(o) + 1.0) / (len(o) + 2.0) for o in self.outcomes]
 
+    def _widen_when_due(self) -> None:
+        """From ``widen_at_steps`` on, build every cell on the widened spec (module docstring)."""
+        if self.widened or self.widen_at_steps is None or self.num_timesteps < self.widen_at_steps:
+            return
+        self._base = self._base.with_entries(self.widen_randomization)
+        self.widened = True
+        self._assigned = []  # every env takes its cell's widened spec from its next episode on
+        self.logger.record("curriculum/widened_at_steps", self.num_timesteps)
+
     def _allocate(self) -> None:
+        self._widen_when_due()
         n = self.training_env.num_envs
         counts = allocate([1.0 - s for s in self.success()], n, self.min_share, self._rng)
         self._assign(self.training_env, [c for c, k in enumerate(counts) for _ in range(k)])
@@ -190,6 +236,8 @@ class SuccessCurriculum(BaseCallback):
     def _on_training_start(self) -> None:
         if self._resumed and self._assigned:  # load_state_dict gave the envs their cells before their first episode
             self._current = list(self._assigned)
+            if self.widen_at_steps is not None and not self.widened and self.num_timesteps >= self.widen_at_steps:
+                self._allocate()  # resumed past the widening: the envs take the widened cells now
             self._log()
             return
         if self._resumed:  # saved before any allocation: allocate now, with the saved generator

@@ -4,6 +4,7 @@ cells the policy fails more envs, and a set-up it cannot run is refused by name 
 from __future__ import annotations
 
 import csv
+import json
 
 import gymnasium as gym
 import numpy as np
@@ -45,20 +46,24 @@ def test_with_fewer_envs_than_cells_the_cells_are_drawn_by_weight_and_seed():
         allocate([1.0, 1.0, 1.0], 2, 0.0)
 
 
-def _later_episodes(tmp_path, env_kwargs, curriculum):
-    """Train two envs for 256 steps with ``curriculum``; the logged training episodes after each
-    env's first (which starts before training does)."""
+def _episodes(tmp_path, env_kwargs, curriculum, n_timesteps=256):
+    """Train two envs for ``n_timesteps`` steps with ``curriculum``; the logged training episodes."""
     over = {
         **TINY_PPO,
         "n_envs": 2,
-        "n_timesteps": 256,
+        "n_timesteps": n_timesteps,
         "env_kwargs": {"max_episode_steps": 10, **env_kwargs},
         "callback": [{CURRICULUM: curriculum}],
     }
     cfg = resolve_config(RAMP, "ppo", overrides=over, eval_freq=0, checkpoint_freq=0)
     run = train(cfg, tmp_path / "run", progress_bar=False)
     with open(run / "learning_curve_train.csv") as f:
-        rows = list(csv.DictReader(f))
+        return list(csv.DictReader(f))
+
+
+def _later_episodes(tmp_path, env_kwargs, curriculum):
+    """:func:`_episodes` after each env's first (which starts before training does)."""
+    rows = _episodes(tmp_path, env_kwargs, curriculum)
     later = [r for rank in ("0", "1") for r in [r for r in rows if r["env"] == rank][1:]]
     assert len(later) >= 20
     return later
@@ -85,6 +90,28 @@ def test_without_pressure_bins_the_cells_are_the_shells_and_the_pressure_stays_t
     assert {r["shell_model"] for r in later} == {"injected", "point"}
     nominal = gym.make(RAMP).unwrapped.parameter_space.nominal("pressure_kpa")
     assert all(float(r["pressure_kpa"]) == pytest.approx(nominal, abs=1e-3) for r in later)
+
+
+def test_a_staged_curriculum_widens_the_draws_at_its_step(tmp_path):
+    """Widened at 128 of 384 steps (two envs, rollouts of 2 × 32 steps, episodes of 10): the
+    episodes that end by 128 steps run the nominal drive friction; those that start after the first
+    rollout past 128 steps draw it over [0.5, 1.5], and the cells still fix shell and pressure."""
+    rows = _episodes(
+        tmp_path,
+        {},
+        {
+            "pressure_edges_kpa": [3.0, 5.0],
+            "shell_models": ["injected"],
+            "widen_at_steps": 128,
+            "widen_randomization": {"drive_friction_scale": [0.5, 1.5]},
+        },
+        n_timesteps=384,
+    )
+    friction = [(int(r["timesteps"]), json.loads(r["params"])["drive_friction_scale"]) for r in rows]
+    assert all(f == 1.0 for t, f in friction if t <= 128)
+    late = [f for t, f in friction if t > 128 + 64 + 2 * 10]  # a rollout late, each env's episode after
+    assert len(late) >= 8 and all(0.5 <= f <= 1.5 for f in late) and len(set(late)) == len(late)
+    assert all(r["shell_model"] == "injected" for r in rows if int(r["timesteps"]) > 128 + 64 + 20)
 
 
 def test_the_cells_the_policy_fails_get_more_envs():
@@ -116,6 +143,13 @@ def test_the_cells_the_policy_fails_get_more_envs():
         ({"pressure_edges_kpa": [5.0]}, 4, "field 'pressure_edges_kpa'"),
         ({"pressure_edges_kpa": [3.0, 5.0], "shell_models": ["soft"]}, 4, "field 'shell_models[0]'"),
         ({"pressure_edges_kpa": [3.0, 5.0], "window": 10}, 4, "window"),
+        ({"widen_at_steps": 100}, 4, "widen_at_steps and widen_randomization"),
+        ({"widen_at_steps": 100, "widen_randomization": {"drive_friction": [0.5, 1.5]}}, 4, "widen_randomization"),
+        (
+            {"widen_at_steps": 100, "widen_randomization": {"drive_friction_scale": [1.5, 0.5]}},
+            4,
+            "widen_randomization",
+        ),
     ],
 )
 def test_a_curriculum_it_cannot_run_is_refused_by_name_before_training(tmp_path, kwargs, n_envs, needle):
