@@ -30,10 +30,10 @@ from sphere_env import safe_yaml
 from sphere_env.files import folder_lock, write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.schemas import shown, validate
-from sphere_env.schemas.training import RunConfigFile
 from sphere_env.training import training_state
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
 from sphere_env.training.saved import load_model, read_stats, stats_path
+from sphere_env.training.schemas import RunConfigFile
 
 RUNS = Path("runs")
 CHECKPOINT_PREFIX = "rl_model"

@@ -38,10 +38,11 @@ from sphere_env.calibration.commands import (
     cmd_validate,
 )
 from sphere_env.cli import renamed
+from sphere_env.files import OutputFile, OutputFolder
 from sphere_env.models.shell import STEER_LAW_FORMS
+from sphere_env.physics.config import parameter
 from sphere_env.resources import asset_path
-from sphere_env.schemas import Finite, OutputFile, OutputFolder, checker, cli_type, count, number
-from sphere_env.schemas.twin import parameter
+from sphere_env.schemas import Finite, checker, cli_type, count, number
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
 # argparse types of the numeric flags: bounded, refused with argparse's one-line error (exit 2)

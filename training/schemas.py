@@ -28,7 +28,8 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
 
-from sphere_env.schemas import Finite, OutputFolder, Schema, _integral, allowed, count, number, validate
+from sphere_env.files import OutputFolder
+from sphere_env.schemas import Finite, Schema, _integral, allowed, count, number, validate
 
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
 SPECIAL_KEYS = (

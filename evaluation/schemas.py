@@ -21,9 +21,9 @@ from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, ValidationError, field_validator, model_validator
 
-from sphere_env.files import file_stem
+from sphere_env.files import InputFile, OutputFolder, file_stem
 from sphere_env.params import SHELL_MODELS, SHIPPED_CALIBRATIONS
-from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, shown, validate
+from sphere_env.schemas import Finite, Schema, allowed, count, number, shown, validate
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
 GRID_KWARGS = {
@@ -321,7 +321,7 @@ class SweepFields(Loaded):
             cal = ShellCalibration.load(cal_name)
             for i, p in enumerate(self.pressures_kpa):
                 cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
-        from sphere_env.schemas.env import check_episode_length
+        from sphere_env.envs.kwargs import check_episode_length
 
         check_episode_length(self.env_id, self.env_kwargs)
         return self
