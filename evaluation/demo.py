@@ -35,7 +35,7 @@ import shutil
 import time
 from pathlib import Path
 
-from sphere_env.evaluation.schemas import DemoOptions
+from sphere_env.evaluation.command_options import DemoOptions
 from sphere_env.files import write_text_atomic
 from sphere_env.schemas import validate
 

@@ -61,19 +61,17 @@ import yaml
 from sphere_env import safe_yaml
 from sphere_env.envs.kwargs import check_episode_length
 from sphere_env.resources import hyperparams_path
+from sphere_env.training.run_options import check_algo, check_run_options
 from sphere_env.training.schemas import (
     MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
     MAX_N_ENVS,  # noqa: F401
     MAX_N_TIMESTEPS,  # noqa: F401
     SECTIONS,
     SPECIAL_KEYS,
-    activation_class_name,
-    check_algo,
-    check_run_options,
     check_section,
-    lin_value,
     wrapper_class,
 )
+from sphere_env.training.zoo_forms import activation_class_name, lin_value
 
 ALGOS = tuple(SECTIONS)
 MONITOR_KEYWORDS = ("pressure_kpa", "shell_model", "is_success")

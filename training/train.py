@@ -64,7 +64,7 @@ from sphere_env.training.run_folder import (
     load_config,
     run_lock,
 )
-from sphere_env.training.schemas import RunFolders, check_sweep_options
+from sphere_env.training.run_options import RunFolders, check_sweep_options
 from sphere_env.training.session import TrainingInterrupted, unchecked_distributions
 from sphere_env.training.trainer import train
 

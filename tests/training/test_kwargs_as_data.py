@@ -7,7 +7,7 @@ import pytest
 import torch.nn as nn
 
 from sphere_env.training.config import resolve_config
-from sphere_env.training.schemas import parse_dict_call
+from sphere_env.training.zoo_forms import parse_dict_call
 
 ENV = "sphere_env/RampDescent-v2"
 
