@@ -54,7 +54,7 @@ from pydantic import Field, PrivateAttr, ValidationInfo, create_model, model_val
 from sphere_env.params import PARAMETERS as REGISTRY
 from sphere_env.params import RANDOMIZABLE, Parameter, ParameterSpace
 from sphere_env.schemas import Schema, allowed, validate
-from sphere_env.tasks.terms import PressureSchedule, Term, _plain, parameter_field, term_words
+from sphere_env.tasks.terms import PressureSchedule, Term, parameter_field, plain, term_words
 
 #: The randomizable parameters' records (name, unit, nominal, bounds; :mod:`sphere_env.params`).
 #: Pressure bounds come from the shell calibration: a :class:`~sphere_env.params.ParameterSpace`
@@ -119,7 +119,7 @@ class RandomizationSpec(_ParameterTerms):
     def _over_the_preset(cls, data: Any, handler, info: ValidationInfo) -> "RandomizationSpec":
         """The preset's entries first, the mapping's over them (an entry keeps the preset's place:
         terms are drawn in this order); records that order."""
-        data = _plain(data)
+        data = plain(data)
         if isinstance(data, Mapping) and data.get("base", "off") in PRESETS:
             ramp = (info.context or {}).get("ramp", True)
             pressure = data.get("pressure_kpa")

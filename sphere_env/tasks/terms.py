@@ -85,7 +85,7 @@ def fixed_value(rec: Parameter) -> Any:
     gives it (a tuple, a numpy array or numpy numbers read as plain data), never a distribution."""
     return Annotated[
         _value(rec, _scalar(rec)),
-        BeforeValidator(_plain),
+        BeforeValidator(plain),
         Field(json_schema_extra=allowed(f"a fixed value: {_words(rec)}")),
     ]
 
@@ -162,7 +162,7 @@ class Distribution(Schema):
     def as_data(self) -> dict[str, Any]:
         """The mapping this distribution is written as: its kind and the fields it sets."""
         fields = {key: getattr(self, key, None) for keys in DISTRIBUTIONS.values() for key in keys}
-        return {"distribution": self.kind, **{k: _plain(v) for k, v in fields.items() if v is not None}}
+        return {"distribution": self.kind, **{k: plain(v) for k, v in fields.items() if v is not None}}
 
 
 class Term(Distribution):
@@ -365,13 +365,13 @@ class PressureSchedule(Schema):
         return {"rate_kpa_per_s": self.rate_kpa_per_s.as_data(), "delay_s": self.delay_s}
 
 
-def _plain(x: Any) -> Any:
+def plain(x: Any) -> Any:
     """Python containers and numpy values as the plain data the schema reads: tuples and arrays as
     lists, numpy scalars as Python numbers (a numpy bool stays a bool: not a number)."""
     if isinstance(x, Mapping):
-        return {k: _plain(v) for k, v in x.items()}
+        return {k: plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
+        return [plain(v) for v in x]
     if isinstance(x, (np.ndarray, np.generic)):
         return x.tolist()
     return x
