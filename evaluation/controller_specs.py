@@ -86,7 +86,7 @@ def model_files(folder: Path, which: str) -> tuple[Path, Path]:
 
 
 def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = False) -> None:
-    """Refuse a spec (of the form :class:`sphere_env.schemas.evaluation.ControllerSpec` admits) that
+    """Refuse a spec (of the form :class:`sphere_env.evaluation.schemas.ControllerSpec` admits) that
     cannot be resolved, in the main process before a sweep: a callable that does not import, a run
     folder whose model is missing or unreadable, or a policy trained on another env id than
     ``env_id`` (unless ``allow_env_mismatch``)."""

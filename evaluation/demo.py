@@ -35,9 +35,9 @@ import shutil
 import time
 from pathlib import Path
 
+from sphere_env.evaluation.command_options import DemoOptions
 from sphere_env.files import write_text_atomic
 from sphere_env.schemas import validate
-from sphere_env.schemas.evaluation import DemoOptions
 
 ENV_ID = "sphere_env/RampDescent-v3"
 #: The shipped calibrations the demo evaluates under besides the grid's own (``default``): those

@@ -17,7 +17,7 @@ fixed (default: the calibration's nominal pressure), episode ``k`` seeded with `
 through ``RecordVideo`` (the ``video`` extra), moved into place when every episode has finished.
 
 Refused before anything runs, with the field named: options the schema
-(:class:`sphere_env.schemas.evaluation.EnjoyFields`) refuses (a run that is not a folder, an unknown
+(:class:`sphere_env.evaluation.command_options.EnjoyFields`) refuses (a run that is not a folder, an unknown
 shell model or env id, a pressure that is not a finite number, episodes outside [1, 10000], a
 negative seed, env kwargs the command sets itself, a video folder that is a file); then a run folder
 without ``config.yaml``, without its model, or without the VecNormalize statistics it was trained
@@ -35,13 +35,13 @@ from pathlib import Path
 from typing import Any
 
 from sphere_env.cli import renamed
+from sphere_env.evaluation.command_options import EnjoyFields, ViewOptions
 from sphere_env.models.shell import SHELL_MODELS
 from sphere_env.schemas import validate
-from sphere_env.schemas.evaluation import EnjoyFields, ViewOptions
 
 
 class EnjoySpec(EnjoyFields):
-    """What to watch (fields and their checks: :class:`sphere_env.schemas.evaluation.EnjoyFields`).
+    """What to watch (fields and their checks: :class:`sphere_env.evaluation.command_options.EnjoyFields`).
     ``run`` is a run folder, optionally ``@best``; ``None`` fields take the run's own values (env id,
     shell model) or the calibration's nominal pressure [kPa]."""
 
@@ -49,9 +49,10 @@ class EnjoySpec(EnjoyFields):
         """Check the run folder against the options (ValueError naming the field) and return the
         resolved settings: ``folder``, ``which``, ``config``, ``env_id``, ``shell_model``,
         ``friction``, ``pressure_kpa``, ``env_kwargs``, ``label``."""
+        from sphere_env.envs.kwargs import check_episode_length
         from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, run_path
         from sphere_env.models.shell import ShellCalibration
-        from sphere_env.schemas.env import check_episode_length
+        from sphere_env.physics.config import DEFAULT_SHELL_MODEL
         from sphere_env.training.train import load_config
 
         path, _, which = self.run.partition("@")
@@ -65,7 +66,7 @@ class EnjoySpec(EnjoyFields):
             raise ValueError(str(err).replace("controller: ", "run: ", 1)) from None
         env_kwargs = {**env_kwargs_of(f"{folder}@{which}"), **self.env_kwargs}
         check_episode_length(env_id, env_kwargs)
-        shell = self.shell_model or cfg.env_kwargs.get("shell_model", "injected")
+        shell = self.shell_model or cfg.env_kwargs.get("shell_model", DEFAULT_SHELL_MODEL)
         cal = ShellCalibration.load(env_kwargs.get("calibration"))
         pressure = cal.nominal_pressure_kpa if self.pressure_kpa is None else self.pressure_kpa
         cal.check_pressure(pressure, "field 'pressure_kpa'")

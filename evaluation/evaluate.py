@@ -30,7 +30,7 @@ success vs each fault family's level) and ``replay_*.html`` (Meshcat).
 ``FOLDER/<controller>_<shell model>_<pressure>kPa_s<seed>.mp4`` through ``RecordVideo``
 (:mod:`sphere_env.evaluation.video`; the ``video`` extra); rendering leaves the episodes unchanged.
 Everything is validated first: the grid and the options are loaded through typed schemas
-(:mod:`sphere_env.schemas.evaluation`: unknown keys, wrong types and values out of range refused by
+(:mod:`sphere_env.evaluation.schemas`: unknown keys, wrong types and values out of range refused by
 field name), then the controllers are checked (model files load, the policy's training env id matches
 ``--env`` unless ``--allow-env-mismatch``, each controller returns 2 numbers); outputs
 are then written into a temporary folder beside ``--out`` and moved into place at the end, replacing
@@ -69,6 +69,7 @@ from sphere_env.evaluation.conditions import (
 )
 from sphere_env.evaluation.controller_specs import check_action, check_spec, env_kwargs_of, make_controller
 from sphere_env.evaluation.plots import plot_drive_velocity, plot_error_bars, plot_pme, plot_success_tracking
+from sphere_env.evaluation.schemas import EvaluateOptions, ReplayCell, SweepFields
 from sphere_env.evaluation.sweep_report import (
     aggregate,
     load_user_log,
@@ -82,14 +83,13 @@ from sphere_env.files import file_stem, staged_folder, swap_folder
 from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
 from sphere_env.parallel import default_workers
 from sphere_env.schemas import allowed, checker, validate
-from sphere_env.schemas.evaluation import EvaluateOptions, ReplayCell, SweepFields
 
 #: What a sweep writes into ``out`` (replaced as a whole when ``out`` is reused).
 OUTPUT_NAMES = ("episodes.csv", "traces.npz", "pme.csv", "report.md", "plots")
 
 
 class SweepSpec(SweepFields):
-    """A grid to evaluate (fields and their checks: :class:`sphere_env.schemas.evaluation.SweepFields`).
+    """A grid to evaluate (fields and their checks: :class:`sphere_env.evaluation.schemas.SweepFields`).
     Pressures in kPa; ``controllers`` are ``label=spec`` texts or ``{label, spec}`` mappings
     (:mod:`sphere_env.evaluation.controller_specs`)."""
 
@@ -189,7 +189,7 @@ def evaluate(
 ) -> dict[str, Any]:
     """Run the sweep and write CSV, traces, report, plots and replays into ``out``, and with
     ``video`` one MP4 per episode into that folder (moved into place when the sweep succeeded).
-    The options are loaded as :class:`~sphere_env.schemas.evaluation.EvaluateOptions` and the
+    The options are loaded as :class:`~sphere_env.evaluation.schemas.EvaluateOptions` and the
     controllers checked (:meth:`SweepSpec.check`) before anything runs.
 
     :returns: dict with ``rows`` (every episode, each naming its ``condition``), ``conditions``

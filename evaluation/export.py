@@ -50,9 +50,10 @@ from typing import Any
 
 import numpy as np
 
+from sphere_env.evaluation.command_options import ExportOptions
+from sphere_env.evaluation.schemas import EXPORT_FORMATS
 from sphere_env.files import folder_lock, swap_folder
 from sphere_env.schemas import validate
-from sphere_env.schemas.evaluation import EXPORT_FORMATS, ExportOptions
 from sphere_env.tasks.sensors import FROM_OPERATOR, FROM_SENSORS
 
 ONNX_PACKAGES = ("onnx", "onnxscript", "onnxruntime")
@@ -261,7 +262,7 @@ def export(
     allow_env_mismatch: bool = False,
 ) -> dict[str, Path]:
     """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``.
-    The options are loaded as :class:`~sphere_env.schemas.evaluation.ExportOptions` first."""
+    The options are loaded as :class:`~sphere_env.evaluation.command_options.ExportOptions` first."""
     import gymnasium as gym
     import torch
 

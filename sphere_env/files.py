@@ -1,5 +1,7 @@
 """Writing output files so that a failure never leaves one half-written: file names made from
-labels, temporary names beside an output, staged folders and the lock of a folder being written."""
+labels, temporary names beside an output, staged folders and the lock of a folder being written;
+and the schema field types of a file or folder given as an input (:data:`OutputFolder`,
+:data:`OutputFile`, :data:`InputFile`), refused before anything runs when it could not be written."""
 
 from __future__ import annotations
 
@@ -12,7 +14,11 @@ import secrets
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Annotated, Any, Callable, Iterator
+
+from pydantic import AfterValidator, BeforeValidator, Field
+
+from sphere_env.schemas import allowed, shown
 
 #: What a file name made from a label keeps; every other character becomes ``-``.
 _UNSAFE = re.compile(r"[^A-Za-z0-9.@_-]")
@@ -93,8 +99,6 @@ def folder_lock(folder: str | Path, field: str, hint: str, create: bool = True, 
         except BlockingIOError:
             holder = _holder(fd)
             os.close(fd)
-            from sphere_env.schemas import shown
-
             raise ValueError(
                 f"{field}: {shown(str(folder))} is in use by another process (pid {holder} holds its "
                 f"{LOCK_FILE}); {hint}"
@@ -204,3 +208,60 @@ def swap_folder(work: Path, out: Path, produced: Callable[[str], bool]) -> None:
     out.rename(old)
     work.rename(out)
     shutil.rmtree(old, ignore_errors=True)
+
+
+# ---- files and folders as schema fields ---------------------------------------------------------
+def _as_path(value: Any) -> Any:
+    return Path(value) if isinstance(value, str) and value else value
+
+
+def writable_location(path: Path) -> None:
+    """Refuse ``path`` as an output when it could not be written: a parent is a file, or the
+    nearest existing folder above it does not take a new entry (read-only, ``/proc``, no
+    permission). The check creates a temporary folder there and removes it at once, so an output
+    that cannot be written is refused before anything runs, and nothing is left behind."""
+    existing = path
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise ValueError(f"{str(existing)!r} is a file")
+    try:
+        Path(tempfile.mkdtemp(prefix=".write-probe-", dir=existing)).rmdir()
+    except OSError as err:
+        raise ValueError(f"cannot write in {str(existing)!r} ({err.strerror or err})") from None
+
+
+def _output_folder(folder: Path) -> Path:
+    writable_location(folder)
+    return folder
+
+
+def _output_file(file: Path) -> Path:
+    if file.is_dir():
+        raise ValueError("is a folder; give a file name")
+    writable_location(file.parent if str(file.parent) else Path("."))
+    return file
+
+
+#: A folder to write into: created when missing; no parent a file, and writable where it will be made.
+OutputFolder = Annotated[
+    Path,
+    BeforeValidator(_as_path),
+    AfterValidator(_output_folder),
+    Field(
+        json_schema_extra=allowed(
+            "a folder path (created when missing) in a writable place, none of its parents a file"
+        )
+    ),
+]
+#: A file to write: not a folder, in a writable folder (created when missing), no parent a file.
+OutputFile = Annotated[
+    Path,
+    BeforeValidator(_as_path),
+    AfterValidator(_output_file),
+    Field(json_schema_extra=allowed("a file path in a writable folder, none of its parents a file")),
+]
+#: A file to read (its contents are checked by the reader).
+InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]

@@ -141,20 +141,24 @@ class Parameter:
         return True
 
     @cached_property
-    def _type(self) -> TypeAdapter:
-        """The parameter's values as a strict type: a name of ``choices``, an integer, a finite number
-        or ``size`` of them, within the bounds (a bool or a string is never a number)."""
+    def value_type(self) -> Any:
+        """The type of one value, as a schema field's annotation: a name of ``choices``, an integer, a
+        finite number or ``size`` of them, within the bounds (a bool or a string is never a number);
+        error messages quote :attr:`allowed`."""
         if self.choices:
-            return TypeAdapter(Literal[self.choices], config={"strict": True})
+            return Literal[self.choices]
         bounds = {("gt" if self.low_open else "ge"): self.low, ("lt" if self.high_open else "le"): self.high}
         bounds = {k: v for k, v in bounds.items() if v is not None}
         if self.integer:
             item = count(int(bounds.get("ge", 0)), None if "le" not in bounds else int(bounds["le"]))
         else:
             item = number(**bounds, words=self.allowed)
-        return TypeAdapter(
-            item if self.size == 1 else fixed_tuple(item, self.size, self.allowed), config={"strict": True}
-        )
+        return item if self.size == 1 else fixed_tuple(item, self.size, self.allowed)
+
+    @cached_property
+    def _type(self) -> TypeAdapter:
+        """:attr:`value_type`, strict."""
+        return TypeAdapter(self.value_type, config={"strict": True})
 
     def check(self, value: Any, field: str | None = None):
         """``value`` as a float (an int for an integer parameter, a tuple of ``size`` floats for a

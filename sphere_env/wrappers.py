@@ -26,8 +26,8 @@ import gymnasium as gym
 import numpy as np
 from pydantic import Field
 
+from sphere_env.envs.kwargs import ResidualKwargs, ShellModelMixtureKwargs
 from sphere_env.schemas import allowed, checker, validate
-from sphere_env.schemas.env import ResidualKwargs, ShellModelMixtureKwargs
 
 
 class ResidualCombiner:

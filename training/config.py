@@ -3,7 +3,7 @@
 Everything that can be wrong with a configuration (algorithm, env id, device, hyperparameter
 names and values, env kwargs, randomization ranges) is refused here, in the main process, before
 any worker starts, with a ``ValueError`` whose message begins with the offending field. The inputs
-load through the typed schemas of :mod:`sphere_env.schemas.training` (a section, the trainer's own
+load through the typed schemas of :mod:`sphere_env.training.schemas` (a section, the trainer's own
 options); env kwargs and randomization are checked by the env itself, built once in-process.
 
 A hyperparameter file is an rl-zoo3 file: it maps env ids to mappings of SB3 constructor
@@ -59,21 +59,19 @@ from typing import Any, Callable, Mapping, Sequence
 import yaml
 
 from sphere_env import safe_yaml
+from sphere_env.envs.kwargs import check_episode_length
 from sphere_env.resources import hyperparams_path
-from sphere_env.schemas.env import check_episode_length
-from sphere_env.schemas.training import (
+from sphere_env.training.run_options import check_algo, check_run_options
+from sphere_env.training.schemas import (
     MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
     MAX_N_ENVS,  # noqa: F401
     MAX_N_TIMESTEPS,  # noqa: F401
     SECTIONS,
     SPECIAL_KEYS,
-    activation_class_name,
-    check_algo,
-    check_run_options,
     check_section,
-    lin_value,
     wrapper_class,
 )
+from sphere_env.training.zoo_forms import activation_class_name, lin_value
 
 ALGOS = tuple(SECTIONS)
 MONITOR_KEYWORDS = ("pressure_kpa", "shell_model", "is_success")
@@ -178,7 +176,7 @@ class TrainConfig:
 
 def load_section(path: str | Path, env_id: str) -> Any:
     """The section for ``env_id`` in a hyperparameter YAML file, as written (a mapping, else refused
-    by :func:`~sphere_env.schemas.training.check_section`)."""
+    by :func:`~sphere_env.training.schemas.check_section`)."""
     path = Path(path)
     try:
         data = safe_yaml.load_file(path)
@@ -423,7 +421,7 @@ def apply_env_wrappers(env: Any, env_wrapper: Sequence[Mapping[str, Mapping[str,
 def make_callbacks(cfg: TrainConfig) -> list[Any]:
     """The run's ``callback`` entries as callback objects; ``ValueError`` naming the field when a
     class refuses its kwargs."""
-    from sphere_env.schemas.training import callback_class
+    from sphere_env.training.schemas import callback_class
 
     out = []
     for item in cfg.callback:

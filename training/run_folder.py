@@ -30,9 +30,9 @@ from sphere_env import safe_yaml
 from sphere_env.files import folder_lock, write_text_atomic
 from sphere_env.provenance import software_versions
 from sphere_env.schemas import shown, validate
-from sphere_env.schemas.training import RunConfigFile
 from sphere_env.training import training_state
 from sphere_env.training.config import MONITOR_KEYWORDS, TrainConfig, plain_data
+from sphere_env.training.run_options import RunConfigFile
 from sphere_env.training.saved import load_model, read_stats, stats_path
 
 RUNS = Path("runs")
@@ -216,7 +216,7 @@ def write_config(
     cal = ShellCalibration.load(cfg.env_kwargs.get("calibration"))
     ramp = "Ramp" in cfg.env_id
     spec = RandomizationSpec.parse(cfg.randomization, ramp=ramp).resolved(cal.parameter_space())
-    data["randomization_resolved"] = plain_data(spec)
+    data["randomization_resolved"] = spec.as_data()  # the mapping form: it parses back to the spec
     data["seeds"] = {"seed": cfg.seed, "workers": cfg.worker_seeds, "eval": cfg.eval_seed}
     data["monitor_info_keywords"] = list(MONITOR_KEYWORDS)
     data["versions"] = software_versions()

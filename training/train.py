@@ -50,7 +50,6 @@ import numpy as np
 from sphere_env.cli import parse_env_kwargs, parse_key_values
 from sphere_env.parallel import sigterm_as_interrupt
 from sphere_env.schemas import validate
-from sphere_env.schemas.training import RunFolders, check_sweep_options
 from sphere_env.training.config import TrainConfig, resolve_config
 
 # The trainer's API, importable from here (the training jobs live in their own modules: the envs in
@@ -65,6 +64,7 @@ from sphere_env.training.run_folder import (
     load_config,
     run_lock,
 )
+from sphere_env.training.run_options import RunFolders, check_sweep_options
 from sphere_env.training.session import TrainingInterrupted, unchecked_distributions
 from sphere_env.training.trainer import train
 

@@ -18,7 +18,6 @@ single-env rate, 1 and all cores, interleaved).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import time
@@ -57,7 +56,7 @@ def time_twin_paired(config: TwinConfig, seconds: float, repeats: int) -> tuple[
     same 20 ms, alternating with the twin so both see the same load and the same contacts (the
     twin's state is set to itself as well, so both pay the same cache invalidation)."""
     twin = Twin(config)
-    bare = Twin(dataclasses.replace(config, bare_plant=True))
+    bare = Twin(config.replace(bare_plant=True))
     n = int(round(seconds / CHUNK_S))
     best, t_twin, t_bare = float("inf"), 0.0, 0.0
     for _ in range(repeats):

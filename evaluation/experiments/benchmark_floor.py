@@ -128,19 +128,19 @@ def build_cases(shell_models: tuple[str, ...] = ("point", "hydroelastic")) -> tu
             _twin_case(
                 f"{m}/bare",
                 f"bare twin ({solver}; no friction or shell-law systems)",
-                dataclasses.replace(base, bare_plant=True, steer_friction="none", drive_friction="none"),
+                base.replace(bare_plant=True, steer_friction="none", drive_friction="none"),
             ),
             _twin_case(f"{m}/twin", f"full twin, {solver}", base),
-            _twin_case(f"{m}/twin_tamsi", "full twin, tamsi", dataclasses.replace(base, contact_approximation="tamsi")),
+            _twin_case(f"{m}/twin_tamsi", "full twin, tamsi", base.replace(contact_approximation="tamsi")),
         ]
         if m == "point":
-            injected = dataclasses.replace(base, shell_model="injected")
+            injected = base.replace(shell_model="injected")
             cases.append(_twin_case("injected/twin", "full twin, injected shell, sap", injected))
             cases.append(
                 _twin_case(
                     "injected/twin_tamsi",
                     "full twin, injected shell, tamsi",
-                    dataclasses.replace(injected, contact_approximation="tamsi"),
+                    injected.replace(contact_approximation="tamsi"),
                 )
             )
     return refs, cases

@@ -38,10 +38,11 @@ from sphere_env.calibration.commands import (
     cmd_validate,
 )
 from sphere_env.cli import renamed
+from sphere_env.files import OutputFile, OutputFolder
 from sphere_env.models.shell import STEER_LAW_FORMS
+from sphere_env.params import PARAMETERS
 from sphere_env.resources import asset_path
-from sphere_env.schemas import Finite, OutputFile, OutputFolder, checker, cli_type, count, number
-from sphere_env.schemas.twin import parameter
+from sphere_env.schemas import Finite, checker, cli_type, count, number
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
 # argparse types of the numeric flags: bounded, refused with argparse's one-line error (exit 2)
@@ -49,7 +50,7 @@ WORKERS = cli_type(count(1, 1024), int, "workers")
 STARTS = cli_type(count(1, 100), int, "starts")
 SEED = cli_type(count(0, 2**32 - 1), int, "seed")
 MAX_NFEV = cli_type(count(1, 100_000), int, "max_nfev")
-TIME_STEP_S = cli_type(parameter("time_step_s"), float, "time_step_s")
+TIME_STEP_S = cli_type(PARAMETERS["time_step_s"].value_type, float, "time_step_s")
 PRESSURE_KPA = cli_type(Finite, float, "pressure_kpa")  # against the calibration's range once it is loaded
 DURATION_S = cli_type(number(gt=0.0, le=600.0, words="a simulated time in (0, 600] s"), float, "duration_s")
 OUTPUT_FILE = checker(OutputFile)

@@ -24,6 +24,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 
 from sphere_env.envs.interface import action_layout, failed_info, read_action, step_info
+from sphere_env.envs.kwargs import RENDER_MODES, EnvKwargs
 from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
 from sphere_env.envs.twins import (
@@ -37,7 +38,6 @@ from sphere_env.envs.twins import (
 from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
-from sphere_env.schemas.env import RENDER_MODES, EnvKwargs
 from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
 from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
@@ -60,7 +60,7 @@ class SphereEnv(gym.Env, EzPickle):
     :param task: the :class:`~sphere_env.tasks.Task` (command, rewards, termination).
 
     Keyword arguments common to every sphere_env environment (``gym.make(id, **kwargs)``): the
-    fields of :class:`~sphere_env.schemas.env.EnvKwargs` (documented there), loaded through it
+    fields of :class:`~sphere_env.envs.kwargs.EnvKwargs` (documented there), loaded through it
     before anything is built, so a wrong name, type or value is a ``ValueError`` naming the kwarg.
 
     **Also refused at construction** (``ValueError`` naming the kwarg): joint friction and injected shell
@@ -277,7 +277,7 @@ class SphereEnv(gym.Env, EzPickle):
           for this episode; ``pressure_rate_kpa_per_s`` [kPa/s] for the schedule;
         * task command values (the task's ``command_options``, within the task's bounds).
 
-        The options load through the task's schema (:func:`~sphere_env.schemas.env.reset_options`):
+        The options load through the task's schema (:func:`~sphere_env.envs.kwargs.reset_options`):
         an unknown option, a string or a bool where a number belongs, a value out of range is a
         ``ValueError`` naming ``options.<name>``. Everything (seed, options, initial state, command
         values) is checked before anything changes: a reset that raises ``ValueError`` leaves the environment as it was (the running

@@ -1,8 +1,8 @@
 """Factories of the registered environments: each joins a task with the generic :class:`SphereEnv`.
 
 Gymnasium calls these with the kwargs of ``gym.make(id, **kwargs)``. They are loaded through the
-id's schema (:class:`~sphere_env.schemas.env.RampDescentEnvKwargs`,
-:class:`~sphere_env.schemas.env.RollEnvKwargs`: the environment's and the task's kwargs together),
+id's schema (:class:`~sphere_env.envs.kwargs.RampDescentEnvKwargs`,
+:class:`~sphere_env.envs.kwargs.RollEnvKwargs`: the environment's and the task's kwargs together),
 so an unknown name, a wrong type or value is refused before anything is built; then the task's own
 keyword arguments (documented with the spaces, rewards and episode end on the task class) go to the
 task, every other one to :class:`SphereEnv`.
@@ -13,8 +13,8 @@ from __future__ import annotations
 from typing import Any
 
 from sphere_env.envs.env import SphereEnv
+from sphere_env.envs.kwargs import RampDescentEnvKwargs, RollEnvKwargs
 from sphere_env.schemas import Schema, validate
-from sphere_env.schemas.env import RampDescentEnvKwargs, RollEnvKwargs
 from sphere_env.tasks.ramp_descent import RampDescentKwargs, RampDescentTask
 from sphere_env.tasks.roll import RollKwargs, RollTask
 

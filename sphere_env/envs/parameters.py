@@ -10,11 +10,11 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from sphere_env.envs.calibrations import EpisodeCalibrations
+from sphere_env.envs.kwargs import EnvKwargs, reset_options
 from sphere_env.envs.twins import quantize_incline
 from sphere_env.params import ENV_PARAMETERS, TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin
 from sphere_env.schemas import validate
-from sphere_env.schemas.env import EnvKwargs, reset_options
 from sphere_env.tasks.events import EventManager
 from sphere_env.tasks.randomization import PARAMETERS as RANDOMIZED
 from sphere_env.tasks.randomization import RandomizationSpec
@@ -75,20 +75,21 @@ class EnvParameters:
 
     def check_options(self, options: Any, twin: Twin) -> tuple[dict[str, Any], dict[str, Any], InitialState | None]:
         """Load the ``reset`` options through the task's options schema
-        (:func:`~sphere_env.schemas.env.reset_options`) and read the fixed parameter values;
+        (:func:`~sphere_env.envs.kwargs.reset_options`) and read the fixed parameter values;
         returns (the options given, fixed parameter values, initial state or None). Pure: raises
         ``ValueError`` naming the option before anything changes (friction scales that would
         diverge at ``twin``'s time step included)."""
         if options is None:
             return {}, {}, None
-        given = validate(self.options_schema, options, root="options").model_dump(exclude_unset=True)
+        loaded = validate(self.options_schema, options, root="options")
+        given = loaded.model_dump(exclude_unset=True)
         fixed: dict[str, Any] = {}
         for name, val in given.items():
             if name in RANDOMIZED:
-                # a fixed value (the options schema types it so); a pressure within the calibration's range
-                spec = RandomizationSpec.parse({name: val}, ramp=self.ramp, kwarg="options")
-                term = spec.resolved(self.space, kwarg="options").terms[0]
-                fixed[name] = term.distribution.value
+                # a fixed value (the options schema types it so); a pressure also within the calibration's range
+                if self.space[name].bounds_from is not None:
+                    self.space.check(name, val, f"options: field {name!r}")
+                fixed[name] = tuple(val) if isinstance(val, list) else val
             elif name == "pressure_rate_kpa_per_s":
                 fixed[name] = val
         if "steer_friction_scale" in fixed or "drive_friction_scale" in fixed:
@@ -97,5 +98,4 @@ class EnvParameters:
             )
             if problem:
                 raise ValueError(f"options: {problem}")
-        init = given.get("initial_state")
-        return given, fixed, None if init is None else InitialState(**init)
+        return given, fixed, loaded.initial_state

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from sphere_env.models.calibration_schema import calibration_form, calibration_ref
 from sphere_env.models.steer_law import injected_gains
 from sphere_env.params import SHIPPED_CALIBRATIONS
 from sphere_env.resources import asset_path
-from sphere_env.schemas.calibration import calibration_form, calibration_ref
 
 DEFAULT_CALIBRATION = asset_path("calibration", "default.yaml")
 
@@ -17,7 +17,7 @@ def calibration_file(calibration: str | Path | None) -> Path:
     """The file of a calibration given as a path, as the name of a shipped one (a bare name such as
     ``"hydroelastic_fast"``: no folder, no suffix, and no such file in the working folder), or
     ``None`` (the shipped default); anything else is a ValueError naming ``calibration``
-    (:func:`~sphere_env.schemas.calibration.calibration_ref`)."""
+    (:func:`~sphere_env.models.calibration_schema.calibration_ref`)."""
     calibration = calibration_ref()(calibration, "calibration")
     if calibration is None:
         return DEFAULT_CALIBRATION

@@ -58,10 +58,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from sphere_env.models.calibration_files import calibration_file
-from sphere_env.models.steer_law import PHI_REACH_RAD, SteerLaw, gravity_stiffness_free_pendulum, injected_gains
-from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
-from sphere_env.params import ParameterSpace
-from sphere_env.schemas.calibration import (
+from sphere_env.models.calibration_schema import (
     STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
     CalibrationFile,
     DriveLawSection,
@@ -70,6 +67,9 @@ from sphere_env.schemas.calibration import (
     read_calibration_file,
     table_pairs,
 )
+from sphere_env.models.steer_law import PHI_REACH_RAD, SteerLaw, gravity_stiffness_free_pendulum, injected_gains
+from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
+from sphere_env.params import ParameterSpace
 
 
 def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: float) -> float:
@@ -142,7 +142,7 @@ class ShellCalibration:
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<dict>", check_stand_still: bool = True) -> "ShellCalibration":
-        """A calibration mapping, validated by :func:`~sphere_env.schemas.calibration.check_calibration`
+        """A calibration mapping, validated by :func:`~sphere_env.models.calibration_schema.check_calibration`
         (``ValueError`` naming file and field). Unless ``check_stand_still`` is False, a steer law
         that leaves the robot unable to stand still on flat ground is refused too
         (:meth:`check_stand_still`)."""

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.models.mathbackend import NUMPY
-from sphere_env.schemas.calibration import STEER_LAW_FORMS
 
 PHI_REACH_RAD = 1.2  # largest |φ| the robot reaches on flat ground (pendulum at its stop)
 

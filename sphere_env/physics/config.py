@@ -16,27 +16,48 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import BeforeValidator, Field, field_validator, model_validator
 
-from sphere_env.params import DEFAULT_TIME_STEP_S, PARAMETERS
-from sphere_env.schemas import validate
-from sphere_env.schemas.twin import FIXTURES, InitialStateFields, TwinConfigFields
+from sphere_env.models.calibration_schema import ResolutionHint
+from sphere_env.models.friction import DEFAULT_FRICTION, resolve_friction
+from sphere_env.params import PARAMETERS, SHELL_MODELS
+from sphere_env.schemas import Built, Finite, _as_tuple, allowed, fixed_tuple
 
 __all__ = ["FIXTURES", "InitialState", "TwinConfig", "TwinState", "DEFAULT_CONTACT_APPROXIMATION"]
+
+FIXTURES = ("free", "locked_steer", "steer_plane", "stand")
+CONTACT_APPROXIMATIONS = ("sap", "lagged", "similar", "tamsi")
 DEFAULT_CONTACT_APPROXIMATION = {"point": "sap", "injected": "sap", "hydroelastic": "lagged"}
+#: Fixtures without a ground incline (the pipe on a stand, the steer plane).
+LEVEL_FIXTURES = ("steer_plane", "stand")
+#: The shell model of a twin or an environment when none is named.
+DEFAULT_SHELL_MODEL = "injected"
 
 
-@dataclass(frozen=True)
-class TwinConfig:
-    """Everything that defines one twin. Frozen; loaded through
-    :class:`~sphere_env.schemas.twin.TwinConfigFields` on construction.
+def joint_friction(spec: Any, joint: str) -> Any:
+    """``spec`` resolved as the friction model of ``joint``; any failure is a ``ValueError``."""
+    try:
+        return resolve_friction(spec, joint)
+    except (TypeError, ValueError) as err:
+        raise ValueError(str(err)) from None
+
+
+Incline = PARAMETERS["incline_deg"].value_type
+Vector3 = fixed_tuple(Finite, 3, "3 finite numbers")
+
+
+class TwinConfig(Built):
+    """Everything that defines one twin. Frozen; a bad name or value is refused on construction,
+    before anything is built (``TwinConfig: field '<name>' = <value>: <problem>; allowed: ...``).
+    :meth:`~sphere_env.schemas.Built.replace` gives a changed copy.
 
     :param fixture: ``free`` | ``locked_steer`` | ``steer_plane`` | ``stand`` (``docs/design.md``).
     :param shell_model: ``point`` | ``injected`` | ``hydroelastic``.
     :param steer_friction: law name (Table I preset for this joint), preset name, mapping
-        ``{law, params}`` or :class:`FrictionModel`.
+        ``{law, params}`` or :class:`FrictionModel`; held as the resolved :class:`FrictionModel`.
     :param drive_friction: as ``steer_friction``, for the drive joint.
     :param pressure_kpa: initial gauge pressure [kPa]; ``None`` = the calibration's nominal.
     :param incline_deg: ground incline [deg], downhill along +x_W.
@@ -63,34 +84,58 @@ class TwinConfig:
         the calibrated range only.
     """
 
-    fixture: str = "free"
-    shell_model: str = "injected"
-    steer_friction: Any = "majd"
-    drive_friction: Any = "majd"
-    pressure_kpa: float | None = None
-    incline_deg: float = 0.0
-    ramp_length_m: float | None = None
-    time_step_s: float = DEFAULT_TIME_STEP_S
-    ground_friction: float = PARAMETERS["ground_friction"].nominal
-    calibration: str | Path | None = None
-    urdf: str | Path | None = None
-    resolution_hint_m: float | None = None
-    contact_approximation: str | None = None
+    where = "TwinConfig"
+
+    fixture: Literal[FIXTURES] = "free"  # type: ignore[valid-type]
+    shell_model: Literal[SHELL_MODELS] = DEFAULT_SHELL_MODEL  # type: ignore[valid-type]
+    steer_friction: Any = Field(DEFAULT_FRICTION, validate_default=True)
+    drive_friction: Any = Field(DEFAULT_FRICTION, validate_default=True)
+    pressure_kpa: Finite | None = None
+    incline_deg: Incline = PARAMETERS["incline_deg"].nominal
+    ramp_length_m: PARAMETERS["ramp_length_m"].value_type | None = PARAMETERS["ramp_length_m"].nominal
+    time_step_s: PARAMETERS["time_step_s"].value_type = PARAMETERS["time_step_s"].nominal
+    ground_friction: PARAMETERS["ground_friction"].value_type = PARAMETERS["ground_friction"].nominal
+    calibration: str | Path | None = Field(
+        None, json_schema_extra=allowed("the path of a shell calibration YAML, the name of a shipped one, or None")
+    )
+    urdf: str | Path | None = Field(None, json_schema_extra=allowed("the path of a URDF, or None"))
+    resolution_hint_m: ResolutionHint | None = None  # a calibration's bounds: the mesh's cost
+    contact_approximation: Literal[CONTACT_APPROXIMATIONS] | None = None  # type: ignore[valid-type]
     bare_plant: bool = False
-    inclines_deg: tuple[float, ...] = ()
-    pressure_extrapolation_kpa: float = 0.0
+    inclines_deg: Annotated[
+        tuple[Incline, ...],
+        BeforeValidator(_as_tuple),
+        Field(json_schema_extra=allowed(f"a sequence of inclines within {PARAMETERS['incline_deg'].allowed}")),
+    ] = ()
+    pressure_extrapolation_kpa: PARAMETERS["pressure_extrapolation_kpa"].value_type = PARAMETERS[
+        "pressure_extrapolation_kpa"
+    ].nominal
 
-    def __post_init__(self) -> None:
-        # Loaded through the schema, so bad names and values fail here, before anything is built;
-        # the frictions come back resolved and inclines_deg sorted, without duplicates.
-        fields = validate(TwinConfigFields, vars(self), "TwinConfig")
-        for name in ("steer_friction", "drive_friction", "inclines_deg"):
-            object.__setattr__(self, name, getattr(fields, name))
+    @field_validator("steer_friction", "drive_friction")
+    @classmethod
+    def _friction(cls, spec: Any, info) -> Any:
+        return joint_friction(spec, info.field_name.removesuffix("_friction"))
+
+    @model_validator(mode="after")
+    def _level_fixtures(self) -> "TwinConfig":
+        if self.fixture in LEVEL_FIXTURES:
+            if self.incline_deg != 0.0:
+                raise ValueError(
+                    f"field 'incline_deg' = {self.incline_deg!r} not allowed for fixture {self.fixture!r}; allowed: 0"
+                )
+            if set(self.inclines_deg) - {0.0}:
+                raise ValueError(
+                    f"field 'inclines_deg' = {self.inclines_deg!r} not allowed for fixture "
+                    f"{self.fixture!r}; allowed: () or (0,)"
+                )
+        if self.inclines_deg:
+            object.__setattr__(self, "inclines_deg", tuple(sorted(set(self.inclines_deg) | {self.incline_deg})))
+        return self
 
 
-@dataclass
-class InitialState:
-    """A full initial state. Angles in rad, rates in rad/s, positions in m, velocities in m/s.
+class InitialState(Built):
+    """A full initial state, all finite. Angles in rad, rates in rad/s, positions in m, velocities
+    in m/s; frozen, and a bad value is refused on construction (``field 'initial_state.<name>'``).
 
     Orientation of the pitch center is R_W,PC = Rz(ψ) Ry(pitch) Rx(roll) (world-referenced);
     ``position_m`` is the sphere centre in W (``None``: resting on the ground at the origin).
@@ -98,21 +143,25 @@ class InitialState:
     rates; ``stand`` only θ, θ̇.
     """
 
-    theta: float = 0.0
-    drive_angle: float = 0.0
-    roll: float = 0.0
-    pitch: float = 0.0
-    heading: float = 0.0
-    position_m: tuple[float, float, float] | None = None
-    theta_dot: float = 0.0
-    drive_rate: float = 0.0
-    angular_velocity_rad_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    root = "initial_state"
 
-    def validate(self) -> "InitialState":
-        """This state loaded through :class:`~sphere_env.schemas.twin.InitialStateFields`: a copy
-        with plain floats and tuples, or ``ValueError`` naming the field."""
-        return InitialState(**validate(InitialStateFields, vars(self), root="initial_state").model_dump())
+    theta: Finite = 0.0
+    drive_angle: Finite = 0.0
+    roll: Finite = 0.0
+    pitch: Finite = 0.0
+    heading: Finite = 0.0
+    position_m: Vector3 | None = None
+    theta_dot: Finite = 0.0
+    drive_rate: Finite = 0.0
+    angular_velocity_rad_s: Vector3 = (0.0, 0.0, 0.0)
+    velocity_m_s: Vector3 = (0.0, 0.0, 0.0)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fields_of_a_state(cls, data: Any) -> Any:
+        """Another state (an :class:`InitialState` given where a subclass is asked for) as the
+        mapping of its fields."""
+        return data.fields() if isinstance(data, InitialState) else data
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -66,7 +65,7 @@ class Twin:
     """
 
     def __init__(self, config: TwinConfig | None = None, meshcat=None, **kwargs):
-        config = replace(config, **kwargs) if config is not None and kwargs else (config or TwinConfig(**kwargs))
+        config = config.replace(**kwargs) if config is not None and kwargs else (config or TwinConfig(**kwargs))
         self.config = config
         # k_d refitted at this step, if the calibration has one (Drake's contact damping depends on it)
         self.calibration = (
@@ -162,7 +161,7 @@ class Twin:
             )
         if inc == self.incline_deg:
             return
-        self.config = replace(self.config, incline_deg=inc)
+        self.config = self.config.replace(incline_deg=inc)
         self.terrain = Terrain(inc, self.config.ramp_length_m)
         self._select_kinematics()
         self._ground_dirty = True  # the ground moves before the next reset, step or render
@@ -381,7 +380,7 @@ class Twin:
     # ---- state -----------------------------------------------------------------------------------
     def reset(self, initial: InitialState | None = None, pressure_kpa: float | None = None) -> TwinState:
         """Reset time and state (the diagram is reused). Pressure is kept unless given."""
-        initial = (initial or InitialState()).validate()
+        initial = initial if initial is not None else InitialState()
         if pressure_kpa is not None:
             pressure_kpa = self.calibration.parameter_space().check("pressure_kpa", pressure_kpa)
         self.context.SetTime(0.0)

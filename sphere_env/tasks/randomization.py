@@ -16,9 +16,10 @@ parameter that changes only between episodes takes mode ``reset`` only; a numeri
 (``Parameter.schedulable``) also takes ``schedule``. The
 :class:`~sphere_env.tasks.events.EventManager` turns a spec into an episode's events.
 
-Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``randomization``), all
-checked by one schema, :mod:`sphere_env.schemas.randomization` (the presets' mappings are its
-:func:`~sphere_env.schemas.randomization.preset`):
+Spec formats accepted by :meth:`RandomizationSpec.parse` (the env kwarg ``randomization``): the
+spec is the schema of its own mapping form, each parameter's entry a
+:class:`~sphere_env.tasks.terms.Term` typed from its record (the presets' mappings are
+:func:`preset`):
 
 * ``"off"`` or ``None``: nothing sampled, every parameter nominal (evaluation).
 * ``shell_model`` is categorical: a name (fixed), a list of names (drawn uniformly per reset) or
@@ -39,198 +40,173 @@ checked by one schema, :mod:`sphere_env.schemas.randomization` (the presets' map
   uniform}`` without bounds means the calibration's range. ``pressure_schedule``:
   ``{rate_kpa_per_s: entry without mode, delay_s}`` or ``null`` (none); ``pressure_kpa`` with mode
   ``schedule`` replaces a preset's ``pressure_schedule`` and is refused beside one given with it.
-* a :class:`RandomizationSpec` (checked as the mapping it would be written as).
+* a :class:`RandomizationSpec` (checked again as the mapping it is written as,
+  :meth:`RandomizationSpec.as_data`, for the environment at hand).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Literal, Mapping
 
 import numpy as np
+from pydantic import Field, PrivateAttr, ValidationInfo, create_model, model_validator
 
 from sphere_env.params import PARAMETERS as REGISTRY
 from sphere_env.params import RANDOMIZABLE, Parameter, ParameterSpace
-from sphere_env.schemas.randomization import SpecInput, load_spec
+from sphere_env.schemas import Schema, allowed, validate
+from sphere_env.tasks.terms import PressureSchedule, Term, parameter_field, plain, term_words
 
 #: The randomizable parameters' records (name, unit, nominal, bounds; :mod:`sphere_env.params`).
 #: Pressure bounds come from the shell calibration: a :class:`~sphere_env.params.ParameterSpace`
 #: fills them in (:meth:`RandomizationSpec.resolved`).
 PARAMETERS: dict[str, Parameter] = {name: REGISTRY[name] for name in RANDOMIZABLE}
+#: The preset names: a whole spec, or the ``base`` a mapping starts from.
+PRESETS = ("off", "default", "full")
 
 
-@dataclass(frozen=True)
-class Distribution:
-    """One distribution. Scalars, or tuples for vector parameters (sampled per component).
-
-    ``fixed``: ``value``; ``uniform``: ``low``, ``high`` (``None`` = the parameter's natural range,
-    only for pressure: the calibration range); ``normal``: ``mean``, ``std`` (clipped to the
-    parameter's bounds); ``choice``: ``values``.
-    """
-
-    kind: str = "fixed"
-    value: Any = None
-    low: Any = None
-    high: Any = None
-    mean: Any = None
-    std: Any = None
-    values: tuple = ()
-
-    def sample(self, rng: np.random.Generator, size: int) -> float | tuple[float, ...]:
-        if self.kind == "fixed":
-            return self.value
-        if self.kind == "uniform":
-            x = rng.uniform(self.low, self.high, size=size)
-        elif self.kind == "normal":
-            x = rng.normal(self.mean, self.std, size=size)
-        else:  # choice
-            return self.values[int(rng.integers(len(self.values)))]
-        return float(x[0]) if size == 1 else tuple(float(v) for v in x)
+def preset(name: str, ramp: bool) -> dict[str, Any]:
+    """A preset as the mapping it stands for (the incline only where there is a ramp)."""
+    if name == "off":
+        return {}
+    out: dict[str, Any] = {"pressure_kpa": {"distribution": "uniform"}}
+    if name == "full":
+        out |= {
+            "steer_friction_scale": [0.8, 1.2],
+            "drive_friction_scale": [0.8, 1.2],
+            "ground_friction": [0.7, 1.3],
+            "payload_mass_kg": [0.0, 3.0],
+            "payload_com_offset_m": [[-0.02] * 3, [0.02] * 3],
+        }
+        if ramp:
+            out["incline_deg"] = [12.0, 20.0]
+        out["pressure_schedule"] = {"rate_kpa_per_s": [-0.2, 0.0]}
+    return out
 
 
-@dataclass(frozen=True)
-class Term:
-    """What (``parameter``), when (``mode``, ``interval_s``) and from which ``distribution``.
-
-    Mode ``schedule``: value(t) = value at reset + rate · max(t − ``delay_s``, 0), clipped to the
-    parameter's bounds, the rate drawn once per episode from ``rate_per_s``; ``distribution`` None
-    means the value at reset is not drawn (the nominal value, or a reset option)."""
-
-    parameter: str
-    distribution: Distribution | None
-    mode: str = "reset"
-    interval_s: float | None = None
-    rate_per_s: Distribution | None = None
-    delay_s: float = 0.0
+#: One optional field per randomizable parameter, typed from its registry record.
+_ParameterTerms = create_model(
+    "_ParameterTerms",
+    __base__=Schema,
+    __module__=__name__,
+    **{
+        name: (parameter_field(REGISTRY[name]), Field(None, json_schema_extra=allowed(term_words(REGISTRY[name]))))
+        for name in RANDOMIZABLE
+    },
+)
 
 
-@dataclass(frozen=True)
-class PressureSchedule:
-    """Pressure within an episode: p(t) = clip(p₀ + rate · max(t − delay_s, 0)) to the
-    calibration range, p₀ the episode's (sampled) pressure. ``rate_kpa_per_s`` < 0 is a leak.
-    ``rate_kpa_per_s`` is a :class:`Distribution` sampled per reset."""
+class RandomizationSpec(_ParameterTerms):
+    """A set of terms, at most one per randomizable parameter (a field of that parameter's name,
+    None when not drawn), and an optional pressure schedule; frozen. Loaded from its mapping
+    form (module docstring) by :meth:`parse`: a preset to start from (``base``; once loaded its
+    entries are the spec's own, and ``base`` reads ``off``), parameter entries over it and the
+    pressure schedule (``null``: none, also over a preset's). :attr:`terms` lists the terms in the
+    order they are drawn (a preset's first)."""
 
-    rate_kpa_per_s: Distribution
-    delay_s: float = 0.0
+    base: Literal[PRESETS] = Field(
+        "off",
+        json_schema_extra=allowed(  # type: ignore[valid-type]
+            f"a preset name {list(PRESETS)}: the whole spec, or the mapping's base"
+        ),
+    )
+    pressure_schedule: PressureSchedule | None = Field(
+        None, json_schema_extra=allowed("{rate_kpa_per_s: <entry>, delay_s: <s>} or null")
+    )
+    _order: tuple[str, ...] = PrivateAttr(())
 
+    @model_validator(mode="wrap")
+    @classmethod
+    def _over_the_preset(cls, data: Any, handler, info: ValidationInfo) -> "RandomizationSpec":
+        """The preset's entries first, the mapping's over them (an entry keeps the preset's place:
+        terms are drawn in this order); records that order."""
+        data = plain(data)
+        if isinstance(data, Mapping) and data.get("base", "off") in PRESETS:
+            ramp = (info.context or {}).get("ramp", True)
+            pressure = data.get("pressure_kpa")
+            if isinstance(pressure, Mapping) and pressure.get("mode") == "schedule":
+                if data.get("pressure_schedule") is not None:
+                    raise ValueError(
+                        f"field 'pressure_schedule' = {data['pressure_schedule']!r}: 'pressure_kpa' has "
+                        "mode 'schedule' already; allowed: one pressure schedule (null here, or another "
+                        "mode for 'pressure_kpa')"
+                    )
+                data = {**data, "pressure_schedule": None}  # replaces a preset's
+            data = {**preset(data.get("base", "off"), ramp), **data, "base": "off"}
+        out = handler(data)
+        out._order = tuple(k for k in data if k in RANDOMIZABLE and data[k] is not None)
+        return out
 
-@dataclass(frozen=True)
-class RandomizationSpec:
-    """A set of terms (at most one per parameter) and an optional pressure schedule."""
+    @model_validator(mode="after")
+    def _incline_needs_a_ramp(self, info: ValidationInfo) -> "RandomizationSpec":
+        term = self.incline_deg
+        if not (info.context or {}).get("ramp", True) and term is not None and term.kind != "fixed":
+            raise ValueError(
+                f"field 'incline_deg.distribution' = {term.kind!r}: this environment has no "
+                "ramp, so the incline cannot be randomized; allowed: 'fixed'"
+            )
+        return self
 
-    terms: tuple[Term, ...] = ()
-    pressure_schedule: PressureSchedule | None = None
+    @property
+    def terms(self) -> tuple[Term, ...]:
+        """The terms given, in the order they are drawn (a preset's first)."""
+        return tuple(getattr(self, name) for name in self._order)
 
     @classmethod
     def parse(cls, spec: Any, ramp: bool = True, kwarg: str = "randomization") -> "RandomizationSpec":
-        """Build and validate a spec from any accepted format (module docstring) through its schema
-        (:mod:`sphere_env.schemas.randomization`; ``ramp``: the environment has one); a
+        """A spec from any accepted format (module docstring; ``ramp``: the environment has one); a
         ``ValueError`` starting with ``<kwarg>:`` names the field, its value and what is allowed."""
         if spec is None:
             return cls()
-        data = _as_data(spec, kwarg) if isinstance(spec, RandomizationSpec) else spec
-        return _from_schema(load_spec(data, ramp, kwarg))
+        data = spec.as_data() if isinstance(spec, RandomizationSpec) else spec
+        if isinstance(data, str):
+            data = {"base": data}
+        if not isinstance(data, Mapping):
+            raise ValueError(
+                f"{kwarg}: value {data!r} ({type(data).__name__}) is not a spec; allowed: None, a preset name "
+                f"{list(PRESETS)}, a mapping of parameters to entries or a RandomizationSpec"
+            )
+        return validate(cls, data, kwarg, context={"ramp": ramp})
+
+    def as_data(self) -> dict[str, Any]:
+        """The mapping this spec is written as (every term in full, in order, and the schedule)."""
+        sched = self.pressure_schedule
+        return {
+            **{t.parameter: t.as_data() for t in self.terms},
+            "pressure_schedule": None if sched is None else sched.as_data(),
+        }
 
     def with_entries(self, entries: Any, ramp: bool = True, kwarg: str = "randomization") -> "RandomizationSpec":
         """This spec with the parameters of ``entries`` (a mapping in the spec's own format, e.g.
         ``{"shell_model": "point"}``) drawn as given there instead; every other term and the
         pressure schedule kept. Validated like :meth:`parse`."""
-        data = _as_data(self, kwarg)
-        data.update(dict(entries))
-        return RandomizationSpec.parse(data, ramp, kwarg)
+        return RandomizationSpec.parse({**self.as_data(), **dict(entries)}, ramp, kwarg)
 
     def resolved(self, space: ParameterSpace, kwarg: str = "randomization") -> "RandomizationSpec":
         """The spec in ``space`` (the registry resolved against the calibration): a parameter whose
         bounds come from the context (``bounds_from``: the pressure) gets them as its uniform
-        distribution's bounds when it gave none, and its values are checked against them (the
-        schema checked every other value against the registry already); ``ValueError`` naming
+        distribution's bounds when it gave none, and its values are checked against them (every
+        other value was checked against the registry on loading); ``ValueError`` naming
         ``<kwarg>: field '<parameter>'`` otherwise."""
-        terms = []
+        changed = {}
         for t in self.terms:
-            d, rec = t.distribution, space[t.parameter]
-            if rec.bounds_from is not None and d is not None:
-                if d.kind == "uniform" and d.low is None:
-                    d = replace(d, low=rec.low, high=rec.high)
-                vals = {"fixed": [d.value], "uniform": [d.low, d.high], "choice": list(d.values)}.get(d.kind, [])
-                for v in vals:
-                    rec.check(v, f"{kwarg}: field {t.parameter!r}")
-                t = replace(t, distribution=d)
-            terms.append(t)
-        return replace(self, terms=tuple(terms))
+            rec = space[t.parameter]
+            if rec.bounds_from is None or t.kind is None:
+                continue
+            if t.kind == "uniform" and t.low is None:
+                t = changed[t.parameter] = t.model_copy(update={"low": rec.low, "high": rec.high})
+            values = {"fixed": [t.value], "uniform": [t.low, t.high], "choice": list(t.values or ())}
+            for v in values.get(t.kind, []):
+                rec.check(v, f"{kwarg}: field {t.parameter!r}")
+        return self.model_copy(update=changed) if changed else self
 
     def sample(self, rng: np.random.Generator, which: str | None = None) -> dict[str, Any]:
         """Sample every term's value at reset (``which=None``), or only terms of one mode; a schedule
         without a draw of its own samples nothing. Fixed order."""
-        out = {}
-        for t in self.terms:
-            if t.distribution is not None and (which is None or t.mode == which):
-                out[t.parameter] = t.distribution.sample(rng, PARAMETERS[t.parameter].size)
-        return out
-
-
-def _from_schema(spec: SpecInput) -> RandomizationSpec:
-    """A validated spec as the dataclasses the event manager reads (vectors as tuples)."""
-    sched = spec.pressure_schedule
-    return RandomizationSpec(
-        tuple(
-            Term(
-                name,
-                None if entry.distribution is None else _distribution(entry),
-                entry.mode,
-                entry.interval_s,
-                None if entry.rate_per_s is None else _distribution(entry.rate_per_s),
-                entry.delay_s or 0.0,
-            )
-            for name, entry in spec.entries()
-        ),
-        None if sched is None else PressureSchedule(_distribution(sched.rate_kpa_per_s), sched.delay_s),
-    )
-
-
-def _distribution(draw) -> Distribution:
-    """A validated draw (:class:`sphere_env.schemas.randomization.Draw`) as a :class:`Distribution`."""
-
-    def frozen(v):
-        return tuple(v) if isinstance(v, list) else v
-
-    value, low, high, mean, std = (frozen(getattr(draw, k, None)) for k in ("value", "low", "high", "mean", "std"))
-    return Distribution(draw.distribution, value, low, high, mean, std, tuple(frozen(v) for v in draw.values or ()))
-
-
-def _as_data(spec: RandomizationSpec, kwarg: str) -> dict[str, Any]:
-    """A spec object as the mapping it would be written as, so that the schema checks it like one."""
-    out: dict[str, Any] = {}
-    for t in spec.terms:
-        if t.parameter in out:
-            raise ValueError(f"{kwarg}: field {t.parameter!r} is given twice; allowed: one term per parameter")
-        timing = {} if t.interval_s is None else {"interval_s": t.interval_s}
-        if t.rate_per_s is not None:
-            timing["rate_per_s"] = _draw_data(t.rate_per_s)
-        if t.delay_s or t.mode == "schedule":
-            timing["delay_s"] = t.delay_s
-        draw = {} if t.distribution is None else _draw_data(t.distribution)
-        out[t.parameter] = {**draw, "mode": t.mode, **timing}
-    sched = spec.pressure_schedule
-    if isinstance(sched, PressureSchedule):
-        out["pressure_schedule"] = {"rate_kpa_per_s": _draw_data(sched.rate_kpa_per_s), "delay_s": sched.delay_s}
-    elif sched is not None:
-        out["pressure_schedule"] = sched  # refused by the schema, named
-    return out
-
-
-def _draw_data(d: Any) -> Any:
-    """A :class:`Distribution` as its mapping (only the fields it sets); anything else unchanged."""
-    if not isinstance(d, Distribution):
-        return d
-    fields = {
-        "value": d.value,
-        "low": d.low,
-        "high": d.high,
-        "mean": d.mean,
-        "std": d.std,
-        "values": d.values if d.values or d.kind == "choice" else None,
-    }
-    return {"distribution": d.kind, **{k: v for k, v in fields.items() if v is not None}}
+        return {
+            t.parameter: t.sample(rng, PARAMETERS[t.parameter].size)
+            for t in self.terms
+            if t.kind is not None and (which is None or t.mode == which)
+        }
 
 
 def schedule_value(name: str, v0: float, rate_per_s: float, delay_s: float, t_s: float, space: ParameterSpace) -> float:
@@ -240,6 +216,6 @@ def schedule_value(name: str, v0: float, rate_per_s: float, delay_s: float, t_s:
 
 
 def schedule_pressure(p0_kpa: float, rate_kpa_per_s: float, delay_s: float, t_s: float, space: ParameterSpace) -> float:
-    """p(t) of a :class:`PressureSchedule` [kPa], clipped to the pressure's bounds in ``space``
-    (the calibration range)."""
+    """p(t) of a :class:`~sphere_env.tasks.terms.PressureSchedule` [kPa], clipped to the pressure's
+    bounds in ``space`` (the calibration range)."""
     return schedule_value("pressure_kpa", p0_kpa, rate_kpa_per_s, delay_s, t_s, space)

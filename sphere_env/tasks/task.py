@@ -41,7 +41,7 @@ class Task:
     :cvar command_names: command components appended to the measured observation.
     :cvar command_options: command values settable through ``reset(options=...)``.
     :cvar command_option_bounds: allowed [low, high] of each command option (unit in its docs);
-        :func:`sphere_env.schemas.env.reset_options` turns them into the options' schema.
+        :func:`sphere_env.envs.kwargs.reset_options` turns them into the options' schema.
     :cvar extra_names: measured components observed after the command
         (:data:`~sphere_env.tasks.observation.EXTRA_COMPONENTS`).
     """

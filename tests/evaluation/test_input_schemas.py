@@ -1,4 +1,4 @@
-"""The evaluation tools' inputs load through typed schemas (sphere_env.schemas.evaluation): a wrong
+"""The evaluation tools' inputs load through typed schemas (sphere_env.evaluation.schemas): a wrong
 type, an unknown key or a value out of range is refused on one line naming the field, with exit
 code 2 on the command line, before anything runs or is written."""
 
@@ -9,8 +9,8 @@ import pytest
 from sphere_env import cli
 from sphere_env.evaluation.enjoy import EnjoySpec
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate
+from sphere_env.evaluation.schemas import MAX_ENJOY_EPISODES, MAX_SEED, MAX_SWEEP_EPISODES, MAX_WORKERS, ControllerSpec
 from sphere_env.schemas import validate
-from sphere_env.schemas.evaluation import MAX_ENJOY_EPISODES, MAX_SEED, MAX_SWEEP_EPISODES, MAX_WORKERS, ControllerSpec
 
 GRID = ["--pressure-kpa", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1"]
 

@@ -11,9 +11,9 @@ import gymnasium as gym
 import pytest
 
 import sphere_env  # noqa: F401 - registers the ids
+from sphere_env.envs.kwargs import check_episode_length
 from sphere_env.evaluation.evaluate import main as evaluate_main
 from sphere_env.physics import TwinConfig
-from sphere_env.schemas.env import check_episode_length
 from sphere_env.training.train import main as train_main
 
 RAMP = "sphere_env/RampDescent-v3"

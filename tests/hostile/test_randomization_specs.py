@@ -6,10 +6,10 @@ import re
 
 import pytest
 
+from sphere_env.envs.kwargs import reset_options
 from sphere_env.schemas import validate
-from sphere_env.schemas.env import reset_options
 from sphere_env.tasks import RampDescentTask, RollTask
-from sphere_env.tasks.randomization import Distribution, PressureSchedule, RandomizationSpec
+from sphere_env.tasks.randomization import RandomizationSpec
 
 
 @pytest.mark.parametrize(
@@ -31,8 +31,8 @@ def test_bad_pressure_schedule_distributions_are_refused(rate, field):
     assert field in str(err.value)
 
 
-def test_schedule_objects_are_validated_too():
-    bad = RandomizationSpec(pressure_schedule=PressureSchedule(Distribution("uniform", low=0.2, high=-0.2)))
+def test_schedule_mappings_are_validated_in_full():
+    bad = {"pressure_schedule": {"rate_kpa_per_s": {"distribution": "uniform", "low": 0.2, "high": -0.2}}}
     with pytest.raises(
         ValueError,
         match=re.escape(
@@ -42,14 +42,12 @@ def test_schedule_objects_are_validated_too():
     ):
         RandomizationSpec.parse(bad)
     with pytest.raises(ValueError, match="delay_s"):
-        RandomizationSpec.parse(
-            RandomizationSpec(pressure_schedule=PressureSchedule(Distribution("fixed", value=0.0), -1.0))
-        )
+        RandomizationSpec.parse({"pressure_schedule": {"rate_kpa_per_s": 0.0, "delay_s": -1.0}})
 
 
 def test_valid_schedules_still_parse():
     spec = RandomizationSpec.parse({"pressure_schedule": {"rate_kpa_per_s": [-0.2, 0.0], "delay_s": 1.0}})
-    assert spec.pressure_schedule.rate_kpa_per_s == Distribution("uniform", low=-0.2, high=0.0)
+    assert spec.pressure_schedule.rate_kpa_per_s.as_data() == {"distribution": "uniform", "low": -0.2, "high": 0.0}
     assert RandomizationSpec.parse("full").pressure_schedule is not None
 
 

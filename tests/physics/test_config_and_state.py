@@ -45,12 +45,12 @@ def test_bad_calibration_path_refused_before_build(tmp_path):
 @pytest.mark.parametrize(
     "initial, field",
     [
-        (InitialState(theta=float("nan")), "initial_state.theta"),
-        (InitialState(roll=float("inf")), "initial_state.roll"),
-        (InitialState(velocity_m_s=(0.0, float("nan"), 0.0)), "initial_state.velocity_m_s"),
-        (InitialState(position_m=(0.0, 0.0)), "initial_state.position_m"),
-        (InitialState(theta="0.1"), "field 'initial_state.theta' = '0.1'"),
-        (InitialState(drive_rate=True), "field 'initial_state.drive_rate' = True"),
+        (dict(theta=float("nan")), "initial_state.theta"),
+        (dict(roll=float("inf")), "initial_state.roll"),
+        (dict(velocity_m_s=(0.0, float("nan"), 0.0)), "initial_state.velocity_m_s"),
+        (dict(position_m=(0.0, 0.0)), "initial_state.position_m"),
+        (dict(theta="0.1"), "field 'initial_state.theta' = '0.1'"),
+        (dict(drive_rate=True), "field 'initial_state.drive_rate' = True"),
     ],
 )
 def test_non_finite_initial_state_refused_and_twin_untouched(initial, field):
@@ -58,7 +58,7 @@ def test_non_finite_initial_state_refused_and_twin_untouched(initial, field):
     twin.reset(InitialState(theta=0.2))
     before = twin.positions_velocities()
     with pytest.raises(ValueError, match=field):
-        twin.reset(initial)
+        twin.reset(InitialState(**initial))
     after = twin.positions_velocities()
     np.testing.assert_array_equal(before[0], after[0])
     np.testing.assert_array_equal(before[1], after[1])

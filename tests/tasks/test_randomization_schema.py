@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sphere_env.params import ParameterSpace
-from sphere_env.tasks.randomization import Distribution, PressureSchedule, RandomizationSpec, Term
+from sphere_env.tasks.randomization import RandomizationSpec
 
 
 @pytest.mark.parametrize(
@@ -101,18 +101,14 @@ def test_the_kwarg_names_the_error():
         RandomizationSpec.parse({"ground_friction": 5.0}, kwarg="options")
 
 
-def test_spec_objects_are_checked_as_their_mapping():
-    twice = RandomizationSpec((Term("ground_friction", Distribution("fixed", value=1.0)),) * 2)
-    with pytest.raises(ValueError, match="field 'ground_friction' is given twice"):
-        RandomizationSpec.parse(twice)
-    with pytest.raises(ValueError, match=r"field 'ground_friction\.mode' = 'often'"):
-        RandomizationSpec.parse(
-            RandomizationSpec((Term("ground_friction", Distribution("fixed", value=1.0), "often"),))
-        )
-    with pytest.raises(ValueError, match=r"field 'pressure_schedule' = 5"):
-        RandomizationSpec.parse(RandomizationSpec(pressure_schedule=5))
-    with pytest.raises(ValueError, match=r"field 'pressure_schedule\.rate_kpa_per_s' = 'fast'"):
-        RandomizationSpec.parse(RandomizationSpec(pressure_schedule=PressureSchedule("fast")))
+def test_spec_objects_are_checked_where_they_are_built_and_for_the_env_at_hand():
+    with pytest.raises(ValueError, match=r"mode"):
+        RandomizationSpec(ground_friction={"value": 1.0, "mode": "often"})
+    with pytest.raises(ValueError, match=r"pressure_schedule"):
+        RandomizationSpec(pressure_schedule=5)
+    ramp = RandomizationSpec.parse({"incline_deg": [10.0, 20.0]})
+    with pytest.raises(ValueError, match=re.escape("field 'incline_deg.distribution' = 'uniform': this environment")):
+        RandomizationSpec.parse(ramp, ramp=False)
     for spec in (
         "off",
         "default",
@@ -155,7 +151,8 @@ def test_equivalent_forms_give_the_same_spec():
     assert short == full
     assert full.terms[1].distribution.value == (0.01, 0.0, 0.0)
     normal = RandomizationSpec.parse({"ground_friction": {"mean": 1.0, "std": 0.1}}).terms[0].distribution
-    assert normal == Distribution("normal", mean=1.0, std=0.1)  # the distribution whose fields are given
+    # the distribution whose fields are given
+    assert normal.as_data() == {"distribution": "normal", "mean": 1.0, "std": 0.1, "mode": "reset"}
 
 
 def test_terms_keep_the_preset_order_then_the_mapping_order():
@@ -173,7 +170,9 @@ def test_terms_keep_the_preset_order_then_the_mapping_order():
         "incline_deg",
         "shell_model",
     ]
-    assert spec.terms[3].distribution == Distribution("fixed", value=1.0) and spec.pressure_schedule is None
-    assert RandomizationSpec.parse("full").pressure_schedule == PressureSchedule(
-        Distribution("uniform", low=-0.2, high=0.0)
-    )
+    assert spec.terms[3].distribution.as_data() == {"distribution": "fixed", "value": 1.0, "mode": "reset"}
+    assert spec.pressure_schedule is None
+    assert RandomizationSpec.parse("full").pressure_schedule.as_data() == {
+        "rate_kpa_per_s": {"distribution": "uniform", "low": -0.2, "high": 0.0},
+        "delay_s": 0.0,
+    }

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from sphere_env import controllers
+from sphere_env.envs.kwargs import reset_options
 from sphere_env.schemas import validate
-from sphere_env.schemas.env import reset_options
 from sphere_env.tasks import MEASURED_COMPONENTS, ObservationLayout, RampDescentTask, RollTask, Scene
 
 from .test_task_functions import fake_state
@@ -17,7 +17,7 @@ from .test_task_functions import fake_state
 
 def test_tasks_and_controllers_import_no_drake():
     code = (
-        "import sys, sphere_env.tasks, sphere_env.controllers, sphere_env.params, sphere_env.schemas.env; "
+        "import sys, sphere_env.tasks, sphere_env.controllers, sphere_env.params, sphere_env.schemas; "
         "print(any(m.startswith('pydrake') for m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

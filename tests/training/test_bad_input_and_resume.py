@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import yaml
 
-from sphere_env.schemas.training import check_section
 from sphere_env.training.config import resolve_config
+from sphere_env.training.schemas import check_section
 from sphere_env.training.train import latest_checkpoint, main, train
 from tests.conftest import TINY_PPO, TINY_PPO_PARAMS
 

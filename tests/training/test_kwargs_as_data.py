@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 import torch.nn as nn
 
-from sphere_env.schemas.training import parse_dict_call
 from sphere_env.training.config import resolve_config
+from sphere_env.training.zoo_forms import parse_dict_call
 
 ENV = "sphere_env/RampDescent-v2"
 

@@ -100,7 +100,7 @@ def test_bad_env_wrapper_is_refused_by_name(value, needle):
     ],
 )
 def test_env_wrapper_accepts_rl_zoo3_forms(value):
-    from sphere_env.schemas.training import check_section
+    from sphere_env.training.schemas import check_section
 
     (entry,) = check_section("ppo", {"env_wrapper": value}).env_wrapper
     assert list(entry) == ["sphere_env.wrappers.PDResidualAction"]

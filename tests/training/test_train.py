@@ -249,7 +249,7 @@ def test_short_run_loads_with_vecnormalize_and_acts_the_same(tmp_path, algo):
     stored = yaml.safe_load((run / "config.yaml").read_text())
     assert stored["seeds"] == {"seed": 1, "workers": [1, 2], "eval": 10_001}
     assert {"drake", "torch", "stable_baselines3", "sphere_env"} <= set(stored["versions"])
-    assert stored["randomization_resolved"]["terms"][0]["distribution"]["low"] == 3.0
+    assert stored["randomization_resolved"]["pressure_kpa"]["low"] == 3.0
     assert load_config(run).hyperparams == cfg.hyperparams
 
     vn = model.get_vec_normalize_env()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from sphere_env.evaluation.experiments.docs.base import Results, renders, table
 from sphere_env.params import PARAMETERS, RANDOMIZABLE, Parameter
-from sphere_env.schemas.randomization import modes_of
+from sphere_env.tasks.terms import modes_of
 
 
 def _nominal(rec: Parameter) -> str:

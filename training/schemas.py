@@ -12,23 +12,27 @@ keys this trainer does not implement (:data:`ZOO_ONLY_KEYS`) are refused by name
 key moved or what to use instead. ``env_wrapper`` takes rl-zoo3's forms (a class path, ``{path:
 {kwargs}}`` or a list of these) and is read as a list of ``{path: kwargs}``, each class imported and
 checked; ``callback`` takes the same forms for stable-baselines3 callback classes (rl-zoo3's
-``callback`` key). :class:`RunOptions` holds the trainer's own options (env id, torch device, seeds,
-evaluation and checkpoint periods, ...), :class:`SweepOptions` a sweep's.
+``callback`` key). The trainer's own options are :mod:`sphere_env.training.run_options`'s.
 
-rl-zoo3's string forms are read as data, never evaluated: ``lin_<x>`` schedules, ``"dict(...)"``
-policy kwargs and ``normalize`` arguments (:func:`parse_dict_call`). Activation functions are named
-(``nn.Tanh``, ``tanh``, ...) and turned into torch classes only when the model is built.
+rl-zoo3's string forms are read as data, never evaluated (:mod:`sphere_env.training.zoo_forms`).
 """
 
 from __future__ import annotations
 
-import ast
 import math
 from typing import Annotated, Any, Literal, Mapping
 
-from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
-from sphere_env.schemas import Finite, OutputFolder, Schema, _integral, allowed, count, number, validate
+from sphere_env.schemas import Finite, Schema, allowed, count, number, validate
+from sphere_env.training.zoo_forms import (
+    ACTIVATION_NAMES,
+    ACTIVATION_PATTERN,
+    ACTIVATIONS,
+    LIN_PATTERN,
+    POSITIVE_TEXT,
+    dict_text,
+)
 
 #: Keys of a hyperparameter section that are not algorithm constructor arguments.
 SPECIAL_KEYS = (
@@ -52,39 +56,6 @@ MOVED_KEYS = {"randomization": "env_kwargs.randomization"}
 MAX_N_ENVS = 256
 MAX_ENV_PROCESSES = 64  # one process per env (n_workers: null with SubprocVecEnv)
 MAX_N_TIMESTEPS = 10**10
-#: Activation names a configuration may give (rl-zoo3 writes ``nn.ReLU``), by torch.nn class.
-ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU", "silu": "SiLU"}
-
-
-#: A number > 0 written as text: at most 15 digits before the point (after leading zeros), at most
-#: 20 zeros after it before a non-zero digit, and an exponent of at most 2 digits, so it reads as a
-#: finite number > 0 (never 0, never inf).
-POSITIVE_TEXT = r"(?:0*[1-9][0-9]{0,14}(?:\.[0-9]*)?|0*\.0{0,20}[1-9][0-9]*)(?:[eE][-+]?[0-9]{1,2})?"
-#: rl-zoo3's linear schedule ``lin_<x>``, x > 0.
-LIN_PATTERN = rf"^lin_{POSITIVE_TEXT}$"
-
-
-def lin_value(text: str) -> float:
-    """The initial value of a validated ``lin_<x>`` schedule (:data:`LIN_PATTERN`)."""
-    return float(text.removeprefix("lin_"))
-
-
-def activation_class_name(name: str) -> str:
-    """The torch.nn class name of a validated activation (:data:`ACTIVATION_PATTERN`) given as
-    ``nn.ReLU``, ``ReLU`` or ``relu``."""
-    bare = name.removeprefix("nn.")
-    return ACTIVATIONS.get(bare.lower(), bare)
-
-
-#: An activation: optionally ``nn.``, then a lower-case name of :data:`ACTIVATIONS` in any case, or
-#: a class name as torch spells it.
-ACTIVATION_PATTERN = (
-    r"^(?:nn\.)?(?:(?i:"
-    + "|".join(ACTIVATIONS)
-    + ")|"
-    + "|".join(c for c in ACTIVATIONS.values() if c.lower() not in ACTIVATIONS)
-    + ")$"
-)
 
 
 #: A positive number or rl-zoo3's linear schedule ``lin_<x>`` (x → 0 over training).
@@ -124,53 +95,7 @@ class PolicyKwargs(Schema):
     optimizer_kwargs: dict[str, Any] | None = None
 
 
-def parse_dict_call(text: str, field_name: str, names: tuple[str, ...] = ()) -> dict[str, Any]:
-    """rl-zoo3's ``"dict(key=value, ...)"`` strings (policy kwargs, VecNormalize arguments) read as
-    data, never evaluated: the text must be one ``dict(...)`` call (or a ``{...}`` literal) whose
-    values are Python literals, nested ``dict(...)`` calls, lists/tuples of these, or one of
-    ``names`` (such as ``nn.ReLU``, kept as its text). Anything else raises ValueError naming the
-    field (``field_name``, when given)."""
-    head = f"{field_name}: " if field_name else ""
-
-    def value(node: ast.AST) -> Any:
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-            return {kw.arg: value(kw.value) for kw in node.keywords if kw.arg is not None}
-        if isinstance(node, ast.Dict):
-            return {value(k): value(v) for k, v in zip(node.keys, node.values) if k is not None}
-        if isinstance(node, (ast.List, ast.Tuple)):
-            items = [value(e) for e in node.elts]
-            return items if isinstance(node, ast.List) else tuple(items)
-        if isinstance(node, (ast.Attribute, ast.Name)):
-            dotted = ast.unparse(node)
-            if dotted in names:
-                return dotted
-            if dotted in ("True", "False", "None"):
-                return ast.literal_eval(dotted)
-            raise ValueError(f"name {dotted!r} is not allowed; allowed names: {sorted(names) or 'none'}")
-        return ast.literal_eval(node)  # numbers, strings, -x; raises ValueError on anything else
-
-    try:
-        out = value(ast.parse(text.strip(), mode="eval").body)
-    except (SyntaxError, ValueError, TypeError) as err:
-        raise ValueError(
-            f"{head}cannot read {text!r} as data: {err}; allowed: dict(key=value, ...) with literal values"
-        ) from None
-    if not isinstance(out, dict):
-        raise ValueError(f"{head}{text!r} must be a dict(...) of keyword arguments")
-    return out
-
-
-def _dict_text(names: tuple[str, ...] = ()):
-    """A before-validator reading rl-zoo3's ``"dict(...)"`` text as a mapping."""
-
-    def read(value: Any) -> Any:
-        return parse_dict_call(value, "", names) if isinstance(value, str) else value
-
-    return read
-
-
-ACTIVATION_NAMES = tuple(f"nn.{n}" for n in ACTIVATIONS.values())
-PolicyKwargsField = Annotated[PolicyKwargs, BeforeValidator(_dict_text(ACTIVATION_NAMES))]
+PolicyKwargsField = Annotated[PolicyKwargs, BeforeValidator(dict_text(ACTIVATION_NAMES))]
 
 
 class NormalizeArgs(Schema):
@@ -264,7 +189,7 @@ class Section(Schema):
     n_workers: Layout = Field("auto", json_schema_extra=allowed("an integer within [1, n_envs], 'auto' or null"))
     n_threads: Layout = Field(None, json_schema_extra=allowed("an integer within [1, n_envs], 'auto' or null"))
     policy: str = "MlpPolicy"
-    normalize: bool | Annotated[NormalizeArgs, BeforeValidator(_dict_text())] | None = False
+    normalize: bool | Annotated[NormalizeArgs, BeforeValidator(dict_text())] | None = False
     env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
     env_wrapper: Annotated[list[WrapperEntry], BeforeValidator(_wrapper_list)] = Field(
         default_factory=list,
@@ -408,129 +333,3 @@ def check_section(algo: str, section: Any, where: str = "") -> Section:
     if isinstance(section, Mapping):
         return validate(SECTIONS[algo], numbers_from_yaml_strings(section), root="hyperparams")
     return validate(SECTIONS[algo], section, where, root="hyperparams")
-
-
-#: Evaluation episodes per evaluation at the most.
-MAX_EVAL_EPISODES = 10_000
-
-
-def _period_value(value: Any) -> Any:
-    """rl-zoo3's "off" (0 or a negative number) as 0; an integer-valued float as an int."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
-        return 0
-    return _integral(value)
-
-
-#: Steps between evaluations or checkpoints (<= 0: none).
-Period = Annotated[
-    int,
-    BeforeValidator(_period_value),
-    Field(ge=0, le=MAX_N_TIMESTEPS, json_schema_extra=allowed("an integer number of env steps (<= 0: none)")),
-]
-
-
-def _registered_env(env_id: str) -> str:
-    """An env id gymnasium knows (sphere_env's register on import)."""
-    import gymnasium as gym
-
-    import sphere_env  # noqa: F401 - registers the ids
-
-    if env_id not in gym.registry:
-        ours = sorted(k for k in gym.registry if k.startswith("sphere_env/"))
-        raise ValueError(f"unknown env id; registered sphere_env ids: {ours}")
-    return env_id
-
-
-def _cuda_here(value: str) -> str:
-    """A CUDA device only on a machine that has one."""
-    if value.startswith("cuda"):
-        import torch
-
-        if not torch.cuda.is_available():
-            raise ValueError("names a CUDA device and this machine has none")
-    return value
-
-
-#: The algorithms a configuration may name (the keys of :data:`SECTIONS`).
-Algo = Annotated[Literal["ppo", "sac"], Field(json_schema_extra=allowed(str(list(SECTIONS))))]
-
-
-class AlgoChoice(Schema):
-    """The algorithm of a configuration, given or read from a run folder."""
-
-    algo: Algo
-
-
-def check_algo(algo: Any) -> str:
-    """``algo`` if it names an algorithm of :data:`SECTIONS`; ``ValueError`` naming ``algo`` otherwise."""
-    return validate(AlgoChoice, {"algo": algo}).algo
-
-
-class RunOptions(Schema):
-    """The trainer's own options (command line or :func:`~sphere_env.training.config.resolve_config`)."""
-
-    env_id: Annotated[str, AfterValidator(_registered_env)] = Field(
-        json_schema_extra=allowed("a registered env id such as 'sphere_env/RampDescent-v3'")
-    )
-    device: Annotated[str, Field(pattern=r"^(?:auto|cpu|cuda(?::[0-9]+)?)$"), AfterValidator(_cuda_here)] = Field(
-        "cpu", json_schema_extra=allowed("'cpu', 'cuda', 'cuda:<n>' (on a machine with CUDA) or 'auto'")
-    )
-    seed: count(0)
-    eval_freq: Period | None = None
-    eval_episodes: count(1, MAX_EVAL_EPISODES) = 6
-    checkpoint_freq: Period | None = None
-    torch_threads: count(1, 1024) = 1
-    env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
-    eval_env_kwargs: dict[str, Any] = Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
-    eval_pressures_kpa: list[Finite] | None = Field(None, json_schema_extra=allowed("a list of pressures [kPa]"))
-    tensorboard_log: OutputFolder | None = None
-
-
-class RunFolders(Schema):
-    """Where a training writes (``-f/--log-folder``, ``--run-dir``): checked before anything runs."""
-
-    log_folder: OutputFolder
-    run_dir: OutputFolder | None = None
-
-
-class RunConfigFile(Schema):
-    """A run folder's ``config.yaml`` as far as loading it needs: the env id and the algorithm, the
-    fields of a ``TrainConfig`` without a default (the others are checked when the configuration
-    is resolved again; the file's other keys are records: versions, command, seeds, ...)."""
-
-    model_config = ConfigDict(extra="ignore", strict=True, frozen=True)
-
-    env_id: str
-    algo: str
-
-
-def check_run_options(**options: Any) -> RunOptions:
-    """The trainer's options as :class:`RunOptions`; ``ValueError`` naming the option otherwise."""
-    return validate(RunOptions, options)
-
-
-def _distinct(seeds: list[int]) -> list[int]:
-    if len(set(seeds)) != len(seeds):
-        raise ValueError("repeats a seed")
-    return seeds
-
-
-def _not_in_sweep(flag: str) -> Any:
-    return Field(
-        None, json_schema_extra=allowed(f"none: a sweep does not take {flag} (each trial writes its own run folder)")
-    )
-
-
-class SweepOptions(Schema):
-    """The command line of a sweep (``--seeds``, ``--trial``): one run folder per trial and seed."""
-
-    seeds: Annotated[list[int], AfterValidator(_distinct)] = Field(
-        json_schema_extra=allowed("distinct integer seeds (-1: draw one)")
-    )
-    trained_agent: None = _not_in_sweep("-i/--trained-agent")
-    tensorboard_log: None = _not_in_sweep("--tensorboard-log")
-
-
-def check_sweep_options(**options: Any) -> SweepOptions:
-    """A sweep's options as :class:`SweepOptions`; ``ValueError`` naming the option otherwise."""
-    return validate(SweepOptions, options)

@@ -17,13 +17,13 @@ the friction and the shell, and an initial sphere centre above the ground.
 
 from __future__ import annotations
 
-import dataclasses
 from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, Any, Literal, Mapping
 
 from pydantic import AfterValidator, BeforeValidator, Field, create_model, field_validator, model_validator
 
+from sphere_env.models.friction import DEFAULT_FRICTION
 from sphere_env.params import (
     DEFAULT_TIME_STEP_S,
     MAX_EPISODE_S,
@@ -32,13 +32,13 @@ from sphere_env.params import (
     RANDOMIZABLE,
     SHELL_MODELS,
 )
+from sphere_env.physics.config import CONTACT_APPROXIMATIONS, DEFAULT_SHELL_MODEL, InitialState, joint_friction
 from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number, shown
-from sphere_env.schemas.randomization import fixed_value
-from sphere_env.schemas.twin import CONTACT_APPROXIMATIONS, InitialStateFields, joint_friction, parameter
 from sphere_env.tasks.ramp_descent import RampDescentKwargs
 from sphere_env.tasks.roll import RollKwargs
 from sphere_env.tasks.task import Task
 from sphere_env.tasks.termination import MAX_RATE_RAD_S, MAX_SPEED_M_S
+from sphere_env.tasks.terms import fixed_value
 
 RENDER_MODES = ("human", "rgb_array")
 #: Largest hydroelastic pressure grid step [kPa].
@@ -113,9 +113,9 @@ class EnvKwargs(Schema):
         0.5, so re-meshed shells (≈90 ms each) are cached (≈2 ms); 0 = exact pressures.
     """
 
-    shell_model: Literal[SHELL_MODELS] = "injected"  # type: ignore[valid-type]
+    shell_model: Literal[SHELL_MODELS] = DEFAULT_SHELL_MODEL  # type: ignore[valid-type]
     friction_model: Any = Field(
-        "majd",
+        DEFAULT_FRICTION,
         validate_default=True,
         json_schema_extra=allowed(
             "a friction law or preset name, a {law, params} mapping, or {steer: ..., drive: ...}"
@@ -124,10 +124,10 @@ class EnvKwargs(Schema):
     calibration: str | Path | None = Field(
         None, json_schema_extra=allowed("the path of a shell calibration YAML, the name of a shipped one, or None")
     )
-    control_frequency_hz: parameter("control_frequency_hz") = PARAMETERS["control_frequency_hz"].nominal
-    time_step_s: parameter("time_step_s") = DEFAULT_TIME_STEP_S
-    steer_torque_limit_nm: parameter("steer_torque_limit_nm") = PARAMETERS["steer_torque_limit_nm"].nominal
-    drive_torque_limit_nm: parameter("drive_torque_limit_nm") = PARAMETERS["drive_torque_limit_nm"].nominal
+    control_frequency_hz: PARAMETERS["control_frequency_hz"].value_type = PARAMETERS["control_frequency_hz"].nominal
+    time_step_s: PARAMETERS["time_step_s"].value_type = DEFAULT_TIME_STEP_S
+    steer_torque_limit_nm: PARAMETERS["steer_torque_limit_nm"].value_type = PARAMETERS["steer_torque_limit_nm"].nominal
+    drive_torque_limit_nm: PARAMETERS["drive_torque_limit_nm"].value_type = PARAMETERS["drive_torque_limit_nm"].nominal
     randomization: Any = "default"
     observe_pressure: bool = False
     pressure_reading: Literal["current", "at_reset"] = "current"
@@ -137,9 +137,9 @@ class EnvKwargs(Schema):
         BeforeValidator(lambda v: tuple(v) if isinstance(v, list) else v),  # a YAML list
     ] = ()
     observation_history_steps: count(0, 20) = 0
-    observation_noise_scale: parameter("observation_noise_scale") = 0.0
-    incline_deg: parameter("incline_deg") = 0.0
-    ramp_length_m: parameter("ramp_length_m") | None = None
+    observation_noise_scale: PARAMETERS["observation_noise_scale"].value_type = 0.0
+    incline_deg: PARAMETERS["incline_deg"].value_type = 0.0
+    ramp_length_m: PARAMETERS["ramp_length_m"].value_type | None = None
     render_mode: Literal[RENDER_MODES] | None = None  # type: ignore[valid-type]
     meshcat: Any = False
     record_replay: bool = False
@@ -150,7 +150,7 @@ class EnvKwargs(Schema):
     hydroelastic_pressure_step_kpa: number(
         ge=0.0, le=MAX_PRESSURE_STEP_KPA, words=f"[0, {MAX_PRESSURE_STEP_KPA:g}] kPa"
     ) = 0.5
-    pressure_extrapolation_kpa: parameter("pressure_extrapolation_kpa") = 0.0
+    pressure_extrapolation_kpa: PARAMETERS["pressure_extrapolation_kpa"].value_type = 0.0
     contact_approximation: Literal[CONTACT_APPROXIMATIONS] | None = None  # type: ignore[valid-type]
 
     @field_validator("friction_model")
@@ -159,7 +159,7 @@ class EnvKwargs(Schema):
         """(steer, drive) friction models: a mapping whose keys are among steer/drive gives each
         joint its own (``majd`` where missing); anything else is both joints' law."""
         if isinstance(spec, Mapping) and spec and set(spec) <= {"steer", "drive"}:
-            steer, drive = spec.get("steer", "majd"), spec.get("drive", "majd")
+            steer, drive = spec.get("steer", DEFAULT_FRICTION), spec.get("drive", DEFAULT_FRICTION)
         else:
             steer = drive = spec
         return joint_friction(steer, "steer"), joint_friction(drive, "drive")
@@ -185,8 +185,8 @@ class RampDescentEnvKwargs(EnvKwargs, RampDescentKwargs):
     """``gym.make("sphere_env/RampDescent-v2", **kwargs)``: the environment's and the task's
     kwargs, on an 8° ramp of 6 m by default."""
 
-    incline_deg: parameter("incline_deg") = 8.0
-    ramp_length_m: parameter("ramp_length_m") = 6.0
+    incline_deg: PARAMETERS["incline_deg"].value_type = 8.0
+    ramp_length_m: PARAMETERS["ramp_length_m"].value_type = 6.0
 
 
 class RollEnvKwargs(EnvKwargs, RollKwargs):
@@ -203,7 +203,7 @@ Rate = number(ge=-MAX_RATE_RAD_S, le=MAX_RATE_RAD_S, words=RATE_WORDS)
 Speed = number(ge=-MAX_SPEED_M_S, le=MAX_SPEED_M_S, words=SPEED_WORDS)
 
 
-class InitialStateOption(InitialStateFields):
+class InitialStateOption(InitialState):
     """The ``initial_state`` option: an :class:`~sphere_env.physics.InitialState` or a mapping of
     its fields, with speeds and rates within the physics-failure limits (such an episode would end
     at its first step, and rates far beyond overflow the float32 observation)."""
@@ -212,14 +212,6 @@ class InitialStateOption(InitialStateFields):
     drive_rate: Rate = 0.0
     angular_velocity_rad_s: fixed_tuple(Rate, 3, "3 rates within " + RATE_WORDS) = (0.0, 0.0, 0.0)
     velocity_m_s: fixed_tuple(Speed, 3, "3 speeds within " + SPEED_WORDS) = (0.0, 0.0, 0.0)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _fields_of_a_state(cls, data: Any) -> Any:
-        """An InitialState (a dataclass) as the mapping of its fields."""
-        if dataclasses.is_dataclass(data) and not isinstance(data, type):
-            return vars(data)
-        return data
 
 
 class ResetOptions(Schema):

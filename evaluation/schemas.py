@@ -3,27 +3,26 @@ checked when loaded, before any env is built, any worker starts or anything is w
 
 :class:`ControllerSpec` reads a controller (``label=spec`` text or ``{label, spec}``);
 :class:`SweepFields` is the grid of :class:`sphere_env.evaluation.evaluate.SweepSpec`;
-:class:`EvaluateOptions`, :class:`EnjoyFields`, :class:`ViewOptions` and :class:`ExportOptions` are
-the rest of each command's options. An unknown key, a value of the wrong type and a value out of
+:class:`EvaluateOptions` is the rest of the evaluate command's options
+(:mod:`sphere_env.evaluation.command_options`: those of ``enjoy``, ``export`` and ``demo``). An unknown key, a value of the wrong type and a value out of
 range are refused as ``field '<name>' = <value>: <problem>; allowed: <what>``. What needs a loaded
 model or a built env (a policy's training env id, its observation size, a controller's first
 action) is checked after loading, by the tools themselves.
 
-A schema deriving from :class:`Loaded` gives the same one-line error when built directly
-(``SweepSpec(controllers=[...])``) as through :func:`~sphere_env.schemas.validate`.
+A schema deriving from :class:`~sphere_env.schemas.Built` gives the same one-line error when built
+directly (``SweepSpec(controllers=[...])``) as through :func:`~sphere_env.schemas.validate`.
 """
 
 from __future__ import annotations
 
 import math
-from contextvars import ContextVar
 from typing import Annotated, Any, Literal, Mapping
 
-from pydantic import AfterValidator, BeforeValidator, Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, field_validator, model_validator
 
-from sphere_env.files import file_stem
+from sphere_env.files import InputFile, OutputFolder, file_stem
 from sphere_env.params import SHELL_MODELS, SHIPPED_CALIBRATIONS
-from sphere_env.schemas import Finite, InputFile, OutputFolder, Schema, allowed, count, number, shown, validate
+from sphere_env.schemas import Built, Finite, Schema, allowed, count, shown
 
 #: Env kwargs the sweep sets per cell (refused in ``env_kwargs``) and the option that sets each.
 GRID_KWARGS = {
@@ -54,34 +53,6 @@ MAX_SEED = 2**32 - 1
 Seed = count(0, MAX_SEED)
 #: Export formats and the file each writes.
 EXPORT_FORMATS = {"onnx": "policy.onnx", "torchscript": "policy.pt"}
-
-
-#: Set while :meth:`Loaded.model_validate` runs (pydantic validates a model that has its own
-#: ``__init__`` by calling that ``__init__``; :func:`validate` reports the errors itself then).
-_VALIDATING: ContextVar[bool] = ContextVar("_VALIDATING", default=False)
-
-
-class Loaded(Schema):
-    """A schema whose constructor refuses bad input as :func:`validate` does: one ``ValueError``
-    line naming the field, the value and what is allowed."""
-
-    def __init__(self, /, **data: Any) -> None:
-        if _VALIDATING.get():
-            super().__init__(**data)
-            return
-        try:
-            super().__init__(**data)
-        except ValidationError:
-            validate(type(self), data)  # the same input again, for validate's one-line message
-            raise
-
-    @classmethod
-    def model_validate(cls, obj: Any, **kwargs: Any) -> Any:
-        token = _VALIDATING.set(True)
-        try:
-            return super().model_validate(obj, **kwargs)
-        finally:
-            _VALIDATING.reset(token)
 
 
 def _registered(env_id: str) -> str:
@@ -213,7 +184,7 @@ class ControllerSpec(Schema):
         return f"{self.label}={self.spec}"
 
 
-class SweepFields(Loaded):
+class SweepFields(Built):
     """A grid to evaluate (see ``SweepSpec``): every controller × shell model × friction preset ×
     pressure [kPa] × seed, and the conditions added to it (``faults``, ``calibrations``: each once
     more over the grid, for ``condition_controllers``; the faults at ``fault_seeds``)."""
@@ -321,7 +292,7 @@ class SweepFields(Loaded):
             cal = ShellCalibration.load(cal_name)
             for i, p in enumerate(self.pressures_kpa):
                 cal.check_pressure(p, f"field 'pressures_kpa[{i}]'")
-        from sphere_env.schemas.env import check_episode_length
+        from sphere_env.envs.kwargs import check_episode_length
 
         check_episode_length(self.env_id, self.env_kwargs)
         return self
@@ -407,96 +378,3 @@ class EvaluateOptions(Schema):
                 "may not share this file system); record videos with the local process pool"
             )
         return self
-
-
-def _run_folder(run: str) -> str:
-    """The folder of ``<run folder>[@best|@model]`` exists."""
-    from sphere_env.evaluation.controller_specs import run_path
-
-    if not run_path(run.partition("@")[0]).is_dir():
-        raise ValueError("is not a folder (a training run folder holds config.yaml, model.zip, vecnormalize.json)")
-    return run
-
-
-RunText = Annotated[
-    str,
-    AfterValidator(_run_folder),
-    Field(
-        pattern=r"^[^@]*(?:@(?:best|model))?$",
-        json_schema_extra=allowed("a training run folder or pretrained, optionally @best"),
-    ),
-]
-
-
-class EnjoyFields(Loaded):
-    """What the enjoy command watches (see ``EnjoySpec``). ``None`` fields take the run's own
-    values (env id, shell model) or the calibration's nominal pressure [kPa]."""
-
-    run: RunText
-    episodes: count(1, MAX_ENJOY_EPISODES) = 1
-    pressure_kpa: Finite | None = Field(None, json_schema_extra=allowed("a pressure [kPa] inside the calibrated range"))
-    shell_model: ShellModel | None = None
-    seed: Seed = 0
-    deterministic: bool = True
-    env_id: EnvId | None = None
-    allow_env_mismatch: bool = False
-    env_kwargs: Annotated[dict[str, Any], AfterValidator(_env_kwargs_without(ENJOY_KWARGS, "the enjoy command"))] = (
-        Field(default_factory=dict, json_schema_extra=allowed("a mapping of env kwargs"))
-    )
-    label: Annotated[str, Field(min_length=1)] | None = Field(
-        None, json_schema_extra=allowed("a non-empty name (default: the run folder's)")
-    )
-
-
-class ViewOptions(Schema):
-    """How the enjoy command shows its episodes."""
-
-    meshcat: bool = False
-    video: OutputFolder | None = None
-    realtime_rate: number(ge=0.0) = Field(
-        1.0, json_schema_extra=allowed("a finite number >= 0 (simulated s per wall-clock s; 0: as fast as possible)")
-    )
-
-
-class ExportOptions(Schema):
-    """The export command's options (:func:`sphere_env.evaluation.export.export`); ``out`` defaults
-    to ``<run>/export`` (``<run>/export_best`` for ``@best``)."""
-
-    run: RunText
-    format: Literal[tuple(EXPORT_FORMATS)] = Field(  # type: ignore[valid-type]
-        "onnx", json_schema_extra=allowed(f"one of {list(EXPORT_FORMATS)}")
-    )
-    out: OutputFolder
-    tol: number(gt=0.0) = 1e-5
-    env_id: EnvId | None = None
-    allow_env_mismatch: bool = False
-
-    @model_validator(mode="before")
-    @classmethod
-    def _default_out(cls, data: Any) -> Any:
-        if isinstance(data, Mapping) and data.get("out") is None and isinstance(data.get("run"), str):
-            from sphere_env.evaluation.controller_specs import run_path
-
-            path, _, which = data["run"].partition("@")
-            data = {**data, "out": run_path(path) / ("export_best" if which == "best" else "export")}
-        return data
-
-
-class DemoOptions(Schema):
-    """The demo's options (``sphere-env demo``), checked before its training starts, so that a bad
-    output folder cannot fail the demo after the training ran."""
-
-    train_steps: count(1, 10**9)
-    seed: Seed
-    seeds: list[Seed] = Field(
-        min_length=1, max_length=100, json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1]")
-    )
-    fault_seeds: list[Seed] | None = Field(
-        None,
-        min_length=1,
-        max_length=100,
-        json_schema_extra=allowed("1 to 100 integer seeds in [0, 2**32 - 1], or none for the first evaluation seed"),
-    )
-    out: OutputFolder
-    run_dir: OutputFolder | None = None
-    workers: count(1, MAX_WORKERS) | None = None

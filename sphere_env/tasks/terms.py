@@ -1,22 +1,19 @@
-"""The randomization spec's typed schema: every form the ``randomization`` kwarg takes as data.
+"""One randomization term: what is drawn, when, and from which distribution, as a typed schema.
 
-:func:`load_spec` validates a preset name or a mapping (the formats of
-:mod:`sphere_env.tasks.randomization`) against :class:`SpecInput`: an unknown key, a value of the
-wrong type (a string or a bool is never a number), a value outside its parameter's bounds and a
-distribution without the fields it needs are refused as ``<kwarg>: field '<path>' = <value>:
-<problem>; allowed: <what>``. Each parameter's field types (bounds, whole numbers, vector size,
-categorical names) come from its record in :mod:`sphere_env.params`. Two rules read the
-environment from the validation context: without a ramp the incline cannot be randomized, and a
-parameter that changes only between episodes (``changes == "reset"`` in the registry) takes no
-``interval`` mode.
-
-Every parameter entry is validated into a :class:`Draw` given in full (a number becomes
-``{distribution: fixed, value: ...}``, ``[low, high]`` a uniform one, a list of names a choice), so
-that :class:`~sphere_env.tasks.randomization.RandomizationSpec` is built from one form.
+A :class:`Distribution` is a draw given in full (``distribution``: ``fixed`` | ``uniform`` |
+``normal`` | ``choice`` and the fields it takes) and samples itself; a :class:`Term` is a
+parameter's distribution with its timing (``mode``: ``reset`` | ``interval`` | ``schedule``). Each
+randomizable parameter of :mod:`sphere_env.params` has its own subclasses (:func:`term_model`),
+whose fields are typed from the parameter's record (bounds, whole numbers, vector size, categorical
+names); :func:`parameter_field` also reads the short forms (a number: fixed; ``[low, high]``:
+uniform; a list of names: choice) into a full term. A value of the wrong type (a string or a bool is
+never a number), outside its parameter's bounds, or a distribution without the fields it needs is
+refused as ``field '<path>' = <value>: <problem>; allowed: <what>``. Vectors are held as tuples.
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Annotated, Any, ClassVar, Literal, Mapping, Optional, Union
 
 import numpy as np
@@ -25,19 +22,15 @@ from pydantic import (
     BeforeValidator,
     Discriminator,
     Field,
-    PrivateAttr,
     Tag,
-    ValidationInfo,
     create_model,
     model_validator,
 )
 
 from sphere_env.params import PARAMETERS as REGISTRY
-from sphere_env.params import RANDOMIZABLE, Parameter, schedule_rate
-from sphere_env.schemas import Schema, _integral, _ordered, allowed, number, validate
+from sphere_env.params import Parameter, schedule_rate
+from sphere_env.schemas import Schema, _integral, _ordered, allowed, number
 
-#: The preset names: a whole spec, or the ``base`` a mapping starts from.
-PRESETS = ("off", "default", "full")
 #: The fields each distribution takes.
 DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
     "fixed": ("value",),
@@ -52,25 +45,6 @@ MODES = ("reset", "interval", "schedule")
 NATURAL_RANGE = tuple(name for name, rec in REGISTRY.items() if rec.bounds_from is not None)
 #: The registry record of the pressure schedule's rate (drawn once per episode).
 RATE = "pressure_rate_kpa_per_s"
-
-
-def preset(name: str, ramp: bool) -> dict[str, Any]:
-    """A preset as the mapping it stands for (the incline only where there is a ramp)."""
-    if name == "off":
-        return {}
-    out: dict[str, Any] = {"pressure_kpa": {"distribution": "uniform"}}
-    if name == "full":
-        out |= {
-            "steer_friction_scale": [0.8, 1.2],
-            "drive_friction_scale": [0.8, 1.2],
-            "ground_friction": [0.7, 1.3],
-            "payload_mass_kg": [0.0, 3.0],
-            "payload_com_offset_m": [[-0.02] * 3, [0.02] * 3],
-        }
-        if ramp:
-            out["incline_deg"] = [12.0, 20.0]
-        out["pressure_schedule"] = {"rate_kpa_per_s": [-0.2, 0.0]}
-    return out
 
 
 # ---- one parameter's values ------------------------------------------------------------------------
@@ -89,8 +63,10 @@ def _scalar(rec: Parameter, bounded: bool = True) -> Any:
 
 
 def _value(rec: Parameter, scalar: Any) -> Any:
-    """``scalar``, or a list of ``rec.size`` of them for a vector parameter."""
-    return scalar if rec.size == 1 else Annotated[list[scalar], Field(min_length=rec.size, max_length=rec.size)]
+    """``scalar``, or a list of ``rec.size`` of them for a vector parameter (held as a tuple)."""
+    if rec.size == 1:
+        return scalar
+    return Annotated[list[scalar], Field(min_length=rec.size, max_length=rec.size), AfterValidator(tuple)]
 
 
 def _words(rec: Parameter) -> str:
@@ -109,7 +85,7 @@ def fixed_value(rec: Parameter) -> Any:
     gives it (a tuple, a numpy array or numpy numbers read as plain data), never a distribution."""
     return Annotated[
         _value(rec, _scalar(rec)),
-        BeforeValidator(_plain),
+        BeforeValidator(plain),
         Field(json_schema_extra=allowed(f"a fixed value: {_words(rec)}")),
     ]
 
@@ -119,11 +95,17 @@ _low_high = _ordered(strict=False)
 
 
 # ---- a distribution given in full ------------------------------------------------------------------
-class Draw(Schema):
-    """One distribution given in full: ``distribution`` (when left out: the one whose fields are
-    given, else ``fixed``) and the fields it takes (:data:`DISTRIBUTIONS`), nothing else. Each
-    parameter's subclass (:func:`draw_model`) types the fields from the parameter's record."""
+class Distribution(Schema):
+    """One distribution given in full: ``distribution`` (its :attr:`kind`; when left out: the one
+    whose fields are given, else ``fixed``) and the fields it takes (:data:`DISTRIBUTIONS`), nothing
+    else. ``uniform`` draws within [``low``, ``high``] (both left out: the parameter's natural
+    range, :data:`NATURAL_RANGE`, filled in by ``RandomizationSpec.resolved``); ``normal`` draws
+    around ``mean`` with ``std`` (the caller clips to the parameter's bounds); ``choice`` draws one
+    of ``values``. Scalars, or tuples for vector parameters (drawn per component). Each
+    parameter's subclass (:func:`term_model`) types the fields from the parameter's record."""
 
+    #: the parameter drawn (each parameter's subclass sets it)
+    parameter: ClassVar[str] = ""
     #: uniform may leave out both bounds (:data:`NATURAL_RANGE`)
     natural_range: ClassVar[bool] = False
 
@@ -143,17 +125,17 @@ class Draw(Schema):
         return data
 
     @model_validator(mode="after")
-    def _fields_of_the_distribution(self) -> "Draw":
-        kind = self.distribution
-        if kind is None:  # an entry's schedule without a draw (checked by the entry)
+    def _fields_of_the_distribution(self) -> "Distribution":
+        kind = self.kind
+        if kind is None:  # a term's schedule without a draw (checked by the term)
             return self
         takes = DISTRIBUTIONS[kind]
         others = {k for fields in DISTRIBUTIONS.values() for k in fields} - set(takes)
         for key in sorted(others):
             if getattr(self, key, None) is not None:
+                keys = {info.alias or name for name, info in type(self).model_fields.items()}
                 raise ValueError(
-                    f"field {key!r} is not used by distribution {kind!r}; allowed: "
-                    f"{sorted(set(type(self).model_fields) - others)}"
+                    f"field {key!r} is not used by distribution {kind!r}; allowed: {sorted(keys - others)}"
                 )
         if kind == "uniform" and self.low is None and self.high is None and self.natural_range:
             return self  # the calibration's range
@@ -165,15 +147,39 @@ class Draw(Schema):
             _low_high((self.low, self.high))
         return self
 
+    def sample(self, rng: np.random.Generator, size: int) -> Any:
+        """One value: a number, a name, or a tuple of ``size`` numbers for a vector parameter."""
+        if self.kind == "fixed":
+            return self.value
+        if self.kind == "choice":
+            return self.values[int(rng.integers(len(self.values)))]
+        if self.kind == "uniform":
+            x = rng.uniform(self.low, self.high, size=size)
+        else:  # normal
+            x = rng.normal(self.mean, self.std, size=size)
+        return float(x[0]) if size == 1 else tuple(float(v) for v in x)
 
-class Entry(Draw):
-    """A parameter's entry given in full: a :class:`Draw`, and when it is drawn: at every ``reset``,
-    every ``interval_s`` seconds of sim time (``interval``), or at reset with a rate of change
-    ``rate_per_s`` (itself a draw, once per episode) that moves the value after ``delay_s``
-    (``schedule``; without a draw of its own the schedule starts from the nominal value)."""
+    def as_data(self) -> dict[str, Any]:
+        """The mapping this distribution is written as: its kind and the fields it sets."""
+        fields = {key: getattr(self, key, None) for keys in DISTRIBUTIONS.values() for key in keys}
+        return {"distribution": self.kind, **{k: plain(v) for k, v in fields.items() if v is not None}}
+
+
+class Term(Distribution):
+    """A parameter's term given in full: a :class:`Distribution`, and when it is drawn: at every
+    ``reset``, every ``interval_s`` seconds of sim time (``interval``), or at reset with a rate of
+    change ``rate_per_s`` (itself a distribution, drawn once per episode) that moves the value after
+    ``delay_s`` (``schedule``; without a draw of its own, :attr:`distribution` None, the schedule
+    starts from the nominal value). The event manager reads these terms
+    (:class:`~sphere_env.tasks.events.EventManager`)."""
+
+    @property
+    def distribution(self) -> "Term | None":
+        """The term's draw at reset: the term itself, or None when a schedule draws nothing."""
+        return None if self.kind is None else self
 
     @model_validator(mode="after")
-    def _mode_fields(self) -> "Entry":
+    def _mode_fields(self) -> "Term":
         mode = self.mode
         if mode == "interval" and self.interval_s is None:
             raise ValueError("field 'interval_s' is missing: mode 'interval' needs a period > 0 s")
@@ -184,28 +190,43 @@ class Entry(Draw):
         for key, owner in (("interval_s", "interval"), ("rate_per_s", "schedule"), ("delay_s", "schedule")):
             if mode != owner and getattr(self, key) is not None:
                 value = getattr(self, key)
-                if isinstance(value, Draw):  # as given: a number, or the distribution's mapping
-                    value = value.value if value.distribution == "fixed" else value.model_dump(exclude_none=True)
+                if isinstance(value, Distribution):  # as given: a number, or the distribution's mapping
+                    value = value.value if value.kind == "fixed" else value.as_data()
                 raise ValueError(
                     f"field {key!r} = {value!r} is only for mode {owner!r}; allowed: leave it out for mode {mode!r}"
                 )
-        if self.distribution is None and mode != "schedule":
+        if self.kind is None and mode != "schedule":
             raise ValueError(
                 f"field 'distribution' = None: only mode 'schedule' may leave out the draw; allowed: "
                 f"{list(DISTRIBUTIONS)}"
             )
+        if mode == "schedule" and self.delay_s is None:
+            object.__setattr__(self, "delay_s", 0.0)
         return self
 
+    def as_data(self) -> dict[str, Any]:
+        """The mapping this term is written as: its draw (if any), mode and timing."""
+        draw = {} if self.kind is None else super().as_data()
+        timing = {key: getattr(self, key) for key in ("interval_s", "delay_s") if getattr(self, key) is not None}
+        if self.rate_per_s is not None:
+            timing["rate_per_s"] = self.rate_per_s.as_data()
+        return {**draw, "mode": self.mode, **timing}
 
-def draw_model(rec: Parameter, entry: bool = True) -> type[Draw]:
-    """The full form of ``rec``'s entry: an :class:`Entry` (with ``mode``), or a :class:`Draw`."""
+
+@lru_cache(maxsize=None)
+def term_model(rec: Parameter, entry: bool = True) -> type[Distribution]:
+    """The full form of ``rec``'s term: a :class:`Term` (with ``mode``), or a :class:`Distribution`.
+    One class per parameter and form, a name of this module (so that a spec pickles)."""
     value, words = _value(rec, _scalar(rec)), _words(rec)
     kinds = ("fixed", "choice") if rec.choices else tuple(DISTRIBUTIONS)
     fields: dict[str, Any] = {
-        "distribution": (Literal[kinds], Field(json_schema_extra=allowed(str(list(kinds))))),  # type: ignore[valid-type]
+        "kind": (
+            Literal[kinds],  # type: ignore[valid-type]
+            Field(alias="distribution", json_schema_extra=allowed(str(list(kinds)))),
+        ),
         "value": (value | None, Field(None, json_schema_extra=allowed(words))),
         "values": (
-            Annotated[list[value], Field(min_length=1)] | None,
+            Annotated[list[value], Field(min_length=1), AfterValidator(tuple)] | None,
             Field(None, json_schema_extra=allowed(f"a non-empty list, each {words}")),
         ),
     }
@@ -234,14 +255,9 @@ def draw_model(rec: Parameter, entry: bool = True) -> type[Draw]:
         rate = schedule_rate(rec.name)
         fields |= {
             # left out (None) only by a schedule without a draw of its own: the nominal value at reset
-            "distribution": (
-                Optional[Literal[kinds]],
-                Field(
-                    None,
-                    json_schema_extra=allowed(  # type: ignore[valid-type]
-                        str(list(kinds))
-                    ),
-                ),
+            "kind": (
+                Optional[Literal[kinds]],  # type: ignore[valid-type]
+                Field(None, alias="distribution", json_schema_extra=allowed(str(list(kinds)))),
             ),
             "mode": (Literal[modes], Field("reset", json_schema_extra=allowed(f"{list(modes)}{why}"))),  # type: ignore[valid-type]
             "interval_s": (number(gt=0.0) | None, Field(None, json_schema_extra=allowed("a period > 0 s"))),
@@ -257,8 +273,11 @@ def draw_model(rec: Parameter, entry: bool = True) -> type[Draw]:
             ),
             "delay_s": (number(ge=0.0) | None, Field(None, json_schema_extra=allowed("a time >= 0 s"))),
         }
-    model = create_model(f"{rec.name}_entry", __base__=Entry if entry else Draw, **fields)
+    name = f"{rec.name}_{'term' if entry else 'distribution'}"
+    model = create_model(name, __base__=Term if entry else Distribution, __module__=__name__, **fields)
+    model.parameter = rec.name
     model.natural_range = rec.name in NATURAL_RANGE
+    globals()[name] = model
     return model
 
 
@@ -276,18 +295,18 @@ def parameter_field(rec: Parameter, entry: bool = True) -> Any:
     """The field type of ``rec``'s entry in any form: the full mapping, a value (fixed), a list of
     names (choice) or ``[low, high]`` (uniform; a vector's ``[[low...], [high...]]``); each is
     validated into the full form."""
-    full = draw_model(rec, entry)
+    full = term_model(rec, entry)
     value = _value(rec, _scalar(rec))
 
-    def fixed(v: Any) -> Draw:
-        return full.model_construct(distribution="fixed", value=v)
+    def fixed(v: Any) -> Distribution:
+        return full.model_construct(kind="fixed", value=v)
 
-    def choice(vs: list) -> Draw:
-        return full.model_construct(distribution="choice", values=vs)
+    def choice(vs: list) -> Distribution:
+        return full.model_construct(kind="choice", values=tuple(vs))
 
-    def uniform(pair: list) -> Draw:
+    def uniform(pair: list) -> Distribution:
         low, high = pair
-        return full.model_construct(distribution="uniform", low=low, high=high)
+        return full.model_construct(kind="uniform", low=low, high=high)
 
     def form(v: Any) -> str:  # the union's tags are no field names, so error paths leave them out
         if isinstance(v, Mapping):
@@ -313,7 +332,8 @@ def parameter_field(rec: Parameter, entry: bool = True) -> Any:
     ]
 
 
-def _entry_words(rec: Parameter) -> str:
+def term_words(rec: Parameter) -> str:
+    """Every form a term of ``rec`` may take, in words."""
     if rec.choices:
         return (
             f"a name (fixed), a non-empty list of names (choice) or {{distribution: fixed|choice, value|values}}; "
@@ -327,9 +347,11 @@ def _entry_words(rec: Parameter) -> str:
     )
 
 
-# ---- the whole spec --------------------------------------------------------------------------------
-class Schedule(Schema):
-    """Pressure within an episode: a rate drawn per episode [kPa/s], after a delay [s]."""
+# ---- the pressure's schedule ----------------------------------------------------------------------
+class PressureSchedule(Schema):
+    """Pressure within an episode: p(t) = clip(p₀ + rate · max(t − delay_s, 0)) to the calibration
+    range, p₀ the episode's (drawn) pressure; the rate [kPa/s] (< 0: a leak) is drawn once per
+    episode, the delay [s] is fixed."""
 
     rate_kpa_per_s: parameter_field(REGISTRY[RATE], entry=False) = Field(
         json_schema_extra=allowed(  # type: ignore[valid-type]
@@ -338,90 +360,18 @@ class Schedule(Schema):
     )
     delay_s: number(ge=0.0) = Field(0.0, json_schema_extra=allowed("a time >= 0 s"))
 
-
-#: One optional field per randomizable parameter, typed from its registry record.
-ParameterEntries = create_model(
-    "ParameterEntries",
-    __base__=Schema,
-    **{
-        name: (parameter_field(REGISTRY[name]), Field(None, json_schema_extra=allowed(_entry_words(REGISTRY[name]))))
-        for name in RANDOMIZABLE
-    },
-)
+    def as_data(self) -> dict[str, Any]:
+        """The mapping this schedule is written as."""
+        return {"rate_kpa_per_s": self.rate_kpa_per_s.as_data(), "delay_s": self.delay_s}
 
 
-def _plain(x: Any) -> Any:
+def plain(x: Any) -> Any:
     """Python containers and numpy values as the plain data the schema reads: tuples and arrays as
     lists, numpy scalars as Python numbers (a numpy bool stays a bool: not a number)."""
     if isinstance(x, Mapping):
-        return {k: _plain(v) for k, v in x.items()}
+        return {k: plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
+        return [plain(v) for v in x]
     if isinstance(x, (np.ndarray, np.generic)):
         return x.tolist()
     return x
-
-
-class SpecInput(ParameterEntries):
-    """A spec as a mapping: a preset to start from (``base``), parameter entries over it and the
-    pressure schedule (``null``: none, also over a preset's)."""
-
-    base: Literal[PRESETS] = Field(
-        "off",
-        json_schema_extra=allowed(  # type: ignore[valid-type]
-            f"a preset name {list(PRESETS)}: the whole spec, or the mapping's base"
-        ),
-    )
-    pressure_schedule: Schedule | None = Field(
-        None, json_schema_extra=allowed("{rate_kpa_per_s: <entry>, delay_s: <s>} or null")
-    )
-    _order: tuple[str, ...] = PrivateAttr(())
-
-    @model_validator(mode="wrap")
-    @classmethod
-    def _over_the_preset(cls, data: Any, handler, info: ValidationInfo) -> "SpecInput":
-        """The preset's entries first, the mapping's over them (an entry keeps the preset's place:
-        terms are drawn in this order); records that order."""
-        data = _plain(data)
-        if isinstance(data, Mapping) and data.get("base", "off") in PRESETS:
-            ramp = (info.context or {}).get("ramp", True)
-            pressure = data.get("pressure_kpa")
-            if isinstance(pressure, Mapping) and pressure.get("mode") == "schedule":
-                if data.get("pressure_schedule") is not None:
-                    raise ValueError(
-                        f"field 'pressure_schedule' = {data['pressure_schedule']!r}: 'pressure_kpa' has "
-                        "mode 'schedule' already; allowed: one pressure schedule (null here, or another "
-                        "mode for 'pressure_kpa')"
-                    )
-                data = {**data, "pressure_schedule": None}  # replaces a preset's
-            data = {**preset(data.get("base", "off"), ramp), **data}
-        out = handler(data)
-        out._order = tuple(k for k in data if k in RANDOMIZABLE)
-        return out
-
-    @model_validator(mode="after")
-    def _incline_needs_a_ramp(self, info: ValidationInfo) -> "SpecInput":
-        entry = self.incline_deg
-        if not (info.context or {}).get("ramp", True) and entry is not None and entry.distribution != "fixed":
-            raise ValueError(
-                f"field 'incline_deg.distribution' = {entry.distribution!r}: this environment has no "
-                "ramp, so the incline cannot be randomized; allowed: 'fixed'"
-            )
-        return self
-
-    def entries(self) -> list[tuple[str, Entry]]:
-        """(parameter, entry in full) of every parameter given, in the order given (a preset's first)."""
-        return [(name, getattr(self, name)) for name in self._order]
-
-
-def load_spec(data: Any, ramp: bool, kwarg: str) -> SpecInput:
-    """A spec given as data (a preset name or a mapping) as :class:`SpecInput` (``ramp``: the
-    environment has one); ``ValueError`` starting with ``<kwarg>:`` and naming the field otherwise."""
-    if isinstance(data, str):
-        data = {"base": data}
-    if not isinstance(data, Mapping):
-        raise ValueError(
-            f"{kwarg}: value {data!r} ({type(data).__name__}) is not a spec; allowed: None, a preset name "
-            f"{list(PRESETS)}, a mapping of parameters to entries or a RandomizationSpec"
-        )
-    return validate(SpecInput, data, kwarg, context={"ramp": ramp})

@@ -14,17 +14,17 @@ from __future__ import annotations
 
 import math
 import reprlib
-import tempfile
 from argparse import ArgumentTypeError
 from itertools import islice
 from pathlib import Path
-from typing import Annotated, Any, Callable, Mapping, TypeVar, get_args
+from typing import Annotated, Any, Callable, ClassVar, Mapping, TypeVar, get_args
 
 import numpy as np
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, ValidationError
 from pydantic.fields import FieldInfo
 
 S = TypeVar("S", bound="Schema")
+B = TypeVar("B", bound="Built")
 FIELD = "field '"  # how every message names a field
 
 
@@ -59,6 +59,37 @@ class Schema(BaseModel):
     """Base of every input schema: unknown keys and wrong types refused, values immutable."""
 
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+class Built(Schema):
+    """A schema that code builds by calling it with keywords, such as a configuration object
+    (``TwinConfig(shell_model="point")``): a bad value raises the ``ValueError`` that
+    :func:`validate` raises, ``<where>: field '<root>.<path>' = <value>: <problem>; allowed: ...``
+    (:attr:`where`, :attr:`root`: the class's own)."""
+
+    #: what the message names as the input (``where`` of :func:`validate`)
+    where: ClassVar[str] = ""
+    #: the mapping's own name (``root`` of :func:`validate`)
+    root: ClassVar[str] = ""
+
+    def __init__(self, **data: Any) -> None:
+        try:
+            super().__init__(**data)
+        except ValidationError as err:
+            head = f"{self.where}: " if self.where else ""
+            raise ValueError(head + first_problem(type(self), err, self.root)) from None
+
+    # Marked as pydantic's own __init__, so that validating a Built nested in another schema (an
+    # InitialState in the reset options) stays pydantic's, and its errors name the outer path.
+    __init__.__pydantic_base_init__ = True  # type: ignore[attr-defined]
+
+    def fields(self) -> dict[str, Any]:
+        """The fields by name, as they hold their values (nested schemas stay objects)."""
+        return {name: getattr(self, name) for name in type(self).model_fields}
+
+    def replace(self: B, **changes: Any) -> B:
+        """A copy with ``changes``, validated as a new object is."""
+        return type(self)(**{**self.fields(), **changes})
 
 
 def allowed(text: str) -> dict[str, Any]:
@@ -137,7 +168,8 @@ def _ordered(strict: bool) -> Callable[[tuple[Any, Any]], tuple[Any, Any]]:
     def check(pair: tuple[Any, Any]) -> tuple[Any, Any]:
         low, high = np.asarray(pair[0], dtype=float), np.asarray(pair[1], dtype=float)
         if np.any(low > high) or (strict and np.any(low == high)):
-            raise ValueError(f"low {shown(pair[0])} is {'not below' if strict else 'above'} high {shown(pair[1])}")
+            low_given, high_given = (list(v) if isinstance(v, tuple) else v for v in pair)  # as written
+            raise ValueError(f"low {shown(low_given)} is {'not below' if strict else 'above'} high {shown(high_given)}")
         return pair
 
     return check
@@ -162,62 +194,6 @@ def ordered_pair(
     ]
 
 
-def _as_path(value: Any) -> Any:
-    return Path(value) if isinstance(value, str) and value else value
-
-
-def writable_location(path: Path) -> None:
-    """Refuse ``path`` as an output when it could not be written: a parent is a file, or the
-    nearest existing folder above it does not take a new entry (read-only, ``/proc``, no
-    permission). The check creates a temporary folder there and removes it at once, so an output
-    that cannot be written is refused before anything runs, and nothing is left behind."""
-    existing = path
-    while not existing.exists():
-        if existing.parent == existing:
-            break
-        existing = existing.parent
-    if existing.exists() and not existing.is_dir():
-        raise ValueError(f"{str(existing)!r} is a file")
-    try:
-        Path(tempfile.mkdtemp(prefix=".write-probe-", dir=existing)).rmdir()
-    except OSError as err:
-        raise ValueError(f"cannot write in {str(existing)!r} ({err.strerror or err})") from None
-
-
-def _output_folder(folder: Path) -> Path:
-    writable_location(folder)
-    return folder
-
-
-def _output_file(file: Path) -> Path:
-    if file.is_dir():
-        raise ValueError("is a folder; give a file name")
-    writable_location(file.parent if str(file.parent) else Path("."))
-    return file
-
-
-#: A folder to write into: created when missing; no parent a file, and writable where it will be made.
-OutputFolder = Annotated[
-    Path,
-    BeforeValidator(_as_path),
-    AfterValidator(_output_folder),
-    Field(
-        json_schema_extra=allowed(
-            "a folder path (created when missing) in a writable place, none of its parents a file"
-        )
-    ),
-]
-#: A file to write: not a folder, in a writable folder (created when missing), no parent a file.
-OutputFile = Annotated[
-    Path,
-    BeforeValidator(_as_path),
-    AfterValidator(_output_file),
-    Field(json_schema_extra=allowed("a file path in a writable folder, none of its parents a file")),
-]
-#: A file to read (its contents are checked by the reader).
-InputFile = Annotated[Path, BeforeValidator(_as_path), Field(json_schema_extra=allowed("a file path"))]
-
-
 def validate(
     schema: type[S],
     data: Any,
@@ -233,18 +209,27 @@ def validate(
     head = f"{where}: " if where else ""
     if not isinstance(data, Mapping):
         name = f"field {root!r}" if root else "the input"  # its type only: never echo a file's contents
-        raise error(
-            f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: {sorted(schema.model_fields)}"
-        )
+        raise error(f"{head}{name} is a {type(data).__name__}, not a mapping; allowed keys: {sorted(keys(schema))}")
     try:
         return schema.model_validate(dict(data), context=context)
     except ValidationError as err:
-        errors = [{**e, "loc": field_loc(schema, e["loc"], e["type"] == "extra_forbidden")} for e in err.errors()]
-        # an unknown key first: a typo also makes the key it was meant to be "missing"
-        first = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
-        # of a union's branches failing at one field, the one with a validator's own words
-        first = next((e for e in errors if e["loc"] == first["loc"] and e["type"] == "value_error"), first)
-        raise error(f"{head}{describe(schema, first, root)}") from None
+        raise error(f"{head}{first_problem(schema, err, root)}") from None
+
+
+def first_problem(schema: type[BaseModel], err: ValidationError, root: str = "") -> str:
+    """The first problem of ``err`` (an unknown key before any other) in the words of
+    :func:`describe`."""
+    errors = [{**e, "loc": field_loc(schema, e["loc"], e["type"] == "extra_forbidden")} for e in err.errors()]
+    # an unknown key first: a typo also makes the key it was meant to be "missing"
+    first = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    # of a union's branches failing at one field, the one with a validator's own words
+    first = next((e for e in errors if e["loc"] == first["loc"] and e["type"] == "value_error"), first)
+    return describe(schema, first, root)
+
+
+def keys(model: type[BaseModel]) -> dict[str, FieldInfo]:
+    """A schema's fields by the key an input gives them: the field's alias, else its name."""
+    return {info.alias or name: info for name, info in model.model_fields.items()}
 
 
 def field_loc(schema: type[BaseModel], loc: tuple, unknown_key: bool = False) -> tuple:
@@ -257,9 +242,9 @@ def field_loc(schema: type[BaseModel], loc: tuple, unknown_key: bool = False) ->
         last = i == len(loc) - 1
         if isinstance(p, int):
             out.append(p)
-        elif model is not None and p in model.model_fields:
+        elif model is not None and p in keys(model):
             out.append(p)
-            model = _model_in(model.model_fields[p].annotation)
+            model = _model_in(keys(model)[p].annotation)
         elif model is None and not _is_tag(p):
             out.append(p)  # a key of a free mapping
         elif last and unknown_key:
@@ -283,7 +268,7 @@ def describe(schema: type[BaseModel], e: Mapping[str, Any], root: str = "") -> s
     if e["type"] == "missing":
         return f"field {where!r} is missing"
     if e["type"] == "extra_forbidden":
-        fields = sorted(model.model_fields) if model is not None else []
+        fields = sorted(keys(model)) if model is not None else []
         return f"unknown field {where!r}; allowed: {fields}"
     msg = e["msg"].removeprefix("Value error, ").removeprefix("Assertion failed, ")
     if e["type"] == "value_error" and msg.startswith("field '"):
@@ -330,9 +315,9 @@ def _owner(schema: type[BaseModel], loc: tuple):
     names = [i for i, p in enumerate(loc) if isinstance(p, str)]
     for i in names:
         p = loc[i]
-        if model is None or p not in model.model_fields:
+        if model is None or p not in keys(model):
             return model, None
-        field = model.model_fields[p]
+        field = keys(model)[p]
         if i != names[-1]:
             model = _model_in(field.annotation)
     return model, field
