@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from sphere_env.cli import renamed
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.schemas import validate
 from sphere_env.schemas.evaluation import EnjoyFields, ViewOptions
 

@@ -38,9 +38,9 @@ from sphere_env.calibration.commands import (
     cmd_validate,
 )
 from sphere_env.cli import renamed
-from sphere_env.models.shell import STEER_LAW_FORMS
 from sphere_env.resources import asset_path
 from sphere_env.schemas import Finite, OutputFile, OutputFolder, checker, cli_type, count, number
+from sphere_env.schemas.calibration import STEER_LAW_FORMS
 from sphere_env.schemas.twin import parameter
 
 DEFAULT_MANIFEST = asset_path("logs", "roboball.yaml")
