@@ -27,7 +27,6 @@ from sphere_env.envs.interface import action_layout, failed_info, read_action, s
 from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
 from sphere_env.envs.twins import (
-    INCLINE_RESOLUTION_DEG,
     TwinCache,
     check_above_ground,
     drawn_shells,
@@ -38,12 +37,12 @@ from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.schemas import checker, count, validate
 from sphere_env.schemas.env import RENDER_MODES, EnvKwargs
-from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
+from sphere_env.tasks.events import EventManager
 from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
 
-__all__ = ["SphereEnv", "PRESSURE_RESOLUTION_KPA", "INCLINE_RESOLUTION_DEG"]
+__all__ = ["SphereEnv"]
 #: ``reset(seed=...)``: a non-negative integer or None.
 _SEED = checker(count(0) | None)
 
