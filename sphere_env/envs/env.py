@@ -4,9 +4,11 @@
 built once and reused by every reset (hydroelastic: one twin for every incline the randomization
 can draw, which moves its ground between episodes, so its cached shells serve all inclines);
 parameters (pressure, friction scales, ground friction,
-payload) change through :meth:`Twin.apply`. It turns actions into motor torques and steps the
-physics; :class:`~sphere_env.envs.parameters.EnvParameters` draws each episode's parameters,
-:class:`~sphere_env.envs.observer.EnvObserver` makes the observations, and a
+payload) change through :meth:`Twin.apply`. It steps the physics with the motor torques its
+:class:`~sphere_env.envs.stages.ActionPipeline` makes of each action;
+:class:`~sphere_env.envs.parameters.EnvParameters` draws each episode's parameters,
+:class:`~sphere_env.envs.observer.EnvObserver` makes the observations (through the
+:class:`~sphere_env.envs.stages.SensorPipeline`), and a
 :class:`~sphere_env.tasks.Task` supplies the command, reward terms, termination and default
 initial state. The registered ids are built by :mod:`sphere_env.envs.factories`.
 """
@@ -14,7 +16,6 @@ initial state. The registered ids are built by :mod:`sphere_env.envs.factories`.
 from __future__ import annotations
 
 import copy
-from collections import deque
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -26,6 +27,7 @@ from gymnasium.utils import EzPickle, seeding
 from sphere_env.envs.interface import action_layout, failed_info, read_action, step_info
 from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
+from sphere_env.envs.stages import ActionPipeline, SensorPipeline, StageContext
 from sphere_env.envs.twins import (
     TwinCache,
     check_above_ground,
@@ -126,9 +128,15 @@ class SphereEnv(gym.Env, EzPickle):
         self.observation_layout = layout = task.observation_layout(
             kw.observe_pressure, kw.observe_shell_model, kw.observation_history_steps, kw.observe_params
         )
+        # the parameters the env applies itself (latency, saturation, noise, ...): stages.py
+        stages = StageContext(
+            (kw.steer_torque_limit_nm, kw.drive_torque_limit_nm), task.observation_layout().noise_std()
+        )
+        self._actuation = ActionPipeline(stages)
         self._observer = EnvObserver(
             task,
             layout,
+            SensorPipeline(stages),
             shell_model,
             kw.observe_pressure,
             kw.pressure_reading,
@@ -151,7 +159,6 @@ class SphereEnv(gym.Env, EzPickle):
         self._events = parameters.event_manager(self._randomization)
         self._next_events: EventManager | None = None  # set_randomization's, from the next reset
         self._fired: list[str] = []
-        self._pending: deque[tuple[float, float]] = deque()
         self._needs_reset = True
         self._ended: str | None = None
         self._copied_mid_episode = False
@@ -313,8 +320,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._params = events.params
         self._fired = [e["name"] for e in events.describe()]  # every term draws at reset
         self._observer.reset(self._params)
-        # Actions reach the motors action_latency_steps control steps late (zero torque until then).
-        self._pending = deque([(0.0, 0.0)] * self._params["action_latency_steps"])
+        self._actuation.reset(self._params)
         if self.record_replay and twin.is_visualized:
             twin.start_recording()
             twin.publish()
@@ -345,24 +351,12 @@ class SphereEnv(gym.Env, EzPickle):
             raise RuntimeError("step: call reset() before step() (no episode has started, or the last reset failed)")
         if self._ended is not None:
             raise RuntimeError(f"step: the episode has ended ({self._ended}); call reset() before step()")
-        # Clip to the box; +1 drive = forward (the drive joint axis is −y, so τ_joint = −a·limit).
-        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
+        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)  # clipped to the box
         a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
         twin = self.twin
         tau = self._tau
-        params = self._params
-        s0, s1 = a0, a1  # what reaches the motors: the action, or the one action_latency_steps ago
-        if params["action_latency_steps"]:
-            self._pending.append((a0, a1))
-            s0, s1 = self._pending.popleft()
-        cap = params["motor_torque_scale"]
-        if cap < 1.0:  # motor saturation below the torque limit
-            s0, s1 = min(max(s0, -cap), cap), min(max(s1, -cap), cap)
-        tau[0] = s0 * self.steer_torque_limit_nm
-        tau[1] = -s1 * self.drive_torque_limit_nm
-        if params["steer_torque_offset_nm"]:  # a bias in the motor's torque loop, which still saturates
-            lim = cap * self.steer_torque_limit_nm
-            tau[0] = min(max(tau[0] + params["steer_torque_offset_nm"], -lim), lim)
+        # the torques take the parameters in force when the step starts (before its events fire)
+        tau[0], tau[1] = self._actuation(a0, a1, self._params)
         self._fired = []
         if self._failed is None:
             if self._events.active:
