@@ -28,15 +28,9 @@ from sphere_env.envs.interface import action_layout, failed_info, read_action, s
 from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
 from sphere_env.envs.stages import ActionPipeline, SensorPipeline, StageContext
-from sphere_env.envs.twins import (
-    TwinCache,
-    check_above_ground,
-    drawn_shells,
-    shared_inclines,
-    stability_problem,
-)
+from sphere_env.envs.twins import TwinCache, check_above_ground, shared_inclines, twin_config
 from sphere_env.params import TWIN_PARAMETERS
-from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState
 from sphere_env.schemas import checker, count, validate
 from sphere_env.schemas.env import RENDER_MODES, EnvKwargs
 from sphere_env.tasks.events import EventManager
@@ -89,9 +83,7 @@ class SphereEnv(gym.Env, EzPickle):
         kw = validate(EnvKwargs, kwargs, f"{task.name} kwargs")
         self.task = task
         self.shell_model = shell_model = kw.shell_model
-        self._steer_friction, self._drive_friction = kw.friction_model
         self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
-        self._contact_approximation = kw.contact_approximation
         self._parameters = parameters = EnvParameters(task, kw)
         self.calibration = parameters.calibrations.own
         #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
@@ -100,7 +92,7 @@ class SphereEnv(gym.Env, EzPickle):
         self.time_step_s = kw.time_step_s
         self.steer_torque_limit_nm = kw.steer_torque_limit_nm
         self.drive_torque_limit_nm = kw.drive_torque_limit_nm
-        self._randomization = self._check_randomization(kw.randomization, steer_check=False)
+        self._randomization = parameters.resolve(kw.randomization)  # its stability: once the twin exists
         self.observe_pressure = kw.observe_pressure
         self.observe_shell_model = kw.observe_shell_model
         self.pressure_reading = kw.pressure_reading
@@ -128,15 +120,15 @@ class SphereEnv(gym.Env, EzPickle):
         self.observation_layout = layout = task.observation_layout(
             kw.observe_pressure, kw.observe_shell_model, kw.observation_history_steps, kw.observe_params
         )
-        # the parameters the env applies itself (latency, saturation, noise, ...): stages.py
-        stages = StageContext(
+        # the parameters the env applies itself (latency, saturation, noise, ...): envs/stages.py
+        context = StageContext(
             (kw.steer_torque_limit_nm, kw.drive_torque_limit_nm), task.observation_layout().noise_std()
         )
-        self._actuation = ActionPipeline(stages)
+        self._actuation = ActionPipeline(context)
         self._observer = EnvObserver(
             task,
             layout,
-            SensorPipeline(stages),
+            SensorPipeline(context),
             shell_model,
             kw.observe_pressure,
             kw.pressure_reading,
@@ -147,11 +139,11 @@ class SphereEnv(gym.Env, EzPickle):
 
         # ---- physics ----
         shared = shared_inclines(self._randomization, shell_model, float(self.incline_deg), self.meshcat)
-        self._twin_cache = TwinCache(self._build_twin, shell_model, shared, float(self.incline_deg))
-        self.twin = self._get_twin(self.incline_deg)
+        self._twin_cache = TwinCache(twin_config(kw, parameters.calibrations.path), self.meshcat, shared)
+        self.twin = self._twin_cache.get(self.incline_deg)
         # Friction and injected shell torques are explicit: refuse gains that diverge at this step
         # (at the largest friction scales the randomization can draw).
-        problem = self._stability_problem(self._randomization)
+        problem = self._twin_cache.stability_problem(self._randomization, self.twin, self.incline_deg)
         if problem:
             raise ValueError(problem)
         self._tau = np.zeros(2)
@@ -190,7 +182,10 @@ class SphereEnv(gym.Env, EzPickle):
         is validated exactly like it: on a ``ValueError`` (naming the field) nothing changes.
         Copies (``copy.deepcopy``, ``pickle``) carry the new spec. Through a vector env:
         ``venv.env_method("set_randomization", spec)``. Returns the resolved spec."""
-        resolved = self._check_randomization(spec)
+        resolved = self._parameters.resolve(spec)
+        problem = self._twin_cache.stability_problem(resolved, self.twin, self.incline_deg)
+        if problem:
+            raise ValueError(f"randomization: {problem}")
         events = self._parameters.event_manager(resolved)
         self._randomization = resolved
         self._ezpickle_kwargs["randomization"] = resolved
@@ -209,67 +204,22 @@ class SphereEnv(gym.Env, EzPickle):
         """The events in force (name, mode, parameter), as the event manager describes them."""
         return self._events.describe()
 
-    def _check_randomization(self, spec: Any, steer_check: bool = True) -> RandomizationSpec:
-        """Parse and resolve ``spec`` as the ``randomization`` kwarg; pure (raises, changes nothing)."""
-        resolved = self._parameters.resolve(spec)
-        if steer_check:  # the constructor checks once its twin exists
-            problem = self._stability_problem(resolved)
-            if problem:
-                raise ValueError(f"randomization: {problem}")
-        return resolved
-
-    def _stability_problem(self, spec: RandomizationSpec) -> str | None:
-        """Friction and injected shell torques are explicit: the largest friction scales ``spec`` can
-        draw must not diverge at this time step, on the env's shell model and, when ``spec`` can
-        draw it, on the injected shell (its drive damping adds to the friction's; the other shells
-        add none)."""
-        twins = [self.twin]
-        if self.shell_model != "injected" and "injected" in drawn_shells(spec):
-            twins.append(self._get_twin(self.incline_deg, "injected"))
-        return stability_problem(spec, twins)
-
     # ---- twins ---------------------------------------------------------------------------------
-    def _get_twin(self, incline_deg: float, shell_model: str | None = None) -> Twin:
-        """The twin for a shell model (default: the env's) and an incline (:class:`TwinCache`)."""
-        return self._twin_cache.get(incline_deg, shell_model)
-
-    def _build_twin(
-        self, incline_deg: float, inclines_deg: tuple[float, ...] = (), shell_model: str | None = None
-    ) -> Twin:
-        cfg = TwinConfig(
-            fixture="free",
-            shell_model=shell_model or self.shell_model,
-            steer_friction=self._steer_friction,
-            drive_friction=self._drive_friction,
-            incline_deg=incline_deg,
-            ramp_length_m=self.ramp_length_m,
-            time_step_s=self.time_step_s,
-            ground_friction=1.0,
-            calibration=self._parameters.calibrations.path,
-            inclines_deg=inclines_deg,
-            pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
-            contact_approximation=self._contact_approximation,
-        )
-        return Twin(cfg, meshcat=self.meshcat)
-
     @property
     def ramp_end_x_m(self) -> float:
         """x_W where the current episode's ramp ends [m]; ``inf`` on flat ground."""
         return self.twin.ramp_end_x_m
 
-    def _all_twins(self) -> list[Twin]:
-        return self._twin_cache.all()
-
     @property
     def cached_twin_count(self) -> int:
         """Twins built and kept for reuse (the shared hydroelastic twin, if any, and one per other
         incline drawn)."""
-        return len(self._all_twins())
+        return len(self._twin_cache.all())
 
     @property
     def cached_shell_count(self) -> int:
         """Hydroelastic shells (one per distinct pressure) cached over all the env's twins."""
-        return sum(t.cached_shell_count for t in self._all_twins())
+        return sum(t.cached_shell_count for t in self._twin_cache.all())
 
     # ---- gym API -------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
@@ -302,7 +252,7 @@ class SphereEnv(gym.Env, EzPickle):
             init = InitialState(**self.task.initial_state())
         else:
             check_above_ground(self.twin, init, params["incline_deg"], self.ramp_length_m)
-        twin = self._get_twin(params["incline_deg"], params["shell_model"])
+        twin = self._twin_cache.get(params["incline_deg"], params["shell_model"])
         # ---- checked: from here on the environment changes ----
         if seed is not None:
             self._np_random, self._np_random_seed = rng, seed
@@ -311,9 +261,7 @@ class SphereEnv(gym.Env, EzPickle):
         if twin is not self.twin and self.record_replay:
             self.twin.stop_recording()
         self.twin = twin
-        twin.set_incline(params["incline_deg"])
-        self._parameters.calibrations.use(twin, params)
-        twin.apply(params)
+        self._parameters.apply(twin, params)
         twin.reset(init)
         self._events, self._next_events = events, None
         events.start(params)
