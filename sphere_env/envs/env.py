@@ -336,8 +336,8 @@ class SphereEnv(gym.Env, EzPickle):
 
     # ---- pieces ----------------------------------------------------------------------------------
     def _apply_events(self, t: float) -> None:
-        """Push the parameters the event manager changed at sim time ``t`` into the twin (sensing
-        and actuation parameters are read from ``self._params`` where they act)."""
+        """Push the parameters the event manager changed at sim time ``t`` into the twin (the
+        stages read the sensing and actuation ones from ``self._params`` when they act)."""
         changed, self._fired = self._events.step(t, self.np_random)
         twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS}
         if twin_changes:
