@@ -36,7 +36,7 @@ from typing import Any
 
 from sphere_env.cli import renamed
 from sphere_env.evaluation.command_options import EnjoyFields, ViewOptions
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.schemas import validate
 
 

@@ -15,8 +15,9 @@ clip and read nominal values through one space, so every parameter takes the sam
 
 Adding a parameter is one record here and its use where it acts: a ``twin`` parameter is checked
 and stored by :meth:`~sphere_env.physics.Twin.apply` and pushed into the context where
-``Twin._push`` handles it; an ``env`` parameter is read from the episode's parameter set (the
-one ``info["params"]`` reports) where the environment applies it; a ``randomizable`` one is accepted by the randomization schema,
+``Twin._push`` handles it; an ``env`` parameter is applied by its stage in
+:mod:`sphere_env.envs.stages`, which reads it from the episode's parameter set (the one
+``info["params"]`` reports); a ``randomizable`` one is accepted by the randomization schema,
 the reset options and the event manager as its record says.
 
 Pure Python (no Drake), so tasks and randomization specs can be checked without a simulator.

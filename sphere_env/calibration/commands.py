@@ -242,7 +242,8 @@ def cmd_kd_step(args) -> int:
 def cmd_kd_pressure(args) -> int:
     from sphere_env.calibration.decay import write_yaml
     from sphere_env.calibration.sensitivity import match_dissipation_by_pressure
-    from sphere_env.models.shell import ShellCalibration, interpolate_k_d
+    from sphere_env.models.shell import ShellCalibration
+    from sphere_env.models.calibration_schema import interpolate_k_d
 
     cal = ShellCalibration.load(args.calibration)  # validated before anything runs
     if args.pressure_kpa is not None:

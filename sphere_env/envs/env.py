@@ -4,9 +4,11 @@
 built once and reused by every reset (hydroelastic: one twin for every incline the randomization
 can draw, which moves its ground between episodes, so its cached shells serve all inclines);
 parameters (pressure, friction scales, ground friction,
-payload) change through :meth:`Twin.apply`. It turns actions into motor torques and steps the
-physics; :class:`~sphere_env.envs.parameters.EnvParameters` draws each episode's parameters,
-:class:`~sphere_env.envs.observer.EnvObserver` makes the observations, and a
+payload) change through :meth:`Twin.apply`. It steps the physics with the motor torques its
+:class:`~sphere_env.envs.stages.ActionPipeline` makes of each action;
+:class:`~sphere_env.envs.parameters.EnvParameters` draws each episode's parameters,
+:class:`~sphere_env.envs.observer.EnvObserver` makes the observations (through the
+:class:`~sphere_env.envs.stages.SensorPipeline`), and a
 :class:`~sphere_env.tasks.Task` supplies the command, reward terms, termination and default
 initial state. The registered ids are built by :mod:`sphere_env.envs.factories`.
 """
@@ -14,7 +16,6 @@ initial state. The registered ids are built by :mod:`sphere_env.envs.factories`.
 from __future__ import annotations
 
 import copy
-from collections import deque
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -27,23 +28,17 @@ from sphere_env.envs.interface import action_layout, failed_info, read_action, s
 from sphere_env.envs.kwargs import RENDER_MODES, EnvKwargs
 from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
-from sphere_env.envs.twins import (
-    INCLINE_RESOLUTION_DEG,
-    TwinCache,
-    check_above_ground,
-    drawn_shells,
-    shared_inclines,
-    stability_problem,
-)
+from sphere_env.envs.stages import ActionPipeline, SensorPipeline, StageContext
+from sphere_env.envs.twins import TwinCache, check_above_ground, shared_inclines, twin_config
 from sphere_env.params import TWIN_PARAMETERS
-from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState
 from sphere_env.schemas import checker, count, validate
-from sphere_env.tasks.events import PRESSURE_RESOLUTION_KPA, EventManager
+from sphere_env.tasks.events import EventManager
 from sphere_env.tasks.randomization import RandomizationSpec
 from sphere_env.tasks.task import Scene, Task
 from sphere_env.tasks.termination import physics_failure
 
-__all__ = ["SphereEnv", "PRESSURE_RESOLUTION_KPA", "INCLINE_RESOLUTION_DEG"]
+__all__ = ["SphereEnv"]
 #: ``reset(seed=...)``: a non-negative integer or None.
 _SEED = checker(count(0) | None)
 
@@ -88,9 +83,7 @@ class SphereEnv(gym.Env, EzPickle):
         kw = validate(EnvKwargs, kwargs, f"{task.name} kwargs")
         self.task = task
         self.shell_model = shell_model = kw.shell_model
-        self._steer_friction, self._drive_friction = kw.friction_model
         self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
-        self._contact_approximation = kw.contact_approximation
         self._parameters = parameters = EnvParameters(task, kw)
         self.calibration = parameters.calibrations.own
         #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
@@ -99,7 +92,7 @@ class SphereEnv(gym.Env, EzPickle):
         self.time_step_s = kw.time_step_s
         self.steer_torque_limit_nm = kw.steer_torque_limit_nm
         self.drive_torque_limit_nm = kw.drive_torque_limit_nm
-        self._randomization = self._check_randomization(kw.randomization, steer_check=False)
+        self._randomization = parameters.resolve(kw.randomization)  # its stability: once the twin exists
         self.observe_pressure = kw.observe_pressure
         self.observe_shell_model = kw.observe_shell_model
         self.pressure_reading = kw.pressure_reading
@@ -127,9 +120,15 @@ class SphereEnv(gym.Env, EzPickle):
         self.observation_layout = layout = task.observation_layout(
             kw.observe_pressure, kw.observe_shell_model, kw.observation_history_steps, kw.observe_params
         )
+        # the parameters the env applies itself (latency, saturation, noise, ...): envs/stages.py
+        context = StageContext(
+            (kw.steer_torque_limit_nm, kw.drive_torque_limit_nm), task.observation_layout().noise_std()
+        )
+        self._actuation = ActionPipeline(context)
         self._observer = EnvObserver(
             task,
             layout,
+            SensorPipeline(context),
             shell_model,
             kw.observe_pressure,
             kw.pressure_reading,
@@ -140,11 +139,11 @@ class SphereEnv(gym.Env, EzPickle):
 
         # ---- physics ----
         shared = shared_inclines(self._randomization, shell_model, float(self.incline_deg), self.meshcat)
-        self._twin_cache = TwinCache(self._build_twin, shell_model, shared, float(self.incline_deg))
-        self.twin = self._get_twin(self.incline_deg)
+        self._twin_cache = TwinCache(twin_config(kw, parameters.calibrations.path), self.meshcat, shared)
+        self.twin = self._twin_cache.get(self.incline_deg)
         # Friction and injected shell torques are explicit: refuse gains that diverge at this step
         # (at the largest friction scales the randomization can draw).
-        problem = self._stability_problem(self._randomization)
+        problem = self._twin_cache.stability_problem(self._randomization, self.twin, self.incline_deg)
         if problem:
             raise ValueError(problem)
         self._tau = np.zeros(2)
@@ -152,7 +151,6 @@ class SphereEnv(gym.Env, EzPickle):
         self._events = parameters.event_manager(self._randomization)
         self._next_events: EventManager | None = None  # set_randomization's, from the next reset
         self._fired: list[str] = []
-        self._pending: deque[tuple[float, float]] = deque()
         self._needs_reset = True
         self._ended: str | None = None
         self._copied_mid_episode = False
@@ -184,7 +182,10 @@ class SphereEnv(gym.Env, EzPickle):
         is validated exactly like it: on a ``ValueError`` (naming the field) nothing changes.
         Copies (``copy.deepcopy``, ``pickle``) carry the new spec. Through a vector env:
         ``venv.env_method("set_randomization", spec)``. Returns the resolved spec."""
-        resolved = self._check_randomization(spec)
+        resolved = self._parameters.resolve(spec)
+        problem = self._twin_cache.stability_problem(resolved, self.twin, self.incline_deg)
+        if problem:
+            raise ValueError(f"randomization: {problem}")
         events = self._parameters.event_manager(resolved)
         self._randomization = resolved
         self._ezpickle_kwargs["randomization"] = resolved
@@ -203,67 +204,22 @@ class SphereEnv(gym.Env, EzPickle):
         """The events in force (name, mode, parameter), as the event manager describes them."""
         return self._events.describe()
 
-    def _check_randomization(self, spec: Any, steer_check: bool = True) -> RandomizationSpec:
-        """Parse and resolve ``spec`` as the ``randomization`` kwarg; pure (raises, changes nothing)."""
-        resolved = self._parameters.resolve(spec)
-        if steer_check:  # the constructor checks once its twin exists
-            problem = self._stability_problem(resolved)
-            if problem:
-                raise ValueError(f"randomization: {problem}")
-        return resolved
-
-    def _stability_problem(self, spec: RandomizationSpec) -> str | None:
-        """Friction and injected shell torques are explicit: the largest friction scales ``spec`` can
-        draw must not diverge at this time step, on the env's shell model and, when ``spec`` can
-        draw it, on the injected shell (its drive damping adds to the friction's; the other shells
-        add none)."""
-        twins = [self.twin]
-        if self.shell_model != "injected" and "injected" in drawn_shells(spec):
-            twins.append(self._get_twin(self.incline_deg, "injected"))
-        return stability_problem(spec, twins)
-
     # ---- twins ---------------------------------------------------------------------------------
-    def _get_twin(self, incline_deg: float, shell_model: str | None = None) -> Twin:
-        """The twin for a shell model (default: the env's) and an incline (:class:`TwinCache`)."""
-        return self._twin_cache.get(incline_deg, shell_model)
-
-    def _build_twin(
-        self, incline_deg: float, inclines_deg: tuple[float, ...] = (), shell_model: str | None = None
-    ) -> Twin:
-        cfg = TwinConfig(
-            fixture="free",
-            shell_model=shell_model or self.shell_model,
-            steer_friction=self._steer_friction,
-            drive_friction=self._drive_friction,
-            incline_deg=incline_deg,
-            ramp_length_m=self.ramp_length_m,
-            time_step_s=self.time_step_s,
-            ground_friction=1.0,
-            calibration=self._parameters.calibrations.path,
-            inclines_deg=inclines_deg,
-            pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
-            contact_approximation=self._contact_approximation,
-        )
-        return Twin(cfg, meshcat=self.meshcat)
-
     @property
     def ramp_end_x_m(self) -> float:
         """x_W where the current episode's ramp ends [m]; ``inf`` on flat ground."""
         return self.twin.ramp_end_x_m
 
-    def _all_twins(self) -> list[Twin]:
-        return self._twin_cache.all()
-
     @property
     def cached_twin_count(self) -> int:
         """Twins built and kept for reuse (the shared hydroelastic twin, if any, and one per other
         incline drawn)."""
-        return len(self._all_twins())
+        return len(self._twin_cache.all())
 
     @property
     def cached_shell_count(self) -> int:
         """Hydroelastic shells (one per distinct pressure) cached over all the env's twins."""
-        return sum(t.cached_shell_count for t in self._all_twins())
+        return sum(t.cached_shell_count for t in self._twin_cache.all())
 
     # ---- gym API -------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None):
@@ -296,7 +252,7 @@ class SphereEnv(gym.Env, EzPickle):
             init = InitialState(**self.task.initial_state())
         else:
             check_above_ground(self.twin, init, params["incline_deg"], self.ramp_length_m)
-        twin = self._get_twin(params["incline_deg"], params["shell_model"])
+        twin = self._twin_cache.get(params["incline_deg"], params["shell_model"])
         # ---- checked: from here on the environment changes ----
         if seed is not None:
             self._np_random, self._np_random_seed = rng, seed
@@ -305,17 +261,14 @@ class SphereEnv(gym.Env, EzPickle):
         if twin is not self.twin and self.record_replay:
             self.twin.stop_recording()
         self.twin = twin
-        twin.set_incline(params["incline_deg"])
-        self._parameters.calibrations.use(twin, params)
-        twin.apply(params)
+        self._parameters.apply(twin, params)
         twin.reset(init)
         self._events, self._next_events = events, None
         events.start(params)
         self._params = events.params
         self._fired = [e["name"] for e in events.describe()]  # every term draws at reset
         self._observer.reset(self._params)
-        # Actions reach the motors action_latency_steps control steps late (zero torque until then).
-        self._pending = deque([(0.0, 0.0)] * self._params["action_latency_steps"])
+        self._actuation.reset(self._params)
         if self.record_replay and twin.is_visualized:
             twin.start_recording()
             twin.publish()
@@ -346,24 +299,12 @@ class SphereEnv(gym.Env, EzPickle):
             raise RuntimeError("step: call reset() before step() (no episode has started, or the last reset failed)")
         if self._ended is not None:
             raise RuntimeError(f"step: the episode has ended ({self._ended}); call reset() before step()")
-        # Clip to the box; +1 drive = forward (the drive joint axis is −y, so τ_joint = −a·limit).
-        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
+        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)  # clipped to the box
         a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
         twin = self.twin
         tau = self._tau
-        params = self._params
-        s0, s1 = a0, a1  # what reaches the motors: the action, or the one action_latency_steps ago
-        if params["action_latency_steps"]:
-            self._pending.append((a0, a1))
-            s0, s1 = self._pending.popleft()
-        cap = params["motor_torque_scale"]
-        if cap < 1.0:  # motor saturation below the torque limit
-            s0, s1 = min(max(s0, -cap), cap), min(max(s1, -cap), cap)
-        tau[0] = s0 * self.steer_torque_limit_nm
-        tau[1] = -s1 * self.drive_torque_limit_nm
-        if params["steer_torque_offset_nm"]:  # a bias in the motor's torque loop, which still saturates
-            lim = cap * self.steer_torque_limit_nm
-            tau[0] = min(max(tau[0] + params["steer_torque_offset_nm"], -lim), lim)
+        # the torques take the parameters in force when the step starts (before its events fire)
+        tau[0], tau[1] = self._actuation(a0, a1, self._params)
         self._fired = []
         if self._failed is None:
             if self._events.active:
@@ -395,8 +336,8 @@ class SphereEnv(gym.Env, EzPickle):
 
     # ---- pieces ----------------------------------------------------------------------------------
     def _apply_events(self, t: float) -> None:
-        """Push the parameters the event manager changed at sim time ``t`` into the twin (sensing
-        and actuation parameters are read from ``self._params`` where they act)."""
+        """Push the parameters the event manager changed at sim time ``t`` into the twin (the
+        stages read the sensing and actuation ones from ``self._params`` when they act)."""
         changed, self._fired = self._events.step(t, self.np_random)
         twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS}
         if twin_changes:

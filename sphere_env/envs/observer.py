@@ -1,7 +1,8 @@
-"""What an environment observes each control step: the task's components of the physics state, the
+"""What an environment observes each control step: the task's components of the physics state
+(the sensor readings through the env's :class:`~sphere_env.envs.stages.SensorPipeline`), the
 pressure reading, the shell model's one-hot and the privileged parameters it is asked to observe,
-with the episode's sensor noise, and the last observations and actions when it keeps a history
-(the order is the task's :class:`~sphere_env.tasks.ObservationLayout`)."""
+and the last observations and actions when it keeps a history (the order is the task's
+:class:`~sphere_env.tasks.ObservationLayout`)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from sphere_env.envs.stages import SensorPipeline
 from sphere_env.params import SHELL_MODELS, SHIPPED_CALIBRATIONS
-from sphere_env.tasks.observation import ObservationLayout, assemble_observation
+from sphere_env.tasks.observation import ObservationLayout, observation_vector, sensor_readings
 from sphere_env.tasks.task import Task
 
 
@@ -30,8 +32,9 @@ def observed_value(params: Mapping[str, Any], name: str) -> float:
 class EnvObserver:
     """The observations of one environment's episodes.
 
-    :param task: the env's task (its command and default sensor noise).
+    :param task: the env's task (its command).
     :param layout: the observation layout the env exports.
+    :param sensors: the env's sensor stages (noise), applied to each observation's readings.
     :param shell_model: the env's shell model (the one-hot until an episode draws another).
     :param observe_pressure, pressure_reading, observe_shell_model, observe_params: the env's kwargs.
     """
@@ -40,17 +43,17 @@ class EnvObserver:
         self,
         task: Task,
         layout: ObservationLayout,
+        sensors: SensorPipeline,
         shell_model: str,
         observe_pressure: bool,
         pressure_reading: str,
         observe_shell_model: bool,
         observe_params: tuple[str, ...],
     ):
-        self.task, self.layout = task, layout
+        self.task, self.layout, self.sensors = task, layout, sensors
         self.observe_pressure, self.pressure_reading = observe_pressure, pressure_reading
         self.observe_shell_model, self.observe_params = observe_shell_model, observe_params
         self._shell_one_hot = shell_one_hot(shell_model) if observe_shell_model else ()
-        self._noise_std = task.observation_layout().noise_std()  # × the episode's observation_noise_scale
         k = layout.history_steps
         # the last k observations (own components) and actions, most recent first
         self._obs_history = np.zeros((k, layout.own.stop), dtype=np.float32)
@@ -62,7 +65,8 @@ class EnvObserver:
 
     def reset(self, params: Mapping[str, Any]) -> None:
         """Start an episode with the parameters ``params`` drew: its shell one-hot and starting
-        pressure; no action yet, and the history filled with the first observation."""
+        pressure, its sensor stages; no action yet, and the history filled with the first observation."""
+        self.sensors.reset(params)
         self._pressure_at_reset_kpa = params["pressure_kpa"]
         if self.observe_shell_model:
             self._shell_one_hot = shell_one_hot(params["shell_model"])
@@ -81,18 +85,13 @@ class EnvObserver:
         return self._pressure_at_reset_kpa if self.pressure_reading == "at_reset" else params["pressure_kpa"]
 
     def observe(self, state, params: Mapping[str, Any], rng: np.random.Generator) -> np.ndarray:
-        """The observation of ``state`` under the episode's parameters ``params`` (its noise drawn
-        from ``rng``)."""
-        noise = None
-        scale = params["observation_noise_scale"]
-        if scale > 0.0:
-            noise = rng.normal(0.0, self._noise_std * scale)
-        obs = assemble_observation(
-            state,
+        """The observation of ``state`` under the episode's parameters ``params`` (the sensor
+        stages' draws from ``rng``)."""
+        readings = self.sensors(sensor_readings(state, self.layout.extra_names), params, rng)
+        obs = observation_vector(
+            readings,
             self.task.command(state),
             self.pressure_kpa(params) if self.observe_pressure else None,
-            noise,
-            self.layout.extra_names,
             self._shell_one_hot,
             tuple(observed_value(params, n) for n in self.observe_params),
         )

@@ -58,6 +58,14 @@ class EnvParameters:
         }
         return EventManager(spec, nominal, self.space, self.quantize_pressure, {"incline_deg": self.snap_incline})
 
+    def apply(self, twin: Twin, params: Mapping[str, Any]) -> None:
+        """Give an episode's twin the parameter set drawn at reset: its incline (the ground moves,
+        no rebuild), its shell calibration and every parameter its context takes
+        (:meth:`~sphere_env.physics.Twin.apply`)."""
+        twin.set_incline(params["incline_deg"])
+        self.calibrations.use(twin, params)
+        twin.apply(params)
+
     def snap_incline(self, incline_deg: float) -> float:
         """A drawn incline on the 1° terrain grid (the env's own incline is kept as given)."""
         return incline_deg if incline_deg == self.incline_deg else quantize_incline(incline_deg)

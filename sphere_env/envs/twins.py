@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any, Mapping
 
 from sphere_env.params import PARAMETERS
-from sphere_env.physics import InitialState, Twin
+from sphere_env.physics import InitialState, Twin, TwinConfig
 from sphere_env.physics.terrain import Terrain
 from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
+from sphere_env.envs.kwargs import EnvKwargs
 from sphere_env.tasks.randomization import RandomizationSpec
 
 #: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
@@ -103,6 +105,26 @@ def stability_problem(spec: RandomizationSpec, twins: list[Twin]) -> str | None:
     return None
 
 
+def twin_config(kw: EnvKwargs, calibration: str | Path | None) -> dict[str, Any]:
+    """The :class:`~sphere_env.physics.TwinConfig` fields every twin of an environment shares: its
+    kwargs ``kw`` (the env's own shell model and incline) on free ground, with the shell
+    ``calibration`` (a path or a shipped name); ground friction is a parameter (nominal 1)."""
+    steer_friction, drive_friction = kw.friction_model
+    return dict(
+        fixture="free",
+        shell_model=kw.shell_model,
+        steer_friction=steer_friction,
+        drive_friction=drive_friction,
+        incline_deg=float(kw.incline_deg),
+        ramp_length_m=kw.ramp_length_m,
+        time_step_s=kw.time_step_s,
+        ground_friction=1.0,
+        calibration=calibration,
+        pressure_extrapolation_kpa=kw.pressure_extrapolation_kpa,
+        contact_approximation=kw.contact_approximation,
+    )
+
+
 def check_above_ground(twin: Twin, init: InitialState, incline_deg: float, ramp_length_m: float | None) -> None:
     """Refuse an initial sphere centre more than MAX_INITIAL_PENETRATION_M inside the ground of
     ``incline_deg`` (``ValueError`` naming the option): the ground's geometry is needed, so this
@@ -123,22 +145,22 @@ def check_above_ground(twin: Twin, init: InitialState, incline_deg: float, ramp_
 class TwinCache:
     """The twins of one environment.
 
-    :param build: ``build(incline_deg, inclines_deg, shell_model) -> Twin`` (the env's config).
-    :param shell_model: the env's own shell model (the only one the shared twin serves).
+    :param config: the :class:`~sphere_env.physics.TwinConfig` fields every twin of the env shares;
+        its ``shell_model`` is the env's own (the only one the shared twin serves), its
+        ``incline_deg`` the env's own (where the shared twin starts).
+    :param meshcat: the env's Meshcat, or None.
     :param shared: the inclines the shared hydroelastic twin serves (:func:`shared_inclines`).
-    :param incline_deg: the env's own incline, where the shared twin starts.
     """
 
-    def __init__(
-        self,
-        build: Callable[[float, tuple[float, ...], str], Twin],
-        shell_model: str,
-        shared: tuple[float, ...] = (),
-        incline_deg: float = 0.0,
-    ):
-        self._build, self.shell_model = build, shell_model
+    def __init__(self, config: Mapping[str, Any], meshcat: Any = None, shared: tuple[float, ...] = ()):
+        self._config, self._meshcat = dict(config), meshcat
+        self.shell_model = shell = config["shell_model"]
         self._twins: OrderedDict[tuple[str, float], Twin] = OrderedDict()
-        self._shared = build(float(incline_deg), shared, shell_model) if len(shared) > 1 else None
+        self._shared = self._build(float(config["incline_deg"]), shared, shell) if len(shared) > 1 else None
+
+    def _build(self, incline_deg: float, inclines_deg: tuple[float, ...], shell_model: str) -> Twin:
+        config = {**self._config, "incline_deg": incline_deg, "inclines_deg": inclines_deg, "shell_model": shell_model}
+        return Twin(TwinConfig(**config), meshcat=self._meshcat)
 
     def get(self, incline_deg: float, shell_model: str | None = None) -> Twin:
         """The twin for a shell model (default: the env's) and an incline: the shared twin if it has
@@ -157,6 +179,16 @@ class TwinCache:
         if len(self._twins) > MAX_TWINS:
             self._twins.popitem(last=False)
         return twin
+
+    def stability_problem(self, spec: RandomizationSpec, twin: Twin, incline_deg: float) -> str | None:
+        """Friction and injected shell torques are explicit: the largest friction and shell scales
+        ``spec`` can draw must not diverge at this time step, on ``twin`` and, when ``spec`` can
+        draw it, on the injected shell at ``incline_deg`` (its drive damping adds to the
+        friction's; the other shells add none); the first problem, or None."""
+        twins = [twin]
+        if self.shell_model != "injected" and "injected" in drawn_shells(spec):
+            twins.append(self.get(incline_deg, "injected"))
+        return stability_problem(spec, twins)
 
     def all(self) -> list[Twin]:
         return ([self._shared] if self._shared is not None else []) + list(self._twins.values())

@@ -6,13 +6,12 @@ The physics layer evaluates the very same functions, handing them Drake's symbol
 
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel, load_friction_presets
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
+from sphere_env.models.shell import ShellCalibration
 
 __all__ = [
     "FRICTION_LAWS",
     "FrictionModel",
     "load_friction_presets",
     "RobotParameters",
-    "SHELL_MODELS",
     "ShellCalibration",
 ]

@@ -202,6 +202,32 @@ def measured_values(state: Any) -> list[float]:
     ]
 
 
+def sensor_readings(state: Any, extra_names: tuple[str, ...] = ()) -> list[float]:
+    """What the sensors read of a TwinState, as plain floats: the measured components
+    (:data:`MEASURED_COMPONENTS`), then the extra ones named (:data:`EXTRA_COMPONENTS`)."""
+    return measured_values(state) + [float(getattr(state, n)) for n in extra_names]
+
+
+def observation_vector(
+    readings: list[float],
+    command: list[float],
+    pressure_kpa: float | None = None,
+    shell_one_hot: tuple[float, ...] = (),
+    param_values: tuple[float, ...] = (),
+) -> np.ndarray:
+    """[measured (11) | command | extra components | pressure_kpa if given | shell one-hot |
+    parameter values] as float32, from the sensor readings (:func:`sensor_readings`, after any
+    sensor noise) and the rest (see :func:`assemble_observation`)."""
+    values = readings[:N_MEASURED]
+    values += command
+    values += readings[N_MEASURED:]
+    if pressure_kpa is not None:
+        values.append(pressure_kpa)
+    values += shell_one_hot
+    values += param_values
+    return np.array(values, dtype=np.float32)
+
+
 def assemble_observation(
     state: Any,
     command: list[float],
@@ -222,16 +248,7 @@ def assemble_observation(
     :param shell_one_hot: privileged shell-model one-hot (:data:`SHELL_ONE_HOT` order).
     :param param_values: privileged parameter values (``observe_params``), appended last.
     """
-    values = measured_values(state)
-    extras = [float(getattr(state, n)) for n in extra_names]
+    readings = sensor_readings(state, extra_names)
     if noise is not None:
-        nz = noise.tolist()
-        values = [v + n for v, n in zip(values, nz)]
-        extras = [v + n for v, n in zip(extras, nz[N_MEASURED:])]
-    values += command
-    values += extras
-    if pressure_kpa is not None:
-        values.append(pressure_kpa)
-    values += shell_one_hot
-    values += param_values
-    return np.array(values, dtype=np.float32)
+        readings = [v + n for v, n in zip(readings, noise.tolist())]
+    return observation_vector(readings, command, pressure_kpa, shell_one_hot, param_values)

@@ -9,7 +9,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from tests.envs.conftest import ENV_IDS, SHELL_MODELS, rollout
+from sphere_env.params import SHELL_MODELS
+from tests.envs.conftest import ENV_IDS, rollout
 
 
 def test_ids_registered_on_import_and_via_entry_point():

@@ -1,8 +1,9 @@
 """Recorded rollouts: an env id's behaviour does not change while its version does not.
 
 For every registered id (:data:`sphere_env.ENV_IDS`) with the point and the injected shell, plus a
-short hydroelastic episode (20 steps) and one with every randomized parameter, sensing and
-actuation fault, the observation history and the privileged observations, :data:`CASES` holds a
+short hydroelastic episode (20 steps), one with every randomized parameter, sensing and
+actuation fault, the observation history and the privileged observations, and one with every
+parameter of the env's action and observation stages in each mode, :data:`CASES` holds a
 seeded episode prefix: ``gym.make(id, **kwargs)``, ``reset(seed=SEED)``, then up to ``steps`` actions drawn
 uniformly in [-1, 1] from ``np.random.default_rng(ACTION_SEED)`` (the prefix stops early if the
 episode ends). ``tests/data/recorded_rollouts/<case>.npz`` holds what that episode returned, as
@@ -57,6 +58,15 @@ FAULTS = {
     "action_latency_steps": 1,
     "motor_torque_scale": {"distribution": "uniform", "low": 0.8, "high": 1.0, "mode": "interval", "interval_s": 0.3},
 }
+#: Every parameter of the env's action and observation stages, in every mode: the noise drawn again
+#: every 0.1 s, two steps of latency, a saturation that tightens at 0.5 /s from the limit, and a steer
+#: torque bias drawn at reset and again every 0.14 s.
+STAGES = {
+    "observation_noise_scale": {"low": 0.5, "high": 3.0, "mode": "interval", "interval_s": 0.1},
+    "action_latency_steps": 2,
+    "motor_torque_scale": {"value": 1.0, "mode": "schedule", "rate_per_s": -0.5},
+    "steer_torque_offset_nm": {"low": -5.0, "high": 5.0, "mode": "interval", "interval_s": 0.14},
+}
 
 
 def _cases() -> dict[str, dict[str, Any]]:
@@ -78,6 +88,11 @@ def _cases() -> dict[str, dict[str, Any]]:
             "observe_pressure": True,
             "observe_shell_model": True,
         },
+    }
+    cases["RampDescent-v3_point_stages"] = {
+        "env_id": "sphere_env/RampDescent-v3",
+        "steps": STEPS,
+        "kwargs": {"shell_model": "point", "randomization": STAGES, "observation_history_steps": 1},
     }
     cases["Roll-v1_hydroelastic"] = {
         "env_id": "sphere_env/Roll-v1",

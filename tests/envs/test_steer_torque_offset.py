@@ -1,7 +1,7 @@
-"""``steer_torque_offset_nm``, a parameter added as one registry record and its use in the env's
-actuation: a constant bias of the steer motor's torque, within the motor's saturation. Randomized
-in every mode, reported in ``info["params"]``, acting on the real Drake twin like the steer torque
-it adds, and refused out of bounds by name."""
+"""``steer_torque_offset_nm``, a parameter added as one registry record and its action stage
+(:mod:`sphere_env.envs.stages`): a constant bias of the steer motor's torque, within the motor's
+saturation. Randomized in every mode, reported in ``info["params"]``, acting on the real Drake twin
+like the steer torque it adds, and refused out of bounds by name."""
 
 from __future__ import annotations
 

@@ -85,7 +85,7 @@ def test_strings_bools_and_unknown_kwargs_are_refused_before_anything_is_built(m
     def no_twin(*args, **kw):
         raise AssertionError("a twin was built for refused kwargs")
 
-    monkeypatch.setattr("sphere_env.envs.env.Twin", no_twin)
+    monkeypatch.setattr("sphere_env.envs.twins.Twin", no_twin)
     with pytest.raises(ValueError) as err:
         gym.make(env_id, **kwargs)
     assert message in str(err.value)
