@@ -80,8 +80,9 @@ from sphere_env.evaluation.sweep_report import (
     write_report,
 )
 from sphere_env.files import file_stem, staged_folder, swap_folder
-from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
+from sphere_env.models.shell import ShellCalibration
 from sphere_env.parallel import default_workers
+from sphere_env.params import SHELL_MODELS
 from sphere_env.schemas import allowed, checker, validate
 
 #: What a sweep writes into ``out`` (replaced as a whole when ``out`` is reused).

@@ -42,7 +42,7 @@ import json, sys
 from pathlib import Path
 import gymnasium as gym
 import sphere_env
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.resources import asset_path, hyperparams_path
 
 out = {"sphere_env": sphere_env.__file__, "prefix": sys.prefix, "runs": [],

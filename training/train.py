@@ -51,39 +51,10 @@ from sphere_env.cli import parse_env_kwargs, parse_key_values
 from sphere_env.parallel import sigterm_as_interrupt
 from sphere_env.schemas import validate
 from sphere_env.training.config import TrainConfig, resolve_config
-
-# The trainer's API, importable from here (the training jobs live in their own modules: the envs in
-# env_factory, callbacks and checkpoints in callbacks, one session and its interruption in session,
-# the run folder's lifecycle in trainer and run_folder).
-from sphere_env.training.env_factory import EvaluationEpisodes, make_env, make_vec_env, wrap_normalize
-from sphere_env.training.run_folder import (
-    CHECKPOINT_PREFIX,
-    RUNS,
-    default_run_dir,
-    latest_checkpoint,
-    load_config,
-    run_lock,
-)
+from sphere_env.training.run_folder import RUNS, default_run_dir, load_config
 from sphere_env.training.run_options import RunFolders, check_sweep_options
-from sphere_env.training.session import TrainingInterrupted, unchecked_distributions
+from sphere_env.training.session import TrainingInterrupted
 from sphere_env.training.trainer import train
-
-__all__ = [
-    "CHECKPOINT_PREFIX",
-    "EvaluationEpisodes",
-    "TrainingInterrupted",
-    "build_parser",
-    "default_run_dir",
-    "latest_checkpoint",
-    "load_config",
-    "main",
-    "make_env",
-    "make_vec_env",
-    "run_lock",
-    "train",
-    "unchecked_distributions",
-    "wrap_normalize",
-]
 
 
 class StoreDict(argparse.Action):

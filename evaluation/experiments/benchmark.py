@@ -25,7 +25,7 @@ from datetime import datetime, timezone
 
 from sphere_env.evaluation.experiments import RESULTS
 from sphere_env.files import write_text_atomic
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.physics import Twin, TwinConfig
 from sphere_env.provenance import machine_info
 from sphere_env.reporting import markdown_table

@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 
 import sphere_env  # noqa: F401  (registers ids)
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
 #: Speed aims on one core at 50 Hz (env steps/s, env overhead over the bare twin, reset time).

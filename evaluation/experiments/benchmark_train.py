@@ -115,7 +115,7 @@ class SingleEnv:
 
     def __init__(self, shell_model: str, seed: int = 0, env_id: str = ENV_ID, env_kwargs: dict | None = None):
         from sphere_env.training.config import resolve_config
-        from sphere_env.training.train import make_env
+        from sphere_env.training.env_factory import make_env
 
         # env_kwargs= merges over the YAML's env kwargs (an "env_kwargs" override would replace them,
         # dropping the randomization and the observation options of the shipped config).
@@ -165,7 +165,7 @@ class TrainCase:
         env_kwargs: dict | None = None,
     ):
         from sphere_env.training.config import algo_class, resolve_config
-        from sphere_env.training.train import make_vec_env, wrap_normalize
+        from sphere_env.training.env_factory import make_vec_env, wrap_normalize
 
         label, over = LAYOUTS[layout]
         if "n_envs" in over:
@@ -215,7 +215,7 @@ class TrainCase:
         self.steps, self.wall, self.update_s, self.cpu_main, self.stepping_s = 0, 0.0, 0.0, 0.0, 0.0
 
     def _learn(self) -> None:
-        from sphere_env.training.train import unchecked_distributions
+        from sphere_env.training.session import unchecked_distributions
 
         with unchecked_distributions():  # as the trainer runs
             self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from sphere_env.files import write_text_atomic
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 
 ENV_ID = "sphere_env/RampDescent-v2"
 REFS_RAD_S = tuple(np.round(np.arange(0.5, 7.01, 0.5), 2))

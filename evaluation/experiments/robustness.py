@@ -30,7 +30,7 @@ import numpy as np
 
 import sphere_env  # noqa: F401
 from sphere_env.files import write_text_atomic
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.physics import Twin
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.physics import InitialState, Twin, TwinConfig, start_meshcat
 from sphere_env.reporting import markdown_table
 

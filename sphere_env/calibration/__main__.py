@@ -39,7 +39,7 @@ from sphere_env.calibration.commands import (
 )
 from sphere_env.cli import renamed
 from sphere_env.files import OutputFile, OutputFolder
-from sphere_env.models.shell import STEER_LAW_FORMS
+from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.params import PARAMETERS
 from sphere_env.resources import asset_path
 from sphere_env.schemas import Finite, checker, cli_type, count, number

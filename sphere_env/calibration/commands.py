@@ -33,13 +33,8 @@ def _shared_logs(args, command: str):
 
 
 def cmd_shell(args) -> int:
-    from sphere_env.calibration.decay import (
-        calibration_dict,
-        fit_free_decay,
-        fit_pressure_curves,
-        plot_pressure_curves,
-        write_yaml,
-    )
+    from sphere_env.analysis.decay import fit_free_decay
+    from sphere_env.calibration.decay import calibration_dict, fit_pressure_curves, plot_pressure_curves, write_yaml
     from sphere_env.models.rigid_body import RobotParameters
     from sphere_env.models.shell import ShellCalibration
 

@@ -44,7 +44,7 @@ def fit_calibration(
     base calibration; no leave-one-window-out within ``train``: the caller holds segments out);
     returns (params, calibration)."""
     from sphere_env.calibration.steer_fit import steer_fit
-    from sphere_env.models.shell import STEER_LAW_FORMS
+    from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 
     models = ("injected",) if model == "injected" else ("injected", model)
     raw, record = steer_fit(

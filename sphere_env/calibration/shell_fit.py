@@ -7,7 +7,7 @@ calibration's nominal pressure): whatever the true pressure was, the file then s
 shell behaves like this", and the slopes of ω_n(p), ζ(p) carry it to other pressures.
 
 * ``injected``: ω_n(p₀) [rad/s], ζ(p₀) [-] (K_inject, C_inject of eqs. 7–8) and the steer law's
-  numbers for the chosen form (:data:`~sphere_env.models.shell.STEER_LAW_FORMS`): the rest angle
+  numbers for the chosen form (:data:`~sphere_env.models.calibration_schema.STEER_LAW_FORMS`): the rest angle
   φ_0 and the amplitude term.
 * ``hydroelastic``: the factors on the steer couple it carries on top of Drake's hydroelastic
   contact (``couple_stiffness_factor``, ``couple_damping_factor``; law form and φ_0 from the
@@ -42,9 +42,10 @@ from scipy.optimize import brentq, least_squares
 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import rmse, simulate_log
+from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.models.friction import FrictionModel
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration, membrane_contact_volume_m3
+from sphere_env.models.shell import ShellCalibration, membrane_contact_volume_m3
 from sphere_env.physics.twin import Twin, TwinConfig
 from sphere_env.schemas import Schema, _as_tuple, allowed, checker, validate
 

@@ -18,8 +18,9 @@ import numpy as np
 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import FitError, TwinPool, fit_shell, trial_rmse, window
+from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.models.friction import FrictionModel
-from sphere_env.models.shell import STEER_LAW_FORMS, ShellCalibration
+from sphere_env.models.shell import ShellCalibration
 
 
 def cross_validate(

@@ -6,7 +6,8 @@ The physics layer evaluates the very same functions, handing them Drake's symbol
 
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel, load_friction_presets
 from sphere_env.models.rigid_body import RobotParameters
-from sphere_env.models.shell import SHELL_MODELS, ShellCalibration
+from sphere_env.models.shell import ShellCalibration
+from sphere_env.params import SHELL_MODELS
 
 __all__ = [
     "FRICTION_LAWS",

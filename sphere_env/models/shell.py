@@ -59,7 +59,7 @@ import numpy as np
 
 from sphere_env.models.calibration_files import calibration_file
 from sphere_env.models.calibration_schema import (
-    STEER_LAW_FORMS,  # re-exported: the steer law's forms and parameters
+    STEER_LAW_FORMS,
     CalibrationFile,
     DriveLawSection,
     check_calibration,
@@ -68,7 +68,6 @@ from sphere_env.models.calibration_schema import (
     table_pairs,
 )
 from sphere_env.models.steer_law import PHI_REACH_RAD, SteerLaw, gravity_stiffness_free_pendulum, injected_gains
-from sphere_env.params import SHELL_MODELS as SHELL_MODELS  # the registry's names, re-exported here
 from sphere_env.params import ParameterSpace
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 
 import sphere_env  # noqa: F401  (registers the ids)
-from sphere_env.models.shell import SHELL_MODELS  # noqa: F401  (imported by the env tests)
+from sphere_env.params import SHELL_MODELS  # noqa: F401  (imported by the env tests)
 
 ENV_IDS = ("sphere_env/RampDescent-v0", "sphere_env/Roll-v0")
 

@@ -23,7 +23,7 @@ import pytest
 import yaml
 
 import sphere_env  # noqa: F401  (registers the ids)
-from sphere_env.models.shell import SHELL_MODELS
+from sphere_env.params import SHELL_MODELS
 from sphere_env.resources import asset_path
 
 RAMP, ROLL = "sphere_env/RampDescent-v0", "sphere_env/Roll-v0"
