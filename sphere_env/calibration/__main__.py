@@ -59,7 +59,7 @@ OUTPUT_FOLDER = checker(OutputFolder)
 
 def HOLD(text: str) -> tuple[str, tuple[float, ...]]:
     """``--hold`` item NAME=VALUE[,VALUE...]: a fitted parameter held at each value in turn."""
-    from sphere_env.calibration.shell_fit import check_hold
+    from sphere_env.calibration.shell_params import check_hold
 
     name, sep, values = text.partition("=")
     try:
