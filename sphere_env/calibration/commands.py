@@ -388,7 +388,8 @@ def cmd_events(args) -> int:
     import os
 
     from sphere_env.calibration.events import events_table, find_events, manifest_entries, write_manifest_entries
-    from sphere_env.calibration.logs import TIME_UNITS, ColumnMapping, load_log
+    from sphere_env.calibration.log_csv import load_log
+    from sphere_env.calibration.logs import TIME_UNITS, ColumnMapping
 
     mapping = ColumnMapping.roboball() if args.mapping is None else ColumnMapping.load(args.mapping)
     if args.time_unit is not None:

@@ -21,7 +21,7 @@ from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.calibration.crossval import cross_validate, crossval_table, held_out_summary
 from sphere_env.calibration.events import find_events
 from sphere_env.calibration.friction_fit import evaluate_friction, fit_friction, leave_one_out, plot_stand_overlay
-from sphere_env.calibration.logs import load_log
+from sphere_env.calibration.log_csv import load_log
 from sphere_env.calibration.manifest import Manifest
 from sphere_env.calibration.sensitivity import plot_sweep, sensitivity_table, sweep
 from sphere_env.calibration.validate import plot_overlays, validate, validation_table
