@@ -158,8 +158,21 @@ def _build(
 
 
 def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> str:
+    L = [
+        *_summary(res),
+        *_findings(res, cal),
+        *_stand_swing(res),
+        *_steer_free(res, rows, cal),
+        *_free_robot(res),
+        *_cross_validation(res),
+        *_sensitivity(res),
+    ]
+    return "\n".join(L) + "\n"
+
+
+def _summary(res: dict[str, Any]) -> list[str]:
+    """The title, where the page comes from, and the summary table."""
     s = res["stand_swing"]
-    steer = res["majd_steer"]
     L = [
         "# Validation against the real RoboBall logs",
         "",
@@ -187,6 +200,12 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
                 ]
             )
     L.append(markdown_table(summary, ["check", "trial", "RMSE φ [rad]", "RMSE θ [rad]", "target"], align="llrrl"))
+    return L
+
+
+def _findings(res: dict[str, Any], cal: ShellCalibration) -> list[str]:
+    """The findings, in words, from the numbers of every section."""
+    s = res["stand_swing"]
     inj = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "injected"}
     hyd = {r["trial"]: r["rmse"] for r in res["steer_free_shipped"] if r["model"] == "hydroelastic"}
     loo_test = [r["test_rmse_rad"] for r in s["leave_one_out"]]
@@ -198,7 +217,7 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
     inj_w = [x["params"].get("omega_n", math.nan) for x in xv]
     held_vals = [x["rmse_rad"][other]["phi"] for x in xv for other in x["rmse_rad"] if other != x["fit_on"]]
     held = f"{min(held_vals):.3f}–{max(held_vals):.3f}" if held_vals else "—"
-    L += [
+    return [
         "",
         "## Findings",
         "",
@@ -242,6 +261,14 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
         "- **Pressure**: the steer_free pressure was not recorded; 4.31 kPa is an ASSUMED anchor and the "
         "slopes of ω_n(p), ζ(p) are ASSUMED (see `assets/calibration/default.yaml`).",
         "",
+    ]
+
+
+def _stand_swing(res: dict[str, Any]) -> list[str]:
+    """Section 1: steer friction on ``stand_swing``, and its leave-one-out."""
+    s = res["stand_swing"]
+    steer = res["majd_steer"]
+    L = [
         "## 1. Steer friction on `stand_swing` (paper Fig. 7)",
         "",
         "Fixture `stand` (shell welded), pendulum released from the logged θ and θ̇, no motor torque, "
@@ -285,6 +312,12 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
             align="lrrrrr",
         ),
     ]
+    return L
+
+
+def _steer_free(res: dict[str, Any], rows, cal: ShellCalibration) -> list[str]:
+    """Section 2: ``steer_free`` with the shipped calibration."""
+    L: list[str] = []
     L += [
         "",
         "## 2. `steer_free` with the shipped calibration",
@@ -319,6 +352,12 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
             align="lllr",
         ),
     ]
+    return L
+
+
+def _free_robot(res: dict[str, Any]) -> list[str]:
+    """Section 3: the free robot's events and windows."""
+    L: list[str] = []
     L += [
         "",
         "## 3. The free robot",
@@ -371,6 +410,12 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
             "",
             "![free robot overlay](free_robot_overlay.png)",
         ]
+    return L
+
+
+def _cross_validation(res: dict[str, Any]) -> list[str]:
+    """Section 4: fit on one segment, validate on the others."""
+    L: list[str] = []
     L += [
         "",
         "## 4. Cross-validation: fit on one segment, validate on the others",
@@ -391,6 +436,12 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
                 align="lrr",
             )
         )
+    return L
+
+
+def _sensitivity(res: dict[str, Any]) -> list[str]:
+    """Section 5: the hydroelastic sensitivity, when it was run."""
+    L: list[str] = []
     if "sensitivity" in res:
         L += [
             "",
@@ -403,4 +454,4 @@ def _markdown(res: dict[str, Any], stand, sf, rows, cal: ShellCalibration) -> st
             "",
             "![sensitivity](hydroelastic_sensitivity.png)",
         ]
-    return "\n".join(L) + "\n"
+    return L
