@@ -76,7 +76,7 @@ def model_files(folder: Path, which: str) -> tuple[Path, Path]:
     if which == "best":
         return folder / "best" / "best_model.zip", stats_path(folder / "best" / "vecnormalize")
     if which.isdigit():
-        from sphere_env.training.train import CHECKPOINT_PREFIX
+        from sphere_env.training.run_folder import CHECKPOINT_PREFIX
 
         ck = folder / "checkpoints"
         return ck / f"{CHECKPOINT_PREFIX}_{which}_steps.zip", stats_path(
@@ -95,8 +95,8 @@ def check_spec(spec: str, env_id: str | None = None, allow_env_mismatch: bool = 
     rf = run_folder(spec)
     if rf is not None:
         from sphere_env.training.config import algo_class
+        from sphere_env.training.run_folder import load_config
         from sphere_env.training.saved import load_model, read_stats
-        from sphere_env.training.train import load_config
 
         folder, which = rf
         model, vn = model_files(folder, which)
@@ -154,8 +154,8 @@ class PolicyController:
 
     def __init__(self, run_dir: str | Path, which: str = "model"):
         from sphere_env.training.config import algo_class
+        from sphere_env.training.run_folder import load_config
         from sphere_env.training.saved import load_model, read_stats
-        from sphere_env.training.train import load_config
 
         run_dir = Path(run_dir)
         self.config = load_config(run_dir)
@@ -233,7 +233,7 @@ def env_kwargs_of(spec: str) -> dict[str, Any]:
     rf = run_folder(spec)
     if rf is None:
         return {}
-    from sphere_env.training.train import load_config
+    from sphere_env.training.run_folder import load_config
 
     kw = dict(load_config(rf[0]).env_kwargs)
     for k in (

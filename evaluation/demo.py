@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> dict:
     from sphere_env.evaluation.faults import GRADED_FAULTS
     from sphere_env.models.shell import ShellCalibration
     from sphere_env.training.config import resolve_config
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     cal = ShellCalibration.load()
     lo, hi = cal.pressure_range_kpa

@@ -53,7 +53,7 @@ class EnjoySpec(EnjoyFields):
         from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, run_path
         from sphere_env.models.shell import ShellCalibration
         from sphere_env.physics.config import DEFAULT_SHELL_MODEL
-        from sphere_env.training.train import load_config
+        from sphere_env.training.run_folder import load_config
 
         path, _, which = self.run.partition("@")
         folder = run_path(path)

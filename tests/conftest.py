@@ -57,7 +57,7 @@ def roboball_dir() -> Path:
 
 def _train(tmp_path_factory, name: str, env_id: str, algo: str, overrides: dict) -> Path:
     from sphere_env.training.config import resolve_config
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     cfg = resolve_config(env_id, algo, overrides=overrides, eval_episodes=1)
     return train(cfg, tmp_path_factory.mktemp(name) / "run", progress_bar=False)

@@ -7,7 +7,8 @@ import re
 import pytest
 
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.params import PARAMETERS, TWIN_PARAMETERS, Parameter, ParameterSpace
+from sphere_env.parameter import Parameter
+from sphere_env.params import PARAMETERS, TWIN_PARAMETERS, ParameterSpace
 
 SPACE = ParameterSpace.for_calibration(3.0, 14.0, 4.31, "cal.yaml")
 

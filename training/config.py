@@ -63,9 +63,6 @@ from sphere_env.envs.kwargs import check_episode_length
 from sphere_env.resources import hyperparams_path
 from sphere_env.training.run_options import check_algo, check_run_options
 from sphere_env.training.schemas import (
-    MAX_ENV_PROCESSES,  # noqa: F401 - re-exported: the bounds a configuration is checked against
-    MAX_N_ENVS,  # noqa: F401
-    MAX_N_TIMESTEPS,  # noqa: F401
     SECTIONS,
     SPECIAL_KEYS,
     check_section,

@@ -51,39 +51,10 @@ from sphere_env.cli import parse_env_kwargs, parse_key_values
 from sphere_env.parallel import sigterm_as_interrupt
 from sphere_env.schemas import validate
 from sphere_env.training.config import TrainConfig, resolve_config
-
-# The trainer's API, importable from here (the training jobs live in their own modules: the envs in
-# env_factory, callbacks and checkpoints in callbacks, one session and its interruption in session,
-# the run folder's lifecycle in trainer and run_folder).
-from sphere_env.training.env_factory import EvaluationEpisodes, make_env, make_vec_env, wrap_normalize
-from sphere_env.training.run_folder import (
-    CHECKPOINT_PREFIX,
-    RUNS,
-    default_run_dir,
-    latest_checkpoint,
-    load_config,
-    run_lock,
-)
+from sphere_env.training.run_folder import RUNS, default_run_dir, load_config
 from sphere_env.training.run_options import RunFolders, check_sweep_options
-from sphere_env.training.session import TrainingInterrupted, unchecked_distributions
+from sphere_env.training.session import TrainingInterrupted
 from sphere_env.training.trainer import train
-
-__all__ = [
-    "CHECKPOINT_PREFIX",
-    "EvaluationEpisodes",
-    "TrainingInterrupted",
-    "build_parser",
-    "default_run_dir",
-    "latest_checkpoint",
-    "load_config",
-    "main",
-    "make_env",
-    "make_vec_env",
-    "run_lock",
-    "train",
-    "unchecked_distributions",
-    "wrap_normalize",
-]
 
 
 class StoreDict(argparse.Action):
@@ -101,11 +72,8 @@ class StoreDict(argparse.Action):
             parser.exit(2, f"{parser.prog}: error: {err}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The command line: rl-zoo3's ``train.py`` flags for what this trainer does, plus its own."""
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
-    )
+def _config_flags(parser: argparse.ArgumentParser) -> None:
+    """The env, the algorithm, its hyperparameters and the env kwargs (rl-zoo3's flags)."""
     parser.add_argument("--env", default="sphere_env/RampDescent-v3", help="registered env id")
     parser.add_argument("--algo", default="ppo", help="ppo or sac")
     parser.add_argument(
@@ -143,6 +111,10 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY:VALUE",
         help="evaluation env kwargs over the training ones (default randomization:'off')",
     )
+
+
+def _budget_and_sweep_flags(parser: argparse.ArgumentParser) -> None:
+    """The budget, the seed and the sweep's seeds, trials and Ray address."""
     parser.add_argument("-n", "--n-timesteps", type=float, default=None, help="total env steps (overrides the YAML)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (-1: draw one, as rl-zoo3)")
     parser.add_argument(
@@ -164,6 +136,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="run the sweep's trials as Ray tasks: 'local' (start one), 'auto', or ray://host:port",
     )
+
+
+def _run_folder_flags(parser: argparse.ArgumentParser) -> None:
+    """Where the run goes and what it starts from."""
     parser.add_argument("-f", "--log-folder", type=Path, default=RUNS, help="folder of the run folders (default runs/)")
     parser.add_argument(
         "--run-dir",
@@ -184,6 +160,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="start from this model.zip (with its VecNormalize statistics) in a new run folder",
     )
+
+
+def _evaluation_and_checkpoint_flags(parser: argparse.ArgumentParser) -> None:
+    """Evaluations, checkpoints and logs."""
     parser.add_argument("--eval-freq", type=int, default=None, help="env steps between evaluations (<= 0: none)")
     parser.add_argument(
         "--eval-episodes",
@@ -207,6 +187,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="env steps between checkpoints (<= 0: only the final one)",
     )
+
+
+def _process_flags(parser: argparse.ArgumentParser) -> None:
+    """TensorBoard, torch threads and device, replay buffer, progress and verbosity."""
     parser.add_argument(
         "-tb", "--tensorboard-log", type=Path, default=None, help="TensorBoard folder (default <run>/tb)"
     )
@@ -220,6 +204,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("-v", "--verbose", type=int, default=0)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line: rl-zoo3's ``train.py`` flags for what this trainer does, plus its own."""
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
+    _config_flags(parser)
+    _budget_and_sweep_flags(parser)
+    _run_folder_flags(parser)
+    _evaluation_and_checkpoint_flags(parser)
+    _process_flags(parser)
     return parser
 
 

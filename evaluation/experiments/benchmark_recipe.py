@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 
-from sphere_env.evaluation.experiments.benchmark_train import SingleEnv, TrainCase, usable_cores
+from sphere_env.evaluation.experiments.train_cases import SingleEnv, TrainCase, usable_cores
 
 #: The learning recipe's env (its section of training/hyperparams/ppo.yml) and the fast contact solver.
 RECIPE_ENV_ID = "sphere_env/RampDescent-v3"

@@ -8,7 +8,7 @@ PPO hyperparameters of ``training/hyperparams/ppo.yml``, VecNormalize and pressu
 * **single env**: one Monitor-wrapped env (as a training worker builds it) stepped with random
   actions, episode resets included — the rate one core can step.
 * per **layout** (the shipped one, the former defaults, several envs per process, several envs per
-  thread; every layout keeps the shipped rollout of :data:`ROLLOUT` samples per update, so more envs
+  thread; every layout keeps the shipped rollout of :data:`~evaluation.experiments.train_cases.ROLLOUT` samples per update, so more envs
   mean shorter ``n_steps`` segments, which changes what PPO learns):
   PPO ``learn`` one update at a time, after a warm-up update.
 
@@ -44,23 +44,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
 
-import numpy as np
+from sphere_env.evaluation.experiments.train_cases import ENV_ID, LAYOUTS, ROLLOUT, SingleEnv, TrainCase, usable_cores
 
-ENV_ID = "sphere_env/RampDescent-v2"  # the shipped PPO config's env (training/hyperparams/ppo.yml)
-#: samples per PPO update (n_envs x n_steps) in every timed layout: the shipped RampDescent-v2 config's
-ROLLOUT = 2048
-#: (label, overrides of the shipped YAML section); None keys cancel the YAML's value. Every layout keeps
-#: the shipped rollout of ROLLOUT samples per update (n_steps = ROLLOUT / n_envs).
-LAYOUTS = {
-    "shipped": ("shipped config", {}),
-    "thread8": ("8 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 8, "n_threads": 2}),
-    "thread2": ("2 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 2, "n_threads": 2}),
-    "subproc2": ("2 envs, 1 process each (SubprocVecEnv)", {"n_envs": 2, "n_threads": None, "n_workers": None}),
-    "proc16": ("16 envs in 2 blocks: this process + 1 worker (BatchedSubprocVecEnv)", {"n_envs": 16, "n_workers": 2}),
-    "thread16": ("16 envs, 2 threads (ThreadedVecEnv)", {"n_envs": 16, "n_threads": 2}),
-}
 TRAIN_COLUMNS = [
     ("shell_model", "shell", ""),
     ("case", "case", ""),
@@ -78,183 +64,6 @@ TRAIN_COLUMNS = [
 ]
 
 
-def usable_cores() -> int:
-    from sphere_env.training.vec_env import usable_cores as _cores
-
-    return _cores()
-
-
-def _tasks(pid: int) -> list[int]:
-    try:
-        return [int(t) for t in os.listdir(f"/proc/{pid}/task")]
-    except OSError:
-        return []
-
-
-def _pin(processes, cores: set[int]) -> None:
-    """Every thread of this process and of ``processes`` (worker pids) onto ``cores``."""
-    for pid in [os.getpid(), *[p.pid for p in processes]]:
-        for tid in _tasks(pid):
-            try:
-                os.sched_setaffinity(tid, cores)
-            except OSError:
-                pass
-
-
-def _cpu_s(pid: int) -> float:
-    tick = os.sysconf("SC_CLK_TCK")
-    try:
-        fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / tick
-    except (OSError, IndexError, ValueError):
-        return 0.0
-
-
-class SingleEnv:
-    """One env as a training worker builds it, random actions, resets included."""
-
-    def __init__(self, shell_model: str, seed: int = 0, env_id: str = ENV_ID, env_kwargs: dict | None = None):
-        from sphere_env.training.config import resolve_config
-        from sphere_env.training.train import make_env
-
-        # env_kwargs= merges over the YAML's env kwargs (an "env_kwargs" override would replace them,
-        # dropping the randomization and the observation options of the shipped config).
-        kwargs = {"shell_model": shell_model, **(env_kwargs or {})}
-        cfg = resolve_config(env_id, "ppo", env_kwargs=kwargs, seed=seed, build_env=False)
-        self.env = make_env(cfg.env_id, cfg.make_kwargs(), seed)
-        self.rng = np.random.default_rng(seed)
-        self.twin = self.env.unwrapped.twin
-        self.steps, self.wall, self.advance_s = 0, 0.0, 0.0
-        inner = self.twin.advance_unchecked
-
-        def timed(duration_s, motor_torque):  # time inside Drake's AdvanceTo (GIL released)
-            t0 = time.perf_counter()
-            inner(duration_s, motor_torque)
-            self.advance_s += time.perf_counter() - t0
-
-        self._timed = timed
-
-    def run(self, seconds: float) -> None:
-        acts = self.rng.uniform(-1.0, 1.0, size=(4096, 2)).astype(np.float32)
-        self.twin.advance_unchecked = self._timed
-        t0 = time.perf_counter()
-        k = 0
-        while time.perf_counter() - t0 < seconds:
-            _, _, term, trunc, _ = self.env.step(acts[k % len(acts)])
-            k += 1
-            if term or trunc:
-                self.env.reset()
-        self.wall += time.perf_counter() - t0
-        self.steps += k
-        del self.twin.advance_unchecked
-
-    def close(self) -> None:
-        self.env.close()
-
-
-class TrainCase:
-    """A PPO model on a layout; ``run`` learns whole updates for about ``seconds``."""
-
-    def __init__(
-        self,
-        shell_model: str,
-        layout: str,
-        cores: int | None = None,
-        seed: int = 0,
-        env_id: str = ENV_ID,
-        env_kwargs: dict | None = None,
-    ):
-        from sphere_env.training.config import algo_class, resolve_config
-        from sphere_env.training.train import make_vec_env, wrap_normalize
-
-        label, over = LAYOUTS[layout]
-        if "n_envs" in over:
-            over = dict(over, n_steps=ROLLOUT // over["n_envs"])
-        kwargs = {"shell_model": shell_model, **(env_kwargs or {})}
-        cfg = resolve_config(env_id, "ppo", overrides=over, env_kwargs=kwargs, seed=seed, build_env=False)
-        if env_id == ENV_ID and cfg.n_envs * cfg.hyperparams["n_steps"] != ROLLOUT:
-            raise ValueError(
-                f"layout {layout!r}: {cfg.n_envs} x {cfg.hyperparams['n_steps']} samples per update, "
-                f"not the shipped {ROLLOUT} (ROLLOUT)"
-            )
-        self.cfg, self.layout, self.label, self.shell_model = cfg, layout, label, shell_model
-        self.cores = cores or usable_cores()
-        self.venv = wrap_normalize(cfg, make_vec_env(cfg, None))
-        self.model = algo_class("ppo")(cfg.policy, self.venv, seed=seed, device="cpu", **cfg.algo_kwargs())
-        self.rollout = cfg.n_envs * cfg.hyperparams["n_steps"]
-        self.update_s = 0.0
-        train = self.model.train
-
-        def timed_train():
-            t0 = time.perf_counter()
-            train()
-            self.update_s += time.perf_counter() - t0
-
-        self.model.train = timed_train
-        # Time inside the innermost VecEnv's step_async and step_wait (the env stepping, all threads
-        # or workers; a worker may step its block while step_async sends to the next one), to separate
-        # the main process's own work per vectorized step from the stepping.
-        inner = self.venv
-        while hasattr(inner, "venv"):
-            inner = inner.venv
-        self.stepping_s = 0.0
-        step_async, step_wait = inner.step_async, inner.step_wait
-        started = [0.0]
-
-        def timed_step_async(actions):
-            started[0] = time.perf_counter()
-            step_async(actions)
-
-        def timed_step_wait():
-            out = step_wait()
-            self.stepping_s += time.perf_counter() - started[0]
-            return out
-
-        inner.step_async, inner.step_wait = timed_step_async, timed_step_wait
-        self._learn()  # warm-up: first reset and update, not timed
-        self.steps, self.wall, self.update_s, self.cpu_main, self.stepping_s = 0, 0.0, 0.0, 0.0, 0.0
-
-    def _learn(self) -> None:
-        from sphere_env.training.train import unchecked_distributions
-
-        with unchecked_distributions():  # as the trainer runs
-            self.model.learn(total_timesteps=self.rollout, reset_num_timesteps=False)
-
-    def run_updates(self, updates: int) -> None:
-        """Learn ``updates`` whole updates (rollout and PPO update each), timed as :meth:`run`."""
-        s0, c0, t0 = self.model.num_timesteps, _cpu_s(os.getpid()), time.perf_counter()
-        for _ in range(updates):
-            self._learn()
-        self.wall += time.perf_counter() - t0
-        self.cpu_main += _cpu_s(os.getpid()) - c0
-        self.steps += self.model.num_timesteps - s0
-
-    @property
-    def processes(self):
-        v = self.venv
-        while hasattr(v, "venv"):
-            v = v.venv
-        return list(getattr(v, "processes", []))
-
-    def run(self, seconds: float) -> None:
-        all_cores = os.sched_getaffinity(0)
-        if self.cores < len(all_cores):
-            _pin(self.processes, set(sorted(all_cores)[: self.cores]))
-        try:
-            s0, c0, t0 = self.model.num_timesteps, _cpu_s(os.getpid()), time.perf_counter()
-            while time.perf_counter() - t0 < seconds:
-                self._learn()
-            self.wall += time.perf_counter() - t0
-            self.cpu_main += _cpu_s(os.getpid()) - c0
-            self.steps += self.model.num_timesteps - s0
-        finally:
-            if self.cores < len(all_cores):
-                _pin(self.processes, all_cores)
-
-    def close(self) -> None:
-        self.venv.close()
-
-
 def _layout_name(cfg) -> str:
     if cfg.n_threads is not None:
         return f"{cfg.n_envs} envs, {cfg.n_threads} threads (ThreadedVecEnv)"
@@ -266,6 +75,48 @@ def _layout_name(cfg) -> str:
             else f"{cfg.n_envs} envs in {cfg.n_workers} blocks: this process + workers (BatchedSubprocVecEnv)"
         )
     return f"{cfg.n_envs} envs, 1 process each (SubprocVecEnv)"
+
+
+def _single_row(m: str, s: SingleEnv) -> dict:
+    """The row of the single env of shell model ``m``."""
+    single = s.steps / s.wall
+    return dict(
+        shell_model=m,
+        case="single env (one core)",
+        layout="single",
+        cores=1,
+        steps=s.steps,
+        single_env_steps_per_s=single,
+        gil_us_per_step=1e6 * (s.wall - s.advance_s) / s.steps,
+    )
+
+
+def _case_row(c: TrainCase, single: float) -> dict:
+    """The row of a timed layout ``c``; ``single``: the single-env rate of its shell model [steps/s]."""
+    rollout = c.steps / (c.wall - c.update_s)
+    train = c.steps / c.wall
+    label = f"{c.label}: {_layout_name(c.cfg)}" if c.layout == "shipped" else c.label
+    return dict(
+        shell_model=c.shell_model,
+        case=label + (" — pinned to 1 core" if c.cores == 1 else ""),
+        layout=c.layout,
+        cores=c.cores,
+        steps=c.steps,
+        single_env_steps_per_s=single,
+        rollout_steps_per_s=rollout,
+        rollout_ratio_pct=100 * rollout / (c.cores * single),
+        stepping_ratio_pct=100 * c.steps / c.stepping_s / (c.cores * single),
+        train_steps_per_s=train,
+        train_ratio_pct=100 * train / (c.cores * single),
+        update_share_pct=100 * c.update_s / c.wall,
+        cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
+        main_ms_per_vec_step=1e3 * (c.wall - c.update_s - c.stepping_s) / (c.steps / c.cfg.n_envs),
+        update_ms_per_step=1e3 * c.update_s / c.steps,
+        n_envs=c.cfg.n_envs,
+        n_steps=c.cfg.hyperparams["n_steps"],
+        n_threads=c.cfg.n_threads,
+        n_workers=c.cfg.n_workers,
+    )
 
 
 def run_train_benchmark(
@@ -306,44 +157,8 @@ def run_train_benchmark(
     for m in shell_models:
         s = singles[m]
         single = s.steps / s.wall
-        rows.append(
-            dict(
-                shell_model=m,
-                case="single env (one core)",
-                layout="single",
-                cores=1,
-                steps=s.steps,
-                single_env_steps_per_s=single,
-                gil_us_per_step=1e6 * (s.wall - s.advance_s) / s.steps,
-            )
-        )
-        for c in (c for c in cases if c.shell_model == m):
-            rollout = c.steps / (c.wall - c.update_s)
-            train = c.steps / c.wall
-            label = f"{c.label}: {_layout_name(c.cfg)}" if c.layout == "shipped" else c.label
-            rows.append(
-                dict(
-                    shell_model=m,
-                    case=label + (" — pinned to 1 core" if c.cores == 1 else ""),
-                    layout=c.layout,
-                    cores=c.cores,
-                    steps=c.steps,
-                    single_env_steps_per_s=single,
-                    rollout_steps_per_s=rollout,
-                    rollout_ratio_pct=100 * rollout / (c.cores * single),
-                    stepping_ratio_pct=100 * c.steps / c.stepping_s / (c.cores * single),
-                    train_steps_per_s=train,
-                    train_ratio_pct=100 * train / (c.cores * single),
-                    update_share_pct=100 * c.update_s / c.wall,
-                    cpu_main_ms_per_step=1e3 * c.cpu_main / c.steps,
-                    main_ms_per_vec_step=1e3 * (c.wall - c.update_s - c.stepping_s) / (c.steps / c.cfg.n_envs),
-                    update_ms_per_step=1e3 * c.update_s / c.steps,
-                    n_envs=c.cfg.n_envs,
-                    n_steps=c.cfg.hyperparams["n_steps"],
-                    n_threads=c.cfg.n_threads,
-                    n_workers=c.cfg.n_workers,
-                )
-            )
+        rows.append(_single_row(m, s))
+        rows += [_case_row(c, single) for c in cases if c.shell_model == m]
         model[m] = scaling_model(rows, m, cores)
     return {
         "rows": rows,

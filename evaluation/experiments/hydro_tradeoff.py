@@ -32,7 +32,7 @@ speed (one process, all candidates interleaved round by round, best round kept)
 A candidate with a plant step for which its calibration holds no k_d gets k_d refitted so that its
 locked-steer decay at the nominal pressure keeps the ζ it has at the calibration's
 ``fitted_time_step_s`` (the damping the steer couple was fitted to the robot's logs with;
-the same matching as the calibration CLI's ``kd-step``, done here on :func:`rock`); the
+the same matching as the calibration CLI's ``kd-step``, done here on :func:`~evaluation.experiments.hydro_runs.rock`); the
 shipped calibration holds its 10 ms refit in ``hydroelastic.k_d_by_time_step``. A candidate may
 also be a shipped calibration file as it is (``assets/calibration/hydroelastic_fast.yaml``: the
 low-pressure mesh and, at 10 ms, k_d against pressure fitted to ζ(p) by the CLI's ``kd-pressure``).
@@ -47,28 +47,34 @@ with one k_d swept over :data:`RAMP_K_D_SWEEP` at 10 ms on the low-pressure mesh
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import math
 import tempfile
-import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.evaluation.experiments import RESULTS
+from sphere_env.evaluation.experiments.hydro_runs import (
+    CHUNK_S,
+    LOW_PRESSURE_MESH,
+    RAMP,
+    candidate_calibration,
+    ramp_trace,
+    refit_k_d,
+    rock,
+    time_env,
+    time_twin_run,
+    with_low_pressure_mesh,
+)
 from sphere_env.files import write_text_atomic
 from sphere_env.models.calibration_files import DEFAULT_CALIBRATION
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics import Twin, TwinConfig
 from sphere_env.provenance import machine_info
 from sphere_env.resources import asset_path
 
-CHUNK_S = 0.02
-SAMPLE_S = 0.01
-RAMP = {"incline_deg": 16.0, "ramp_length_m": 4.0}
 PRESSURES_KPA = (3.0, 8.5, 14.0)
 REFERENCE_HINT_M = 0.02
 REFERENCE_STEP_S = 0.0005
@@ -79,8 +85,6 @@ MAX_RAMP_RMSE_PCT = 5.0
 AIM_ENV_STEPS_PER_S = 500.0
 AIM_RTF = 12.0
 
-#: The opt-in pressure-dependent mesh measured here (``hydroelastic.low_pressure_mesh``).
-LOW_PRESSURE_MESH = {"below_kpa": 5.0, "resolution_hint_m": 0.1}
 #: k_d values [-] of the ramp-against-k_d sweep (10 ms, low-pressure mesh, nominal pressure): from the
 #: shipped 10 ms single-k_d refit to about what the decay needs there to have ζ(p0).
 RAMP_K_D_SWEEP = (0.18255, 0.22, 0.25, 0.28, 0.32222)
@@ -88,7 +92,7 @@ RAMP_K_D_STEP_S = 0.01
 FAST_CALIBRATION = "hydroelastic_fast"
 
 #: name -> (mesh, plant step [s]); mesh = (resolution_hint_m, low_pressure_mesh or None) on the
-#: shipped calibration, ``None`` for the shipped calibration file with :data:`LOW_PRESSURE_MESH`
+#: shipped calibration, ``None`` for the shipped calibration file with :data:`~evaluation.experiments.hydro_runs.LOW_PRESSURE_MESH`
 #: added (and, at a step it has a refit for, its own ``k_d_by_time_step``), or the name of a shipped
 #: calibration file used as it is. The first is the baseline every ratio refers to.
 CANDIDATES: dict[str, tuple[tuple[float, tuple[float, float] | None] | str | None, float]] = {
@@ -106,133 +110,22 @@ CANDIDATES: dict[str, tuple[tuple[float, tuple[float, float] | None] | str | Non
 }
 
 
-def candidate_calibration(
-    base_raw: dict, hint_m: float, low_mesh, k_d: float | None, step_s: float, path: Path
-) -> Path:
-    """Write the shipped calibration with its hydroelastic mesh (and k_d, fitted step) changed and no
-    k_d refits at other steps."""
-    raw = copy.deepcopy(base_raw)
-    hyd = raw["hydroelastic"]
-    hyd["resolution_hint_m"] = hint_m
-    hyd.pop("low_pressure_mesh", None)
-    hyd.pop("k_d_by_time_step", None)
-    if low_mesh is not None:
-        hyd["low_pressure_mesh"] = {"below_kpa": low_mesh[0], "resolution_hint_m": low_mesh[1]}
-    if k_d is not None:
-        hyd["k_d"] = float(k_d)
-        hyd["fitted_time_step_s"] = float(step_s)
-    ShellCalibration.from_dict(raw, source=str(path))  # validated before it is written
-    return write_text_atomic(path, yaml.safe_dump(raw, sort_keys=False))
+@dataclass
+class _References:
+    """What every candidate is measured against (see :func:`accuracy`)."""
+
+    omega_n: dict  # pressure -> ω_n of the decay on the reference mesh
+    ramp: np.ndarray  # the shipped setting's ramp at 0.5 ms, k_d not refitted
+    peak: float
+    k_d_own: float  # k_d refitted at 0.5 ms keeping the ζ of the shipped k_d at its step
+    own: dict  # calibration path (None: the shipped one with k_d_own) -> its ramp at 0.5 ms
+    k_d_zeta: float  # k_d refitted at 0.5 ms for ζ(p0)
+    ramp_zeta: np.ndarray
+    peak_zeta: float
 
 
-def with_low_pressure_mesh(base_raw: dict, path: Path) -> Path:
-    """Write the shipped calibration as it is plus :data:`LOW_PRESSURE_MESH`."""
-    raw = copy.deepcopy(base_raw)
-    raw["hydroelastic"]["low_pressure_mesh"] = dict(LOW_PRESSURE_MESH)
-    ShellCalibration.from_dict(raw, source=str(path))
-    return write_text_atomic(path, yaml.safe_dump(raw, sort_keys=False))
-
-
-def contact_polygons(twin: Twin) -> int:
-    results = twin.plant.get_contact_results_output_port().Eval(twin.plant_context)
-    return sum(
-        results.hydroelastic_contact_info(i).contact_surface().num_faces()
-        for i in range(results.num_hydroelastic_contacts())
-    )
-
-
-def rock(calibration: Path, pressure_kpa: float, step_s: float, k_d: float | None = None) -> dict:
-    """Locked-steer free decay (the protocol k_d is matched on): ω_n, ζ and the contact polygons
-    at its end. ``k_d``: use this k_d at ``step_s`` instead of the calibration's."""
-    twin = Twin(
-        TwinConfig(
-            fixture="locked_steer",
-            shell_model="hydroelastic",
-            steer_friction="none",
-            drive_friction="none",
-            calibration=calibration,
-            pressure_kpa=pressure_kpa,
-            time_step_s=step_s,
-        )
-    )
-    if k_d is not None:
-        raw = copy.deepcopy(dict(twin.calibration.raw))
-        raw["hydroelastic"].pop("k_d_by_time_step", None)
-        raw["hydroelastic"].update(k_d=float(k_d), fitted_time_step_s=float(step_s))
-        twin.set_calibration(ShellCalibration.from_dict(raw, source="<k_d trial>"))
-    twin.reset(InitialState(roll=0.15))
-    n = round(6.0 / SAMPLE_S)
-    phi = [twin.state().phi]
-    for _ in range(n):
-        twin.advance(SAMPLE_S)
-        phi.append(twin.state().phi)
-    fit = fit_free_decay(SAMPLE_S * np.arange(n + 1), np.array(phi))
-    return {"omega_n": fit.omega_n, "zeta": fit.zeta, "polygons": contact_polygons(twin)}
-
-
-def refit_k_d(calibration: Path, pressure_kpa: float, step_s: float, target_zeta: float | None = None) -> float:
-    """k_d at which the locked-steer decay at ``step_s`` has ``target_zeta`` (default: the ζ that the
-    calibration's own k_d gives at its ``fitted_time_step_s``), both at ``pressure_kpa``."""
-    from scipy.optimize import brentq
-
-    cal = ShellCalibration.load(calibration)
-    target = rock(calibration, pressure_kpa, cal.fitted_time_step_s)["zeta"] if target_zeta is None else target_zeta
-    return brentq(
-        lambda k: rock(calibration, pressure_kpa, step_s, k_d=k)["zeta"] - target,
-        0.05 * cal.k_d,
-        3.0 * cal.k_d,
-        xtol=0.005 * cal.k_d,
-    )
-
-
-def ramp_trace(calibration: Path, step_s: float, seconds: float = 6.0) -> np.ndarray:
-    twin = Twin(TwinConfig(shell_model="hydroelastic", calibration=calibration, time_step_s=step_s, **RAMP))
-    twin.reset(InitialState())
-    out = []
-    for _ in range(round(seconds / CHUNK_S)):
-        twin.advance(CHUNK_S)
-        out.append(twin.state().omega_d)
-    return np.array(out)
-
-
-def time_twin_run(twin: Twin, pressure_kpa: float, seconds: float) -> float:
-    """Wall time [s] of the benchmark's run: ``seconds`` from rest in 20 ms chunks at a pressure."""
-    twin.reset(InitialState(), pressure_kpa=pressure_kpa)
-    t0 = time.perf_counter()
-    for _ in range(round(seconds / CHUNK_S)):
-        twin.advance(CHUNK_S)
-        twin.state()
-    return time.perf_counter() - t0
-
-
-def time_env(env, rng: np.random.Generator, seconds: float, pressure_kpa: float | None = None) -> tuple[int, float]:
-    """(env steps, wall s) of random-action stepping for about ``seconds`` from a fresh episode;
-    resets not timed. ``pressure_kpa`` fixes the pressure of every episode (``None``: the env's
-    randomization draws it)."""
-    options = None if pressure_kpa is None else {"pressure_kpa": pressure_kpa}
-    env.reset(options=options)
-    n, wall = 0, 0.0
-    while wall < seconds:
-        actions = rng.uniform(-1.0, 1.0, size=(25, 2)).astype(np.float32)
-        t0 = time.perf_counter()
-        done = False
-        for a in actions:
-            _, _, term, trunc, _ = env.step(a)
-            n += 1
-            if term or trunc:
-                done = True
-                break
-        wall += time.perf_counter() - t0
-        if done:
-            env.reset(options=options)
-    return n, wall
-
-
-def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
-    names = list(cands)
-    base_name, base_path = names[0], paths[names[0]]
-    cal = ShellCalibration.load(base_path)
-    base_step = cands[base_name][1]
+def _references(cal: ShellCalibration, base_path: Path, base_step: float, pressures, log) -> _References:
+    """The decay's ω_n on a fine mesh and the three ramp references at 0.5 ms."""
     ref_cal = candidate_calibration(
         dict(cal.raw), REFERENCE_HINT_M, None, None, base_step, base_path.parent / "reference_mesh.yaml"
     )
@@ -276,79 +169,99 @@ def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
         f"ζ(p0) reference: k_d {k_d_zeta_ref:.4f} at {REFERENCE_STEP_S:g} s; its ramp departs "
         f"{100 * float(np.sqrt(np.mean((ramp_ref_zeta - ramp_ref) ** 2))) / peak:.2f} % of peak from the shipped reference"
     )
-    out = {}
-    for name, (mesh, step) in cands.items():
+    return _References(ref_omega, ramp_ref, peak, k_d_own_ref, own_refs, k_d_zeta_ref, ramp_ref_zeta, peak_zeta)
+
+
+def _candidate_row(
+    name: str, mesh, step: float, paths: dict, cal: ShellCalibration, pressures, refs: _References, log
+) -> dict:
+    """One candidate's accuracy: its decay at each pressure, and its ramp against the references
+    (``paths[name]`` is rewritten where its k_d is refitted for ``step``)."""
+    p0 = cal.nominal_pressure_kpa
+    used = ShellCalibration.load(paths[name]).for_time_step(step)
+    row: dict = {
+        "candidate": name,
+        "time_step_s": step,
+        "resolution_hint_m": used.resolution_hint_m,
+        "low_pressure_mesh": used.low_pressure_mesh,
+        "k_d": used.k_d,
+        "k_d_by_pressure": [list(pt) for pt in used.k_d_by_pressure],
+    }
+    if used.fitted_time_step_s is not None and not math.isclose(step, used.fitted_time_step_s):
+        if isinstance(mesh, str):
+            raise ValueError(f"candidate {name!r}: {mesh}.yaml has no k_d at {step:g} s; it is measured as it is")
+        k_d = refit_k_d(paths[name], p0, step)  # keeps the candidate's own ζ at p0 and 5 ms
+        paths[name] = candidate_calibration(dict(cal.raw), *mesh, k_d, step, paths[name])
+        row["k_d"] = k_d
         used = ShellCalibration.load(paths[name]).for_time_step(step)
-        row: dict = {
-            "candidate": name,
-            "time_step_s": step,
-            "resolution_hint_m": used.resolution_hint_m,
-            "low_pressure_mesh": used.low_pressure_mesh,
-            "k_d": used.k_d,
-            "k_d_by_pressure": [list(pt) for pt in used.k_d_by_pressure],
-        }
-        if used.fitted_time_step_s is not None and not math.isclose(step, used.fitted_time_step_s):
-            if isinstance(mesh, str):
-                raise ValueError(f"candidate {name!r}: {mesh}.yaml has no k_d at {step:g} s; it is measured as it is")
-            k_d = refit_k_d(paths[name], p0, step)  # keeps the candidate's own ζ at p0 and 5 ms
-            paths[name] = candidate_calibration(dict(cal.raw), *mesh, k_d, step, paths[name])
-            row["k_d"] = k_d
-            used = ShellCalibration.load(paths[name]).for_time_step(step)
-        per = {}
-        for p in pressures:
-            r = rock(paths[name], p, step)
-            per[p] = dict(
-                r,
-                k_d=used.k_d_at(p),
-                omega_err_pct=100 * (r["omega_n"] / ref_omega[p] - 1),
-                zeta_target=float(cal.zeta(p)),
-                zeta_err_pct=100 * (r["zeta"] / float(cal.zeta(p)) - 1),
-            )
-        row["per_pressure"] = per
-        row["zeta_at_nominal"] = rock(paths[name], p0, step)["zeta"]
-        trace = ramp_trace(paths[name], step)
-        # the candidate's own 0.5 ms reference: its calibration's k_d for 0.5 ms where it holds one
-        held = ShellCalibration.load(paths[name]).for_time_step(REFERENCE_STEP_S).fitted_time_step_s
-        key = paths[name] if held is not None and math.isclose(held, REFERENCE_STEP_S) else None
-        if key not in own_refs:
-            own_refs[key] = ramp_trace(paths[name], REFERENCE_STEP_S)
-        row["ramp_reference"] = (
-            "its calibration's k_d at 0.5 ms"
-            if key is not None
-            else f"shipped calibration, k_d refitted at 0.5 ms ({k_d_own_ref:.3f})"
+    per = {}
+    for p in pressures:
+        r = rock(paths[name], p, step)
+        per[p] = dict(
+            r,
+            k_d=used.k_d_at(p),
+            omega_err_pct=100 * (r["omega_n"] / refs.omega_n[p] - 1),
+            zeta_target=float(cal.zeta(p)),
+            zeta_err_pct=100 * (r["zeta"] / float(cal.zeta(p)) - 1),
         )
-        own_peak = float(np.max(np.abs(own_refs[key])))
-        row["ramp_rmse_pct"] = 100 * float(np.sqrt(np.mean((trace - own_refs[key]) ** 2))) / own_peak
-        row["ramp_rmse_vs_shipped_unrefit_pct"] = 100 * float(np.sqrt(np.mean((trace - ramp_ref) ** 2))) / peak
-        row["ramp_rmse_vs_zeta_reference_pct"] = 100 * float(np.sqrt(np.mean((trace - ramp_ref_zeta) ** 2))) / peak_zeta
-        row["max_omega_err_pct"] = max(abs(v["omega_err_pct"]) for v in per.values())
-        row["max_zeta_err_pct"] = max(abs(v["zeta_err_pct"]) for v in per.values())
-        out[name] = row
-        log(
-            f"{name}: k_d {row['k_d']:.4f}, ω err {[round(v['omega_err_pct'], 2) for v in per.values()]} %, "
-            f"ζ {[round(v['zeta'], 4) for v in per.values()]} (at {p0:g} kPa {row['zeta_at_nominal']:.4f}), "
-            f"ramp {row['ramp_rmse_pct']:.2f} %, polygons {[v['polygons'] for v in per.values()]}"
-        )
+    row["per_pressure"] = per
+    row["zeta_at_nominal"] = rock(paths[name], p0, step)["zeta"]
+    trace = ramp_trace(paths[name], step)
+    # the candidate's own 0.5 ms reference: its calibration's k_d for 0.5 ms where it holds one
+    held = ShellCalibration.load(paths[name]).for_time_step(REFERENCE_STEP_S).fitted_time_step_s
+    key = paths[name] if held is not None and math.isclose(held, REFERENCE_STEP_S) else None
+    if key not in refs.own:
+        refs.own[key] = ramp_trace(paths[name], REFERENCE_STEP_S)
+    row["ramp_reference"] = (
+        "its calibration's k_d at 0.5 ms"
+        if key is not None
+        else f"shipped calibration, k_d refitted at 0.5 ms ({refs.k_d_own:.3f})"
+    )
+    own_peak = float(np.max(np.abs(refs.own[key])))
+    row["ramp_rmse_pct"] = 100 * float(np.sqrt(np.mean((trace - refs.own[key]) ** 2))) / own_peak
+    row["ramp_rmse_vs_shipped_unrefit_pct"] = 100 * float(np.sqrt(np.mean((trace - refs.ramp) ** 2))) / refs.peak
+    row["ramp_rmse_vs_zeta_reference_pct"] = (
+        100 * float(np.sqrt(np.mean((trace - refs.ramp_zeta) ** 2))) / refs.peak_zeta
+    )
+    row["max_omega_err_pct"] = max(abs(v["omega_err_pct"]) for v in per.values())
+    row["max_zeta_err_pct"] = max(abs(v["zeta_err_pct"]) for v in per.values())
+    log(
+        f"{name}: k_d {row['k_d']:.4f}, ω err {[round(v['omega_err_pct'], 2) for v in per.values()]} %, "
+        f"ζ {[round(v['zeta'], 4) for v in per.values()]} (at {p0:g} kPa {row['zeta_at_nominal']:.4f}), "
+        f"ramp {row['ramp_rmse_pct']:.2f} %, polygons {[v['polygons'] for v in per.values()]}"
+    )
+    return row
+
+
+def accuracy(cands: dict, paths: dict, pressures, log) -> dict:
+    names = list(cands)
+    base_name, base_path = names[0], paths[names[0]]
+    cal = ShellCalibration.load(base_path)
+    refs = _references(cal, base_path, cands[base_name][1], pressures, log)
+    p0, ramp_ref, peak = cal.nominal_pressure_kpa, refs.ramp, refs.peak
+    out = {
+        name: _candidate_row(name, mesh, step, paths, cal, pressures, refs, log) for name, (mesh, step) in cands.items()
+    }
     base = out[base_name]["per_pressure"]
     for row in out.values():
         for p, v in row["per_pressure"].items():
             v["zeta_vs_baseline_pct"] = 100 * (v["zeta"] / base[p]["zeta"] - 1)
     sweep = ramp_against_k_d(
-        base_path, dict(cal.raw), RAMP_K_D_STEP_S, ramp_ref, peak, float(cal.zeta(p0)), p0, log, own_refs[None]
+        base_path, dict(cal.raw), RAMP_K_D_STEP_S, ramp_ref, peak, float(cal.zeta(p0)), p0, log, refs.own[None]
     )
     return {
         "rows": out,
-        "reference_omega_n": ref_omega,
+        "reference_omega_n": refs.omega_n,
         "nominal_pressure_kpa": p0,
         "ramp_reference_peak_rad_s": peak,
         "ramp_against_k_d": sweep,
-        "refitted_reference_k_d": k_d_own_ref,
+        "refitted_reference_k_d": refs.k_d_own,
         "refitted_reference_ramp_rmse_vs_shipped_reference_pct": 100
-        * float(np.sqrt(np.mean((own_refs[None] - ramp_ref) ** 2)))
+        * float(np.sqrt(np.mean((refs.own[None] - ramp_ref) ** 2)))
         / peak,
-        "zeta_reference_k_d": k_d_zeta_ref,
+        "zeta_reference_k_d": refs.k_d_zeta,
         "zeta_reference_ramp_rmse_vs_shipped_reference_pct": 100
-        * float(np.sqrt(np.mean((ramp_ref_zeta - ramp_ref) ** 2)))
+        * float(np.sqrt(np.mean((refs.ramp_zeta - ramp_ref) ** 2)))
         / peak,
     }
 

@@ -125,7 +125,7 @@ SELECT_FROM = 0.5  # the validation choice looks at checkpoints from this fracti
 
 def checkpoint_steps(run_dir: Path) -> list[int]:
     """The env steps of a run folder's checkpoints, in order."""
-    from sphere_env.training.train import CHECKPOINT_PREFIX
+    from sphere_env.training.run_folder import CHECKPOINT_PREFIX
 
     return sorted(
         int(p.stem.split("_")[-2]) for p in (run_dir / "checkpoints").glob(f"{CHECKPOINT_PREFIX}_*_steps.zip")
@@ -263,7 +263,8 @@ def train_job(recipe_name: str, seed: int, runs_root: Path = RUNS) -> Path:
     folder."""
     import torch
 
-    from sphere_env.training.train import latest_checkpoint, train
+    from sphere_env.training.run_folder import latest_checkpoint
+    from sphere_env.training.trainer import train
 
     torch.set_num_threads(1)
     recipe = load_recipes()[recipe_name]
@@ -289,7 +290,8 @@ def run_job(
     area: a study carried over to a fresh checkout keeps only its result files)."""
     import torch
 
-    from sphere_env.training.train import CHECKPOINT_PREFIX, train
+    from sphere_env.training.run_folder import CHECKPOINT_PREFIX
+    from sphere_env.training.trainer import train
 
     torch.set_num_threads(1)
     out = results / "runs" / recipe_name / f"seed{seed}.json"
@@ -316,7 +318,7 @@ def run_job(
     resume = (run_dir / "config.yaml").exists()
     t0 = time.perf_counter()
     load_start = os.getloadavg()[0]  # the machine's 1-min load average: what else was running
-    from sphere_env.training.train import latest_checkpoint
+    from sphere_env.training.run_folder import latest_checkpoint
 
     done = latest_checkpoint(run_dir) if resume else None
     if not (done is not None and done[0] >= steps and (run_dir / "timing.json").exists()):  # trained: evaluate

@@ -9,7 +9,8 @@ against any model; ``crossval`` fits on one segment and validates on the others;
 writes the committed validation report. CLI: ``python -m sphere_env.calibration --help``.
 """
 
-from sphere_env.calibration.logs import ColumnMapping, LogError, LogTrial, RobotLog, load_log
+from sphere_env.calibration.log_csv import load_log
+from sphere_env.calibration.logs import ColumnMapping, LogError, LogTrial, RobotLog
 from sphere_env.calibration.manifest import Manifest, load_manifest
 
 __all__ = ["ColumnMapping", "LogError", "LogTrial", "Manifest", "RobotLog", "load_log", "load_manifest"]

@@ -59,7 +59,7 @@ OUTPUT_FOLDER = checker(OutputFolder)
 
 def HOLD(text: str) -> tuple[str, tuple[float, ...]]:
     """``--hold`` item NAME=VALUE[,VALUE...]: a fitted parameter held at each value in turn."""
-    from sphere_env.calibration.shell_fit import check_hold
+    from sphere_env.calibration.shell_params import check_hold
 
     name, sep, values = text.partition("=")
     try:
@@ -73,30 +73,29 @@ def HOLD(text: str) -> tuple[str, tuple[float, ...]]:
     return name, vals
 
 
-def build_parser() -> argparse.ArgumentParser:
-    # usage lines read "sphere-env calibrate ..." from the sphere-env command (which sets argv[0])
-    prog = sys.argv[0] if sys.argv[0].startswith("sphere-env") else "python -m sphere_env.calibration"
-    ap = argparse.ArgumentParser(
-        prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
-    )
-    sub = ap.add_subparsers(dest="command", required=True)
+def _common(p, group=None) -> None:
+    """The manifest flags most commands share."""
+    p.add_argument("--manifest", default=str(DEFAULT_MANIFEST), help="trial manifest YAML")
+    p.add_argument("--data-root", default=None, help="override the manifest's data_root")
+    p.add_argument("--group", default=group, help=f"manifest group (default {group})")
+    p.add_argument("--trial", nargs="*", help="only these trial names")
 
-    def common(p, group=None):
-        p.add_argument("--manifest", default=str(DEFAULT_MANIFEST), help="trial manifest YAML")
-        p.add_argument("--data-root", default=None, help="override the manifest's data_root")
-        p.add_argument("--group", default=group, help=f"manifest group (default {group})")
-        p.add_argument("--trial", nargs="*", help="only these trial names")
 
+def _add_shell(sub) -> None:
+    """The ``shell`` command and its flags."""
     p = sub.add_parser("shell", help="free decays at several pressures -> ω_n(p), ζ(p) calibration file")
-    common(p, "locked_steer")
+    _common(p, "locked_steer")
     p.add_argument("--channel", default="phi", choices=["phi", "theta"], help="decaying channel (rad)")
     p.add_argument("--base", default=None, help="calibration whose V(p) and hydroelastic settings are kept")
     p.add_argument("--out", help="calibration YAML to write")
     p.add_argument("--plot", help="PNG of data, fits and the point-contact line")
     p.set_defaults(func=cmd_shell)
 
+
+def _add_steer_fit(sub) -> None:
+    """The ``steer-fit`` command and its flags."""
     p = sub.add_parser("steer-fit", help="free-motion segments (steer_plane trials, free windows) -> shell law")
-    common(p, "steer_free")
+    _common(p, "steer_free")
     p.add_argument("--models", nargs="+", default=["injected", "hydroelastic"], choices=["injected", "hydroelastic"])
     p.add_argument(
         "--forms",
@@ -148,8 +147,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="calibration YAML to write")
     p.set_defaults(func=cmd_steer_fit)
 
+
+def _add_friction(sub) -> None:
+    """The ``friction`` command and its flags."""
     p = sub.add_parser("friction", help="stand swings -> friction parameters")
-    common(p, "stand_swing")
+    _common(p, "stand_swing")
     p.add_argument("--law", default="majd", choices=["viscous", "coulomb", "majd"])
     p.add_argument("--joint", default="steer", choices=["steer"])
     p.add_argument("--fixed", nargs="*", default=None, help="parameters held at their start value")
@@ -162,6 +164,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset-name", help="preset name (default <law>_<joint>)")
     p.set_defaults(func=cmd_friction)
 
+
+def _add_sensitivity(sub) -> None:
+    """The ``sensitivity`` command and its flags."""
     p = sub.add_parser("sensitivity", help="hydroelastic ±50%% sweep (paper Fig. 11)")
     p.add_argument("--calibration", default=None)
     p.add_argument("--pressure-kpa", type=PRESSURE_KPA, nargs="*", help="pressures [kPa] (default: the calibration's)")
@@ -171,6 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot")
     p.set_defaults(func=cmd_sensitivity)
 
+
+def _add_kd_step(sub) -> None:
+    """The ``kd-step`` command and its flags."""
     p = sub.add_parser("kd-step", help="hydroelastic k_d refitted at another plant step (k_d_by_time_step)")
     p.add_argument("--calibration", default=None, help="calibration YAML (default: the shipped one)")
     p.add_argument("--time-step-s", type=TIME_STEP_S, required=True, help="plant step [s] to refit k_d at")
@@ -178,6 +186,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the refit)")
     p.set_defaults(func=cmd_kd_step)
 
+
+def _add_kd_pressure(sub) -> None:
+    """The ``kd-pressure`` command and its flags."""
     p = sub.add_parser(
         "kd-pressure",
         help="hydroelastic k_d against pressure at a plant step, each fitted so "
@@ -197,11 +208,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="calibration YAML to write (the input plus the table)")
     p.set_defaults(func=cmd_kd_pressure)
 
+
+def _add_pressure_fit(sub) -> None:
+    """The ``pressure-fit`` command and its flags."""
     p = sub.add_parser(
         "pressure-fit",
         help="one inflation pressure per recording, estimated from its free motion with a fixed calibration",
     )
-    common(p, "free_robot")
+    _common(p, "free_robot")
     p.add_argument("--models", nargs="+", default=["injected", "hydroelastic"], choices=["injected", "hydroelastic"])
     p.add_argument("--calibration", default=None, help="calibration YAML held fixed (default: the shipped one)")
     p.add_argument("--steer-friction", default="majd_steer")
@@ -209,6 +223,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", default=None, metavar="PATH", help="write every estimate and its profile")
     p.set_defaults(func=cmd_pressure_fit)
 
+
+def _add_pressure_study(sub) -> None:
+    """The ``pressure-study`` command and its flags."""
     p = sub.add_parser(
         "pressure-study",
         help="both shipped calibrations with one pressure per shared recording (one twin for every log?)",
@@ -218,6 +235,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=str(Path("evaluation") / "results" / "validation" / "pressure_per_log.json"))
     p.set_defaults(func=cmd_pressure_study)
 
+
+def _add_events(sub) -> None:
+    """The ``events`` command and its flags."""
     p = sub.add_parser("events", help="free-motion events in a long log; optionally write manifest entries")
     p.add_argument("log", help="CSV log (RoboBall names, or --mapping)")
     p.add_argument("--mapping", default=None, help="column mapping YAML for other naming")
@@ -238,8 +258,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="also print the events as JSON")
     p.set_defaults(func=cmd_events)
 
+
+def _add_validate(sub) -> None:
+    """The ``validate`` command and its flags."""
     p = sub.add_parser("validate", help="logs against shell models; exit 1 past a tolerance")
-    common(p, None)
+    _common(p, None)
     p.add_argument("--models", nargs="+", default=["point", "injected", "hydroelastic"])
     p.add_argument("--calibration", default=None)
     p.add_argument("--pressure-kpa", type=PRESSURE_KPA, default=None, help="pressure for trials without one")
@@ -262,6 +285,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot")
     p.set_defaults(func=cmd_validate)
 
+
+def _add_drive_fit(sub) -> None:
+    """The ``drive-fit`` command and its flags."""
     p = sub.add_parser(
         "drive-fit",
         help="driven windows replayed (pendulum tracking the log), drive direction fitted on one part, tested on the other",
@@ -289,6 +315,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_drive_fit)
 
+
+def _add_report(sub) -> None:
+    """The ``report`` command and its flags."""
     p = sub.add_parser("report", help="regenerate the committed validation report")
     p.add_argument("--manifest", default=str(DEFAULT_MANIFEST))
     p.add_argument("--data-root", default=None)
@@ -297,6 +326,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--starts", type=STARTS, default=2)
     p.add_argument("--no-sensitivity", action="store_true")
     p.set_defaults(func=cmd_report)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    # usage lines read "sphere-env calibrate ..." from the sphere-env command (which sets argv[0])
+    prog = sys.argv[0] if sys.argv[0].startswith("sphere-env") else "python -m sphere_env.calibration"
+    ap = argparse.ArgumentParser(
+        prog=prog, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    for add in (
+        _add_shell,
+        _add_steer_fit,
+        _add_friction,
+        _add_sensitivity,
+        _add_kd_step,
+        _add_kd_pressure,
+        _add_pressure_fit,
+        _add_pressure_study,
+        _add_events,
+        _add_validate,
+        _add_drive_fit,
+        _add_report,
+    ):
+        add(sub)
     for p in sub.choices.values():  # a flag is spelled in full (no prefix of it), so a renamed flag is named
         p.allow_abbrev = False
         if "--pressure-kpa" in p._option_string_actions:

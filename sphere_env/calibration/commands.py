@@ -33,13 +33,8 @@ def _shared_logs(args, command: str):
 
 
 def cmd_shell(args) -> int:
-    from sphere_env.calibration.decay import (
-        calibration_dict,
-        fit_free_decay,
-        fit_pressure_curves,
-        plot_pressure_curves,
-        write_yaml,
-    )
+    from sphere_env.analysis.decay import fit_free_decay
+    from sphere_env.calibration.decay import calibration_dict, fit_pressure_curves, plot_pressure_curves, write_yaml
     from sphere_env.models.rigid_body import RobotParameters
     from sphere_env.models.shell import ShellCalibration
 
@@ -242,8 +237,8 @@ def cmd_kd_step(args) -> int:
 def cmd_kd_pressure(args) -> int:
     from sphere_env.calibration.decay import write_yaml
     from sphere_env.calibration.sensitivity import match_dissipation_by_pressure
-    from sphere_env.models.shell import ShellCalibration
     from sphere_env.models.calibration_schema import interpolate_k_d
+    from sphere_env.models.shell import ShellCalibration
 
     cal = ShellCalibration.load(args.calibration)  # validated before anything runs
     if args.pressure_kpa is not None:
@@ -394,7 +389,8 @@ def cmd_events(args) -> int:
     import os
 
     from sphere_env.calibration.events import events_table, find_events, manifest_entries, write_manifest_entries
-    from sphere_env.calibration.logs import TIME_UNITS, ColumnMapping, load_log
+    from sphere_env.calibration.log_csv import load_log
+    from sphere_env.calibration.logs import TIME_UNITS, ColumnMapping
 
     mapping = ColumnMapping.roboball() if args.mapping is None else ColumnMapping.load(args.mapping)
     if args.time_unit is not None:

@@ -1,6 +1,6 @@
 """The pressure regressions ω_n(p), ζ(p) of paper Fig. 10 and the calibration file they make.
 
-The per-trial damped-sinusoid fit lives in :mod:`sphere_env.analysis.decay` (re-exported here).
+The per-trial damped-sinusoid fit lives in :mod:`sphere_env.analysis.decay`.
 Across pressures, ω_n(p) = a + b p (linear) and ζ(p) = s e^{r p} (exponential) are fitted with
 CIs and written as a calibration YAML that :meth:`ShellCalibration.load` reads directly.
 """
@@ -17,19 +17,15 @@ import yaml
 from scipy import stats
 from scipy.optimize import curve_fit
 
-from sphere_env.analysis.decay import DecayFit, damped_sinusoid, fit_free_decay, log_decrement
+from sphere_env.analysis.decay import DecayFit
 from sphere_env.files import write_text_atomic
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.plotting import save_figure
 
 __all__ = [
-    "DecayFit",
     "PressureFit",
     "calibration_dict",
-    "damped_sinusoid",
-    "fit_free_decay",
     "fit_pressure_curves",
-    "log_decrement",
     "plot_pressure_curves",
     "write_yaml",
 ]

@@ -34,20 +34,28 @@ import copy
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Annotated, Any, Literal, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
-from pydantic import BeforeValidator, Field
 from scipy.optimize import brentq, least_squares
 
 from sphere_env.calibration.logs import RobotLog
+from sphere_env.calibration.shell_params import (
+    BOUNDS,
+    HYDRO_PARAMS,
+    ShellFitOptions,
+    check_hold,
+    model_params,
+    omega_n_floor,
+    start_value,
+)
 from sphere_env.calibration.simulate import rmse, simulate_log
+from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.models.friction import FrictionModel
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration, membrane_contact_volume_m3
 from sphere_env.physics.twin import Twin, TwinConfig
-from sphere_env.schemas import Schema, _as_tuple, allowed, checker, validate
-from sphere_env.models.calibration_schema import STEER_LAW_FORMS
+from sphere_env.schemas import validate
 
 
 def pressure_for_modulus(
@@ -215,90 +223,6 @@ def trial_rmse(twin: Twin | TwinPool, logs: Sequence[RobotLog]) -> dict[str, dic
     return out
 
 
-# ---- parameters of each model and form --------------------------------------------------------------
-# name -> (lower bound, upper bound); ω_n, ζ at p₀; the amplitude terms in the file's units.
-_BOUNDS = {
-    "omega_n": (0.5, 8.0),
-    "zeta": (0.0, 0.95),
-    "rest_angle_rad": (-0.2, 0.2),
-    "amplitude_stiffness_nm_per_rad": (-60.0, 400.0),
-    "amplitude_scale_rad": (0.03, 1.5),
-    "quadratic_stiffness_nm_per_rad2": (-40.0, 120.0),
-    "couple_stiffness_factor": (0.0, 3.0),
-    "couple_damping_factor": (0.0, 3.0),
-    "log10_modulus_pa": (4.0, 7.0),
-    "dissipation_s_per_m": (0.0, 20.0),
-}
-HYDRO_PARAMS = ("couple_stiffness_factor", "couple_damping_factor")
-
-
-Form = Annotated[
-    Literal[tuple(STEER_LAW_FORMS)],
-    Field(  # type: ignore[valid-type]
-        json_schema_extra=allowed(str(list(STEER_LAW_FORMS)))
-    ),
-]
-_FORM = checker(Form)
-
-
-class ShellFitOptions(Schema):
-    """The choices of :func:`fit_shell`: the shell model, the steer-law form and the fitted parameters."""
-
-    model: Literal["injected", "hydroelastic"] = Field(json_schema_extra=allowed("['injected', 'hydroelastic']"))
-    form: Form | None = None
-    params: Annotated[tuple[Literal[tuple(_BOUNDS)], ...], BeforeValidator(_as_tuple)] | None = Field(  # type: ignore[valid-type]
-        None, json_schema_extra=allowed(f"names from {sorted(_BOUNDS)}")
-    )
-
-
-def law_params(form: str) -> tuple[str, ...]:
-    """The injected model's fitted parameters for a steer-law form (:data:`Form`)."""
-    return ("omega_n", "zeta", "rest_angle_rad", *STEER_LAW_FORMS[_FORM(form, "field 'form'")])
-
-
-def check_hold(hold: Mapping[str, float], where: str = "hold") -> dict[str, float]:
-    """``hold`` (parameter name -> value held instead of fitted) checked against :data:`_BOUNDS`:
-    every name a fitted parameter of some model and form, every value finite and inside its search
-    range. Raises ValueError naming the parameter, the value and what is allowed."""
-    out = {}
-    for name, value in hold.items():
-        if name not in _BOUNDS:
-            raise ValueError(f"{where}: unknown parameter {name!r}; allowed: {sorted(_BOUNDS)}")
-        lo, hi = _BOUNDS[name]
-        v = float(value)
-        if not (math.isfinite(v) and lo <= v <= hi):
-            raise ValueError(f"{where}: {name} = {value!r} is outside its search range [{lo}, {hi}]")
-        out[name] = v
-    return out
-
-
-def model_params(model: str, form: str, hold: Mapping[str, float] | None = None) -> tuple[str, ...]:
-    """The parameters :func:`fit_shell` fits by default for ``model``: :func:`law_params` of ``form``
-    (injected) or :data:`HYDRO_PARAMS` (hydroelastic), without the ``hold`` names."""
-    names = law_params(form) if model == "injected" else HYDRO_PARAMS
-    return tuple(n for n in names if n not in (hold or {}))
-
-
-def _start(name: str, base: ShellCalibration, p0: float, robot: RobotParameters) -> float:
-    law = base.steer_law
-    if name == "omega_n":
-        return float(base.omega_n(p0))
-    if name == "zeta":
-        return float(base.zeta(p0))
-    if name == "log10_modulus_pa":
-        return math.log10(base.bind(robot).hydroelastic(p0)[0])
-    if name == "dissipation_s_per_m":
-        return base.bind(robot).hydroelastic(p0)[1]
-    if name in HYDRO_PARAMS:
-        return getattr(base, name) or 1.0
-    defaults = {
-        "amplitude_stiffness_nm_per_rad": 0.0,
-        "amplitude_scale_rad": 0.2,
-        "quadratic_stiffness_nm_per_rad2": 0.0,
-    }
-    return float(getattr(law, name)) if law.form != "linear" or name == "rest_angle_rad" else defaults[name]
-
-
 def calibration_with(
     base: ShellCalibration,
     p0: float,
@@ -324,7 +248,7 @@ def calibration_with(
         for k in ("rest_angle_rad", *STEER_LAW_FORMS[law["form"]]):
             if k in values:
                 law[k] = float(values[k])
-            law.setdefault(k, _start(k, base, p0, robot or RobotParameters.from_urdf()))
+            law.setdefault(k, start_value(k, base, p0, robot or RobotParameters.from_urdf()))
         raw["steer_law"] = law
     hyd = dict(raw["hydroelastic"])
     for k in HYDRO_PARAMS:
@@ -332,22 +256,6 @@ def calibration_with(
             hyd[k] = float(values[k])
     raw["hydroelastic"] = hyd
     return raw
-
-
-def omega_n_floor(base: ShellCalibration, p0: float, robot: RobotParameters, margin: float = 0.9) -> float:
-    """The least ω_n(p₀) [rad/s] whose linear stiffness stays stable at the reach of φ at every pressure.
-
-    Every form's extra stiffness vanishes (saturating) or may be negative (softening quadratic) at
-    large |φ|, so the linear part alone must keep K_inject(p) + K_g cos φ_max > 0 over the range, with
-    K_g the free-pendulum gravity stiffness; ``margin`` < 1 keeps a little positive stiffness there.
-    The slope of ω_n(p) carries p₀ to the weakest end of the range.
-    """
-    from sphere_env.models.steer_law import PHI_REACH_RAD, gravity_stiffness_free_pendulum
-
-    k_min = -margin * gravity_stiffness_free_pendulum(robot) * math.cos(PHI_REACH_RAD)
-    w_min = math.sqrt(max(robot.K_eq + k_min, 0.0) / robot.M_eq)
-    lo, hi = base.pressure_range_kpa
-    return w_min + max(base.omega_n_slope * (p0 - lo), base.omega_n_slope * (p0 - hi), 0.0)
 
 
 def unidentified(
@@ -392,6 +300,53 @@ def _moving(log: RobotLog, min_swing_rad: float = 0.02) -> bool:
     return float(np.ptp(log["phi"])) >= min_swing_rad or float(np.ptp(log["theta"])) >= min_swing_rad
 
 
+def _check_segments(logs: Sequence[RobotLog]) -> None:
+    """Refuses (:class:`FitError`) no segments, and a segment without φ and θ, of another fixture
+    than ``steer_plane`` or ``free``, or with no free motion."""
+    if not logs:
+        raise FitError("fit_shell: no segments to fit on")
+    for log in logs:
+        for ch in ("phi", "theta"):
+            if not log.has(ch):
+                raise FitError(f"log {log.path!r}: trial {log.name!r} needs a {ch} channel for a shell fit")
+        if log.fixture not in ("steer_plane", "free"):
+            raise FitError(
+                f"log {log.path!r}: trial {log.name!r} has fixture {log.fixture!r}; "
+                "a shell fit needs 'steer_plane' or 'free' segments"
+            )
+        if not _moving(log):
+            raise FitError(
+                f"log {log.path!r}: trial {log.name!r}: no free motion to fit (phi and theta move "
+                f"less than 0.02 rad over {log.t_s[-1]:.2f} s)"
+            )
+
+
+def _rmse_at_optimum(pool: TwinPool, logs: Sequence[RobotLog], where: str) -> dict[str, dict[str, float]]:
+    """φ and θ RMSE [rad] per log with the pool at the optimum; refuses (:class:`FitError`) a twin
+    that diverges there."""
+    per = {}
+    for log in logs:
+        tr = simulate_log(pool.get(log.fixture), log)
+        if tr.diverged:
+            raise FitError(f"{where}: the twin diverged on {log.name!r} at the optimum. Nothing written.")
+        per[log.name] = {"phi": rmse(tr["phi"], log["phi"]), "theta": rmse(tr["theta"], log["theta"])}
+    return per
+
+
+def _fitted_values(res, names: Sequence[str], lo: np.ndarray, hi: np.ndarray, raw: Mapping[str, Any]):
+    """(values, 95 % intervals, unidentified) of a ``least_squares`` result over ``names`` searched
+    in [lo, hi]; the modulus and k_d are added in the file's terms where they were fitted."""
+    ci = jacobian_ci95(res, names)
+    values = {k: float(v) for k, v in zip(names, res.x)}
+    poor = unidentified(values, ci, {k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)})
+    if "log10_modulus_pa" in values:
+        values["modulus_pa"] = 10 ** values["log10_modulus_pa"]
+        ci["modulus_pa"] = tuple(10**c for c in ci["log10_modulus_pa"])
+    if "dissipation_s_per_m" in values:
+        values["k_d"] = float(raw["hydroelastic"]["k_d"])
+    return values, ci, poor
+
+
 def fit_shell(
     logs: Sequence[RobotLog],
     model: str,
@@ -416,36 +371,24 @@ def fit_shell(
     Residuals are φ and θ errors [rad] of every log (θ times ``theta_weight``: the pendulum angle
     also depends on steer friction, which this fit does not touch), each log weighted by its length:
     every sample counts the same, so a window's say in the fit grows with how much of the motion it
-    records, and the cost is the mean square error over all samples. Parameters:
-    ``injected``: :func:`law_params` of ``form`` (default: the base calibration's form);
-    ``hydroelastic``: :data:`HYDRO_PARAMS` (the steer couple's factors) unless ``params`` names
-    others (``log10_modulus_pa``, ``dissipation_s_per_m``). ``fixed_injected``: ω_n, ζ at p₀ held
-    while fitting hydroelastic parameters (default the base calibration's). ``hold``: parameters
-    held at the given values instead of fitted (:func:`check_hold`; those of this model's default
-    parameters are set in the base calibration and left out of the fit, the others are ignored):
+    records, and the cost is the mean square error over all samples. Parameters: ``injected``:
+    :func:`~sphere_env.calibration.shell_params.law_params` of ``form`` (default: the base
+    calibration's form); ``hydroelastic``: :data:`~sphere_env.calibration.shell_params.HYDRO_PARAMS`
+    (the steer couple's factors) unless ``params`` names others (``log10_modulus_pa``,
+    ``dissipation_s_per_m``). ``fixed_injected``: ω_n, ζ at p₀ held while fitting hydroelastic
+    parameters (default the base calibration's). ``hold``: parameters held at the given values
+    instead of fitted (:func:`~sphere_env.calibration.shell_params.check_hold`; those of this model's
+    default parameters are set in the base calibration and left out of the fit, the others are ignored):
     a parameter the data do not pin down, held so that the law is no richer than the data allow.
 
     Refuses (:class:`FitError`, nothing written) a segment with no free motion, a fit that does
     not converge within ``max_nfev`` evaluations (unless ``require_convergence`` is False), a
     diverged simulation at the optimum, and a result the robot cannot stand still with.
     """
+    # Long for its seventeen documented options; the body is one search: its set-up, the residuals
+    # as a closure over the fit's state, and the checks of the optimum.
     validate(ShellFitOptions, {"model": model, "form": form, "params": params}, "fit_shell")
-    if not logs:
-        raise FitError("fit_shell: no segments to fit on")
-    for log in logs:
-        for ch in ("phi", "theta"):
-            if not log.has(ch):
-                raise FitError(f"log {log.path!r}: trial {log.name!r} needs a {ch} channel for a shell fit")
-        if log.fixture not in ("steer_plane", "free"):
-            raise FitError(
-                f"log {log.path!r}: trial {log.name!r} has fixture {log.fixture!r}; "
-                "a shell fit needs 'steer_plane' or 'free' segments"
-            )
-        if not _moving(log):
-            raise FitError(
-                f"log {log.path!r}: trial {log.name!r}: no free motion to fit (phi and theta move "
-                f"less than 0.02 rad over {log.t_s[-1]:.2f} s)"
-            )
+    _check_segments(logs)
     base = base or ShellCalibration.load()
     robot = RobotParameters.from_urdf()
     p0 = base.check_pressure(pressure_kpa)
@@ -458,12 +401,12 @@ def fit_shell(
         params = model_params(model, form, held)
     names = [n for n in params if n not in held]
     fixed = dict(fixed_injected or {}) if model == "hydroelastic" else {}
-    lo = np.array([_BOUNDS[n][0] for n in names])
-    hi = np.array([_BOUNDS[n][1] for n in names])
+    lo = np.array([BOUNDS[n][0] for n in names])
+    hi = np.array([BOUNDS[n][1] for n in names])
     if "omega_n" in names:  # keep the search where the robot can stand (see omega_n_floor)
         i = names.index("omega_n")
         lo[i] = max(lo[i], omega_n_floor(base, p0, robot))
-    x0 = np.clip([float((start or {}).get(n, _start(n, base, p0, robot))) for n in names], lo, hi)
+    x0 = np.clip([float((start or {}).get(n, start_value(n, base, p0, robot))) for n in names], lo, hi)
     if pool is None:
         pool = TwinPool(model, steer_friction, time_step_s, drive_friction)
         if twin is not None:
@@ -507,20 +450,8 @@ def fit_shell(
     except ValueError as err:
         raise FitError(f"{where}: refused: {err}. Nothing written.") from err
     pool.install(cal, p0)
-    per = {}
-    for log in logs:
-        tr = simulate_log(pool.get(log.fixture), log)
-        if tr.diverged:
-            raise FitError(f"{where}: the twin diverged on {log.name!r} at the optimum. Nothing written.")
-        per[log.name] = {"phi": rmse(tr["phi"], log["phi"]), "theta": rmse(tr["theta"], log["theta"])}
-    ci = jacobian_ci95(res, names)
-    values = {k: float(v) for k, v in zip(names, res.x)}
-    poor = unidentified(values, ci, {k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)})
-    if "log10_modulus_pa" in values:
-        values["modulus_pa"] = 10 ** values["log10_modulus_pa"]
-        ci["modulus_pa"] = tuple(10**c for c in ci["log10_modulus_pa"])
-    if "dissipation_s_per_m" in values:
-        values["k_d"] = float(raw["hydroelastic"]["k_d"])
+    per = _rmse_at_optimum(pool, logs, where)
+    values, ci, poor = _fitted_values(res, names, lo, hi, raw)
     K, C = cal.bind(robot).injected_gains(p0)
     values.update(K_inject=K, C_inject=C)
     return ShellFit(

@@ -5,7 +5,7 @@ steer-law form chosen by held-out error, and every segment's error when it is le
 the previous model's calibration; :func:`cross_validate` scores forms and models on held-out
 segments (or held-out blocks of one segment), its folds in worker processes; :func:`choose_form`
 picks the form with the least mean held-out φ RMSE. Parameters the data do not pin down may be held
-(``hold``: name -> value, :func:`~sphere_env.calibration.shell_fit.check_hold`); several candidate
+(``hold``: name -> value, :func:`~sphere_env.calibration.shell_params.check_hold`); several candidate
 holds are chosen between by held-out error the same way as forms (:func:`choose_variant`).
 """
 
@@ -18,9 +18,9 @@ import numpy as np
 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import FitError, TwinPool, fit_shell, trial_rmse, window
+from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.models.friction import FrictionModel
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 
 
 def cross_validate(

@@ -67,20 +67,9 @@ class RampDescentTask(Task):
     more than ``settle_time_s`` after the start and after the change, is at most
     ``tracking_tolerance_rad_s``.
 
-    **What the twin allows on the 8° ramp** (``python -m evaluation.experiments.command_span``, table in
-    ``evaluation/results/command_span.md``): with zero torque the soft shells' rolling resistance
-    settles ω_d between 3 and 6 s at ≈2.5–3.6 rad/s (injected, 3–14 kPa) and ≈3.0–5.5 rad/s
-    (hydroelastic), while rigid point contact keeps accelerating (≈7.4 rad/s by then). The tuned
-    PD baseline holds a constant ω_ref for 5 s (mean error < 0.25 rad/s) from 0.5 to 4.5 rad/s on
-    point contact and over 0.5–3 rad/s or more on the hydroelastic shell, but on the injected shell
-    only over a band of about 1 rad/s around 1.5–2.5 rad/s (3–14 kPa): its speed-dependent rolling
-    resistance takes most of the pendulum's ≈21.9 N m. ω_ref is drawn from ``omega_ref_range_rad_s``
-    = (2, 4.5) rad/s, so each episode asks for braking (below the coasting speed) and pushing
-    (above it), and the faster commands on the soft shells are where control quality shows; held
-    for the ≈1–2 s of a ramp half they are reachable (the PD tracks them on most episodes). On the
-    paper's 16° ramp the downhill gravity moment m g R sin α ≈ 34 N m exceeds the pendulum's
-    ≈21.9 N m, so no speed can be held there: the superseded v0/v1 keep that setting (success =
-    reaching the run-out).
+    ω_ref is drawn from ``omega_ref_range_rad_s`` around the speeds at which the soft shells coast,
+    so each episode asks for braking and pushing; what the twin allows on the ramp, and why v0/v1
+    keep the paper's 16° ramp, is in ``docs/envs.md``.
 
     **Action space** ``Box(-1, 1, (2,), float32)``, clipped; NaN/inf raise ``ValueError``.
 
@@ -123,10 +112,7 @@ class RampDescentTask(Task):
     and pressure move up by two; 18 components, 19 with the pressure): ``speed_error_integral``
     [rad] = ∫(ω_ref − ω_d) dt since the episode start, clipped to ±3 rad, and ``omega_d_rate``
     [rad/s²] = (ω_d − ω_d of the previous step) / control period (0 after a reset), both from the
-    twin's ω_d (no observation noise). They are the state a PI-D speed loop keeps: the tuned PD
-    baseline integrates the speed error and anticipates with ω̇_d, and without those two terms it
-    fails every point-contact episode of the evaluation grid (measured), so a memoryless policy
-    gets them as observations. A real robot computes both from its own ω_d the same way.
+    twin's ω_d (no observation noise): the state a PI-D speed loop keeps (``docs/envs.md``).
 
     The measured components (0–10) and the pendulum pitch and its rate get Gaussian noise of
     ``observation_noise_scale`` × the defaults in
@@ -168,29 +154,15 @@ class RampDescentTask(Task):
     :param reward_weights: mapping overriding :class:`RampRewardWeights` fields (per second), or
         :class:`~sphere_env.tasks.rewards.RampRewardWeightsPerRamp` fields with
         ``step_reward_per="distance"`` (per ramp length).
-    :param step_reward_per: ``"time"`` (v2): the per-step terms are paid per second, so a slower
-        descent, which lasts longer, collects more of the speed term (with its width of 1 rad/s the
-        return peaks near ω_ref − 1 rad/s at ω_ref = 2 rad/s, outside the 0.5 rad/s tolerance), and
-        a faster one pays less of the torque and lane penalties (on point contact the pendulum
-        brakes at ≈ 0.8 of its torque for the whole descent). ``"distance"`` (v3): paid per downhill
-        progress on the ramp as a fraction of its length (Δx / ramp length), so every metre carries
-        the same weight at any speed and the speed term's return peaks at ω_d = ω_ref.
+    :param step_reward_per: ``"time"`` (v2): the per-step terms are paid per second;
+        ``"distance"`` (v3): paid per downhill progress on the ramp as a fraction of its length
+        (Δx / ramp length), so that the speed term's return peaks at ω_d = ω_ref
+        (``docs/envs.md``, version history).
 
     ``reset(options=...)`` also accepts ``omega_ref`` and ``omega_ref_after`` [rad/s] within
     [0, 30] (the latter only with a change).
 
-    **Version history**
-
-    * v2: the command changes at mid-ramp and success requires tracking it (tolerance 0.5 rad/s
-      after 1.5 s settling) on an 8° ramp of 6 m, ω_ref ∈ (2, 4.5) rad/s with a change of at least
-      1 rad/s, time limit 12 s; the lane's cross-track error, the pendulum pitch and its rate are
-      observed. Zero torque no
-      longer succeeds.
-    * v1: superseded. The paper's 16° ramp of 4 m, one command ω_ref ∈ (4, 8) rad/s, success =
-      reaching the run-out (zero torque succeeded in every episode); the shipped shell calibration
-      with the fitted steer-direction law.
-    * v0: superseded; as v1 with the earlier linear steer law about φ = 0 and a hydroelastic shell
-      without the couple (``calibration`` = ``assets/calibration/v0_linear.yaml``).
+    The versions (v0 to v3) and what changed between them: ``docs/envs.md``.
     """
 
     name = "RampDescent"

@@ -51,8 +51,9 @@ from typing import Any, Literal, Mapping
 import numpy as np
 from pydantic import Field, PrivateAttr, ValidationInfo, create_model, model_validator
 
+from sphere_env.parameter import Parameter
 from sphere_env.params import PARAMETERS as REGISTRY
-from sphere_env.params import RANDOMIZABLE, Parameter, ParameterSpace
+from sphere_env.params import RANDOMIZABLE, ParameterSpace
 from sphere_env.schemas import Schema, allowed, validate
 from sphere_env.tasks.terms import PressureSchedule, Term, parameter_field, plain, term_words
 

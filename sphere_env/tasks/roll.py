@@ -58,9 +58,8 @@ class RollTask(Task):
     13   pressure_kpa        kPa     privileged, only with ``observe_pressure=True``
     ===  ==================  ======  =====================================================
 
-    On flat ground at full drive torque the twin settles near ω_d ≈ 5.6 rad/s (injected shell,
-    nominal pressure) or 6.8 rad/s (hydroelastic); point contact, with no shell damping, keeps
-    accelerating. The default ω_ref range (0.5, 2.5) rad/s (0.15–0.76 m/s) is everyday speed.
+    The default ω_ref range (0.5, 2.5) rad/s (0.15–0.76 m/s) is everyday speed, below the speeds
+    at which the soft shells settle at full drive torque (``docs/envs.md``).
 
     **Reward** = Σ terms (``info["reward_<term>"]``, :class:`RollRewardWeights`): ``speed``
     (+ tolerance of ω_d − ω_ref), ``heading`` (+ tolerance of the heading or yaw-rate error),
@@ -84,13 +83,7 @@ class RollTask(Task):
     [rad] within [−2π, 2π] or ``yaw_rate_ref`` [rad/s] within [−5, 5]. ``gym.make("sphere_env/Roll-v1", ...)`` takes these kwargs and those
     of :class:`~sphere_env.envs.SphereEnv` (flat ground: ``ramp_length_m`` must stay None).
 
-    **Version history**
-
-    * v1: the shipped shell calibration, whose steer-direction law (rest angle, amplitude term) is
-      fitted on the real ``steer_free`` trials; the hydroelastic shell carries the same restoring
-      couple.
-    * v0: superseded; the earlier linear steer law about φ = 0, hydroelastic without the couple
-      (default ``calibration`` = ``assets/calibration/v0_linear.yaml``). Same task otherwise.
+    The versions (v0, v1) and what changed between them: ``docs/envs.md``.
     """
 
     name = "Roll"

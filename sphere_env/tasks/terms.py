@@ -27,8 +27,9 @@ from pydantic import (
     model_validator,
 )
 
+from sphere_env.parameter import Parameter
 from sphere_env.params import PARAMETERS as REGISTRY
-from sphere_env.params import Parameter, schedule_rate
+from sphere_env.params import schedule_rate
 from sphere_env.schemas import Schema, _integral, _ordered, allowed, number
 
 #: The fields each distribution takes.

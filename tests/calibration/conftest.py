@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sphere_env.calibration.logs import write_log_csv
+from sphere_env.calibration.log_csv import write_log_csv
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
 SYNTH_CAL = {

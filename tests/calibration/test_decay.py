@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from sphere_env.analysis.decay import damped_sinusoid, fit_free_decay
 from sphere_env.calibration.__main__ import main
-from sphere_env.calibration.decay import damped_sinusoid, fit_free_decay, fit_pressure_curves
+from sphere_env.calibration.decay import fit_pressure_curves
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 

@@ -7,7 +7,8 @@ import re
 import pytest
 
 from sphere_env.calibration.logs import RobotLog
-from sphere_env.calibration.shell_fit import check_hold, fit_shell
+from sphere_env.calibration.shell_fit import fit_shell
+from sphere_env.calibration.shell_params import check_hold
 from sphere_env.calibration.steer_fit import choose_variant, steer_fit, variant_label
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState

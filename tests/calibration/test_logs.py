@@ -8,7 +8,8 @@ import pytest
 import yaml
 
 from sphere_env.calibration.__main__ import main
-from sphere_env.calibration.logs import ColumnMapping, LogError, load_log, write_log_csv
+from sphere_env.calibration.log_csv import load_log, write_log_csv
+from sphere_env.calibration.logs import ColumnMapping, LogError
 from sphere_env.calibration.manifest import load_manifest
 
 

@@ -4,7 +4,8 @@ import pytest
 
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.sensitivity import sweep
-from sphere_env.calibration.shell_fit import calibration_at, fit_shell, law_params, pressure_for_modulus
+from sphere_env.calibration.shell_fit import calibration_at, fit_shell, pressure_for_modulus
+from sphere_env.calibration.shell_params import law_params
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.physics.twin import InitialState

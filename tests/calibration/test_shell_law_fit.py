@@ -129,7 +129,7 @@ def test_a_fit_that_does_not_converge_is_refused(truth_path):
 @pytest.mark.slow
 def test_steer_fit_cli_on_a_free_window_writes_a_calibration_the_twin_loads(tmp_path, truth_path):
     from sphere_env.calibration.__main__ import main
-    from sphere_env.calibration.logs import write_log_csv
+    from sphere_env.calibration.log_csv import write_log_csv
 
     twin = free_twin(truth_path)
     log = record_free(twin, InitialState(theta=0.7, roll=-0.3), 2.0, dt_s=0.02)

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import yaml
 
-from sphere_env.calibration.logs import LogError, load_log
+from sphere_env.calibration.log_csv import load_log
+from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.shell_fit import fixture_twin, window
 from sphere_env.calibration.simulate import simulate_log

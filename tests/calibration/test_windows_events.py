@@ -13,7 +13,8 @@ import yaml
 from sphere_env.analysis import damped_sinusoid
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.events import find_events
-from sphere_env.calibration.logs import LogError, load_log, write_log_csv
+from sphere_env.calibration.log_csv import load_log, write_log_csv
+from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 
 from .conftest import write_manifest

@@ -63,7 +63,7 @@ def test_randomization_kwarg_and_method_share_one_validation():
 def _vec_envs():
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from sphere_env.training.train import make_env
+    from sphere_env.training.env_factory import make_env
     from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv
 
     fns = [partial(make_env, RAMP, {"shell_model": "point"}, seed) for seed in (0, 1)]

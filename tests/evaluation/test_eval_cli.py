@@ -10,7 +10,7 @@ import pytest
 from sphere_env.cli import parse_env_kwargs
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate, main
 from sphere_env.training.config import resolve_config
-from sphere_env.training.train import train
+from sphere_env.training.trainer import train
 from tests.conftest import TINY_PPO
 
 GRID = [

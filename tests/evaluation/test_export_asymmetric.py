@@ -85,7 +85,7 @@ def test_an_actor_that_sees_the_pressure_exports_it_as_the_operators_reading(tmp
     """With ``privileged_dims: 3`` only the shell one-hot is the critic's alone: the file takes the
     pressure as its last input, and policy.json says where the robot gets it (no sensor gives it)."""
     from sphere_env.training.config import resolve_config
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     over = {
         **TINY_PPO,

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sphere_env.calibration.logs import LogError, load_log, write_log_csv
+from sphere_env.calibration.log_csv import load_log, write_log_csv
+from sphere_env.calibration.logs import LogError
 from sphere_env.evaluation.evaluate import main as evaluate_main
 from sphere_env.evaluation.sweep_report import load_user_log
 from sphere_env.resources import hyperparams_path, shipped_policy_path

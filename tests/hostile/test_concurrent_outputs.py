@@ -62,7 +62,7 @@ def test_a_second_evaluation_into_an_out_in_use_is_refused_and_writes_nothing(tm
 
 def test_export_refuses_a_run_folder_a_resumed_training_is_writing(tmp_path, capsys):
     from sphere_env.training.config import resolve_config
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     run = tmp_path / "run"
     tiny = {"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128}

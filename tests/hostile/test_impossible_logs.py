@@ -9,7 +9,8 @@ import pytest
 
 from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.calibration.__main__ import main
-from sphere_env.calibration.logs import LogError, load_log, write_log_csv
+from sphere_env.calibration.log_csv import load_log, write_log_csv
+from sphere_env.calibration.logs import LogError
 from sphere_env.calibration.manifest import load_manifest
 from tests.calibration.conftest import write_manifest
 

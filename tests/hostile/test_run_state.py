@@ -14,7 +14,8 @@ import pytest
 
 from sphere_env.training.curriculum import SuccessCurriculum
 from sphere_env.training.run_folder import latest_checkpoint
-from sphere_env.training.train import main, train
+from sphere_env.training.train import main
+from sphere_env.training.trainer import train
 from sphere_env.training.training_state import read, state_path
 from tests.conftest import TINY_PPO
 

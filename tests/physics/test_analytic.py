@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.physics import InitialState
 
 from .conftest import record

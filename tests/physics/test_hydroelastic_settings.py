@@ -58,7 +58,7 @@ def test_low_pressure_mesh_keeps_rocking_frequency(make_twin, tmp_path):
     """Where the documented low-pressure mesh (0.1 m below 5 kPa, docs/physics.md *Mesh resolution*) meshes
     the shell coarser (just below ``below_kpa``, the stiffest shell it is used for), the
     locked-steer frequency of the twin is within 3% of a 0.02 m mesh's."""
-    from sphere_env.calibration.decay import fit_free_decay
+    from sphere_env.analysis.decay import fit_free_decay
 
     from .conftest import record
 
@@ -85,7 +85,7 @@ def test_low_pressure_mesh_keeps_rocking_frequency(make_twin, tmp_path):
 
 
 def _locked_decay_zeta(twin):
-    from sphere_env.calibration.decay import fit_free_decay
+    from sphere_env.analysis.decay import fit_free_decay
 
     from .conftest import record
 

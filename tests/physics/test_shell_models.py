@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sphere_env.calibration.decay import fit_free_decay
+from sphere_env.analysis.decay import fit_free_decay
 from sphere_env.physics import InitialState
 
 from .conftest import record

@@ -12,8 +12,10 @@ import pytest
 import yaml
 
 from sphere_env.training.config import resolve_config
+from sphere_env.training.run_folder import latest_checkpoint
 from sphere_env.training.schemas import check_section
-from sphere_env.training.train import latest_checkpoint, main, train
+from sphere_env.training.train import main
+from sphere_env.training.trainer import train
 from tests.conftest import TINY_PPO, TINY_PPO_PARAMS
 
 RAMP = "sphere_env/RampDescent-v0"

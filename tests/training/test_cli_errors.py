@@ -44,7 +44,7 @@ def test_bad_arguments_end_in_one_named_line(tmp_path, capsys, argv, needle):
 
 
 def test_sac_checkpoints_hold_the_replay_buffer_only_when_asked(tmp_path):
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     over = {
         "n_envs": 1,

@@ -15,7 +15,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sphere_env.training.config import resolve_config
 from sphere_env.training.curriculum import SuccessCurriculum, allocate
-from sphere_env.training.train import train
+from sphere_env.training.trainer import train
 from tests.conftest import TINY_PPO
 
 RAMP = "sphere_env/RampDescent-v0"

@@ -10,7 +10,8 @@ import time
 
 import pytest
 
-from sphere_env.training.train import latest_checkpoint, main
+from sphere_env.training.run_folder import latest_checkpoint
+from sphere_env.training.train import main
 from tests.conftest import TINY_PPO_PARAMS
 from tests.processes import as_from_a_terminal
 

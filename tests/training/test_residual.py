@@ -111,7 +111,7 @@ def test_env_wrapper_accepts_rl_zoo3_forms(value):
 def residual_run(tmp_path_factory):
     from sphere_env.resources import hyperparams_path
     from sphere_env.training.config import resolve_config
-    from sphere_env.training.train import train
+    from sphere_env.training.trainer import train
 
     cfg = resolve_config(
         ENV,
@@ -226,7 +226,7 @@ def test_trainer_venv_set_attr_randomization_reaches_every_shell_model():
 
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from sphere_env.training.train import make_env
+    from sphere_env.training.env_factory import make_env
 
     wrappers = [{"sphere_env.wrappers.ShellModelMixture": {"shell_models": ["point", "injected"]}}]
     venv = DummyVecEnv(

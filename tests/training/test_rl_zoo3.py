@@ -13,7 +13,8 @@ import pytest
 pytest.importorskip("rl_zoo3")
 
 from sphere_env.resources import hyperparams_path
-from sphere_env.training.train import load_config, main
+from sphere_env.training.run_folder import load_config
+from sphere_env.training.train import main
 from tests.conftest import TINY_PPO_PARAMS
 
 RAMP = "sphere_env/RampDescent-v1"

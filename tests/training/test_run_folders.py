@@ -8,7 +8,8 @@ import multiprocessing as mp
 import pytest
 
 from sphere_env.training.config import resolve_config
-from sphere_env.training.train import default_run_dir, run_lock, train
+from sphere_env.training.run_folder import default_run_dir, run_lock
+from sphere_env.training.trainer import train
 from tests.conftest import TINY_PPO
 
 ENV = "sphere_env/RampDescent-v2"

@@ -9,10 +9,14 @@ import pytest
 import yaml
 
 import sphere_env  # noqa: F401
+from sphere_env.cli import parse_key_values
 from sphere_env.resources import hyperparams_path
 from sphere_env.training import train as train_mod
 from sphere_env.training.config import resolve_config
-from sphere_env.training.train import latest_checkpoint, load_config, main, train
+from sphere_env.training.env_factory import EvaluationEpisodes
+from sphere_env.training.run_folder import latest_checkpoint, load_config
+from sphere_env.training.train import main
+from sphere_env.training.trainer import train
 from tests.conftest import TINY_PPO, TINY_PPO_PARAMS
 
 RAMP = "sphere_env/RampDescent-v0"
@@ -130,7 +134,7 @@ def test_top_level_randomization_refused_with_where_it_moved(no_workers, tmp_pat
 
 
 def test_key_values_read_as_python_literals_like_rl_zoo3():
-    parsed = train_mod.parse_key_values(
+    parsed = parse_key_values(
         [
             "n_envs:4",
             "learning_rate:lin_5e-4",
@@ -353,7 +357,7 @@ def test_evaluations_play_the_fixed_pressure_grid_without_randomization(tmp_path
 
 
 def test_evaluation_episodes_repeat_after_restart():
-    env = train_mod.EvaluationEpisodes(gym.make(RAMP, shell_model="point", randomization="default"), [5.0, 9.0], 100)
+    env = EvaluationEpisodes(gym.make(RAMP, shell_model="point", randomization="default"), [5.0, 9.0], 100)
     first = [env.reset(seed=k)[0] for k in range(3)]  # the caller's seeds are ignored
     env.restart_evaluation()
     again = [env.reset()[0] for _ in range(3)]
@@ -399,7 +403,7 @@ def test_unchecked_distributions_train_the_same_network_and_restore_the_checks()
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from sphere_env.training.train import unchecked_distributions
+    from sphere_env.training.session import unchecked_distributions
 
     def run():
         venv = DummyVecEnv([lambda: gym.make("sphere_env/RampDescent-v2", shell_model="point")])

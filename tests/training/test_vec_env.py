@@ -10,7 +10,7 @@ import pytest
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from sphere_env.training.train import make_env
+from sphere_env.training.env_factory import make_env
 from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv
 
 
@@ -97,7 +97,8 @@ def test_layouts_train_the_same_network():
     import torch
 
     from sphere_env.training.config import algo_class, resolve_config
-    from sphere_env.training.train import make_vec_env, unchecked_distributions, wrap_normalize
+    from sphere_env.training.env_factory import make_vec_env, wrap_normalize
+    from sphere_env.training.session import unchecked_distributions
 
     tiny = {"n_envs": 3, "n_steps": 64, "batch_size": 64, "n_epochs": 2}
     params = {}

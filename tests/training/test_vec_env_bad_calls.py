@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from sphere_env.training.train import make_env
+from sphere_env.training.env_factory import make_env
 from sphere_env.training.vec_env import BatchedSubprocVecEnv, SafeSubprocVecEnv, ThreadedVecEnv
 from tests.conftest import TINY_PPO
 
@@ -53,7 +53,8 @@ def test_bad_calls_raise_in_the_caller_and_leave_the_envs_working(layout):
 
 def test_training_with_one_process_per_env_runs_on_the_safe_layout(tmp_path):
     from sphere_env.training.config import resolve_config
-    from sphere_env.training.train import make_vec_env, train
+    from sphere_env.training.env_factory import make_vec_env
+    from sphere_env.training.trainer import train
 
     over = {
         **TINY_PPO,

@@ -6,7 +6,8 @@ check fails until they are."""
 from __future__ import annotations
 
 from sphere_env.evaluation.experiments.docs.base import Results, renders, table
-from sphere_env.params import PARAMETERS, RANDOMIZABLE, Parameter
+from sphere_env.parameter import Parameter
+from sphere_env.params import PARAMETERS, RANDOMIZABLE
 from sphere_env.tasks.terms import modes_of
 
 

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 from sphere_env.evaluation.experiments.benchmark_env import AIM_OVERHEAD_PCT, AIM_RESET_MS, AIM_STEPS_PER_S
-from sphere_env.evaluation.experiments.benchmark_train import ENV_ID
 from sphere_env.evaluation.experiments.docs.base import (
     Results,
     cpu,
@@ -20,6 +19,7 @@ from sphere_env.evaluation.experiments.docs.base import (
     train_row,
     whole,
 )
+from sphere_env.evaluation.experiments.train_cases import ENV_ID
 
 #: Aims (requirements, not measurements) of the twin and the training benchmarks.
 AIM_TWIN_RTF = {"point": 40.0, "injected": 35.0, "hydroelastic": 12.0}

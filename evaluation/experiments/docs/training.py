@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from sphere_env.evaluation.experiments.benchmark_train import ROLLOUT
 from sphere_env.evaluation.experiments.docs.base import (
     Results,
     cpu,
@@ -16,6 +15,7 @@ from sphere_env.evaluation.experiments.docs.base import (
     whole,
 )
 from sphere_env.evaluation.experiments.docs.speed import AIM_ROLLOUT_PCT, AIM_TRAIN_PCT
+from sphere_env.evaluation.experiments.train_cases import ROLLOUT
 
 
 def _train(res: Results) -> dict:
