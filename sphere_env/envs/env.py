@@ -91,6 +91,7 @@ class SphereEnv(gym.Env, EzPickle):
         self._steer_friction, self._drive_friction = kw.friction_model
         self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
         self._contact_approximation = kw.contact_approximation
+        self._calibration_drive_law = kw.calibration_drive_law
         self._parameters = parameters = EnvParameters(task, kw)
         self.calibration = parameters.calibrations.own
         #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
@@ -243,6 +244,7 @@ class SphereEnv(gym.Env, EzPickle):
             inclines_deg=inclines_deg,
             pressure_extrapolation_kpa=self.pressure_extrapolation_kpa,
             contact_approximation=self._contact_approximation,
+            calibration_drive_law=self._calibration_drive_law,
         )
         return Twin(cfg, meshcat=self.meshcat)
 
