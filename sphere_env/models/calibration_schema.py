@@ -6,7 +6,8 @@ are described in :mod:`sphere_env.models.shell`). :func:`read_calibration_file` 
 wrong types (a number written as a string, a bool for a number), non-finite numbers and values
 outside their ranges are refused with the field's dotted path, its value and what is allowed. The
 checks that relate fields (the nominal pressure inside the range, a ``k_d_by_pressure`` table
-spanning it, one ``k_d`` per time step) run in the same validation. What the physics decides, that
+spanning it, one ``k_d`` per time step, a ``drive_law`` that holds the applied values of the
+``drive_fit`` record: :mod:`sphere_env.models.drive_schema`) run in the same validation. What the physics decides, that
 the robot can stand still under the steer law, stays with
 :meth:`sphere_env.models.shell.ShellCalibration.check_stand_still`.
 """

@@ -17,6 +17,12 @@ Calibration file, steer-law section (optional; absent = linear about φ = 0, the
                 quadratic_stiffness_nm_per_rad2: K_2}                           # quadratic only
     hydroelastic: {..., couple_stiffness_factor: f_K, couple_damping_factor: f_C}  # default 0, 0
 
+Drive-direction section (optional; absent = the paper's: C_drive = C_inject, no spin damping, Table I's
+drive friction × 1), with the ``drive_fit`` record of what it applies (:mod:`sphere_env.models.drive_schema`)::
+
+    drive_law: {shell_models: [injected], drive_friction_scale: f, injected_rolling_damping_factor: c,
+                spin_damping_nms_per_rad: C_spin}
+
 Hydroelastic mesh (optional ``low_pressure_mesh``; absent = ``resolution_hint_m`` everywhere)::
 
     hydroelastic: {resolution_hint_m: h, low_pressure_mesh: {below_kpa: p_c, resolution_hint_m: h_low}}
