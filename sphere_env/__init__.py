@@ -14,6 +14,11 @@ __version__ = "0.1.0"
 #: id -> (entry point, max_episode_steps at the default 50 Hz control, default kwargs; a
 #: ``calibration`` here names a file in ``assets/calibration``).
 #: Version history:
+#:   RampDescent-v4, Roll-v2  as v3 and Roll-v1, with the drive direction each calibration fitted on
+#:       the free robot's driven segment (its ``drive_law``: the drive joint's friction scale, the
+#:       injected shell's rolling and spin damping; ``docs/calibration.md``, *Drive direction in the
+#:       shipped calibrations*). The earlier versions keep the paper's drive direction
+#:       (``calibration_drive_law=False``) whatever the calibration holds.
 #:   RampDescent-v3  as v2, with the per-step reward terms paid per distance down the ramp instead
 #:       of per second (a slower descent no longer collects more speed reward, a faster one no
 #:       longer pays less torque penalty) and the speed loop's state (∫(ω_ref −
@@ -37,17 +42,25 @@ _RAMP_V1 = {
 #: RampDescent-v3's reward weights are per ramp length: v2's per-second weights × 6, about the
 #: duration of a descent on the 6 m ramp, so that the terms keep their v2 proportions.
 _RAMP_V3 = {"step_reward_per": "distance", "observe_tracking_state": True}
+#: The versions from before the drive fit: the paper's drive direction whatever the calibration holds.
+_PAPER_DRIVE = {"calibration_drive_law": False}
 ENV_IDS = {
-    "sphere_env/RampDescent-v3": ("sphere_env.envs.factories:make_ramp_descent", 600, _RAMP_V3),
-    "sphere_env/RampDescent-v2": ("sphere_env.envs.factories:make_ramp_descent", 600, {}),
-    "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, {}),
-    "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, _RAMP_V1),
+    "sphere_env/RampDescent-v4": ("sphere_env.envs.factories:make_ramp_descent", 600, _RAMP_V3),
+    "sphere_env/Roll-v2": ("sphere_env.envs.factories:make_roll", 500, {}),
+    "sphere_env/RampDescent-v3": ("sphere_env.envs.factories:make_ramp_descent", 600, {**_RAMP_V3, **_PAPER_DRIVE}),
+    "sphere_env/RampDescent-v2": ("sphere_env.envs.factories:make_ramp_descent", 600, _PAPER_DRIVE),
+    "sphere_env/Roll-v1": ("sphere_env.envs.factories:make_roll", 500, _PAPER_DRIVE),
+    "sphere_env/RampDescent-v1": ("sphere_env.envs.factories:make_ramp_descent", 400, {**_RAMP_V1, **_PAPER_DRIVE}),
     "sphere_env/RampDescent-v0": (
         "sphere_env.envs.factories:make_ramp_descent",
         400,
-        {**_RAMP_V1, "calibration": "v0_linear.yaml"},
+        {**_RAMP_V1, **_PAPER_DRIVE, "calibration": "v0_linear.yaml"},
     ),
-    "sphere_env/Roll-v0": ("sphere_env.envs.factories:make_roll", 500, {"calibration": "v0_linear.yaml"}),
+    "sphere_env/Roll-v0": (
+        "sphere_env.envs.factories:make_roll",
+        500,
+        {**_PAPER_DRIVE, "calibration": "v0_linear.yaml"},
+    ),
 }
 
 

@@ -152,6 +152,7 @@ PD_PRESETS = {
     "Roll": dict(),
 }
 PD_PRESETS["RampDescent-v3"] = PD_PRESETS["RampDescent-v2"]  # v3 changes the reward only
+PD_PRESETS["RampDescent-v4"] = PD_PRESETS["RampDescent-v3"]  # v4 the calibration's drive direction, the same gains
 
 
 def pd_preset(env: Any) -> dict[str, float]:

@@ -87,13 +87,17 @@ def calibration_with_drive(base: ShellCalibration, pressure_kpa: float, values: 
 
 
 class DriveTwin:
-    """One ``free`` twin of a shell model whose drive-direction parameters are set before each replay."""
+    """One ``free`` twin of a shell model whose drive-direction parameters are set before each replay.
+
+    The base calibration's own ``drive_law`` (a shipped calibration carries its drive fit) is dropped:
+    a replay without values has the paper's drive direction, the calibration before any drive fit, and
+    the values of a replay are the whole drive direction, never a factor on an earlier fit's."""
 
     def __init__(self, model: str, base: ShellCalibration, pressure_kpa: float | None = None, tracking=Tracking()):
-        self.model, self.base, self.tracking = model, base, tracking
+        self.model, self.base, self.tracking = model, base.without_drive_law(), tracking
         self.pressure_kpa = base.nominal_pressure_kpa if pressure_kpa is None else pressure_kpa
         self.twin: Twin = fixture_twin("free", model)
-        self.twin.set_calibration(base, self.pressure_kpa)
+        self.twin.set_calibration(self.base, self.pressure_kpa)
 
     def install(self, values: Mapping[str, float] | None = None) -> None:
         """Set the drive-direction ``values`` (:data:`DRIVE_PARAMS`; the base calibration's for the others)."""
@@ -156,7 +160,7 @@ def fit_drive(
         raise FitError("fit_drive: no driven windows to fit on")
     dt = drive_twin or DriveTwin(model, base)
     names = list(DRIVE_PARAMS[model])
-    start = drive_values(base, model, dt.pressure_kpa)
+    start = drive_values(dt.base, model, dt.pressure_kpa)  # from the paper's drive direction
     if start.get("spin_damping_nms_per_rad") == 0.0:
         start["spin_damping_nms_per_rad"] = SPIN_START_NMS_PER_RAD
     lo = np.array([DRIVE_BOUNDS[n][0] for n in names])

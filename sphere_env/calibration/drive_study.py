@@ -3,7 +3,8 @@ calibration, then the drive direction fitted on one part and tested on the other
 
 The results (one JSON, ``evaluation/results/validation/drive_fit.json``) hold:
 
-* ``replay``: per calibration, model and driven window, the RMSE of ω_d, ψ̇ [rad/s], φ and the tracked
+* ``replay``: per calibration (without its own drive fit: :class:`~sphere_env.calibration.drive_fit.DriveTwin`),
+  model and driven window, the RMSE of ω_d, ψ̇ [rad/s], φ and the tracked
   θ, α [rad] (the conventions of ``validate``) and the motor torques against the limits;
 * ``fits``: per model and direction, the fitted parameters with their intervals and unidentified ones,
   the RMSE on the part the fit never saw, the same before the fit and for point contact (its drive

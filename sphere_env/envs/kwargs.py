@@ -62,6 +62,10 @@ class EnvKwargs(Schema):
         read as the resolved (steer, drive) pair of friction models.
     :param calibration: path of a shell calibration YAML, or the name of a shipped one
         (``"hydroelastic_fast"``: hydroelastic RL at a 10 ms step); ``None`` = the shipped default.
+    :param calibration_drive_law: apply the calibration's fitted drive direction (its ``drive_law``
+        section: drive friction scale, rolling and spin damping; default); False: the paper's drive
+        direction whatever the calibration holds, as ``RampDescent-v0``-``v3`` and ``Roll-v0``/``v1``
+        are registered (the versions from before the drive fit).
     :param control_frequency_hz: policy rate [Hz], default 50; its period must be a multiple of
         ``time_step_s``.
     :param time_step_s: plant time step [s], default 0.005.
@@ -124,6 +128,7 @@ class EnvKwargs(Schema):
     calibration: str | Path | None = Field(
         None, json_schema_extra=allowed("the path of a shell calibration YAML, the name of a shipped one, or None")
     )
+    calibration_drive_law: bool = True
     control_frequency_hz: PARAMETERS["control_frequency_hz"].value_type = PARAMETERS["control_frequency_hz"].nominal
     time_step_s: PARAMETERS["time_step_s"].value_type = DEFAULT_TIME_STEP_S
     steer_torque_limit_nm: PARAMETERS["steer_torque_limit_nm"].value_type = PARAMETERS["steer_torque_limit_nm"].nominal

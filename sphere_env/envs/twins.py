@@ -122,6 +122,7 @@ def twin_config(kw: EnvKwargs, calibration: str | Path | None) -> dict[str, Any]
         calibration=calibration,
         pressure_extrapolation_kpa=kw.pressure_extrapolation_kpa,
         contact_approximation=kw.contact_approximation,
+        calibration_drive_law=kw.calibration_drive_law,
     )
 
 

@@ -6,7 +6,8 @@ are described in :mod:`sphere_env.models.shell`). :func:`read_calibration_file` 
 wrong types (a number written as a string, a bool for a number), non-finite numbers and values
 outside their ranges are refused with the field's dotted path, its value and what is allowed. The
 checks that relate fields (the nominal pressure inside the range, a ``k_d_by_pressure`` table
-spanning it, one ``k_d`` per time step) run in the same validation. What the physics decides, that
+spanning it, one ``k_d`` per time step, a ``drive_law`` that holds the applied values of the
+``drive_fit`` record: :mod:`sphere_env.models.drive_schema`) run in the same validation. What the physics decides, that
 the robot can stand still under the steer law, stays with
 :meth:`sphere_env.models.shell.ShellCalibration.check_stand_still`.
 """
@@ -23,6 +24,7 @@ import yaml
 from pydantic import Discriminator, Field, Tag, model_validator
 
 from sphere_env import safe_yaml
+from sphere_env.models.drive_schema import DriveFitRecord, DriveLawSection, check_drive_law_is_the_fit
 from sphere_env.schemas import Finite, Schema, allowed, checker, number, ordered_pair, validate
 
 #: Gauge pressures [kPa] a calibration may cover: RoboBall runs 3-14 kPa and a fabric/rubber shell
@@ -170,15 +172,6 @@ class Hydroelastic(Schema):
     notes: Notes = None
 
 
-class DriveLawSection(Schema):
-    """The drive-direction law, opt-in: absent, the injected shell damps rolling with C_inject (paper
-    §IV) and no shell resists spinning about the ground normal (``calibrate drive-fit`` fits both)."""
-
-    injected_rolling_damping_factor: NonNegative = 1.0  # C_drive = factor × C_inject(p)
-    spin_damping_nms_per_rad: number(ge=0.0, le=100.0) = 0.0  # couple −C_spin (ω_shell·n̂) n̂ on the shell
-    notes: Notes = None
-
-
 class SteerLawSection(Schema):
     """The steer-direction law: its form, rest angle φ_0 and the form's own parameters."""
 
@@ -234,7 +227,7 @@ class CalibrationFile(Schema):
     fit_ci: Notes = None
     trial_fits: Notes = None
     steer_fit: Notes = None
-    drive_fit: Notes = None
+    drive_fit: DriveFitRecord | None = None
     notes: Notes = None
 
     @property
@@ -278,6 +271,7 @@ class CalibrationFile(Schema):
             _check_table(entry.k_d_by_pressure, f"{at}.k_d_by_pressure", (lo, hi))
             if entry.k_d_by_pressure:
                 _check_k_d_at_nominal(entry.k_d, entry.k_d_by_pressure, self.nominal_kpa, at)
+        check_drive_law_is_the_fit(self.drive_law, self.drive_fit)
         return self
 
 

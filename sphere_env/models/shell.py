@@ -17,6 +17,12 @@ Calibration file, steer-law section (optional; absent = linear about φ = 0, the
                 quadratic_stiffness_nm_per_rad2: K_2}                           # quadratic only
     hydroelastic: {..., couple_stiffness_factor: f_K, couple_damping_factor: f_C}  # default 0, 0
 
+Drive-direction section (optional; absent = the paper's: C_drive = C_inject, no spin damping, Table I's
+drive friction × 1), with the ``drive_fit`` record of what it applies (:mod:`sphere_env.models.drive_schema`)::
+
+    drive_law: {shell_models: [injected], drive_friction_scale: f, injected_rolling_damping_factor: c,
+                spin_damping_nms_per_rad: C_spin}
+
 Hydroelastic mesh (optional ``low_pressure_mesh``; absent = ``resolution_hint_m`` everywhere)::
 
     hydroelastic: {resolution_hint_m: h, low_pressure_mesh: {below_kpa: p_c, resolution_hint_m: h_low}}
@@ -61,12 +67,12 @@ from sphere_env.models.calibration_files import calibration_file
 from sphere_env.models.calibration_schema import (
     STEER_LAW_FORMS,
     CalibrationFile,
-    DriveLawSection,
     check_calibration,
     interpolate_k_d,
     read_calibration_file,
     table_pairs,
 )
+from sphere_env.models.drive_schema import SOFT_SHELLS, DriveLawSection
 from sphere_env.models.steer_law import PHI_REACH_RAD, SteerLaw, gravity_stiffness_free_pendulum, injected_gains
 from sphere_env.params import ParameterSpace
 
@@ -81,6 +87,16 @@ def membrane_contact_volume_m3(pressure_kpa: float, weight_n: float, radius_m: f
     a2 = min(area / math.pi, radius_m**2)
     delta = radius_m - math.sqrt(radius_m**2 - a2)
     return math.pi * delta**2 * (radius_m - delta / 3.0)
+
+
+@dataclass(frozen=True)
+class DriveDirection:
+    """A shell model's drive direction: C_drive / C_inject (the injected shell's rolling damper), the
+    spin damping C_spin [N m s/rad] about the ground normal, and × the drive joint's friction law."""
+
+    rolling_damping_factor: float = 1.0
+    spin_damping_nms_per_rad: float = 0.0
+    friction_scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -116,9 +132,13 @@ class ShellCalibration:
     couple_stiffness_factor: float = 0.0
     couple_damping_factor: float = 0.0
     #: Drive direction (section ``drive_law``): C_drive = factor × C_inject for the injected shell,
-    #: and the couple −C_spin (ω_shell·n̂) n̂ [N m s/rad] against spinning about the ground normal.
+    #: the couple −C_spin (ω_shell·n̂) n̂ [N m s/rad] against spinning about the ground normal, and
+    #: × the drive joint's friction law, for the shell models ``drive_law_models``
+    #: (:meth:`drive_law_of`; the others keep the paper's drive direction).
     injected_rolling_damping_factor: float = 1.0
     spin_damping_nms_per_rad: float = 0.0
+    drive_friction_scale: float = 1.0
+    drive_law_models: tuple[str, ...] = SOFT_SHELLS
     stand_still_checked: bool = True
     #: (below_kpa, resolution_hint_m) of the optional low-pressure mesh, or None.
     low_pressure_mesh: tuple[float, float] | None = None
@@ -174,6 +194,8 @@ class ShellCalibration:
             couple_damping_factor=hyd.couple_damping_factor,
             injected_rolling_damping_factor=drive.injected_rolling_damping_factor,
             spin_damping_nms_per_rad=drive.spin_damping_nms_per_rad,
+            drive_friction_scale=drive.drive_friction_scale,
+            drive_law_models=tuple(drive.shell_models),
             stand_still_checked=check_stand_still,
             low_pressure_mesh=None if mesh is None else (mesh.below_kpa, mesh.resolution_hint_m),
             k_d_by_time_step=tuple((e.time_step_s, e.k_d) for e in steps),
@@ -200,6 +222,34 @@ class ShellCalibration:
             self,
             pressure_range_kpa=(max(lo - margin_kpa, MIN_EXTRAPOLATED_KPA), hi + margin_kpa),
             calibrated_range_kpa=(lo, hi),
+        )
+
+    def drive_law_of(self, shell_model: str) -> DriveDirection:
+        """The drive direction ``shell_model`` has under this calibration: the ``drive_law``
+        section's values if it applies to the model, else the paper's (factor 1, no spin damping,
+        the friction law × 1)."""
+        if shell_model not in self.drive_law_models:
+            return DriveDirection()
+        return DriveDirection(
+            self.injected_rolling_damping_factor if shell_model == "injected" else 1.0,
+            0.0 if shell_model == "point" else self.spin_damping_nms_per_rad,
+            self.drive_friction_scale,
+        )
+
+    def without_drive_law(self) -> "ShellCalibration":
+        """This calibration with the paper's drive direction for every shell model: its ``drive_law``
+        section dropped, also from ``raw`` with the ``drive_fit`` record of what it applied. What the
+        envs registered before the drive fit use."""
+        if not {"drive_law", "drive_fit"} & set(self.raw) and self.drive_law_of("injected") == DriveDirection():
+            return self
+        raw = {k: v for k, v in self.raw.items() if k not in ("drive_law", "drive_fit")}
+        return replace(
+            self,
+            raw=raw,
+            injected_rolling_damping_factor=1.0,
+            spin_damping_nms_per_rad=0.0,
+            drive_friction_scale=1.0,
+            drive_law_models=SOFT_SHELLS,
         )
 
     # ---- parameters ------------------------------------------------------------------------------
@@ -381,7 +431,8 @@ class BoundShell:
         K, C = self.injected_gains(pressure_kpa)
         rest, A, B, Q = self.calibration.steer_law.gains_tail()
         if shell_model == "injected":
-            return np.array([K, C, self.calibration.injected_rolling_damping_factor * C, rest, A, B, Q])
+            factor = self.calibration.drive_law_of("injected").rolling_damping_factor
+            return np.array([K, C, factor * C, rest, A, B, Q])
         if shell_model == "hydroelastic":
             fk, fc = self.calibration.couple_stiffness_factor, self.calibration.couple_damping_factor
             return np.array([fk * K, fc * C, 0.0, rest, fk * A, B, fk * Q])

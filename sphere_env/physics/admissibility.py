@@ -68,12 +68,16 @@ class ExplicitStability:
             "steer": (friction_peak_slope(config.steer_friction), layout["steer_v"]),
             "drive": (friction_peak_slope(config.drive_friction), layout["drive_v"]),
         }
-        self.omega_n = self.C = None
+        self.omega_n = self.C = self.C_drive = None
+        # the calibration's drive law: × the drive friction law, × C_inject on the drive direction
+        drive = calibration.drive_law_of(config.shell_model)
+        self.drive_friction_scale = drive.friction_scale
         if config.shell_model == "injected":
             lo, hi = calibration.pressure_range_kpa
             ps = np.linspace(lo, hi, 23)
             self.omega_n = float(np.max(calibration.omega_n(ps)))
             self.C = max(shell.injected_gains(float(p))[1] for p in ps)
+            self.C_drive = self.C * drive.rolling_damping_factor
 
     def problem(
         self,
@@ -93,16 +97,19 @@ class ExplicitStability:
                 f"shell torques are explicit and diverge for omega_n·time_step_s > {INJECTED_OMEGA_DT_LIMIT:g}; "
                 f"allowed at time_step_s={dt:g} s: omega_n <= {INJECTED_OMEGA_DT_LIMIT / dt:.4g} rad/s"
             )
+        drive_friction_scale = drive_friction_scale * self.drive_friction_scale
         for joint, scale in (("steer", steer_friction_scale), ("drive", drive_friction_scale)):
             slope, idx = self.joints[joint]
             if idx is None:
                 continue
-            injected = self.C * shell_damping_scale if joint == "drive" and self.C is not None else 0.0
+            injected = self.C_drive * shell_damping_scale if joint == "drive" and self.C is not None else 0.0
             damping = slope * scale + injected
             ratio = damping * dt * self.minv[idx]
             if ratio > EXPLICIT_DAMPING_LIMIT:
                 allowed = EXPLICIT_DAMPING_LIMIT / (dt * self.minv[idx])
                 extra = f" + injected C_inject {injected:.4g}" if joint == "drive" and self.C is not None else ""
+                if joint == "drive" and self.drive_friction_scale != 1.0:
+                    extra = f" (× {self.drive_friction_scale:g} of the calibration's drive_law)" + extra
                 return (
                     f"friction_model: {joint} joint damping {damping:.4g} N m s/rad (friction law "
                     f"{getattr(self.config, joint + '_friction').law!r} peak slope {slope:.4g} × "

@@ -82,6 +82,10 @@ class TwinConfig(Built):
     :param pressure_extrapolation_kpa: accept pressures this far outside the calibration's range
         [kPa], within [0, 5] (:meth:`~sphere_env.models.shell.ShellCalibration.extrapolated`); 0 =
         the calibrated range only.
+    :param calibration_drive_law: apply the calibration's ``drive_law`` section (default); False:
+        the paper's drive direction whatever the calibration says
+        (:meth:`~sphere_env.models.shell.ShellCalibration.without_drive_law`), as the envs
+        registered before the drive fit have it.
     """
 
     where = "TwinConfig"
@@ -110,6 +114,7 @@ class TwinConfig(Built):
     pressure_extrapolation_kpa: PARAMETERS["pressure_extrapolation_kpa"].value_type = PARAMETERS[
         "pressure_extrapolation_kpa"
     ].nominal
+    calibration_drive_law: bool = True
 
     @field_validator("steer_friction", "drive_friction")
     @classmethod

@@ -68,11 +68,7 @@ class Twin:
         config = config.replace(**kwargs) if config is not None and kwargs else (config or TwinConfig(**kwargs))
         self.config = config
         # k_d refitted at this step, if the calibration has one (Drake's contact damping depends on it)
-        self.calibration = (
-            ShellCalibration.load(config.calibration)
-            .for_time_step(config.time_step_s)
-            .extrapolated(config.pressure_extrapolation_kpa)
-        )
+        self.calibration = self._own(ShellCalibration.load(config.calibration))
         self.robot = RobotParameters.from_urdf(config.urdf or DEFAULT_URDF)
         self.shell = self.calibration.bind(self.robot)  # the shell laws, evaluated for this robot
         # Every context parameter (TWIN_PARAMETERS), in one dict: nominal values from the parameter
@@ -252,12 +248,20 @@ class Twin:
         """Use another shell calibration from now on (no rebuild), at ``pressure_kpa`` [kPa] or the
         current pressure. Validated first (the pressure in the new calibration's parameter space): on
         error nothing changes."""
-        cal = calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
-        cal = cal.for_time_step(self.config.time_step_s).extrapolated(self.config.pressure_extrapolation_kpa)
+        cal = self._own(
+            calibration if isinstance(calibration, ShellCalibration) else ShellCalibration.load(calibration)
+        )
         p = cal.parameter_space().check("pressure_kpa", self.pressure_kpa if pressure_kpa is None else pressure_kpa)
         shell = cal.bind(self.robot)
         self.calibration, self.shell = cal, shell
         self._push({"pressure_kpa": p})  # pushed even when unchanged: the shell laws are new
+
+    def _own(self, calibration: ShellCalibration) -> ShellCalibration:
+        """``calibration`` as this twin uses it: the k_d refitted at its step, if the calibration has
+        one (Drake's contact damping depends on it), widened by its pressure margin, and without the
+        drive law unless the config applies it."""
+        cal = calibration.for_time_step(self.config.time_step_s).extrapolated(self.config.pressure_extrapolation_kpa)
+        return cal if self.config.calibration_drive_law else cal.without_drive_law()
 
     def set_friction_scale(self, steer: float = 1.0, drive: float = 1.0) -> None:
         """Scale each joint's friction torque (domain randomization); 1 = nominal (:meth:`apply`)."""
@@ -276,8 +280,10 @@ class Twin:
         # (LAW_GAIN_NAMES: K_inject, C_steer, C_drive, rest angle, amplitude torque, 1/scale, K_2)
         k, c = self._params["shell_stiffness_scale"], self._params["shell_damping_scale"]
         law = law * np.array([k, c, c, 1.0, k, 1.0, k])
-        spin = 0.0 if self.config.shell_model == "point" else self.calibration.spin_damping_nms_per_rad
-        scales = [self._params["steer_friction_scale"], self._params["drive_friction_scale"]]
+        # the calibration's drive law for this shell model: spin damping, × the drive friction law
+        drive = self.calibration.drive_law_of(self.config.shell_model)
+        spin = drive.spin_damping_nms_per_rad
+        scales = [self._params["steer_friction_scale"], self._params["drive_friction_scale"] * drive.friction_scale]
         self._forces_context.get_mutable_numeric_parameter(0).SetFromVector(np.concatenate([law, [c * spin], scales]))
 
     def _apply_pressure_to_context(self) -> None:

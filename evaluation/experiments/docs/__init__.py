@@ -28,6 +28,7 @@ from sphere_env.evaluation.experiments.docs import (
     calibration,
     demo,
     drive,
+    drive_envs,
     learning,
     physics,
     registry,
@@ -51,7 +52,7 @@ PAGES = (
     "docs/envs.md",
 )
 #: The modules whose renderers fill them (importing one registers its renderers by block name).
-BLOCK_MODULES = (demo, speed, speed_floor, training, physics, calibration, drive, registry, learning)
+BLOCK_MODULES = (demo, speed, speed_floor, training, physics, calibration, drive, drive_envs, registry, learning)
 BLOCK = re.compile(r"<!-- generated: (?P<name>[^\s>]+) -->(?P<body>.*?)<!-- /generated -->", re.S)
 OPEN, CLOSE = "<!-- generated:", "<!-- /generated -->"
 
