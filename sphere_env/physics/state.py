@@ -2,7 +2,7 @@
 
 :func:`read_state` turns [q; v] into the quantities the envs, tasks and calibration use (steer and
 drive angles, pipe angle φ, shell rate ω_d, heading, pose, velocities, gravity in the pipe frame,
-pendulum pitch) with plain float math, about 10 µs a call, so reading the state every control step
+pendulum pitch) with plain float math, about 7 µs a call, so reading the state every control step
 costs next to nothing. The indices of each coordinate come from the diagram's layout
 (:mod:`sphere_env.physics.diagram`), whose base is a free body (quaternion), a planar joint or a
 stand.
@@ -26,7 +26,7 @@ def read_state(
     """θ, φ, ω_d, heading, pose and rates from the plant's [q; v] (names and signs: docs/design.md),
     indexed by the diagram's ``layout``; ``time_s`` and ``pressure_kpa`` are passed through.
 
-    Plain float math on [q; v] (≈10 µs): R_WPC from the normalized base quaternion, φ and φ̇
+    Plain float math on [q; v] (≈7 µs): R_WPC from the normalized base quaternion, φ and φ̇
     from :func:`~sphere_env.physics.forces.pipe_angle_expressions` (the same definition the injected law uses),
     ω_d = ω_WPC·ŷ − q̇_d, ψ = atan2(−ŷ_x, ŷ_y), gravity in the pipe frame
     g_P = −(row z of R_WP)ᵀ with R_WP = R_WPC R_y(−q_d) (the drive axis is −y_PC).

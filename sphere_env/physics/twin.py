@@ -128,7 +128,7 @@ class Twin:
         self._forces, self._forces_context = d.forces, d.forces_context
         # The motor torques are fixed on the input port once; each step writes the new values into
         # that FixedInputPortValue (GetMutableData notifies the dependents, as a new FixValue would),
-        # which costs half of a FixValue's fresh allocation.
+        # which takes half the time of a FixValue (that allocates a new value every call).
         self._motor_value = d.motor_port.FixValue(self.context, np.zeros(2))
         self._pendulum_inertia = self.pendulum.default_spatial_inertia()
         self._shells = ShellCache(self.sg_context)
