@@ -37,7 +37,7 @@ def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     pressure_kpa, modulus_scale, dissipation_scale, phi0_rad, duration_s, time_step_s, case."""
     from sphere_env.physics.twin import InitialState, Twin, TwinConfig
 
-    step = job.get("time_step_s", TwinConfig.time_step_s)
+    step = job.get("time_step_s", TwinConfig.model_fields["time_step_s"].default)
     base = ShellCalibration.load(job.get("calibration")).for_time_step(step)  # k_d of that step, if refitted
     robot = RobotParameters.from_urdf()
     p = float(job["pressure_kpa"])
@@ -177,7 +177,7 @@ def match_dissipation(
 
     from sphere_env.physics.twin import TwinConfig
 
-    step = float(TwinConfig.time_step_s if time_step_s is None else time_step_s)
+    step = float(TwinConfig.model_fields["time_step_s"].default if time_step_s is None else time_step_s)
     base = ShellCalibration.load(calibration).for_time_step(step)  # decay_case scales this step's k_d
     robot = RobotParameters.from_urdf()
     p = base.check_pressure(pressure_kpa)

@@ -79,7 +79,10 @@ def test_ctrl_c_while_the_workers_start_stops_train_promptly_and_leaves_no_proce
     err = (tmp_path / "stderr").read_text()
     assert proc.returncode == 130, err[-2000:]
     assert took < PROMPT_S, f"train took {took:.1f} s to stop after Ctrl-C"
-    lines = [ln for ln in err.splitlines() if ln.strip()]
+    # Gymnasium's note that RampDescent-v3 has a later version (a DeprecationWarning and its source
+    # line) is not this test's output
+    lines = [ln for ln in err.splitlines() if ln.strip() and "DeprecationWarning" not in ln]
+    lines = [ln for ln in lines if ln.strip() != "logger.deprecation("]
     assert lines == ["train.py: interrupted before training started; nothing saved"], err[-2000:]
     assert not left and not [p for p in started if alive(p)], f"processes left behind: {left}"
     assert not run.exists()
