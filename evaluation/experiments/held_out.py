@@ -16,6 +16,13 @@ folder as it finishes, so an interrupted pass continues.
     python -m evaluation.experiments.held_out runs [--recipe NAME ...]
     python -m evaluation.experiments.held_out baselines
     python -m evaluation.experiments.held_out summary     # held_out.json: per recipe, the aims it meets
+    python -m evaluation.experiments.held_out screen RUN@STEPS [pd ...] [--faults NAME ...] [--calibrations NAME ...]
+
+``screen`` is the validation set's counterpart for choosing a recipe: a controller (``pd``, ``zero``
+or a run's checkpoint) on the validation set nominally, under the faults and under the calibrations
+given (by default the joint-friction faults that a recipe must survive and every shipped
+calibration), each figure cached in the run folder (``grid_eval/screen_<steps>/``; the PD's and
+zero torque's under ``<runs>/baselines/``) as it finishes.
 """
 
 from __future__ import annotations
@@ -249,6 +256,56 @@ def summarize(results: Path = RESULTS) -> dict[str, Any]:
     return out
 
 
+#: The faults a recipe is screened under by default: where the pure policies lost to the PD.
+SCREEN_FAULTS = ("friction_low", "friction_drive_50pct", "friction_high")
+
+
+def screen_cache(spec: str, runs_root: Path = RUNS) -> Path:
+    """Where :func:`screen` caches the figures of ``spec``."""
+    if spec in ("pd", "zero"):
+        return runs_root / "baselines" / f"screen_{spec}"
+    run, _, steps = spec.partition("@")
+    return Path(run) / "grid_eval" / f"screen_{steps or 'final'}"
+
+
+def screen(
+    specs: Sequence[str],
+    faults: Sequence[str] = SCREEN_FAULTS,
+    calibrations: Sequence[str] = CALIBRATIONS,
+    runs_root: Path = RUNS,
+) -> dict[str, dict[str, dict[str, Any]]]:
+    """Each controller of ``specs`` on the validation set: nominal, under each of ``faults`` and
+    under each of ``calibrations`` (success, tracking RMSE, per shell), cached as they finish.
+    Every name is checked before any episode runs (``ValueError`` naming the field)."""
+    from sphere_env.evaluation.controller_specs import PolicyController, env_kwargs_of, run_folder
+
+    for f in faults:
+        if f not in GRADED_FAULTS:
+            raise ValueError(f"field 'faults': {f!r} is not a graded fault; allowed: {sorted(GRADED_FAULTS)}")
+    for c in calibrations:
+        if c not in CALIBRATIONS:
+            raise ValueError(f"field 'calibrations': {c!r} is not a shipped calibration; allowed: {list(CALIBRATIONS)}")
+    loaded = {}
+    for spec in specs:
+        ctrl = None if spec in ("pd", "zero") else PolicyController(*run_folder(spec))  # refuses a bad spec
+        loaded[spec] = (ctrl, env_kwargs_of(spec))
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for spec, (ctrl, kw) in loaded.items():
+        cache = screen_cache(spec, runs_root)
+        conditions = [("nominal", kw, None)]
+        conditions += [(f, kw, f) for f in faults]
+        conditions += [(f"calibration_{c}", {**kw, "calibration": c}, None) for c in calibrations]
+        out[spec] = {}
+        for name, env_kwargs, fault in conditions:
+            fig = set_figures(
+                spec, ctrl, "validation", env_kwargs, fault=fault, cache=cache / f"validation_{name}.json"
+            )
+            out[spec][name] = {k: v for k, v in fig.items() if k != "episodes_detail"}
+            shells = ", ".join(f"{m} {v:.0%}" for m, v in fig["per_shell"].items())
+            print(f"{spec} validation {name}: {fig['success_rate']:.0%} ({shells})", flush=True)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     p = argparse.ArgumentParser(
         prog="python -m evaluation.experiments.held_out",
@@ -260,7 +317,17 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument("--recipe", nargs="+", default=None)
     sub.add_parser("baselines", help="add the test-set figures of the PD, zero torque and the shipped policy")
     sub.add_parser("summary", help="write held_out.json: the test-set figures per recipe and the aims they meet")
+    sc = sub.add_parser("screen", help="controllers on the validation set, nominal, under faults and calibrations")
+    sc.add_argument("specs", nargs="+", help="pd, zero, or a run folder [@checkpoint steps]")
+    sc.add_argument("--faults", nargs="*", default=list(SCREEN_FAULTS), help="graded faults (default: %(default)s)")
+    sc.add_argument("--calibrations", nargs="*", default=list(CALIBRATIONS), help="shipped calibrations")
     args = p.parse_args(argv)
+    if args.cmd == "screen":
+        try:
+            screen(args.specs, args.faults, args.calibrations)
+        except ValueError as err:
+            sys.exit(f"held_out screen: {err}")
+        return
     if args.cmd == "runs":
         add_to_runs(args.recipe)
     elif args.cmd == "baselines":
