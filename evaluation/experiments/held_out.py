@@ -45,7 +45,9 @@ from sphere_env.evaluation.experiments.learning import (
     validation_figures,
 )
 from sphere_env.evaluation.faults import GRADED_FAULTS, episode_jobs, fault_episodes
+from sphere_env.evaluation.schemas import CalibrationName, FaultName
 from sphere_env.files import write_text_atomic
+from sphere_env.schemas import Schema, validate
 
 
 def set_figures(
@@ -260,6 +262,13 @@ def summarize(results: Path = RESULTS) -> dict[str, Any]:
 SCREEN_FAULTS = ("friction_low", "friction_drive_50pct", "friction_high")
 
 
+class ScreenArgs(Schema):
+    """The names :func:`screen` takes, checked as ``sphere-env evaluate`` checks its own."""
+
+    faults: list[FaultName]
+    calibrations: list[CalibrationName]
+
+
 def screen_cache(spec: str, runs_root: Path = RUNS) -> Path:
     """Where :func:`screen` caches the figures of ``spec``."""
     if spec in ("pd", "zero"):
@@ -276,15 +285,12 @@ def screen(
 ) -> dict[str, dict[str, dict[str, Any]]]:
     """Each controller of ``specs`` on the validation set: nominal, under each of ``faults`` and
     under each of ``calibrations`` (success, tracking RMSE, per shell), cached as they finish.
-    Every name is checked before any episode runs (``ValueError`` naming the field)."""
+    Every name is checked as ``sphere-env evaluate`` checks its ``--faults`` (``all``: the graded
+    grid) and ``--calibrations``, before any episode runs (``ValueError`` naming the field)."""
     from sphere_env.evaluation.controller_specs import PolicyController, env_kwargs_of, run_folder
 
-    for f in faults:
-        if f not in GRADED_FAULTS:
-            raise ValueError(f"field 'faults': {f!r} is not a graded fault; allowed: {sorted(GRADED_FAULTS)}")
-    for c in calibrations:
-        if c not in CALIBRATIONS:
-            raise ValueError(f"field 'calibrations': {c!r} is not a shipped calibration; allowed: {list(CALIBRATIONS)}")
+    args = validate(ScreenArgs, {"faults": list(faults), "calibrations": list(calibrations)}, "held_out screen")
+    faults = list(GRADED_FAULTS) if "all" in args.faults else args.faults
     loaded = {}
     for spec in specs:
         ctrl = None if spec in ("pd", "zero") else PolicyController(*run_folder(spec))  # refuses a bad spec
@@ -294,7 +300,7 @@ def screen(
         cache = screen_cache(spec, runs_root)
         conditions = [("nominal", kw, None)]
         conditions += [(f, kw, f) for f in faults]
-        conditions += [(f"calibration_{c}", {**kw, "calibration": c}, None) for c in calibrations]
+        conditions += [(f"calibration_{c}", {**kw, "calibration": c}, None) for c in args.calibrations]
         out[spec] = {}
         for name, env_kwargs, fault in conditions:
             fig = set_figures(
@@ -326,7 +332,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         try:
             screen(args.specs, args.faults, args.calibrations)
         except ValueError as err:
-            sys.exit(f"held_out screen: {err}")
+            sys.exit(str(err))
         return
     if args.cmd == "runs":
         add_to_runs(args.recipe)

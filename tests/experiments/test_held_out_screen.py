@@ -13,8 +13,8 @@ from sphere_env.evaluation.experiments.held_out import screen, screen_cache
 @pytest.mark.parametrize(
     "kwargs, needle",
     [
-        ({"faults": ["friction_lower"]}, "field 'faults': 'friction_lower' is not a graded fault"),
-        ({"calibrations": ["nominal"]}, "field 'calibrations': 'nominal' is not a shipped calibration"),
+        ({"faults": ["friction_lower"]}, "field 'faults[0]' = 'friction_lower': not a fault"),
+        ({"calibrations": ["nominal"]}, "field 'calibrations[0]' = 'nominal': not a shipped calibration"),
     ],
 )
 def test_a_bad_name_is_refused_before_any_episode(tmp_path, kwargs, needle):
