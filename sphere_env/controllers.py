@@ -94,6 +94,21 @@ class PendulumPDController:
         self._K_lean = robot.m_p * GRAVITY_M_S2 * robot.r_p
         self.reset()
 
+    @property
+    def k_eq_nm(self) -> float:
+        """K_eq = (m_pc r_pc + m_p r_p) g [N m], the drive loop's gravity feed-forward gain."""
+        return self._K_eq
+
+    @property
+    def k_lean_nm(self) -> float:
+        """m_p g r_p [N m], the lean loop's gravity feed-forward gain."""
+        return self._K_lean
+
+    @property
+    def integral_limit_rad(self) -> float:
+        """The speed-error integral's clip [rad]: beta_max / k_int, where k_int ∫ alone reaches beta_max."""
+        return self.beta_max / max(self.k_int, 1e-9)
+
     def reset(self) -> None:
         self._integral = 0.0
         self._omega_prev: float | None = None
@@ -103,7 +118,7 @@ class PendulumPDController:
         accel = 0.0 if self._omega_prev is None else (omega - self._omega_prev) / self.control_period_s
         self._omega_prev = omega
         err = float(obs[CMD_SPEED]) - omega - self.t_lead_s * accel
-        self._integral = _clip(self._integral + err * self.control_period_s, self.beta_max / max(self.k_int, 1e-9))
+        self._integral = _clip(self._integral + err * self.control_period_s, self.integral_limit_rad)
         beta_ref = _clip(self.k_speed * err + self.k_int * self._integral, self.beta_max)
         beta, beta_dot = pendulum_pitch(obs)
         tau_d = self._K_eq * math.sin(beta_ref) + self.kp_pitch * (beta_ref - beta) - self.kd_pitch * beta_dot
