@@ -15,18 +15,33 @@ Writes into ``--out`` (default ``<run>/export``, ``<run>/export_best`` for ``@be
     action box, as ``predict`` does; SAC: tanh of the mean). A row with a NaN or infinite component
     is refused with the action [0, 0] (zero torque), never a NaN action. A policy trained with an
     asymmetric critic takes the observation without its privileged components.
+
+    A policy trained inside ``sphere_env.wrappers.PDResidualAction`` (residual control over the PD
+    baseline) is exported together with that PD: inputs ``observation`` and ``state`` (batch, 3)
+    float64, outputs ``action`` and ``next_state`` (batch, 3) float64, where action =
+    clip(PD(observation, state) + scale · clip(network(observation), −1, 1), −1, 1) with the PD's
+    preset gains, limits and control period for the run's env
+    (:class:`sphere_env.controllers_torch.PendulumPDModule`). ``state`` is the PD's:
+    [speed-error integral (rad), previous ω_d (rad/s), 1 while there is no previous ω_d]; pass
+    [0, 0, 1] at the start of every run and the previous step's ``next_state`` afterwards. Other
+    wrappers that change the action are refused (``env_wrapper``).
 ``policy.json``
     the observation layout (index, name, unit, meaning, how the robot computes it from its sensors
     (``from_sensors``: channels, computation, frame, unit; :mod:`sphere_env.tasks.sensors`) and the
     normalization statistics), the
     action layout (normalized range, motor torque limits [N m], joints and sign conventions), env
     id and kwargs, shell model, control frequency [Hz], the algorithm, the check below and the
-    software versions.
+    software versions; for a residual policy also ``state`` (its components, units and reset value)
+    and ``residual`` (scale, formula, the PD's gains).
 
 Before anything is written, the exported file is run (onnxruntime, or the TorchScript module) on
 observations recorded from env rollouts of the run's own policy at the calibration's lowest,
 nominal and highest pressures, and compared with ``model.predict(vecnormalize.normalize_obs(obs),
-deterministic=True)``; a largest difference above ``--tol`` (default 1e-5) refuses the export.
+deterministic=True)``; a largest difference above ``--tol`` (default 1e-5) refuses the export. A
+residual policy's file is run one step at a time along those episodes, its state reset at each
+episode's start and carried through it, and compared with the actions evaluation's
+:class:`~sphere_env.evaluation.controller_specs.PolicyController` (the same PD + scale × residual)
+took there.
 Both files are written into a staging folder beside ``--out`` that replaces it whole at the end (files
 of ``--out`` that no export writes are carried over), so the policy file and ``policy.json`` always
 come from the same export; a failed or interrupted export leaves ``--out`` as it was. The run folder
@@ -42,7 +57,7 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -50,7 +65,15 @@ from typing import Any
 import numpy as np
 
 from sphere_env.evaluation.command_options import ExportOptions
-from sphere_env.evaluation.export_graph import policy_module, run_exported, write_onnx, write_torchscript
+from sphere_env.evaluation.export_graph import (
+    policy_module,
+    residual_layout,
+    residual_module,
+    run_exported,
+    run_exported_episodes,
+    write_onnx,
+    write_torchscript,
+)
 from sphere_env.evaluation.schemas import EXPORT_FORMATS
 from sphere_env.files import folder_lock, swap_folder
 from sphere_env.schemas import validate
@@ -60,6 +83,27 @@ ONNX_PACKAGES = ("onnx", "onnxscript", "onnxruntime")
 DEFAULT_TOL = 1e-5
 #: Steps recorded per check episode (one episode per pressure: lowest, nominal, highest).
 CHECK_STEPS = 100
+#: The one wrapper (``env_wrapper``) whose action combination is exported with the network.
+RESIDUAL_WRAPPER = "sphere_env.wrappers.PDResidualAction"
+
+
+def residual_kwargs(env_wrapper: Sequence[Mapping[str, Mapping[str, Any]]], run: str) -> dict[str, Any] | None:
+    """The kwargs of a run's :data:`RESIDUAL_WRAPPER` entry, or None for a run trained on the bare
+    env. ``env_wrapper``: the run's entries that change the action (``PolicyController.env_wrapper``:
+    the training-only ones left out). Any other combination is refused (ValueError naming the field,
+    its value and what is allowed)."""
+    paths = [path for item in env_wrapper for path in item]
+    if not paths:
+        return None
+    if paths != [RESIDUAL_WRAPPER]:
+        from sphere_env.wrappers import TRAINING_ONLY_WRAPPERS
+
+        raise ValueError(
+            f"env_wrapper: run {run!r} was trained inside {paths}, which cannot be exported; allowed: one "
+            f"{RESIDUAL_WRAPPER} entry (exported with its PD), besides the training-only "
+            f"{list(TRAINING_ONLY_WRAPPERS)}"
+        )
+    return dict(next(item[RESIDUAL_WRAPPER] for item in env_wrapper if RESIDUAL_WRAPPER in item))
 
 
 def check_supported(model: Any, algo: str) -> None:
@@ -100,21 +144,27 @@ def check_onnx_support() -> None:
         )
 
 
-def record_observations(
+def record_episodes(
     controller: Any, env: Any, pressures_kpa: Sequence[float], steps: int = CHECK_STEPS, seed: int = 0
-) -> np.ndarray:
-    """Raw observations of rollouts of ``controller`` (one episode per pressure, up to ``steps``
-    steps each; seeds ``seed``, ``seed + 1``, ...), stacked (n, n_obs) float32."""
-    out = []
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rollouts of ``controller`` (reset at each episode's start; one episode per pressure, up to
+    ``steps`` steps each; seeds ``seed``, ``seed + 1``, ...): the raw observations (n, n_obs)
+    float32, the actions the controller gave on them (n, 2) float32, and which rows start an
+    episode (n,) bool."""
+    obs_out, act_out, starts = [], [], []
     for k, p in enumerate(pressures_kpa):
+        if hasattr(controller, "reset"):
+            controller.reset()
         obs, info = env.reset(seed=seed + k, options={"pressure_kpa": float(p)})
-        out.append(obs)
-        for _ in range(steps - 1):
-            obs, _, terminated, truncated, info = env.step(np.clip(controller(obs, info), -1.0, 1.0))
-            out.append(obs)
+        for i in range(steps):
+            action = np.asarray(controller(obs, info), dtype=np.float32)
+            obs_out.append(obs)
+            act_out.append(action)
+            starts.append(i == 0)
+            obs, _, terminated, truncated, info = env.step(np.clip(action, -1.0, 1.0))
             if terminated or truncated:
                 break
-    return np.asarray(out, dtype=np.float32)
+    return np.asarray(obs_out, np.float32), np.asarray(act_out, np.float32), np.asarray(starts, bool)
 
 
 def sb3_actions(controller: Any, obs: np.ndarray) -> np.ndarray:
@@ -150,6 +200,7 @@ def export(
     import gymnasium as gym
     import torch
 
+    from sphere_env.controllers_torch import PD_STATE_RESET
     from sphere_env.evaluation.controller_specs import PolicyController, run_path
     from sphere_env.evaluation.enjoy import EnjoySpec
     from sphere_env.models.shell import ShellCalibration
@@ -168,14 +219,11 @@ def export(
         controller = PolicyController(r["folder"], r["which"])
     out = opts.out
     cfg = r["config"]
-    if controller.env_wrapper:
-        raise ValueError(
-            f"run: {str(r['folder'])!r} was trained inside env_wrapper "
-            f"{[p for item in controller.env_wrapper for p in item]}: its network gives a correction "
-            "to another controller, not the robot's action, so it is not exported alone"
-        )
+    # a residual policy is exported with the PD it was trained over (residual_module)
+    residual = residual_kwargs(controller.env_wrapper, str(r["folder"]))
     check_supported(controller.model, cfg.algo)
-    module = policy_module(controller.model, controller.vecnormalize, cfg.algo)
+    network = module = policy_module(controller.model, controller.vecnormalize, cfg.algo)
+    residual_info = None
 
     env = gym.make(
         r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off", **r["env_kwargs"]
@@ -184,7 +232,15 @@ def export(
         u = env.unwrapped
         lo, hi = ShellCalibration.load(r["env_kwargs"].get("calibration")).pressure_range_kpa
         nominal = ShellCalibration.load(r["env_kwargs"].get("calibration")).nominal_pressure_kpa
-        obs = record_observations(controller, env, (lo, nominal, hi))  # full observations, as SB3 takes them
+        if residual is not None:
+            from sphere_env.wrappers import ACTION_COMBINERS
+
+            controller.check_env(env)  # binds the run's PD to the env, as evaluation does
+            combiner = ACTION_COMBINERS[RESIDUAL_WRAPPER](env, **residual)  # the same builder
+            module = residual_module(network, combiner.base, combiner.scale)
+            residual_info = residual_layout(combiner.base, combiner.scale)
+        # full observations, as SB3 takes them; the controller's actions (a residual's: PD included)
+        obs, actions, starts = record_episodes(controller, env, (lo, nominal, hi))
         observation_layout = u.observation_layout.describe()
         for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
             if rec["name"] in FROM_SENSORS:
@@ -195,7 +251,8 @@ def export(
         control_hz = 1.0 / u.control_period_s
     finally:
         env.close()
-    expected = sb3_actions(controller, obs)
+    # the reference: SB3's batched deterministic actions, or a residual's applied actions step by step
+    expected = sb3_actions(controller, obs) if residual is None else actions
     k = module.privileged_dims
     if k:  # the robot does not measure the privileged components: the file's input drops them
         obs = obs[:, :-k]
@@ -208,15 +265,22 @@ def export(
     # check passed (_swap_in), so policy file and policy.json are never from two exports.
     with staged_folder(out, _swap_in) as work:
         tmp, tmp_json = work / name, work / "policy.json"
+        examples = {"observation": obs[:2]}
+        if residual is not None:
+            examples["state"] = np.repeat(np.asarray([PD_STATE_RESET], np.float64), 2, axis=0)
         if fmt == "onnx":
-            write_onnx(module, obs.shape[1], tmp)
+            write_onnx(module, examples, ["action"] if residual is None else ["action", "next_state"], tmp)
         else:
-            write_torchscript(module, obs[:2], tmp)
-        got = run_exported(tmp, fmt, obs)
+            write_torchscript(module, list(examples.values()), tmp)
+        if residual is None:
+            got = run_exported(tmp, fmt, obs)
+        else:  # one step at a time, the state carried through each episode and reset at its start
+            got = run_exported_episodes(tmp, fmt, obs, starts, PD_STATE_RESET)
         diff = float(np.max(np.abs(got - expected)))
         if not diff <= tol:
+            reference = "the SB3 policy's" if residual is None else "the evaluation's (PD + scale × residual)"
             raise ValueError(
-                f"check: the exported policy's actions differ from the SB3 policy's by up to {diff:.3g} "
+                f"check: the exported policy's actions differ from {reference} by up to {diff:.3g} "
                 f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written"
             )
         vn = controller.vecnormalize
@@ -245,6 +309,8 @@ def export(
                 "shape": ["batch", 2],
                 "dtype": "float32",
                 "range": [-1.0, 1.0],
+                "meaning": "the action the robot applies"
+                + ("" if residual is None else ": the PD's plus scale × the network's residual (see residual)"),
                 "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)",
             },
             "deterministic_action": (
@@ -252,6 +318,7 @@ def export(
                 if cfg.algo == "ppo"
                 else "tanh of the Gaussian mean (SB3 predict, deterministic=True)"
             ),
+            **(residual_info or {"state": None, "residual": None}),
             "observation": observation_layout,
             "observation_from_sensors": (
                 "each component's from_sensors: the robot's channels, computation, frame "
@@ -272,6 +339,13 @@ def export(
             "check": {
                 "observations": len(obs),
                 "pressures_kpa": [lo, nominal, hi],
+                "reference": (
+                    "model.predict(vecnormalize.normalize_obs(obs), deterministic=True), batched"
+                    if residual is None
+                    else "PolicyController's actions (the evaluation's PD + scale × residual) along its own "
+                    "episodes, one per pressure; the file run one step at a time, its state reset at each "
+                    "episode's start and carried through it"
+                ),
                 "max_abs_action_diff": diff,
                 "tol": tol,
                 "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
@@ -298,7 +372,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--format", default="onnx", help=f"{' | '.join(EXPORT_FORMATS)} (default onnx)")
     parser.add_argument("--out", default=None, help="output folder (default <run>/export)")
     parser.add_argument(
-        "--tol", type=float, default=DEFAULT_TOL, help="largest allowed |exported - SB3| action difference in the check"
+        "--tol",
+        type=float,
+        default=DEFAULT_TOL,
+        help="largest allowed |exported - Python| action difference in the check",
     )
     parser.add_argument("--env", default=None, help="env id for the check rollouts and the layout (default: the run's)")
     parser.add_argument("--allow-env-mismatch", action="store_true", help="use an env id the run was not trained on")
@@ -309,7 +386,7 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
     print(
         f"policy: {res['policy'].resolve()}\nlayout: {res['layout'].resolve()}\n"
-        f"check: max |exported - SB3| action difference {res['max_abs_action_diff']:.2e}"
+        f"check: max |exported - Python| action difference {res['max_abs_action_diff']:.2e}"
     )
     return res
 

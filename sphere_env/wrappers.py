@@ -13,8 +13,8 @@ has to improve on it. It is named in a hyperparameter file the way rl-zoo3 names
       - sphere_env.wrappers.PDResidualAction: {scale: 0.5}
 
 A policy trained this way acts on the robot only together with the same PD: evaluation applies the
-same combination (:class:`ResidualCombiner`), and a run trained with it cannot be exported as a
-stand-alone network.
+same combination (:class:`ResidualCombiner`), and ``sphere-env export`` writes the network and the
+PD as one graph whose inputs include the PD's state (:mod:`sphere_env.controllers_torch`).
 """
 
 from __future__ import annotations

@@ -16,6 +16,8 @@ ROBOBALL = REPO.parent / "shared" / "data" / "roboball"
 TINY_PPO = {"n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1}
 #: :data:`TINY_PPO` as ``key:value`` items of ``--hyperparams`` / ``--params`` (the command lines).
 TINY_PPO_PARAMS = [f"{k}:{v}" for k, v in TINY_PPO.items()]
+#: The wrapper of the residual runs (residual control over the PD baseline).
+RESIDUAL_WRAPPER = "sphere_env.wrappers.PDResidualAction"
 #: The tiny SAC run (a small buffer and network, a few gradient steps).
 TINY_SAC = {
     "n_envs": 1,
@@ -68,6 +70,19 @@ def tiny_ppo_run(tmp_path_factory) -> Path:
     """A tiny PPO run folder on RampDescent-v2, point shell (model, statistics, checkpoints)."""
     over = {**TINY_PPO, "n_timesteps": 128, "env_kwargs": {"shell_model": "point"}}
     return _train(tmp_path_factory, "tiny_ppo", "sphere_env/RampDescent-v2", "ppo", over)
+
+
+@pytest.fixture(scope="session")
+def tiny_residual_run(tmp_path_factory) -> Path:
+    """A tiny PPO run trained as residual control over the PD baseline (``PDResidualAction``,
+    scale 0.5) on RampDescent-v2, point shell."""
+    over = {
+        **TINY_PPO,
+        "n_timesteps": 256,
+        "env_kwargs": {"shell_model": "point"},
+        "env_wrapper": [{RESIDUAL_WRAPPER: {"scale": 0.5}}],
+    }
+    return _train(tmp_path_factory, "tiny_residual", "sphere_env/RampDescent-v2", "ppo", over)
 
 
 @pytest.fixture(scope="session")

@@ -1,8 +1,8 @@
 """Residual control over the PD baseline (``sphere_env.wrappers.PDResidualAction``, rl-zoo3's
 ``env_wrapper`` key): a zero residual reproduces the PD's episode exactly; the residual moves the
 applied torques by ``scale``; a run trained inside the wrapper is evaluated with the same PD, gives in
-evaluation the actions it took in its wrapped env, and is not exported alone; bad wrapper entries
-are refused by name."""
+evaluation the actions it took in its wrapped env, and is exported together with that PD; bad
+wrapper entries are refused by name."""
 
 from __future__ import annotations
 
@@ -154,13 +154,18 @@ def test_evaluation_applies_the_runs_pd_as_training_did(residual_run):
             break
 
 
-def test_residual_run_is_not_exported_alone(residual_run, tmp_path):
+def test_residual_recipe_run_exports_with_its_pd(residual_run, tmp_path):
+    """The recipe's run (shell mixture, then the residual) exports as one graph with the PD: the
+    training-only mixture is left out, the PD's state is an input, and the exporter's own check
+    against evaluation's actions passes."""
+    import json
+
     from sphere_env.evaluation.export import export
 
-    out = tmp_path / "export"
-    with pytest.raises(ValueError, match="env_wrapper"):
-        export(str(residual_run), out=out)
-    assert not out.exists()
+    res = export(str(residual_run), "torchscript", tmp_path / "export")
+    layout = json.loads(res["layout"].read_text())
+    assert layout["residual"]["scale"] == 0.5 and layout["state"]["reset_value"] == [0.0, 0.0, 1.0]
+    assert layout["check"]["max_abs_action_diff"] == res["max_abs_action_diff"] < 1e-5
 
 
 # ---- ShellModelMixture ---------------------------------------------------------------------------
