@@ -172,3 +172,18 @@ def test_other_action_wrappers_are_refused_by_name(tiny_ppo_run, tmp_path, capsy
     for needle in needles:
         assert needle in err, err
     assert not (tmp_path / "new").exists()
+
+
+def test_a_non_finite_row_gets_zero_torque_and_keeps_its_state(tiny_residual_run, tmp_path):
+    res = export(str(tiny_residual_run), "torchscript", tmp_path / "export")
+    step = _run_file(res["policy"], "torchscript")
+    env = gym.make(ENV, shell_model="point", randomization="off")
+    obs, _ = env.reset(seed=0)
+    env.close()
+    rows = np.repeat(obs[None], 3, axis=0).astype(np.float32)
+    rows[1, 4] = np.nan
+    state = np.asarray([[0.3, 1.5, 0.0], [0.3, 1.5, 0.0], [np.inf, 0.0, 1.0]], np.float64)
+    action, next_state = step(rows, state)
+    np.testing.assert_array_equal(action[1:], 0.0)
+    np.testing.assert_array_equal(next_state[1:], state[1:])
+    assert np.abs(action[0]).sum() > 0 and next_state[0, 2] == 0.0  # a finite row acts and steps on
