@@ -17,8 +17,8 @@ from typing import Any, Mapping
 from sphere_env.envs.kwargs import EnvKwargs
 from sphere_env.params import PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M, ground_clearance_m
 from sphere_env.physics.terrain import Terrain
-from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
 from sphere_env.tasks.randomization import RandomizationSpec
 
 #: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).

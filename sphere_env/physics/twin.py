@@ -25,8 +25,8 @@ from sphere_env.files import write_text_atomic
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.params import TWIN_PARAMETERS
-from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M, ExplicitStability, ground_clearance_m
-from sphere_env.physics.config import FIXTURES, InitialState, TwinConfig, TwinState
+from sphere_env.physics.admissibility import ExplicitStability
+from sphere_env.physics.config import InitialState, TwinConfig, TwinState
 from sphere_env.physics.diagram import (
     build_diagram,
     ground_coefficient,
@@ -37,17 +37,6 @@ from sphere_env.physics.render import RgbCamera
 from sphere_env.physics.shell_cache import ShellCache
 from sphere_env.physics.state import read_state
 from sphere_env.physics.terrain import Terrain
-
-# MAX_INITIAL_PENETRATION_M and ground_clearance_m stay importable from here (the env imports them).
-__all__ = [
-    "FIXTURES",
-    "MAX_INITIAL_PENETRATION_M",
-    "InitialState",
-    "Twin",
-    "TwinConfig",
-    "TwinState",
-    "ground_clearance_m",
-]
 
 _log = logging.getLogger("sphere_env")
 
