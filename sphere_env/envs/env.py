@@ -30,7 +30,6 @@ from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
 from sphere_env.envs.stages import ActionPipeline, SensorPipeline, StageContext
 from sphere_env.envs.twins import TwinCache, check_above_ground, shared_inclines, twin_config
-from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.physics import InitialState
 from sphere_env.schemas import checker, count, validate
 from sphere_env.tasks.events import EventManager
@@ -81,6 +80,11 @@ class SphereEnv(gym.Env, EzPickle):
         if not isinstance(task, Task):
             raise ValueError(f"task: value {task!r} must be a sphere_env.tasks.Task")
         kw = validate(EnvKwargs, kwargs, f"{task.name} kwargs")
+        if not task.ramp and kw.ramp_length_m is not None:
+            raise ValueError(
+                f"{task.name} kwargs: field 'ramp_length_m' = {kw.ramp_length_m!r}: the task has no ramp; "
+                f"allowed: None ({task.name} runs on flat ground)"
+            )
         self.task = task
         self.shell_model = shell_model = kw.shell_model
         self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
@@ -337,11 +341,11 @@ class SphereEnv(gym.Env, EzPickle):
     # ---- pieces ----------------------------------------------------------------------------------
     def _apply_events(self, t: float) -> None:
         """Push the parameters the event manager changed at sim time ``t`` into the twin (the
-        stages read the sensing and actuation ones from ``self._params`` when they act)."""
+        stages read the sensing and actuation ones from ``self._params`` when they act); the
+        manager's values are clipped to the parameter space, so the twin takes them unchecked."""
         changed, self._fired = self._events.step(t, self.np_random)
-        twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS}
-        if twin_changes:
-            self.twin.apply(twin_changes)
+        if changed:
+            self.twin.apply_unchecked(changed)
 
     def action_layout(self) -> list[dict[str, Any]]:
         """The action components as :meth:`step` applies them: ``index``, ``name``, the normalized

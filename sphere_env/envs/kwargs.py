@@ -24,6 +24,7 @@ from typing import Annotated, Any, Literal, Mapping
 from pydantic import AfterValidator, BeforeValidator, Field, create_model, field_validator, model_validator
 
 from sphere_env.models.friction import DEFAULT_FRICTION
+from sphere_env.parameter import Parameter
 from sphere_env.params import (
     DEFAULT_TIME_STEP_S,
     MAX_EPISODE_S,
@@ -31,6 +32,7 @@ from sphere_env.params import (
     PARAMETERS,
     RANDOMIZABLE,
     SHELL_MODELS,
+    ParameterSpace,
 )
 from sphere_env.physics.config import CONTACT_APPROXIMATIONS, DEFAULT_SHELL_MODEL, InitialState, joint_friction
 from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number, shown
@@ -230,15 +232,19 @@ class ResetOptions(Schema):
     pressure_rate_kpa_per_s: Finite = Field(0.0, json_schema_extra=allowed("a finite number [kPa/s]"))
 
 
-def reset_options(task: Task) -> type[ResetOptions]:
+def reset_options(task: Task, space: ParameterSpace) -> type[ResetOptions]:
     """The schema of ``task``'s reset options: :class:`ResetOptions`, the randomization parameters
-    and the task's ``command_options`` within its ``command_option_bounds``."""
-    return _reset_options(tuple((k, *task.command_option_bounds[k]) for k in task.command_options))
+    within their bounds in ``space`` (the pressure: the calibration's range) and the task's
+    ``command_options`` within its ``command_option_bounds``."""
+    resolved = tuple(space[name] for name in RANDOMIZABLE)
+    return _reset_options(tuple((k, *task.command_option_bounds[k]) for k in task.command_options), resolved)
 
 
 @lru_cache(maxsize=None)
-def _reset_options(commands: tuple[tuple[str, float, float], ...]) -> type[ResetOptions]:
-    fields: dict[str, Any] = {name: (fixed_value(PARAMETERS[name]), None) for name in RANDOMIZABLE}
+def _reset_options(
+    commands: tuple[tuple[str, float, float], ...], resolved: tuple[Parameter, ...]
+) -> type[ResetOptions]:
+    fields: dict[str, Any] = {rec.name: (fixed_value(rec), None) for rec in resolved}
     for name, lo, hi in commands:
         fields[name] = (number(ge=lo, le=hi, words=f"[{lo:g}, {hi:g}]"), None)
     return create_model("ResetOptions", __base__=ResetOptions, **fields)

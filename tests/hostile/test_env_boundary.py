@@ -118,7 +118,7 @@ def test_sphere_env_loads_its_kwargs_through_the_schema():
         ({"pressure_kpa": 12.0, "pressure_rate_kpa_per_s": [1.0]}, "options.pressure_rate_kpa_per_s"),
         ({"pressure_kpa": 12.0, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
         ({"pressure_kpa": 12.0, "initial_state": {"spin": 1.0}}, "options.initial_state"),
-        ({"pressure_kpa": 99.0}, "options: field 'pressure_kpa' = 99.0"),
+        ({"pressure_kpa": 99.0}, "field 'options.pressure_kpa' = 99.0"),
         ([("pressure_kpa", 12.0)], "field 'options' is a list, not a mapping"),
         ("pressure_kpa=12", "field 'options' is a str, not a mapping"),
     ],
