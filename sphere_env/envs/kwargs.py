@@ -232,11 +232,13 @@ class ResetOptions(Schema):
     pressure_rate_kpa_per_s: Finite = Field(0.0, json_schema_extra=allowed("a finite number [kPa/s]"))
 
 
-def reset_options(task: Task, space: ParameterSpace) -> type[ResetOptions]:
+def reset_options(task: Task, space: ParameterSpace | None = None) -> type[ResetOptions]:
     """The schema of ``task``'s reset options: :class:`ResetOptions`, the randomization parameters
-    within their bounds in ``space`` (the pressure: the calibration's range) and the task's
-    ``command_options`` within its ``command_option_bounds``."""
-    resolved = tuple(space[name] for name in RANDOMIZABLE)
+    within their bounds in ``space`` (the pressure: the calibration's range; without a space, the
+    registry's records, the pressure a finite number) and the task's ``command_options`` within
+    its ``command_option_bounds``."""
+    records = PARAMETERS if space is None else space
+    resolved = tuple(records[name] for name in RANDOMIZABLE)
     return _reset_options(tuple((k, *task.command_option_bounds[k]) for k in task.command_options), resolved)
 
 
