@@ -43,7 +43,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -253,6 +253,106 @@ def _versions(fmt: str) -> dict[str, str]:
     return out
 
 
+def _recorded(controller: Any, r: Mapping[str, Any]) -> tuple[np.ndarray, list, list, float, tuple[float, ...]]:
+    """The run's env (randomization off) at the calibration's low, nominal and high pressures:
+    (the observations the policy met there, as SB3 takes them; the observation layout, each
+    component with how the robot computes it; the action layout; the control rate [Hz]; the
+    pressures [kPa])."""
+    import gymnasium as gym
+
+    from sphere_env.models.shell import ShellCalibration
+
+    env = gym.make(
+        r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off", **r["env_kwargs"]
+    )
+    try:
+        u = env.unwrapped
+        cal = ShellCalibration.load(r["env_kwargs"].get("calibration"))
+        lo, hi = cal.pressure_range_kpa
+        pressures = (lo, cal.nominal_pressure_kpa, hi)
+        obs = record_observations(controller, env, pressures)  # full observations, as SB3 takes them
+        observation_layout = u.observation_layout.describe()
+        for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
+            if rec["name"] in FROM_SENSORS:
+                rec["from_sensors"] = FROM_SENSORS[rec["name"]]
+            elif rec["name"] in FROM_OPERATOR:
+                rec["from_operator"] = FROM_OPERATOR[rec["name"]]
+        return obs, observation_layout, u.action_layout(), 1.0 / u.control_period_s, pressures
+    finally:
+        env.close()
+
+
+def _normalization(vn: Any, observation_layout: list[dict]) -> dict[str, Any] | None:
+    """The VecNormalize statistics the file holds: each robot component's mean and variance written
+    into its ``observation_layout`` record, and the formula's constants (None: no normalization)."""
+    if vn is None or not vn.norm_obs:
+        return None
+    mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
+    for rec, m, v in zip(observation_layout, mean, var):  # zip stops at the robot's components
+        rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
+    return {
+        "epsilon": float(vn.epsilon),
+        "clip_obs": float(vn.clip_obs),
+        "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64",
+    }
+
+
+def _policy_json(
+    fmt: str,
+    n_obs: int,
+    k: int,
+    observation_layout: list[dict],
+    stats: dict[str, Any] | None,
+    action_layout: list[dict],
+    control_hz: float,
+    r: Mapping[str, Any],
+    controller: Any,
+) -> dict[str, Any]:
+    """``policy.json`` but its check, versions and time: the file's input (``n_obs`` components,
+    without the ``k`` privileged ones) and output, the observation and action layouts, and the run."""
+    name = EXPORT_FORMATS[fmt]
+    return {
+        "format": fmt,
+        "file": name,
+        "input": {
+            "name": "observation",
+            "shape": ["batch", int(n_obs)],
+            "dtype": "float32",
+            "meaning": "the env's raw observation (normalization is inside the file)"
+            + (f", without the {k} privileged components the critic alone saw in training" if k else ""),
+        },
+        "output": {
+            "name": "action",
+            "shape": ["batch", 2],
+            "dtype": "float32",
+            "range": [-1.0, 1.0],
+            "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)",
+        },
+        "deterministic_action": (
+            "Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
+            if r["config"].algo == "ppo"
+            else "tanh of the Gaussian mean (SB3 predict, deterministic=True)"
+        ),
+        "observation": observation_layout,
+        "observation_from_sensors": (
+            "each component's from_sensors: the robot's channels, computation, frame "
+            "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
+            f"samples at {control_hz:g} Hz (incline_deg: the ramp's); a component with from_operator "
+            "instead is given by the operator"
+        ),
+        "observation_normalization": stats,
+        "action": action_layout,
+        "env_id": r["env_id"],
+        "shell_model": r["shell_model"],
+        "env_kwargs": r["env_kwargs"],
+        "control_frequency_hz": control_hz,
+        "algo": r["config"].algo,
+        "run": str(r["folder"].resolve()),
+        "model": "best/best_model.zip" if r["which"] == "best" else "model.zip",
+        "num_timesteps": int(controller.model.num_timesteps),
+    }
+
+
 def export(
     run: str,
     fmt: str = "onnx",
@@ -263,12 +363,10 @@ def export(
 ) -> dict[str, Path]:
     """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``.
     The options are loaded as :class:`~sphere_env.evaluation.command_options.ExportOptions` first."""
-    import gymnasium as gym
     import torch
 
     from sphere_env.evaluation.controller_specs import PolicyController, run_path
     from sphere_env.evaluation.enjoy import EnjoySpec
-    from sphere_env.models.shell import ShellCalibration
 
     opts = validate(
         ExportOptions, dict(run=run, format=fmt, out=out, tol=tol, env_id=env_id, allow_env_mismatch=allow_env_mismatch)
@@ -293,24 +391,7 @@ def export(
     check_supported(controller.model, cfg.algo)
     module = _policy_module(controller.model, controller.vecnormalize, cfg.algo)
 
-    env = gym.make(
-        r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off", **r["env_kwargs"]
-    )
-    try:
-        u = env.unwrapped
-        lo, hi = ShellCalibration.load(r["env_kwargs"].get("calibration")).pressure_range_kpa
-        nominal = ShellCalibration.load(r["env_kwargs"].get("calibration")).nominal_pressure_kpa
-        obs = record_observations(controller, env, (lo, nominal, hi))  # full observations, as SB3 takes them
-        observation_layout = u.observation_layout.describe()
-        for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
-            if rec["name"] in FROM_SENSORS:
-                rec["from_sensors"] = FROM_SENSORS[rec["name"]]
-            elif rec["name"] in FROM_OPERATOR:
-                rec["from_operator"] = FROM_OPERATOR[rec["name"]]
-        action_layout = u.action_layout()
-        control_hz = 1.0 / u.control_period_s
-    finally:
-        env.close()
+    obs, observation_layout, action_layout, control_hz, pressures = _recorded(controller, r)
     expected = sb3_actions(controller, obs)
     k = module.privileged_dims
     if k:  # the robot does not measure the privileged components: the file's input drops them
@@ -335,66 +416,18 @@ def export(
                 f"check: the exported policy's actions differ from the SB3 policy's by up to {diff:.3g} "
                 f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written"
             )
-        vn = controller.vecnormalize
-        stats = None
-        if vn is not None and vn.norm_obs:
-            mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
-            for rec, m, v in zip(observation_layout, mean, var):  # zip stops at the robot's components
-                rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
-            stats = {
-                "epsilon": float(vn.epsilon),
-                "clip_obs": float(vn.clip_obs),
-                "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64",
-            }
-        layout = {
-            "format": fmt,
-            "file": name,
-            "input": {
-                "name": "observation",
-                "shape": ["batch", int(obs.shape[1])],
-                "dtype": "float32",
-                "meaning": "the env's raw observation (normalization is inside the file)"
-                + (f", without the {k} privileged components the critic alone saw in training" if k else ""),
-            },
-            "output": {
-                "name": "action",
-                "shape": ["batch", 2],
-                "dtype": "float32",
-                "range": [-1.0, 1.0],
-                "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)",
-            },
-            "deterministic_action": (
-                "Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
-                if cfg.algo == "ppo"
-                else "tanh of the Gaussian mean (SB3 predict, deterministic=True)"
-            ),
-            "observation": observation_layout,
-            "observation_from_sensors": (
-                "each component's from_sensors: the robot's channels, computation, frame "
-                "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
-                f"samples at {control_hz:g} Hz (incline_deg: the ramp's); a component with from_operator "
-                "instead is given by the operator"
-            ),
-            "observation_normalization": stats,
-            "action": action_layout,
-            "env_id": r["env_id"],
-            "shell_model": r["shell_model"],
-            "env_kwargs": r["env_kwargs"],
-            "control_frequency_hz": control_hz,
-            "algo": cfg.algo,
-            "run": str(r["folder"].resolve()),
-            "model": "best/best_model.zip" if r["which"] == "best" else "model.zip",
-            "num_timesteps": int(controller.model.num_timesteps),
-            "check": {
-                "observations": len(obs),
-                "pressures_kpa": [lo, nominal, hi],
-                "max_abs_action_diff": diff,
-                "tol": tol,
-                "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
-            },
-            "versions": _versions(fmt),
-            "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        stats = _normalization(controller.vecnormalize, observation_layout)
+        check = {
+            "observations": len(obs),
+            "pressures_kpa": list(pressures),
+            "max_abs_action_diff": diff,
+            "tol": tol,
+            "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
         }
+        layout = _policy_json(fmt, obs.shape[1], k, observation_layout, stats, action_layout, control_hz, r, controller)
+        layout["check"] = check
+        layout["versions"] = _versions(fmt)
+        layout["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
         tmp_json.write_text(json.dumps(layout, indent=2, ensure_ascii=False, default=str) + "\n")
     policy_path, layout_path = out / name, out / "policy.json"
     return {"policy": policy_path, "layout": layout_path, "max_abs_action_diff": diff}
