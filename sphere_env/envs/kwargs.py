@@ -203,6 +203,21 @@ class RollEnvKwargs(EnvKwargs, RollKwargs):
     ramp_length_m: None = Field(None, json_schema_extra=allowed("None (Roll runs on flat ground)"))
 
 
+def check_ground(task: Task, ramp_length_m: float | None) -> None:
+    """Refuse a ground the task does not run on: a ramp task (``task.ramp``) needs a finite ramp,
+    any other runs on flat ground (``ramp_length_m`` None); a ``ValueError`` naming the kwarg."""
+    if task.ramp and ramp_length_m is None:
+        raise ValueError(
+            f"{task.name} kwargs: field 'ramp_length_m' = None: the task runs on a finite ramp; "
+            f"allowed: {PARAMETERS['ramp_length_m'].allowed}"
+        )
+    if not task.ramp and ramp_length_m is not None:
+        raise ValueError(
+            f"{task.name} kwargs: field 'ramp_length_m' = {ramp_length_m!r}: the task has no ramp; "
+            f"allowed: None ({task.name} runs on flat ground)"
+        )
+
+
 # ---- reset options ------------------------------------------------------------------------------
 RATE_WORDS = f"[-{MAX_RATE_RAD_S:g}, {MAX_RATE_RAD_S:g}] rad/s (beyond, the state counts as a physics failure)"
 SPEED_WORDS = f"[-{MAX_SPEED_M_S:g}, {MAX_SPEED_M_S:g}] m/s (beyond, the state counts as a physics failure)"
