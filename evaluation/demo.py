@@ -34,6 +34,7 @@ import secrets
 import shutil
 import time
 from pathlib import Path
+from typing import Any
 
 from sphere_env.evaluation.command_options import DemoOptions
 from sphere_env.files import write_text_atomic
@@ -61,7 +62,7 @@ DEFAULT_TRAIN_STEPS = 200_000
 PUBLISH = Path(__file__).resolve().parent / "results" / "demo"
 
 
-def main(argv: list[str] | None = None) -> dict:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
     )
@@ -83,6 +84,11 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument("--workers", type=int, default=None, help="evaluation processes (default: all cores)")
     parser.add_argument("--publish", action="store_true", help="copy report and plots to evaluation/results/demo/")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
         validate(
@@ -93,95 +99,24 @@ def main(argv: list[str] | None = None) -> dict:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
 
     t_start = time.perf_counter()
-    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
-    from sphere_env.evaluation.faults import GRADED_FAULTS
     from sphere_env.models.shell import ShellCalibration
-    from sphere_env.training.config import resolve_config
-    from sphere_env.training.trainer import train
 
     cal = ShellCalibration.load()
     lo, hi = cal.pressure_range_kpa
     pressures = [lo, round((lo + hi) / 2, 3), hi]  # 3, 8.5, 14 kPa: both ends and the middle
-    n = args.train_steps
     stamp = f"{time.strftime('%Y%m%d-%H%M%S')}_{secrets.token_hex(3)}"  # demos started in one second differ
-    base_dir = args.run_dir or Path("runs") / f"demo_{stamp}"
-    policies = {"ppo_from_scratch": (None, base_dir)}
-    t_train, timings = {}, {}
-    for label, (yaml_file, run_dir) in policies.items():
-        print(
-            f"[1/3] Training {label} on {ENV_ID} for {n} env steps with the shipped recipe "
-            f"(point and injected shells, pressure ~ U[{lo:g}, {hi:g}] kPa per episode) ...",
-            flush=True,
-        )
-        cfg = resolve_config(
-            ENV_ID,
-            "ppo",
-            yaml_file,
-            overrides={"n_timesteps": n},
-            seed=args.seed,
-            eval_freq=max(n // 6, 1),
-            eval_episodes=6,
-            checkpoint_freq=max(n // 3, 1),
-        )
-        t0 = time.perf_counter()
-        train(cfg, run_dir, progress_bar=True, command=["python", "-m", "evaluation.demo"])
-        t_train[label] = time.perf_counter() - t0
-        timings[label] = json.loads((run_dir / "timing.json").read_text())
+    policies = {"ppo_from_scratch": args.run_dir or Path("runs") / f"demo_{stamp}"}
+    t_train, timings = _train(policies, args.train_steps, args.seed, (lo, hi))
 
     fault_seeds = args.fault_seeds or args.seeds[:1]
-    print(
-        f"[2/3] Evaluating the shipped policy (ppo) and {', '.join(policies)} vs zero torque vs PD: "
-        f"pressures {pressures} kPa x point/injected/hydroelastic x seeds {args.seeds}; "
-        f"{', '.join(UNDER_MODEL_ERROR)} also under {len(GRADED_FAULTS)} faults (seeds {fault_seeds}) and the "
-        f"calibrations {', '.join(CALIBRATIONS)} ...",
-        flush=True,
-    )
-    spec = SweepSpec(
-        controllers=["zero", "pd", "ppo=pretrained"] + [f"{label}={d}" for label, (_, d) in policies.items()],
-        env_id=ENV_ID,
-        pressures_kpa=pressures,
-        seeds=args.seeds,
-        faults=["all"],
-        calibrations=list(CALIBRATIONS),
-        fault_seeds=fault_seeds,
-        condition_controllers=list(UNDER_MODEL_ERROR),
-    )
-    t0 = time.perf_counter()
-    trained = "; ".join(
-        f"{label} trained {timings[label]['num_timesteps']} env steps in {t_train[label]:.0f} s "
-        f"({timings[label]['steps_per_s']:.0f} env steps/s), run folder `{d}`"
-        for label, (_, d) in policies.items()
-    )
-    res = evaluate(
-        spec,
-        args.out,
-        workers=args.workers,
-        replays=[f"ppo,point,{pressures[1]}", f"zero,point,{pressures[1]}"],
-        progress=True,
-        extra_report=f"Policies: {trained}.",
-    )
-    t_eval = time.perf_counter() - t0
+    res, spec, t_eval = _evaluate(args, pressures, fault_seeds, policies, t_train, timings)
     wall = time.perf_counter() - t_start
-
-    from sphere_env.reporting import markdown_table
-
-    agg = {a["controller"]: a for a in res["agg_controller"]}
-    cols = [
-        ("controller", "controller", ""),
-        ("success_rate", "success", "{:.0%}"),
-        ("reached_runout_rate", "reached run-out", "{:.0%}"),
-        ("return", "mean return", "{:.2f}"),
-        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
-        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
-        ("energy_j", "energy J", "{:.1f}"),
-        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
-    ]
     summary = {
         "env_id": ENV_ID,
         "pressures_kpa": pressures,
         "shell_models": list(spec.shell_models),
         "seeds": args.seeds,
-        "episodes_per_controller": agg["ppo"]["episodes"],
+        "episodes_per_controller": next(a for a in res["agg_controller"] if a["controller"] == "ppo")["episodes"],
         "controllers": controller_summary(res, spec.shell_models),
         "faults": list(spec.faults),
         "fault_seeds": fault_seeds,
@@ -197,13 +132,119 @@ def main(argv: list[str] | None = None) -> dict:
         "train_steps_per_s": {label: t["steps_per_s"] for label, t in timings.items()},
         "eval_wall_s": t_eval,
         "total_wall_s": wall,
-        "run_dir": {label: str(d) for label, (_, d) in policies.items()},
+        "run_dir": {label: str(d) for label, d in policies.items()},
     }
     write_text_atomic(Path(args.out) / "summary.json", json.dumps(summary, indent=2) + "\n")
+    _print_results(res, summary, args.train_steps)
+    print(f"[3/3] Done in {wall / 60:.1f} min (training {sum(t_train.values()):.0f} s, evaluation {t_eval:.0f} s).")
+    for label, d in policies.items():
+        print(f"  run folder ({label}) : {d.resolve()}")
+    for k, v in res["files"].items():
+        print(f"  {k:<22s}: {Path(v).resolve()}")
+    if args.publish:
+        _publish(Path(args.out), policies)
+    return summary
+
+
+def _train(
+    policies: dict[str, Path], steps: int, seed: int, pressure_range_kpa: tuple[float, float]
+) -> tuple[dict[str, float], dict[str, dict]]:
+    """Step 1: train each of ``policies`` (label -> run folder) from scratch with the shipped recipe
+    for ``steps`` env steps; (wall seconds, the run's ``timing.json``) per label."""
+    from sphere_env.training.config import resolve_config
+    from sphere_env.training.trainer import train
+
+    lo, hi = pressure_range_kpa
+    t_train, timings = {}, {}
+    for label, run_dir in policies.items():
+        print(
+            f"[1/3] Training {label} on {ENV_ID} for {steps} env steps with the shipped recipe "
+            f"(point and injected shells, pressure ~ U[{lo:g}, {hi:g}] kPa per episode) ...",
+            flush=True,
+        )
+        cfg = resolve_config(
+            ENV_ID,
+            "ppo",
+            None,
+            overrides={"n_timesteps": steps},
+            seed=seed,
+            eval_freq=max(steps // 6, 1),
+            eval_episodes=6,
+            checkpoint_freq=max(steps // 3, 1),
+        )
+        t0 = time.perf_counter()
+        train(cfg, run_dir, progress_bar=True, command=["python", "-m", "evaluation.demo"])
+        t_train[label] = time.perf_counter() - t0
+        timings[label] = json.loads((run_dir / "timing.json").read_text())
+    return t_train, timings
+
+
+def _evaluate(
+    args: argparse.Namespace,
+    pressures: list[float],
+    fault_seeds: list[int],
+    policies: dict[str, Path],
+    t_train: dict[str, float],
+    timings: dict[str, dict],
+) -> tuple[dict, Any, float]:
+    """Step 2: zero torque, the PD, the shipped policy and ``policies`` on the grid, the first three
+    under model error too; (the evaluation's results, its sweep, wall seconds)."""
+    from sphere_env.evaluation.evaluate import SweepSpec, evaluate
+    from sphere_env.evaluation.faults import GRADED_FAULTS
+
+    print(
+        f"[2/3] Evaluating the shipped policy (ppo) and {', '.join(policies)} vs zero torque vs PD: "
+        f"pressures {pressures} kPa x point/injected/hydroelastic x seeds {args.seeds}; "
+        f"{', '.join(UNDER_MODEL_ERROR)} also under {len(GRADED_FAULTS)} faults (seeds {fault_seeds}) and the "
+        f"calibrations {', '.join(CALIBRATIONS)} ...",
+        flush=True,
+    )
+    spec = SweepSpec(
+        controllers=["zero", "pd", "ppo=pretrained"] + [f"{label}={d}" for label, d in policies.items()],
+        env_id=ENV_ID,
+        pressures_kpa=pressures,
+        seeds=args.seeds,
+        faults=["all"],
+        calibrations=list(CALIBRATIONS),
+        fault_seeds=fault_seeds,
+        condition_controllers=list(UNDER_MODEL_ERROR),
+    )
+    t0 = time.perf_counter()
+    trained = "; ".join(
+        f"{label} trained {timings[label]['num_timesteps']} env steps in {t_train[label]:.0f} s "
+        f"({timings[label]['steps_per_s']:.0f} env steps/s), run folder `{d}`"
+        for label, d in policies.items()
+    )
+    res = evaluate(
+        spec,
+        args.out,
+        workers=args.workers,
+        replays=[f"ppo,point,{pressures[1]}", f"zero,point,{pressures[1]}"],
+        progress=True,
+        extra_report=f"Policies: {trained}.",
+    )
+    return res, spec, time.perf_counter() - t0
+
+
+def _print_results(res: dict, summary: dict, train_steps: int) -> None:
+    """The controllers' table over the grid, their success in words, and each one's under model error."""
+    from sphere_env.reporting import markdown_table
+
+    agg = {a["controller"]: a for a in res["agg_controller"]}
+    cols = [
+        ("controller", "controller", ""),
+        ("success_rate", "success", "{:.0%}"),
+        ("reached_runout_rate", "reached run-out", "{:.0%}"),
+        ("return", "mean return", "{:.2f}"),
+        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+        ("energy_j", "energy J", "{:.1f}"),
+        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
+    ]
     print("\n" + markdown_table(res["agg_controller"], cols) + "\n")
     print(
         f"Success over the grid: shipped PPO {agg['ppo']['success_rate']:.0%}, PD {agg['pd']['success_rate']:.0%}, "
-        f"zero torque {agg['zero']['success_rate']:.0%}, PPO from scratch after {n} env steps "
+        f"zero torque {agg['zero']['success_rate']:.0%}, PPO from scratch after {train_steps} env steps "
         f"{agg['ppo_from_scratch']['success_rate']:.0%}."
     )
     for name in UNDER_MODEL_ERROR:
@@ -212,21 +253,19 @@ def main(argv: list[str] | None = None) -> dict:
             f"  {name:<5s} under the {len(c['faults'])} faults: {_mean_rate(c['faults']):.0%} in the mean; "
             + ", ".join(f"{k} {v['success_rate']:.0%}" for k, v in c["calibrations"].items())
         )
-    print(f"[3/3] Done in {wall / 60:.1f} min (training {sum(t_train.values()):.0f} s, evaluation {t_eval:.0f} s).")
-    for label, (_, d) in policies.items():
-        print(f"  run folder ({label}) : {d.resolve()}")
-    for k, v in res["files"].items():
-        print(f"  {k:<22s}: {Path(v).resolve()}")
-    if args.publish:
-        PUBLISH.mkdir(parents=True, exist_ok=True)
-        for f in ["report.md", "summary.json", "episodes.csv"]:
-            shutil.copy(Path(args.out) / f, PUBLISH / f)
-        for png in (Path(args.out) / "plots").glob("*.png"):
-            shutil.copy(png, PUBLISH / png.name)
-        for label, (_, d) in policies.items():
-            shutil.copy(d / "learning_curve.png", PUBLISH / f"learning_curve_{label}.png")
-        print(f"  published  : {PUBLISH}")
-    return summary
+
+
+def _publish(out: Path, policies: dict[str, Path]) -> None:
+    """``--publish``: the report, summary, episodes and plots, and each policy's learning curve, into
+    :data:`PUBLISH` (what the README shows)."""
+    PUBLISH.mkdir(parents=True, exist_ok=True)
+    for f in ["report.md", "summary.json", "episodes.csv"]:
+        shutil.copy(out / f, PUBLISH / f)
+    for png in (out / "plots").glob("*.png"):
+        shutil.copy(png, PUBLISH / png.name)
+    for label, d in policies.items():
+        shutil.copy(d / "learning_curve.png", PUBLISH / f"learning_curve_{label}.png")
+    print(f"  published  : {PUBLISH}")
 
 
 def controller_summary(res: dict, shells) -> dict[str, dict]:

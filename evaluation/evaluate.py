@@ -323,10 +323,20 @@ def _sweep(
     }
 
 
-def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+def build_parser() -> argparse.ArgumentParser:
+    """The flags in three groups: the grid (:func:`_add_grid`), the conditions under model error
+    (:func:`_add_conditions`) and the outputs (:func:`_add_outputs`)."""
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
     )
+    _add_grid(parser)
+    _add_conditions(parser)
+    _add_outputs(parser)
+    return parser
+
+
+def _add_grid(parser: argparse.ArgumentParser) -> None:
+    """The controllers, env and grid of episodes (pressures x shell models x frictions x seeds)."""
     parser.add_argument(
         "--controller",
         nargs="+",
@@ -350,6 +360,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument(
         "--seeds", type=int, nargs="+", default=[0, 1, 2], help="evaluation seeds (default: the demo's 0 1 2)"
     )
+
+
+def _add_conditions(parser: argparse.ArgumentParser) -> None:
+    """The conditions under model error: faults and calibrations, and their seeds."""
     parser.add_argument(
         "--faults",
         nargs="+",
@@ -367,6 +381,11 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument(
         "--fault-seeds", type=int, nargs="+", default=None, help="seeds of the fault conditions (default: --seeds)"
     )
+
+
+def _add_outputs(parser: argparse.ArgumentParser) -> None:
+    """The env's extra kwargs, where the results go, the workers that make them, replays, PME, a
+    trained policy on another env, and videos (in the order ``--help`` lists them)."""
     parser.add_argument(
         "--env-kwargs",
         nargs="+",
@@ -397,6 +416,10 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument(
         "--video", default=None, help="folder for one MP4 per episode (<controller>_<shell model>_<p>kPa_s<seed>.mp4)"
     )
+
+
+def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
+    parser = build_parser()
     args = parser.parse_args(argv)
 
     # default: a new folder per run (a random suffix: evaluations started in one second differ)

@@ -187,6 +187,133 @@ def _versions(fmt: str) -> dict[str, str]:
     return out
 
 
+def _recorded(
+    controller: Any, r: Mapping[str, Any], residual: Mapping[str, Any] | None
+) -> tuple[dict[str, Any], Any, dict[str, Any] | None]:
+    """The run's env (randomization off) at the calibration's low, nominal and high pressures:
+    ``(recorded, base, residual_info)``. ``recorded``: the observations the controller met there
+    (as SB3 takes them), its actions on them (a residual policy's: the PD's included), which rows
+    start an episode, the observation layout (each component with how the robot computes it), the
+    action layout, the control rate [Hz] and the pressures [kPa]. For a policy trained inside
+    ``PDResidualAction`` (``residual``: its kwargs), ``base`` is the PD it was trained over, built
+    as evaluation builds it, with ``residual_info`` its layout in ``policy.json``; else both None."""
+    import gymnasium as gym
+
+    from sphere_env.models.shell import ShellCalibration
+
+    env = gym.make(
+        r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off", **r["env_kwargs"]
+    )
+    try:
+        u = env.unwrapped
+        cal = ShellCalibration.load(r["env_kwargs"].get("calibration"))
+        lo, hi = cal.pressure_range_kpa
+        pressures = (lo, cal.nominal_pressure_kpa, hi)
+        base = residual_info = None
+        if residual is not None:
+            from sphere_env.wrappers import ACTION_COMBINERS
+
+            controller.check_env(env)  # binds the run's PD to the env, as evaluation does
+            combiner = ACTION_COMBINERS[RESIDUAL_WRAPPER](env, **residual)  # the same builder
+            base = (combiner.base, combiner.scale)
+            residual_info = residual_layout(combiner.base, combiner.scale)
+        # full observations, as SB3 takes them; the controller's actions (a residual's: PD included)
+        obs, actions, starts = record_episodes(controller, env, pressures)
+        observation_layout = u.observation_layout.describe()
+        for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
+            if rec["name"] in FROM_SENSORS:
+                rec["from_sensors"] = FROM_SENSORS[rec["name"]]
+            elif rec["name"] in FROM_OPERATOR:
+                rec["from_operator"] = FROM_OPERATOR[rec["name"]]
+        recorded = dict(
+            obs=obs,
+            actions=actions,
+            starts=starts,
+            observation_layout=observation_layout,
+            action_layout=u.action_layout(),
+            control_hz=1.0 / u.control_period_s,
+            pressures=pressures,
+        )
+        return recorded, base, residual_info
+    finally:
+        env.close()
+
+
+def _normalization(vn: Any, observation_layout: list[dict]) -> dict[str, Any] | None:
+    """The VecNormalize statistics the file holds: each robot component's mean and variance written
+    into its ``observation_layout`` record, and the formula's constants (None: no normalization)."""
+    if vn is None or not vn.norm_obs:
+        return None
+    mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
+    for rec, m, v in zip(observation_layout, mean, var):  # zip stops at the robot's components
+        rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
+    return {
+        "epsilon": float(vn.epsilon),
+        "clip_obs": float(vn.clip_obs),
+        "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64",
+    }
+
+
+def _policy_json(
+    fmt: str,
+    n_obs: int,
+    k: int,
+    observation_layout: list[dict],
+    stats: dict[str, Any] | None,
+    action_layout: list[dict],
+    control_hz: float,
+    r: Mapping[str, Any],
+    controller: Any,
+    residual_info: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """``policy.json`` but its check, versions and time: the file's input (``n_obs`` components,
+    without the ``k`` privileged ones) and output, the observation and action layouts, and the run."""
+    name = EXPORT_FORMATS[fmt]
+    return {
+        "format": fmt,
+        "file": name,
+        "input": {
+            "name": "observation",
+            "shape": ["batch", int(n_obs)],
+            "dtype": "float32",
+            "meaning": "the env's raw observation (normalization is inside the file)"
+            + (f", without the {k} privileged components the critic alone saw in training" if k else ""),
+        },
+        "output": {
+            "name": "action",
+            "shape": ["batch", 2],
+            "dtype": "float32",
+            "range": [-1.0, 1.0],
+            "meaning": "the action the robot applies"
+            + ("" if residual_info is None else ": the PD's plus scale × the network's residual (see residual)"),
+            "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)",
+        },
+        "deterministic_action": (
+            "Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
+            if r["config"].algo == "ppo"
+            else "tanh of the Gaussian mean (SB3 predict, deterministic=True)"
+        ),
+        **(residual_info or {"state": None, "residual": None}),
+        "observation": observation_layout,
+        "observation_from_sensors": (
+            "each component's from_sensors: the robot's channels, computation, frame "
+            "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
+            f"samples at {control_hz:g} Hz (incline_deg: the ramp's); a component with from_operator "
+            "instead is given by the operator"
+        ),
+        "observation_normalization": stats,
+        "action": action_layout,
+        "env_id": r["env_id"],
+        "shell_model": r["shell_model"],
+        "env_kwargs": r["env_kwargs"],
+        "control_frequency_hz": control_hz,
+        "algo": r["config"].algo,
+        "run": str(r["folder"].resolve()),
+        "model": "best/best_model.zip" if r["which"] == "best" else "model.zip",
+        "num_timesteps": int(controller.model.num_timesteps),
+    }
+
+
 def export(
     run: str,
     fmt: str = "onnx",
@@ -197,13 +324,11 @@ def export(
 ) -> dict[str, Path]:
     """Export ``run`` (a run folder, optionally ``@best``); returns ``{"policy": path, "layout": path}``.
     The options are loaded as :class:`~sphere_env.evaluation.command_options.ExportOptions` first."""
-    import gymnasium as gym
     import torch
 
     from sphere_env.controllers_torch import PD_STATE_RESET
     from sphere_env.evaluation.controller_specs import PolicyController, run_path
     from sphere_env.evaluation.enjoy import EnjoySpec
-    from sphere_env.models.shell import ShellCalibration
 
     opts = validate(
         ExportOptions, dict(run=run, format=fmt, out=out, tol=tol, env_id=env_id, allow_env_mismatch=allow_env_mismatch)
@@ -223,36 +348,12 @@ def export(
     residual = residual_kwargs(controller.env_wrapper, str(r["folder"]))
     check_supported(controller.model, cfg.algo)
     network = module = policy_module(controller.model, controller.vecnormalize, cfg.algo)
-    residual_info = None
-
-    env = gym.make(
-        r["env_id"], shell_model=r["shell_model"], friction_model=r["friction"], randomization="off", **r["env_kwargs"]
-    )
-    try:
-        u = env.unwrapped
-        lo, hi = ShellCalibration.load(r["env_kwargs"].get("calibration")).pressure_range_kpa
-        nominal = ShellCalibration.load(r["env_kwargs"].get("calibration")).nominal_pressure_kpa
-        if residual is not None:
-            from sphere_env.wrappers import ACTION_COMBINERS
-
-            controller.check_env(env)  # binds the run's PD to the env, as evaluation does
-            combiner = ACTION_COMBINERS[RESIDUAL_WRAPPER](env, **residual)  # the same builder
-            module = residual_module(network, combiner.base, combiner.scale)
-            residual_info = residual_layout(combiner.base, combiner.scale)
-        # full observations, as SB3 takes them; the controller's actions (a residual's: PD included)
-        obs, actions, starts = record_episodes(controller, env, (lo, nominal, hi))
-        observation_layout = u.observation_layout.describe()
-        for rec in observation_layout:  # how the robot computes it (sphere_env.tasks.sensors)
-            if rec["name"] in FROM_SENSORS:
-                rec["from_sensors"] = FROM_SENSORS[rec["name"]]
-            elif rec["name"] in FROM_OPERATOR:
-                rec["from_operator"] = FROM_OPERATOR[rec["name"]]
-        action_layout = u.action_layout()
-        control_hz = 1.0 / u.control_period_s
-    finally:
-        env.close()
+    rec, base, residual_info = _recorded(controller, r, residual)
+    if base is not None:
+        module = residual_module(network, *base)
+    obs, observation_layout = rec["obs"], rec["observation_layout"]
     # the reference: SB3's batched deterministic actions, or a residual's applied actions step by step
-    expected = sb3_actions(controller, obs) if residual is None else actions
+    expected = sb3_actions(controller, obs) if residual is None else rec["actions"]
     k = module.privileged_dims
     if k:  # the robot does not measure the privileged components: the file's input drops them
         obs = obs[:, :-k]
@@ -275,7 +376,7 @@ def export(
         if residual is None:
             got = run_exported(tmp, fmt, obs)
         else:  # one step at a time, the state carried through each episode and reset at its start
-            got = run_exported_episodes(tmp, fmt, obs, starts, PD_STATE_RESET)
+            got = run_exported_episodes(tmp, fmt, obs, rec["starts"], PD_STATE_RESET)
         diff = float(np.max(np.abs(got - expected)))
         if not diff <= tol:
             reference = "the SB3 policy's" if residual is None else "the evaluation's (PD + scale × residual)"
@@ -283,76 +384,36 @@ def export(
                 f"check: the exported policy's actions differ from {reference} by up to {diff:.3g} "
                 f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written"
             )
-        vn = controller.vecnormalize
-        stats = None
-        if vn is not None and vn.norm_obs:
-            mean, var = np.asarray(vn.obs_rms.mean, float), np.asarray(vn.obs_rms.var, float)
-            for rec, m, v in zip(observation_layout, mean, var):  # zip stops at the robot's components
-                rec["normalization_mean"], rec["normalization_var"] = float(m), float(v)
-            stats = {
-                "epsilon": float(vn.epsilon),
-                "clip_obs": float(vn.clip_obs),
-                "formula": "clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs), in float64",
-            }
-        layout = {
-            "format": fmt,
-            "file": name,
-            "input": {
-                "name": "observation",
-                "shape": ["batch", int(obs.shape[1])],
-                "dtype": "float32",
-                "meaning": "the env's raw observation (normalization is inside the file)"
-                + (f", without the {k} privileged components the critic alone saw in training" if k else ""),
-            },
-            "output": {
-                "name": "action",
-                "shape": ["batch", 2],
-                "dtype": "float32",
-                "range": [-1.0, 1.0],
-                "meaning": "the action the robot applies"
-                + ("" if residual is None else ": the PD's plus scale × the network's residual (see residual)"),
-                "non_finite_observation": "a row with a NaN or infinite component gives [0, 0] (zero torque)",
-            },
-            "deterministic_action": (
-                "Gaussian mean clipped to [-1, 1] (SB3 predict, deterministic=True)"
-                if cfg.algo == "ppo"
-                else "tanh of the Gaussian mean (SB3 predict, deterministic=True)"
+        stats = _normalization(controller.vecnormalize, observation_layout)
+        check = {
+            "observations": len(obs),
+            "pressures_kpa": list(rec["pressures"]),
+            "reference": (
+                "model.predict(vecnormalize.normalize_obs(obs), deterministic=True), batched"
+                if residual is None
+                else "PolicyController's actions (the evaluation's PD + scale × residual) along its own "
+                "episodes, one per pressure; the file run one step at a time, its state reset at each "
+                "episode's start and carried through it"
             ),
-            **(residual_info or {"state": None, "residual": None}),
-            "observation": observation_layout,
-            "observation_from_sensors": (
-                "each component's from_sensors: the robot's channels, computation, frame "
-                "and unit; sphere_env.tasks.sensors.SensorObserver runs it on sensor "
-                f"samples at {control_hz:g} Hz (incline_deg: the ramp's); a component with from_operator "
-                "instead is given by the operator"
-            ),
-            "observation_normalization": stats,
-            "action": action_layout,
-            "env_id": r["env_id"],
-            "shell_model": r["shell_model"],
-            "env_kwargs": r["env_kwargs"],
-            "control_frequency_hz": control_hz,
-            "algo": cfg.algo,
-            "run": str(r["folder"].resolve()),
-            "model": "best/best_model.zip" if r["which"] == "best" else "model.zip",
-            "num_timesteps": int(controller.model.num_timesteps),
-            "check": {
-                "observations": len(obs),
-                "pressures_kpa": [lo, nominal, hi],
-                "reference": (
-                    "model.predict(vecnormalize.normalize_obs(obs), deterministic=True), batched"
-                    if residual is None
-                    else "PolicyController's actions (the evaluation's PD + scale × residual) along its own "
-                    "episodes, one per pressure; the file run one step at a time, its state reset at each "
-                    "episode's start and carried through it"
-                ),
-                "max_abs_action_diff": diff,
-                "tol": tol,
-                "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
-            },
-            "versions": _versions(fmt),
-            "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+            "max_abs_action_diff": diff,
+            "tol": tol,
+            "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
         }
+        layout = _policy_json(
+            fmt,
+            obs.shape[1],
+            k,
+            observation_layout,
+            stats,
+            rec["action_layout"],
+            rec["control_hz"],
+            r,
+            controller,
+            residual_info,
+        )
+        layout["check"] = check
+        layout["versions"] = _versions(fmt)
+        layout["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
         tmp_json.write_text(json.dumps(layout, indent=2, ensure_ascii=False, default=str) + "\n")
     policy_path, layout_path = out / name, out / "policy.json"
     return {"policy": policy_path, "layout": layout_path, "max_abs_action_diff": diff}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import time
 from pathlib import Path
 
 
@@ -30,6 +31,15 @@ def alive(pid: int) -> bool:
     except OSError:
         return False
     return state != "Z"
+
+
+def survivors(pids: set[int], timeout_s: float = 30.0) -> list[int]:
+    """The processes of ``pids`` still running once all ended or ``timeout_s`` passed (a process
+    ends a moment after its parent saw it stop: polled, not slept for)."""
+    deadline = time.monotonic() + timeout_s
+    while (running := [p for p in pids if alive(p)]) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return running
 
 
 def session(sid: int) -> dict[int, int]:

@@ -93,42 +93,7 @@ def train_session(
         tb = cfg.tensorboard_log or str(run_dir / "tb")
         callbacks = build_callbacks(cfg, run_dir, eval_env)
         own = training_state.stateful(callbacks.callbacks)
-        if resume:
-            model = load_model(cls, ckpt[1], cfg.algo_kwargs(), env=venv, device=cfg.device, tensorboard_log=tb)
-            rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
-            if cfg.algo == "sac" and rb.exists():
-                load_replay_buffer(model, rb)
-            elif cfg.algo == "sac":
-                say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
-            _restore_random_state(model, run_dir, start_steps, own)
-        elif agent is not None:
-            # As rl-zoo3's -i: the saved network with the configuration's other hyperparameters
-            # (schedules, batch sizes, ...), and a fresh step count up to n_timesteps.
-            kwargs = {k: v for k, v in cfg.algo_kwargs().items() if k != "policy_kwargs"}
-            model = load_model(
-                cls,
-                agent,
-                cfg.algo_kwargs(),
-                env=venv,
-                device=cfg.device,
-                verbose=verbose,
-                tensorboard_log=tb,
-                **kwargs,
-            )
-            model.set_random_seed(cfg.seed)
-            rb = agent.parent / "replay_buffer.pkl"
-            if cfg.algo == "sac" and rb.exists():
-                load_replay_buffer(model, rb)
-        else:
-            model = cls(
-                cfg.policy,
-                venv,
-                seed=cfg.seed,
-                device=cfg.device,
-                verbose=verbose,
-                tensorboard_log=tb,
-                **cfg.algo_kwargs(),
-            )
+        model = _model(cfg, cls, venv, run_dir, ckpt, start_steps, agent, own, verbose, tb)
         t0 = time.perf_counter()
         try:
             with unchecked_distributions():
@@ -162,6 +127,48 @@ def train_session(
         )
     finally:
         venv.close()
+    return model
+
+
+def _model(cfg: TrainConfig, cls, venv, run_dir: Path, ckpt, start_steps: int, agent, own, verbose: int, tb: str):
+    """The model a session trains: resumed from the checkpoint ``ckpt`` (with its replay buffer and
+    random state, ``own``: the stateful callbacks), from the trained agent ``agent`` (``-i``), or new."""
+    if ckpt is not None:
+        model = load_model(cls, ckpt[1], cfg.algo_kwargs(), env=venv, device=cfg.device, tensorboard_log=tb)
+        rb = _ckpt_file(run_dir, "replay_buffer", start_steps)
+        if cfg.algo == "sac" and rb.exists():
+            load_replay_buffer(model, rb)
+        elif cfg.algo == "sac":
+            say(f"resume: {rb.name} is missing; SAC continues with an empty replay buffer")
+        _restore_random_state(model, run_dir, start_steps, own)
+    elif agent is not None:
+        # As rl-zoo3's -i: the saved network with the configuration's other hyperparameters
+        # (schedules, batch sizes, ...), and a fresh step count up to n_timesteps.
+        kwargs = {k: v for k, v in cfg.algo_kwargs().items() if k != "policy_kwargs"}
+        model = load_model(
+            cls,
+            agent,
+            cfg.algo_kwargs(),
+            env=venv,
+            device=cfg.device,
+            verbose=verbose,
+            tensorboard_log=tb,
+            **kwargs,
+        )
+        model.set_random_seed(cfg.seed)
+        rb = agent.parent / "replay_buffer.pkl"
+        if cfg.algo == "sac" and rb.exists():
+            load_replay_buffer(model, rb)
+    else:
+        model = cls(
+            cfg.policy,
+            venv,
+            seed=cfg.seed,
+            device=cfg.device,
+            verbose=verbose,
+            tensorboard_log=tb,
+            **cfg.algo_kwargs(),
+        )
     return model
 
 

@@ -34,7 +34,7 @@ from sphere_env.calibration.driven import DrivenTrace, Tracking, driven_replay, 
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import FitError, calibration_at, fixture_twin, jacobian_ci95, unidentified
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import Twin
+from sphere_env.physics import Twin
 
 #: Search range of each drive-direction parameter.
 DRIVE_BOUNDS = {

@@ -17,10 +17,11 @@ from __future__ import annotations
 import time
 from typing import Any, Callable, Mapping, Sequence
 
+from sphere_env.analysis.metrics import rmse
 from sphere_env.calibration.drive_fit import DriveTwin, diagnose, fit_drive
 from sphere_env.calibration.driven import driven_rmse
 from sphere_env.calibration.logs import RobotLog
-from sphere_env.calibration.simulate import rmse, simulate_log
+from sphere_env.calibration.simulate import simulate_log
 from sphere_env.models.shell import ShellCalibration
 
 #: The aims on the part not fitted, for the soft shells [rad/s].

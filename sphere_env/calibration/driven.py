@@ -29,7 +29,7 @@ from scipy.signal import savgol_filter
 from sphere_env.calibration.logs import LogError, RobotLog
 from sphere_env.calibration.simulate import initial_state_from_log
 from sphere_env.params import PARAMETERS
-from sphere_env.physics.twin import Twin
+from sphere_env.physics import Twin
 
 #: The log channels a driven window needs: the tracked angles and the compared responses.
 DRIVEN_CHANNELS = ("theta", "pendulum_pitch", "omega_d", "heading_rate", "phi")

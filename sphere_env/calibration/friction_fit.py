@@ -26,7 +26,7 @@ from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.simulate import SimTrace, simulate_log
 from sphere_env.files import write_text_atomic
 from sphere_env.models.friction import FRICTION_LAWS, FrictionModel
-from sphere_env.physics.twin import Twin, TwinConfig
+from sphere_env.physics import Twin, TwinConfig
 from sphere_env.plotting import save_figure
 from sphere_env.schemas import Schema, allowed, validate
 

@@ -32,7 +32,7 @@ from sphere_env import safe_yaml
 from sphere_env.calibration.log_csv import load_log
 from sphere_env.calibration.logs import TIME_UNITS, ColumnMapping, LogError, RobotLog, check_motion
 from sphere_env.models.calibration_schema import PLAUSIBLE_PRESSURE_KPA
-from sphere_env.physics.twin import FIXTURES
+from sphere_env.physics.config import FIXTURES
 from sphere_env.schemas import Schema, allowed, ordered_pair, validate
 
 _P_LO, _P_HI = PLAUSIBLE_PRESSURE_KPA

@@ -35,7 +35,7 @@ CASES = (
 def decay_case(job: Mapping[str, Any]) -> dict[str, Any]:
     """One locked-steer hydroelastic free decay. ``job`` keys: calibration (path or None),
     pressure_kpa, modulus_scale, dissipation_scale, phi0_rad, duration_s, time_step_s, case."""
-    from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+    from sphere_env.physics import InitialState, Twin, TwinConfig
 
     step = job.get("time_step_s", TwinConfig.model_fields["time_step_s"].default)
     base = ShellCalibration.load(job.get("calibration")).for_time_step(step)  # k_d of that step, if refitted
@@ -175,7 +175,7 @@ def match_dissipation(
     """
     from scipy.optimize import brentq
 
-    from sphere_env.physics.twin import TwinConfig
+    from sphere_env.physics import TwinConfig
 
     step = float(TwinConfig.model_fields["time_step_s"].default if time_step_s is None else time_step_s)
     base = ShellCalibration.load(calibration).for_time_step(step)  # decay_case scales this step's k_d

@@ -39,6 +39,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy.optimize import brentq, least_squares
 
+from sphere_env.analysis.metrics import rmse
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_params import (
     BOUNDS,
@@ -49,12 +50,12 @@ from sphere_env.calibration.shell_params import (
     omega_n_floor,
     start_value,
 )
-from sphere_env.calibration.simulate import rmse, simulate_log
+from sphere_env.calibration.simulate import simulate_log
 from sphere_env.models.calibration_schema import STEER_LAW_FORMS
 from sphere_env.models.friction import FrictionModel
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration, membrane_contact_volume_m3
-from sphere_env.physics.twin import Twin, TwinConfig
+from sphere_env.physics import Twin, TwinConfig
 from sphere_env.schemas import validate
 
 

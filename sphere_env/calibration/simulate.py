@@ -7,10 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sphere_env.analysis.metrics import pme_percent, rmse  # noqa: F401  (re-exported for callers)
 from sphere_env.calibration.channels import STATE_CHANNELS
 from sphere_env.calibration.logs import RobotLog
-from sphere_env.physics.twin import InitialState, Twin
+from sphere_env.physics import InitialState, Twin
 
 #: The log channels a replay produces: every state channel but the heading, which the replay does not track.
 SIM_CHANNELS = tuple(c for c in STATE_CHANNELS if not c.startswith("heading"))

@@ -12,6 +12,7 @@ holds are chosen between by held-out error the same way as forms (:func:`choose_
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -192,78 +193,39 @@ def steer_fit(
     """
     say = log_to or (lambda *_: None)
     record: dict[str, Any] = {"fit_on": [log.name for log in logs], "pressure_kpa": pressure_kpa, "models": {}}
+    # the cross-validation of every fold, with the fit's own settings
+    cv = partial(
+        cross_validate,
+        logs,
+        pressure_kpa=pressure_kpa,
+        base=base,
+        steer_friction=steer_friction,
+        max_nfev=max_nfev,
+        drive_friction=drive_friction,
+        workers=workers,
+    )
     form, hold = forms[0], dict(holds[0])
     form_rows: list[dict[str, Any]] = []
     if "injected" in models and len(forms) * len(holds) > 1:
-        form_rows = cross_validate(
-            logs,
-            forms,
-            pressure_kpa,
-            base=base,
-            steer_friction=steer_friction,
-            max_nfev=max_nfev,
-            drive_friction=drive_friction,
-            workers=workers,
-            holds=holds,
-        )
-        form, hold, mean = choose_variant(form_rows)
-        say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
-        for r in form_rows:
-            say(
-                f"  {variant_label(r['form'], r.get('held')):10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
-                f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}"
-            )
-        say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> {variant_label(form, hold)!r}")
+        form_rows = cv(forms, holds=holds)
+        form, hold = _chosen_variant(form_rows, say)
         record["form_cross_validation"] = [_cv_row(r) for r in form_rows]
     if hold:
         record["held"] = dict(hold)
     raw = dict(base.raw)
     for model in models:
-        cur = ShellCalibration.from_dict(raw, source=base.source)
-        pool = TwinPool(model, steer_friction, drive_friction=drive_friction)
-        fit = fit_shell(
-            logs,
-            model,
-            pressure_kpa,
-            steer_friction=steer_friction,
-            base=cur,
-            pool=pool,
-            form=form if model == "injected" else None,
-            max_nfev=max_nfev,
-            drive_friction=drive_friction,
-            hold=hold,
+        fit, pool = _fit_model(
+            logs, model, pressure_kpa, raw, base, form, hold, steer_friction, drive_friction, max_nfev
         )
         raw = fit.calibration
-        say(
-            f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {record['fit_on']} in {fit.nfev} evaluations:"
-        )
-        for k, v in fit.params.items():
-            ci = fit.ci95.get(k)
-            say(
-                f"  {k} = {v:.5g}"
-                + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
-                + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else "")
-            )
-        for k, v in fit.held.items():
-            say(f"  {k} = {v:.5g}  held (not fitted)")
+        _say_fit(say, fit, model, pressure_kpa, record["fit_on"])
         record["models"][model] = dict(fit.as_dict(), pool=pool)
     if hold_out_windows and len(logs) >= 2:
         chosen = variant_label(form, hold)
         if tuple(models) == ("injected",) and form_rows:
             rows = [r for r in form_rows if variant_label(r["form"], r.get("held")) == chosen]
         else:
-            rows = cross_validate(
-                logs,
-                [form],
-                pressure_kpa,
-                base=base,
-                steer_friction=steer_friction,
-                max_nfev=max_nfev,
-                models=models,
-                drive_friction=drive_friction,
-                workers=workers,
-                holds=(hold,),
-            )
+            rows = cv([form], models=models, holds=(hold,))
         say(f"leave-one-window-out ({chosen!r}; fit on the others -> held-out window: RMSE phi / theta rad):")
         for r in rows:
             say(
@@ -272,26 +234,88 @@ def steer_fit(
             )
         record["leave_one_window_out"] = [_cv_row(r) for r in rows]
         for model in models:
-            rec = record["models"][model]
-            mine = [r for r in rows if r["model"] == model]
-            rec["held_out_rmse_rad"] = {
-                r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in mine
-            }
-            folds = [r["params"] for r in mine if "params" in r]
-            if len(folds) == len(mine) >= 2:
-                fitted = {k: v for k, v in rec["params"].items() if k in rec["ci95"]}
-                ci = jackknife_ci95(fitted, folds)
-                rec["ci95_over_windows"] = {k: list(v) for k, v in ci.items()}
-                for k, (lo, hi) in ci.items():
-                    if k not in rec["unidentified"] and hi - lo > abs(fitted[k]):
-                        rec["unidentified"][k] = (
-                            f"95 % interval over windows [{lo:.4g}, {hi:.4g}] wider than |value| {abs(fitted[k]):.4g}"
-                        )
-                say(
-                    f"{model}: 95 % intervals over windows (jackknife over the {len(folds)} leave-one-window-out fits): "
-                    + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in ci.items())
-                )
+            _windows_out(record["models"][model], [r for r in rows if r["model"] == model], model, say)
     return raw, record
+
+
+def _chosen_variant(form_rows: Sequence[Mapping[str, Any]], say) -> tuple[str, dict[str, float]]:
+    """The (form, hold) of least held-out φ RMSE among ``form_rows`` (:func:`choose_variant`), each
+    row's errors and the means told to ``say``."""
+    form, hold, mean = choose_variant(form_rows)
+    say("steer-law form by held-out error (fit on -> test: RMSE phi / theta rad):")
+    for r in form_rows:
+        say(
+            f"  {variant_label(r['form'], r.get('held')):10s} {'+'.join(r['fit_on'])} -> {r['test']}: "
+            f"{r['rmse_phi_rad']:.4f} / {r['rmse_theta_rad']:.4f}"
+        )
+    say(f"  mean held-out phi: { {k: round(v, 4) for k, v in mean.items()} } -> {variant_label(form, hold)!r}")
+    return form, hold
+
+
+def _fit_model(
+    logs: Sequence[RobotLog],
+    model: str,
+    pressure_kpa: float,
+    raw: Mapping[str, Any],
+    base: ShellCalibration,
+    form: str,
+    hold: Mapping[str, float],
+    steer_friction: FrictionModel | str,
+    drive_friction: FrictionModel | str,
+    max_nfev: int,
+) -> tuple[Any, TwinPool]:
+    """``model`` fitted on ``logs`` on top of the calibration mapping ``raw`` (the steer-law ``form``
+    for the injected shell); (the fit, the pool of twins it ran on)."""
+    pool = TwinPool(model, steer_friction, drive_friction=drive_friction)
+    fit = fit_shell(
+        logs,
+        model,
+        pressure_kpa,
+        steer_friction=steer_friction,
+        base=ShellCalibration.from_dict(raw, source=base.source),
+        pool=pool,
+        form=form if model == "injected" else None,
+        max_nfev=max_nfev,
+        drive_friction=drive_friction,
+        hold=hold,
+    )
+    return fit, pool
+
+
+def _say_fit(say, fit: Any, model: str, pressure_kpa: float, fit_on: Sequence[str]) -> None:
+    """A fit's parameters told to ``say``: value, 95 % interval, unidentified or held."""
+    say(f"{model} (form {fit.form!r}) at {pressure_kpa} kPa fitted on {list(fit_on)} in {fit.nfev} evaluations:")
+    for k, v in fit.params.items():
+        ci = fit.ci95.get(k)
+        say(
+            f"  {k} = {v:.5g}"
+            + (f"  95% CI [{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "")
+            + (f"  UNIDENTIFIED: {fit.unidentified[k]}" if k in fit.unidentified else "")
+        )
+    for k, v in fit.held.items():
+        say(f"  {k} = {v:.5g}  held (not fitted)")
+
+
+def _windows_out(rec: dict[str, Any], mine: Sequence[Mapping[str, Any]], model: str, say) -> None:
+    """Into ``model``'s fit record ``rec``: its held-out RMSE per window (``mine``: its
+    leave-one-window-out rows) and, when every fold refitted, the 95 % intervals over windows
+    (:func:`jackknife_ci95`), a parameter whose interval is wider than its value marked unidentified."""
+    rec["held_out_rmse_rad"] = {r["test"]: {"phi": r["rmse_phi_rad"], "theta": r["rmse_theta_rad"]} for r in mine}
+    folds = [r["params"] for r in mine if "params" in r]
+    if not len(folds) == len(mine) >= 2:
+        return
+    fitted = {k: v for k, v in rec["params"].items() if k in rec["ci95"]}
+    ci = jackknife_ci95(fitted, folds)
+    rec["ci95_over_windows"] = {k: list(v) for k, v in ci.items()}
+    for k, (lo, hi) in ci.items():
+        if k not in rec["unidentified"] and hi - lo > abs(fitted[k]):
+            rec["unidentified"][k] = (
+                f"95 % interval over windows [{lo:.4g}, {hi:.4g}] wider than |value| {abs(fitted[k]):.4g}"
+            )
+    say(
+        f"{model}: 95 % intervals over windows (jackknife over the {len(folds)} leave-one-window-out fits): "
+        + ", ".join(f"{k} [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in ci.items())
+    )
 
 
 def jackknife_ci95(full: Mapping[str, float], folds: Sequence[Mapping[str, float]]) -> dict[str, tuple[float, float]]:

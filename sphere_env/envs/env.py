@@ -25,12 +25,11 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 
 from sphere_env.envs.interface import action_layout, failed_info, read_action, step_info
-from sphere_env.envs.kwargs import RENDER_MODES, EnvKwargs
+from sphere_env.envs.kwargs import RENDER_MODES, EnvKwargs, check_ground
 from sphere_env.envs.observer import EnvObserver
 from sphere_env.envs.parameters import EnvParameters
 from sphere_env.envs.stages import ActionPipeline, SensorPipeline, StageContext
 from sphere_env.envs.twins import TwinCache, check_above_ground, shared_inclines, twin_config
-from sphere_env.params import TWIN_PARAMETERS
 from sphere_env.physics import InitialState
 from sphere_env.schemas import checker, count, validate
 from sphere_env.tasks.events import EventManager
@@ -41,6 +40,18 @@ from sphere_env.tasks.termination import physics_failure
 __all__ = ["SphereEnv"]
 #: ``reset(seed=...)``: a non-negative integer or None.
 _SEED = checker(count(0) | None)
+
+
+def _meshcat(meshcat: Any, render_mode: str | None, record_replay: bool) -> Any:
+    """The env's Meshcat, only when asked: the instance given, else a new one for ``meshcat=True``,
+    ``render_mode="human"`` or ``record_replay``; None otherwise."""
+    if meshcat is not False and meshcat is not None and not isinstance(meshcat, bool):
+        return meshcat
+    if meshcat is True or render_mode == "human" or record_replay:
+        from sphere_env.physics import start_meshcat
+
+        return start_meshcat()
+    return None
 
 
 class SphereEnv(gym.Env, EzPickle):
@@ -81,6 +92,7 @@ class SphereEnv(gym.Env, EzPickle):
         if not isinstance(task, Task):
             raise ValueError(f"task: value {task!r} must be a sphere_env.tasks.Task")
         kw = validate(EnvKwargs, kwargs, f"{task.name} kwargs")
+        check_ground(task, kw.ramp_length_m)
         self.task = task
         self.shell_model = shell_model = kw.shell_model
         self.pressure_extrapolation_kpa = kw.pressure_extrapolation_kpa
@@ -104,14 +116,7 @@ class SphereEnv(gym.Env, EzPickle):
         self.render_size = kw.render_size
         self.metadata = {**self.metadata, "render_fps": kw.control_frequency_hz}
 
-        # Meshcat only when asked (render_mode="human", meshcat=True/instance, or record_replay).
-        self.meshcat = None
-        if meshcat is not False and meshcat is not None and not isinstance(meshcat, bool):
-            self.meshcat = meshcat
-        elif meshcat is True or render_mode == "human" or record_replay:
-            from sphere_env.physics import start_meshcat
-
-            self.meshcat = start_meshcat()
+        self.meshcat = _meshcat(meshcat, render_mode, record_replay)
 
         # ---- spaces ----
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
@@ -337,11 +342,11 @@ class SphereEnv(gym.Env, EzPickle):
     # ---- pieces ----------------------------------------------------------------------------------
     def _apply_events(self, t: float) -> None:
         """Push the parameters the event manager changed at sim time ``t`` into the twin (the
-        stages read the sensing and actuation ones from ``self._params`` when they act)."""
+        stages read the sensing and actuation ones from ``self._params`` when they act); the
+        manager's values are clipped to the parameter space, so the twin takes them unchecked."""
         changed, self._fired = self._events.step(t, self.np_random)
-        twin_changes = {k: v for k, v in changed.items() if k in TWIN_PARAMETERS}
-        if twin_changes:
-            self.twin.apply(twin_changes)
+        if changed:
+            self.twin.apply_unchecked(changed)
 
     def action_layout(self) -> list[dict[str, Any]]:
         """The action components as :meth:`step` applies them: ``index``, ``name``, the normalized

@@ -1,11 +1,11 @@
 """Factories of the registered environments: each joins a task with the generic :class:`SphereEnv`.
 
-Gymnasium calls these with the kwargs of ``gym.make(id, **kwargs)``. They are loaded through the
-id's schema (:class:`~sphere_env.envs.kwargs.RampDescentEnvKwargs`,
-:class:`~sphere_env.envs.kwargs.RollEnvKwargs`: the environment's and the task's kwargs together),
-so an unknown name, a wrong type or value is refused before anything is built; then the task's own
-keyword arguments (documented with the spaces, rewards and episode end on the task class) go to the
-task, every other one to :class:`SphereEnv`.
+Gymnasium calls these with the kwargs of ``gym.make(id, **kwargs)``. Each kwarg goes by its name
+to the task (the fields of its schema, documented with the spaces, rewards and episode end on the
+task class) or to :class:`SphereEnv`, and each value is checked once, by the schema of the
+constructor it goes to. A name neither takes is refused first, naming every kwarg of the id (the
+fields of :class:`~sphere_env.envs.kwargs.RampDescentEnvKwargs`,
+:class:`~sphere_env.envs.kwargs.RollEnvKwargs`), before anything is built.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 
 from sphere_env.envs.env import SphereEnv
 from sphere_env.envs.kwargs import RampDescentEnvKwargs, RollEnvKwargs
-from sphere_env.schemas import Schema, validate
+from sphere_env.schemas import Schema, keys
 from sphere_env.tasks.ramp_descent import RampDescentKwargs, RampDescentTask
 from sphere_env.tasks.roll import RollKwargs, RollTask
 
@@ -22,10 +22,14 @@ from sphere_env.tasks.roll import RollKwargs, RollTask
 def _split(
     schema: type[Schema], task_schema: type[Schema], name: str, kwargs: dict[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(task kwargs, env kwargs) of ``kwargs``, once they loaded through ``schema`` (the task's
-    kwargs are the fields of ``task_schema``). The values pass on as given: each constructor loads
-    its own, and a copy of the env (pickle) is rebuilt from them."""
-    validate(schema, kwargs, f"{name} kwargs")
+    """(task kwargs, env kwargs) of ``kwargs`` by name (the task's are the fields of
+    ``task_schema``); a name that is no field of ``schema`` (the id's) is a ``ValueError`` naming
+    it and every allowed one. The values pass on as given: each constructor checks its own, and a
+    copy of the env (pickle) is rebuilt from them."""
+    allowed = keys(schema)
+    unknown = next((k for k in kwargs if k not in allowed), None)
+    if unknown is not None:
+        raise ValueError(f"{name} kwargs: unknown field {unknown!r}; allowed: {sorted(allowed)}")
     names = task_schema.model_fields
     return {k: v for k, v in kwargs.items() if k in names}, {k: v for k, v in kwargs.items() if k not in names}
 

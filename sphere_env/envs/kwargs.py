@@ -24,6 +24,7 @@ from typing import Annotated, Any, Literal, Mapping
 from pydantic import AfterValidator, BeforeValidator, Field, create_model, field_validator, model_validator
 
 from sphere_env.models.friction import DEFAULT_FRICTION
+from sphere_env.parameter import Parameter
 from sphere_env.params import (
     DEFAULT_TIME_STEP_S,
     MAX_EPISODE_S,
@@ -31,6 +32,7 @@ from sphere_env.params import (
     PARAMETERS,
     RANDOMIZABLE,
     SHELL_MODELS,
+    ParameterSpace,
 )
 from sphere_env.physics.config import CONTACT_APPROXIMATIONS, DEFAULT_SHELL_MODEL, InitialState, joint_friction
 from sphere_env.schemas import Finite, Schema, allowed, count, fixed_tuple, number, shown
@@ -201,6 +203,21 @@ class RollEnvKwargs(EnvKwargs, RollKwargs):
     ramp_length_m: None = Field(None, json_schema_extra=allowed("None (Roll runs on flat ground)"))
 
 
+def check_ground(task: Task, ramp_length_m: float | None) -> None:
+    """Refuse a ground the task does not run on: a ramp task (``task.ramp``) needs a finite ramp,
+    any other runs on flat ground (``ramp_length_m`` None); a ``ValueError`` naming the kwarg."""
+    if task.ramp and ramp_length_m is None:
+        raise ValueError(
+            f"{task.name} kwargs: field 'ramp_length_m' = None: the task runs on a finite ramp; "
+            f"allowed: {PARAMETERS['ramp_length_m'].allowed}"
+        )
+    if not task.ramp and ramp_length_m is not None:
+        raise ValueError(
+            f"{task.name} kwargs: field 'ramp_length_m' = {ramp_length_m!r}: the task has no ramp; "
+            f"allowed: None ({task.name} runs on flat ground)"
+        )
+
+
 # ---- reset options ------------------------------------------------------------------------------
 RATE_WORDS = f"[-{MAX_RATE_RAD_S:g}, {MAX_RATE_RAD_S:g}] rad/s (beyond, the state counts as a physics failure)"
 SPEED_WORDS = f"[-{MAX_SPEED_M_S:g}, {MAX_SPEED_M_S:g}] m/s (beyond, the state counts as a physics failure)"
@@ -230,15 +247,21 @@ class ResetOptions(Schema):
     pressure_rate_kpa_per_s: Finite = Field(0.0, json_schema_extra=allowed("a finite number [kPa/s]"))
 
 
-def reset_options(task: Task) -> type[ResetOptions]:
+def reset_options(task: Task, space: ParameterSpace | None = None) -> type[ResetOptions]:
     """The schema of ``task``'s reset options: :class:`ResetOptions`, the randomization parameters
-    and the task's ``command_options`` within its ``command_option_bounds``."""
-    return _reset_options(tuple((k, *task.command_option_bounds[k]) for k in task.command_options))
+    within their bounds in ``space`` (the pressure: the calibration's range; without a space, the
+    registry's records, the pressure a finite number) and the task's ``command_options`` within
+    its ``command_option_bounds``."""
+    records = PARAMETERS if space is None else space
+    resolved = tuple(records[name] for name in RANDOMIZABLE)
+    return _reset_options(tuple((k, *task.command_option_bounds[k]) for k in task.command_options), resolved)
 
 
 @lru_cache(maxsize=None)
-def _reset_options(commands: tuple[tuple[str, float, float], ...]) -> type[ResetOptions]:
-    fields: dict[str, Any] = {name: (fixed_value(PARAMETERS[name]), None) for name in RANDOMIZABLE}
+def _reset_options(
+    commands: tuple[tuple[str, float, float], ...], resolved: tuple[Parameter, ...]
+) -> type[ResetOptions]:
+    fields: dict[str, Any] = {rec.name: (fixed_value(rec), None) for rec in resolved}
     for name, lo, hi in commands:
         fields[name] = (number(ge=lo, le=hi, words=f"[{lo:g}, {hi:g}]"), None)
     return create_model("ResetOptions", __base__=ResetOptions, **fields)

@@ -33,7 +33,7 @@ class EnvParameters:
         self.calibrations = EpisodeCalibrations(kw.calibration, kw.pressure_extrapolation_kpa, f"{task.name} kwargs")
         #: the parameter registry resolved against the calibration (the pressure's nominal and bounds)
         self.space = self.calibrations.own.parameter_space()
-        self.options_schema = reset_options(task)
+        self.options_schema = reset_options(task, self.space)
         self.shell_model = kw.shell_model
         self.incline_deg = kw.incline_deg
         self.observation_noise_scale = kw.observation_noise_scale
@@ -61,10 +61,11 @@ class EnvParameters:
     def apply(self, twin: Twin, params: Mapping[str, Any]) -> None:
         """Give an episode's twin the parameter set drawn at reset: its incline (the ground moves,
         no rebuild), its shell calibration and every parameter its context takes
-        (:meth:`~sphere_env.physics.Twin.apply`)."""
+        (:meth:`~sphere_env.physics.Twin.apply_unchecked`: the values were drawn within the
+        parameter space or checked as ``reset`` options, :meth:`check_options`)."""
         twin.set_incline(params["incline_deg"])
         self.calibrations.use(twin, params)
-        twin.apply(params)
+        twin.apply_unchecked(params)
 
     def snap_incline(self, incline_deg: float) -> float:
         """A drawn incline on the 1° terrain grid (the env's own incline is kept as given)."""
@@ -93,10 +94,7 @@ class EnvParameters:
         given = loaded.model_dump(exclude_unset=True)
         fixed: dict[str, Any] = {}
         for name, val in given.items():
-            if name in RANDOMIZED:
-                # a fixed value (the options schema types it so); a pressure also within the calibration's range
-                if self.space[name].bounds_from is not None:
-                    self.space.check(name, val, f"options: field {name!r}")
+            if name in RANDOMIZED:  # a fixed value within the space's bounds (the options schema's check)
                 fixed[name] = tuple(val) if isinstance(val, list) else val
             elif name == "pressure_rate_kpa_per_s":
                 fixed[name] = val

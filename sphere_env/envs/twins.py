@@ -12,13 +12,13 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from sphere_env.envs.kwargs import EnvKwargs
 from sphere_env.params import PARAMETERS
 from sphere_env.physics import InitialState, Twin, TwinConfig
+from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M, ground_clearance_m
 from sphere_env.physics.terrain import Terrain
-from sphere_env.physics.twin import MAX_INITIAL_PENETRATION_M, ground_clearance_m
 from sphere_env.tasks.randomization import RandomizationSpec
 
 #: Sampled inclines are rounded to this (terrain is geometry and shell kinematics, built per incline).
@@ -105,12 +105,16 @@ def stability_problem(spec: RandomizationSpec, twins: list[Twin]) -> str | None:
     return None
 
 
-def twin_config(kw: EnvKwargs, calibration: str | Path | None) -> dict[str, Any]:
-    """The :class:`~sphere_env.physics.TwinConfig` fields every twin of an environment shares: its
+def twin_config(kw: EnvKwargs, calibration: str | Path | None) -> TwinConfig:
+    """The :class:`~sphere_env.physics.TwinConfig` every twin of an environment starts from: its
     kwargs ``kw`` (the env's own shell model and incline) on free ground, with the shell
-    ``calibration`` (a path or a shipped name); ground friction is a parameter (nominal 1)."""
+    ``calibration`` (a path or a shipped name); ground friction is a parameter (nominal 1).
+
+    Built without a second check: :class:`~sphere_env.envs.kwargs.EnvKwargs` types every field
+    it gives as :class:`~sphere_env.physics.TwinConfig` does (its friction models already
+    resolved), and refused a bad value naming the kwarg."""
     steer_friction, drive_friction = kw.friction_model
-    return dict(
+    return TwinConfig.model_construct(
         fixture="free",
         shell_model=kw.shell_model,
         steer_friction=steer_friction,
@@ -146,22 +150,26 @@ def check_above_ground(twin: Twin, init: InitialState, incline_deg: float, ramp_
 class TwinCache:
     """The twins of one environment.
 
-    :param config: the :class:`~sphere_env.physics.TwinConfig` fields every twin of the env shares;
-        its ``shell_model`` is the env's own (the only one the shared twin serves), its
-        ``incline_deg`` the env's own (where the shared twin starts).
+    :param config: the :class:`~sphere_env.physics.TwinConfig` every twin of the env starts from
+        (:func:`twin_config`); its ``shell_model`` is the env's own (the only one the shared twin
+        serves), its ``incline_deg`` the env's own (where the shared twin starts). Each twin's
+        incline and shell model replace those without a second check: the env drew them within
+        their bounds (a 1° grid incline, a shell model of the spec's choices).
     :param meshcat: the env's Meshcat, or None.
     :param shared: the inclines the shared hydroelastic twin serves (:func:`shared_inclines`).
     """
 
-    def __init__(self, config: Mapping[str, Any], meshcat: Any = None, shared: tuple[float, ...] = ()):
-        self._config, self._meshcat = dict(config), meshcat
-        self.shell_model = shell = config["shell_model"]
+    def __init__(self, config: TwinConfig, meshcat: Any = None, shared: tuple[float, ...] = ()):
+        self._config, self._meshcat = config, meshcat
+        self.shell_model = shell = config.shell_model
         self._twins: OrderedDict[tuple[str, float], Twin] = OrderedDict()
-        self._shared = self._build(float(config["incline_deg"]), shared, shell) if len(shared) > 1 else None
+        self._shared = self._build(float(config.incline_deg), shared, shell) if len(shared) > 1 else None
 
     def _build(self, incline_deg: float, inclines_deg: tuple[float, ...], shell_model: str) -> Twin:
-        config = {**self._config, "incline_deg": incline_deg, "inclines_deg": inclines_deg, "shell_model": shell_model}
-        return Twin(TwinConfig(**config), meshcat=self._meshcat)
+        """A twin of ``shell_model`` at ``incline_deg``; ``inclines_deg`` sorted, distinct and holding
+        ``incline_deg`` (:func:`shared_inclines`), or empty."""
+        update = {"incline_deg": incline_deg, "inclines_deg": inclines_deg, "shell_model": shell_model}
+        return Twin(self._config.model_copy(update=update), meshcat=self._meshcat)
 
     def get(self, incline_deg: float, shell_model: str | None = None) -> Twin:
         """The twin for a shell model (default: the env's) and an incline: the shared twin if it has

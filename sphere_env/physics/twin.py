@@ -25,8 +25,8 @@ from sphere_env.files import write_text_atomic
 from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration
 from sphere_env.params import TWIN_PARAMETERS
-from sphere_env.physics.admissibility import MAX_INITIAL_PENETRATION_M, ExplicitStability, ground_clearance_m
-from sphere_env.physics.config import FIXTURES, InitialState, TwinConfig, TwinState
+from sphere_env.physics.admissibility import ExplicitStability
+from sphere_env.physics.config import InitialState, TwinConfig, TwinState
 from sphere_env.physics.diagram import (
     build_diagram,
     ground_coefficient,
@@ -37,17 +37,6 @@ from sphere_env.physics.render import RgbCamera
 from sphere_env.physics.shell_cache import ShellCache
 from sphere_env.physics.state import read_state
 from sphere_env.physics.terrain import Terrain
-
-# MAX_INITIAL_PENETRATION_M and ground_clearance_m stay importable from here (the env imports them).
-__all__ = [
-    "FIXTURES",
-    "MAX_INITIAL_PENETRATION_M",
-    "InitialState",
-    "Twin",
-    "TwinConfig",
-    "TwinState",
-    "ground_clearance_m",
-]
 
 _log = logging.getLogger("sphere_env")
 
@@ -160,7 +149,7 @@ class Twin:
             )
         if inc == self.incline_deg:
             return
-        self.config = self.config.replace(incline_deg=inc)
+        self.config = self.config.model_copy(update={"incline_deg": inc})  # checked above: one of inclines_deg
         self.terrain = Terrain(inc, self.config.ramp_length_m)
         self._select_kinematics()
         self._ground_dirty = True  # the ground moves before the next reset, step or render
@@ -222,8 +211,16 @@ class Twin:
         effect on the next step.
         """
         space = self.calibration.parameter_space()
-        new = {k: space.check(k, params[k]) for k in TWIN_PARAMETERS if k in params}
-        self._push({k: v for k, v in new.items() if v != self._params[k]})
+        self.apply_unchecked({k: space.check(k, params[k]) for k in TWIN_PARAMETERS if k in params})
+
+    def apply_unchecked(self, params: Mapping[str, Any]) -> None:
+        """:meth:`apply` without the check: every value of a key of
+        :data:`~sphere_env.params.TWIN_PARAMETERS` must already be within this twin's parameter
+        space, in the form :meth:`~sphere_env.params.ParameterSpace.check` gives (a float, a tuple
+        for a vector). The environment's episode values are (drawn and clipped, or checked as
+        ``reset`` options); the values that changed are pushed."""
+        held = self._params
+        self._push({k: params[k] for k in TWIN_PARAMETERS if k in params and params[k] != held[k]})
 
     def _push(self, changed: Mapping[str, Any]) -> None:
         """Store checked values and bring the context to them. Pressure goes last: its push sets the
@@ -390,7 +387,7 @@ class Twin:
     def reset(self, initial: InitialState | None = None, pressure_kpa: float | None = None) -> TwinState:
         """Reset time and state (the diagram is reused). Pressure is kept unless given."""
         initial = initial if initial is not None else InitialState()
-        if pressure_kpa is not None:
+        if pressure_kpa is not None:  # checked before anything changes, pushed once the state is set
             pressure_kpa = self.calibration.parameter_space().check("pressure_kpa", pressure_kpa)
         self.context.SetTime(0.0)
         plant, pc = self.plant, self.plant_context
@@ -425,7 +422,7 @@ class Twin:
             self.planar.set_translational_velocity(pc, [initial.velocity_m_s[1], initial.velocity_m_s[2]])
             self.planar.set_angular_velocity(pc, initial.angular_velocity_rad_s[0])
         if pressure_kpa is not None:
-            self.apply({"pressure_kpa": pressure_kpa})
+            self.apply_unchecked({"pressure_kpa": pressure_kpa})
         self._sync_ground()
         self._set_motor_torque(np.zeros(2))
         self.simulator.Initialize()

@@ -6,7 +6,7 @@ import numpy as np
 import yaml
 
 from sphere_env.calibration.log_csv import write_log_csv
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 SYNTH_CAL = {
     "name": "synthetic",

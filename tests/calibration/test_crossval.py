@@ -6,7 +6,7 @@ import pytest
 
 from sphere_env.calibration.crossval import cross_validate, crossval_table, fit_calibration, held_out_summary
 from sphere_env.calibration.manifest import load_manifest
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 from .conftest import synth_log, write_manifest
 

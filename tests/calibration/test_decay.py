@@ -9,7 +9,7 @@ from sphere_env.analysis.decay import damped_sinusoid, fit_free_decay
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.decay import fit_pressure_curves
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 from .conftest import SYNTH_CAL, synth_log, write_calibration, write_manifest
 

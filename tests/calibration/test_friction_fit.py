@@ -7,7 +7,7 @@ from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.friction_fit import fit_friction, write_preset
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.models.friction import FrictionModel, load_friction_presets
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 from .conftest import synth_log, write_manifest
 

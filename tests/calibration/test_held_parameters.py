@@ -11,7 +11,7 @@ from sphere_env.calibration.shell_fit import fit_shell
 from sphere_env.calibration.shell_params import check_hold
 from sphere_env.calibration.steer_fit import choose_variant, steer_fit, variant_label
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState
+from sphere_env.physics import InitialState
 
 from .conftest import SYNTH_CAL, record, steer_twin, write_calibration
 

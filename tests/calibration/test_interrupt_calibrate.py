@@ -9,7 +9,7 @@ import subprocess
 import sys
 import time
 
-from tests.processes import alive, descendants
+from tests.processes import descendants, survivors
 
 CALIBRATE = [sys.executable, "-m", "sphere_env.calibration"]
 
@@ -32,8 +32,7 @@ def _terminate_when(proc: subprocess.Popen, ready, timeout_s: float = 180.0) -> 
 def _assert_interrupted(proc: subprocess.Popen, err: str, workers: set[int]) -> None:
     assert proc.returncode == 130, err[-2000:]
     assert "interrupted" in err and "Traceback" not in err, err[-2000:]
-    time.sleep(1.0)
-    assert not [p for p in workers if alive(p)], "worker processes outlived the command"
+    assert not survivors(workers), "worker processes outlived the command"
 
 
 def test_sigterm_on_the_sensitivity_sweep_stops_its_pool_and_writes_no_plot(tmp_path):

@@ -8,7 +8,7 @@ from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import calibration_at, fit_shell, unidentified
 from sphere_env.calibration.steer_fit import steer_fit
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState
+from sphere_env.physics import InitialState
 
 from .conftest import SYNTH_CAL, record, steer_twin, write_calibration
 

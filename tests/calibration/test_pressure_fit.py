@@ -7,7 +7,7 @@ from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.pressure_fit import by_recording, fit_pressure
 from sphere_env.calibration.shell_fit import FitError
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState
+from sphere_env.physics import InitialState
 
 from .conftest import SYNTH_CAL, record, steer_twin, synth_log, write_calibration, write_manifest
 

@@ -8,7 +8,7 @@ from sphere_env.calibration.shell_fit import calibration_at, fit_shell, pressure
 from sphere_env.calibration.shell_params import law_params
 from sphere_env.models.rigid_body import RobotParameters
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState
+from sphere_env.physics import InitialState
 
 from .conftest import SYNTH_CAL, steer_twin, synth_log, write_calibration, write_manifest
 

@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 import yaml
 
+from sphere_env.analysis.metrics import rmse
 from sphere_env.calibration.logs import RobotLog
 from sphere_env.calibration.shell_fit import FitError, calibration_with, fit_shell, window
-from sphere_env.calibration.simulate import initial_state_from_log, rmse, simulate_log
+from sphere_env.calibration.simulate import initial_state_from_log, simulate_log
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 from .conftest import SYNTH_CAL
 

@@ -7,7 +7,7 @@ from sphere_env.analysis.metrics import pme_percent
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.validate import parse_tolerances, validate
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 from .conftest import synth_log, write_manifest
 

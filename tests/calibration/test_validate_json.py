@@ -9,7 +9,7 @@ import pytest
 from sphere_env.calibration.__main__ import main
 from sphere_env.calibration.manifest import load_manifest
 from sphere_env.calibration.validate import ValidationRow, validate
-from sphere_env.physics.twin import InitialState, Twin, TwinConfig
+from sphere_env.physics import InitialState, Twin, TwinConfig
 
 from .conftest import synth_log, write_manifest
 

@@ -98,7 +98,7 @@ def test_reset_reuses_diagram_and_explicit_options(make):
     assert info["pressure_kpa"] == 6.5 and u.twin.pressure_kpa == 6.5
     assert obs[0] == pytest.approx(0.2) and obs[3] == pytest.approx(1.0) and obs[11] == pytest.approx(1.2)
     assert info["heading_ref"] == 0.3
-    with pytest.raises(ValueError, match=r"^options: field 'pressure_kpa' = 99\.0"):
+    with pytest.raises(ValueError, match=r"^field 'options\.pressure_kpa' = 99\.0"):
         env.reset(options={"pressure_kpa": 99.0})
     with pytest.raises(ValueError, match="unknown field 'options.bogus'"):
         env.reset(options={"bogus": 1})

@@ -9,9 +9,8 @@ import pytest
 
 import sphere_env  # noqa: F401
 from sphere_env.models.calibration_files import law_scale_intervals
-from sphere_env.models.rigid_body import RobotParameters
+from sphere_env.models.rigid_body import DEFAULT_URDF, RobotParameters
 from sphere_env.models.shell import ShellCalibration
-from sphere_env.physics.twin import DEFAULT_URDF
 
 ENV_ID = "sphere_env/RampDescent-v3"
 

@@ -8,7 +8,7 @@ import subprocess
 import sys
 import time
 
-from tests.processes import alive, descendants
+from tests.processes import descendants, survivors
 
 
 def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
@@ -49,8 +49,7 @@ def test_sigterm_stops_the_pool_and_removes_the_staging_folder(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err[-2000:]
     assert "interrupted" in err and "Traceback" not in err
-    time.sleep(1.0)
-    assert not [p for p in workers if alive(p)], "worker processes outlived the evaluation"
+    assert not survivors(workers), "worker processes outlived the evaluation"
     assert not list(tmp_path.iterdir()), "a staging or output folder was left behind"
     os.sync()
 

@@ -14,7 +14,7 @@ import time
 import pytest
 
 from sphere_env.cli import main
-from tests.conftest import REPO
+from tests.conftest import REPO, TINY_PPO
 from tests.processes import as_from_a_terminal
 
 GRID = ["--shell-models", "point", "--pressure-kpa", "8.5", "--seeds", "0", "--workers", "1", "--replay"]
@@ -65,10 +65,8 @@ def test_export_refuses_a_run_folder_a_resumed_training_is_writing(tmp_path, cap
     from sphere_env.training.trainer import train
 
     run = tmp_path / "run"
-    tiny = {"n_envs": 1, "n_steps": 64, "batch_size": 64, "n_epochs": 1, "n_timesteps": 128}
-    cfg = resolve_config(
-        "sphere_env/RampDescent-v3", "ppo", overrides={**tiny, "env_kwargs": {"shell_model": "point"}}, eval_freq=0
-    )
+    tiny = {**TINY_PPO, "n_timesteps": 128, "env_kwargs": {"shell_model": "point"}}
+    cfg = resolve_config("sphere_env/RampDescent-v3", "ppo", overrides=tiny, eval_freq=0)
     train(cfg, run, progress_bar=False)
     resumed = subprocess.Popen(
         [sys.executable, "-m", "sphere_env.training.train", "--resume", str(run), "-n", "1000000", "--no-progress"],

@@ -74,6 +74,7 @@ def test_bad_pressure_schedule_is_refused_at_make(rate):
             "Roll kwargs: unknown field 'lane_half_width_m'; allowed: [",
         ),  # RampDescent's
         (RAMP, {"command_mode": "heading"}, "RampDescent kwargs: unknown field 'command_mode'; allowed: ["),  # Roll's
+        (ROLL, {"ramp_length_m": 5.0}, "Roll kwargs: field 'ramp_length_m' = 5.0: the task has no ramp; allowed: None"),
         (RAMP, {"incline_deg": "16"}, "field 'incline_deg' = '16'"),
         (RAMP, {"settle_time_s": False}, "field 'settle_time_s' = False"),
         (RAMP, {"omega_ref_range_rad_s": ("2", 4.5)}, "field 'omega_ref_range_rad_s[0]' = '2'"),
@@ -99,6 +100,8 @@ def test_sphere_env_loads_its_kwargs_through_the_schema():
         SphereEnv(RollTask(), time_step_s="0.005")
     with pytest.raises(ValueError, match="Roll kwargs: unknown field 'command_mode'"):
         SphereEnv(RollTask(), command_mode="heading")  # a task kwarg goes to the task, not the env
+    with pytest.raises(ValueError, match=r"^Roll kwargs: field 'ramp_length_m' = 5\.0: .*; allowed: None"):
+        SphereEnv(RollTask(), ramp_length_m=5.0)  # Roll runs on flat ground
 
 
 # ---- a reset that raises changes nothing ------------------------------------------------------------
@@ -118,7 +121,7 @@ def test_sphere_env_loads_its_kwargs_through_the_schema():
         ({"pressure_kpa": 12.0, "pressure_rate_kpa_per_s": [1.0]}, "options.pressure_rate_kpa_per_s"),
         ({"pressure_kpa": 12.0, "initial_state": {"position_m": (0.0, 0.0, -0.5)}}, "initial_state.position_m"),
         ({"pressure_kpa": 12.0, "initial_state": {"spin": 1.0}}, "options.initial_state"),
-        ({"pressure_kpa": 99.0}, "options: field 'pressure_kpa' = 99.0"),
+        ({"pressure_kpa": 99.0}, "field 'options.pressure_kpa' = 99.0"),
         ([("pressure_kpa", 12.0)], "field 'options' is a list, not a mapping"),
         ("pressure_kpa=12", "field 'options' is a str, not a mapping"),
     ],

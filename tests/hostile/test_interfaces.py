@@ -28,6 +28,8 @@ pytestmark = pytest.mark.slow
 # Placeholders in the argv below, replaced by the prepared files of the ``inputs`` fixture.
 INPUTS, RUN, TRUNCATED_RUN = "{inputs}", "{run}", "{truncated_run}"
 UNWRITABLE, OUT = "{unwritable}", "{out}"
+#: The env of the shared tiny PPO run (``tiny_ppo_run`` in ``tests/conftest.py``), which ``runs`` copies.
+RUN_ENV = "sphere_env/RampDescent-v2"
 
 
 def bad_shape_controller(obs, info=None):
@@ -101,7 +103,7 @@ TRAIN_RESUME = [
 # ---- sphere-env evaluate: (id, argv, field); a small replay grid around each -------------------------
 GRID = ["--replay", "--pressure-kpa", "8.5", "--shell-models", "point", "--seeds", "0", "--workers", "1"]
 EVALUATE = [
-    ("controller-truncated-model", ["--controller", TRUNCATED_RUN], "model.zip"),
+    ("controller-truncated-model", ["--controller", TRUNCATED_RUN, "--env", RUN_ENV], "model.zip"),
     (
         "env_kwargs-shell_model",
         ["--controller", "zero", "--env-kwargs", "{shell_model: point}"],
@@ -317,11 +319,12 @@ def inputs(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory):
-    """A run trained for ten steps by `sphere-env train`, and a copy whose model.zip is cut to a third."""
+def runs(tmp_path_factory, tiny_ppo_run):
+    """A copy of the shared tiny PPO run (``tests/conftest.py``), and a copy whose model.zip is cut
+    to a third; the cases read them, the shared run stays untouched."""
     d = tmp_path_factory.mktemp("hostile_runs")
-    assert sphere_env_cli(["train", *TINY, "--params", *TINY_PPO_PARAMS, "--run-dir", str(d / "run")]) == 0
-    shutil.copytree(d / "run", d / "truncated_run")
+    for name in ("run", "truncated_run"):
+        shutil.copytree(tiny_ppo_run, d / name)
     model = d / "truncated_run" / "model.zip"
     data = model.read_bytes()
     model.write_bytes(data[: len(data) // 3])
@@ -405,7 +408,7 @@ def test_train_resume_refuses(folder, field, inputs, out, capsys):
 
 @pytest.mark.parametrize("argv, field", _ids(EVALUATE))
 def test_evaluate_refuses(argv, field, inputs, out, capsys, request):
-    runs = request.getfixturevalue("tiny_run") if RUN in argv or TRUNCATED_RUN in argv else None
+    runs = request.getfixturevalue("runs") if RUN in argv or TRUNCATED_RUN in argv else None
     full = [*GRID, *argv, *([] if "--out" in argv else ["--out", str(out / "out")])]
     _refused(["evaluate", *_resolve(full, inputs, runs)], field, capsys, out)
 
@@ -439,7 +442,7 @@ def unwritable(request, tmp_path):
 def test_an_output_that_cannot_be_written_is_refused_before_anything_runs(
     argv, field, inputs, out, unwritable, capsys, request
 ):
-    runs = request.getfixturevalue("tiny_run") if RUN in argv else None
+    runs = request.getfixturevalue("runs") if RUN in argv else None
     _refused(_resolve(argv, inputs, runs, unwritable=unwritable, out=out), field, capsys, out)
 
 

@@ -13,6 +13,7 @@ import time
 
 import pytest
 
+from tests.conftest import TINY_PPO_PARAMS
 from tests.processes import alive, as_from_a_terminal, session
 
 #: Seconds from the interrupt to the training process's exit: about 2 s measured on 2 loaded cores,
@@ -38,11 +39,9 @@ def test_ctrl_c_while_the_workers_start_stops_train_promptly_and_leaves_no_proce
         "-1",
         "--no-progress",
         "--hyperparams",
-        "n_envs:8",
+        *TINY_PPO_PARAMS,
+        "n_envs:8",  # after the tiny run's: eight envs in two worker processes to start
         "n_workers:2",
-        "n_steps:64",
-        "batch_size:64",
-        "n_epochs:1",
     ]
     with open(tmp_path / "stderr", "w") as err_file:
         proc = subprocess.Popen(

@@ -75,3 +75,17 @@ def test_a_refused_value_changes_no_parameter(make_twin):
     with pytest.raises(ValueError, match=r"^field 'pressure_kpa' = 99\.0"):
         twin.reset(pressure_kpa=99.0)
     assert twin.params == {**before, "pressure_kpa": twin.calibration.nominal_pressure_kpa}
+
+
+def test_apply_unchecked_is_apply_for_checked_values(make_twin):
+    """The env's path (values drawn within the space, or checked options): the same episode as
+    Twin.apply, keys that are no twin parameter ignored; Twin.reset's pressure takes it too."""
+    a = make_twin(fixture="free", shell_model="injected")
+    b = make_twin(fixture="free", shell_model="injected")
+    p = a.calibration.pressure_range_kpa[1]
+    checked = _episode(a, lambda t: t.apply({**ALL, "pressure_kpa": p}))
+    unchecked = _episode(b, lambda t: t.apply_unchecked({**ALL, "pressure_kpa": p, "incline_deg": 3.0}))
+    np.testing.assert_array_equal(checked, unchecked)
+    assert b.params == {**ALL, "pressure_kpa": p}
+    b.reset(pressure_kpa=4.0)
+    assert b.pressure_kpa == b.state().pressure_kpa == 4.0

@@ -150,7 +150,8 @@ def test_tiny_budget_writes_few_checkpoints(tmp_path):
     assert len(list((run / "checkpoints").glob("rl_model_*_steps.zip"))) <= 2
 
 
-def _tiny_run(tmp_path, n=64):
+def _checkpointed_run(tmp_path, n=64):
+    """A tiny run of ``n`` steps with a checkpoint every 32 (a run of its own: the tests damage it)."""
     cfg = resolve_config(
         RAMP, "ppo", overrides={**TINY, "n_timesteps": n}, eval_freq=32, eval_episodes=1, checkpoint_freq=32
     )
@@ -158,7 +159,7 @@ def _tiny_run(tmp_path, n=64):
 
 
 def test_resume_falls_back_past_truncated_checkpoint_and_missing_vecnormalize(tmp_path, capsys):
-    run = _tiny_run(tmp_path)
+    run = _checkpointed_run(tmp_path)
     assert latest_checkpoint(run)[0] == 64
     ck = run / "checkpoints"
     data = (ck / "rl_model_64_steps.zip").read_bytes()
@@ -196,7 +197,7 @@ def test_resume_falls_back_past_truncated_checkpoint_and_missing_vecnormalize(tm
 
 
 def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, capsys):
-    run = _tiny_run(tmp_path, n=32)
+    run = _checkpointed_run(tmp_path, n=32)
     import shutil
 
     shutil.rmtree(run / "checkpoints")

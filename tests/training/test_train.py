@@ -17,23 +17,15 @@ from sphere_env.training.env_factory import EvaluationEpisodes
 from sphere_env.training.run_folder import latest_checkpoint, load_config
 from sphere_env.training.train import main
 from sphere_env.training.trainer import train
-from tests.conftest import TINY_PPO, TINY_PPO_PARAMS
+from tests.conftest import TINY_PPO, TINY_PPO_PARAMS, TINY_SAC
 
 RAMP = "sphere_env/RampDescent-v0"
 IMPROVE_STEPS = int(__import__("os").environ.get("SPHERE_IMPROVE_STEPS", 16384))
 TASK = {"shell_model": "injected", "omega_ref_range_rad_s": (4.0, 4.5)}
+#: Two envs (the workers' seeds 1 and 2), the point shell: the tiny runs of conftest.py's TINY_PPO / TINY_SAC.
 TINY = {
-    "ppo": {"n_envs": 2, "n_steps": 64, "batch_size": 64, "n_epochs": 2, "env_kwargs": {"shell_model": "point"}},
-    "sac": {
-        "n_envs": 2,
-        "learning_starts": 64,
-        "buffer_size": 2000,
-        "batch_size": 32,
-        "train_freq": 8,
-        "gradient_steps": 1,
-        "policy_kwargs": {"net_arch": [32, 32]},
-        "env_kwargs": {"shell_model": "point"},
-    },
+    "ppo": {**TINY_PPO, "n_envs": 2, "env_kwargs": {"shell_model": "point"}},
+    "sac": {**TINY_SAC, "n_envs": 2, "env_kwargs": {"shell_model": "point"}},
 }
 
 

@@ -12,6 +12,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from sphere_env.training.env_factory import make_env
 from sphere_env.training.vec_env import BatchedSubprocVecEnv, ThreadedVecEnv, _Pickler
+from tests.conftest import TINY_PPO
 
 
 def assert_same_rollout(a, b, steps: int, check_reset_infos: bool = False) -> int:
@@ -129,7 +130,7 @@ def test_layouts_train_the_same_network():
     from sphere_env.training.env_factory import make_vec_env, wrap_normalize
     from sphere_env.training.session import unchecked_distributions
 
-    tiny = {"n_envs": 3, "n_steps": 64, "batch_size": 64, "n_epochs": 2}
+    tiny = {**TINY_PPO, "n_envs": 3}
     params = {}
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # as the trainer sets it (--torch-threads)
