@@ -178,6 +178,80 @@ def aggregate(rows: Sequence[Mapping[str, Any]], by: Sequence[str]) -> list[dict
     return out
 
 
+# (key, header, format) of the report's tables
+_CONTROLLER_COLUMNS = [
+    ("controller", "controller", ""),
+    ("episodes", "episodes", "{:d}"),
+    ("success_rate", "success", "{:.0%}"),
+    ("reached_runout_rate", "reached run-out", "{:.0%}"),
+    ("return", "return", "{:.2f}"),
+    ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+    ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+    ("energy_j", "energy J", "{:.1f}"),
+    ("peak_torque_nm", "peak torque N m", "{:.1f}"),
+    ("time_on_ramp_s", "time on ramp s", "{:.2f}"),
+]
+_CELL_COLUMNS = [
+    ("controller", "controller", ""),
+    ("shell_model", "shell model", ""),
+    ("friction", "friction", ""),
+    ("pressure_kpa", "pressure kPa", "{:g}"),
+    ("success_rate", "success", "{:.0%}"),
+    ("reached_runout_rate", "reached run-out", "{:.0%}"),
+    ("return", "return", "{:.2f}"),
+    ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
+    ("mean_omega_d_rad_s", "mean ω_d rad/s", "{:.2f}"),
+    ("lateral_drift_m", "lateral drift m", "{:.3f}"),
+    ("energy_j", "energy J", "{:.1f}"),
+    ("peak_torque_nm", "peak torque N m", "{:.1f}"),
+]
+_PME_COLUMNS = [
+    ("reference", "reference", ""),
+    ("simulation", "simulation", ""),
+    ("friction", "friction", ""),
+    ("pressure_kpa", "pressure kPa", "{:g}"),
+    ("pme", "PME %", ""),
+]
+
+
+def _header(spec: SweepSpec, n_rows: int, wall_s: float, executor: str, total_episodes: int | None) -> list[str]:
+    """The report's title, its grid, time, machine and controllers."""
+    from sphere_env.provenance import machine_info
+
+    info = machine_info()
+    return [
+        "# Controller evaluation",
+        "",
+        f"`{spec.env_id}`, randomization off; pressures {', '.join(f'{p:g}' for p in spec.pressures_kpa)} kPa × "
+        f"shell models {', '.join(spec.shell_models)} × friction {', '.join(spec.frictions)} × seeds "
+        f"{', '.join(map(str, spec.seeds))} → {n_rows} episodes"
+        + (f" ({total_episodes} with the conditions below)" if total_episodes not in (None, n_rows) else "")
+        + f" in {wall_s:.0f} s ({executor}).",
+        f"Machine: {info['cpu']}, {info['cores']} cores; drake {info['drake']}, torch {info['torch']}, "
+        f"sb3 {info['stable_baselines3']}, commit {info['commit']}.",
+        "",
+        "Controllers: " + ", ".join(f"`{c.label}` = `{c.spec}`" for c in spec.controllers),
+        "",
+    ]
+
+
+def _pme_section(pmes: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The report's section on the Point Mean Error of the zero-torque descents."""
+    from sphere_env.reporting import markdown_table
+
+    return [
+        "## Point Mean Error (eq. 12), zero-torque descent",
+        "",
+        "PME = mean over the reference's on-ramp samples of (ω_e − ω_s)/ω_e × 100 %, ω_e the "
+        f"reference's and ω_s the simulation's drive velocity (samples with |ω_e| < {PME_MIN_SPEED_RAD_S} "
+        "rad/s, the release, left out); positive when "
+        "the simulation underestimates the reference. Mean ± std over seeds.",
+        "",
+        markdown_table(aggregate_pme(pmes), _PME_COLUMNS),
+        "",
+    ]
+
+
 def write_report(
     out: Path,
     spec: SweepSpec,
@@ -195,85 +269,23 @@ def write_report(
     """``report.md``: the nominal grid's ``rows`` and aggregates, the PME, then ``conditions`` (the
     section on the sweep's faults and calibrations, Markdown; ``total_episodes``: the sweep's
     episodes with them) and the files."""
-    from sphere_env.provenance import machine_info
     from sphere_env.reporting import markdown_table
 
-    info = machine_info()
-    lines = [
-        "# Controller evaluation",
-        "",
-        f"`{spec.env_id}`, randomization off; pressures {', '.join(f'{p:g}' for p in spec.pressures_kpa)} kPa × "
-        f"shell models {', '.join(spec.shell_models)} × friction {', '.join(spec.frictions)} × seeds "
-        f"{', '.join(map(str, spec.seeds))} → {len(rows)} episodes"
-        + (f" ({total_episodes} with the conditions below)" if total_episodes not in (None, len(rows)) else "")
-        + f" in {wall_s:.0f} s ({executor}).",
-        f"Machine: {info['cpu']}, {info['cores']} cores; drake {info['drake']}, torch {info['torch']}, "
-        f"sb3 {info['stable_baselines3']}, commit {info['commit']}.",
-        "",
-        "Controllers: " + ", ".join(f"`{c.label}` = `{c.spec}`" for c in spec.controllers),
-        "",
-    ]
+    lines = _header(spec, len(rows), wall_s, executor, total_episodes)
     if extra:
         lines += [extra, ""]
-    ctrl_cols = [
-        ("controller", "controller", ""),
-        ("episodes", "episodes", "{:d}"),
-        ("success_rate", "success", "{:.0%}"),
-        ("reached_runout_rate", "reached run-out", "{:.0%}"),
-        ("return", "return", "{:.2f}"),
-        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
-        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
-        ("energy_j", "energy J", "{:.1f}"),
-        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
-        ("time_on_ramp_s", "time on ramp s", "{:.2f}"),
-    ]
-    lines += ["## Summary per controller (all cells)", "", markdown_table(agg_ctrl, ctrl_cols), ""]
-    cols = [
-        ("controller", "controller", ""),
-        ("shell_model", "shell model", ""),
-        ("friction", "friction", ""),
-        ("pressure_kpa", "pressure kPa", "{:g}"),
-        ("success_rate", "success", "{:.0%}"),
-        ("reached_runout_rate", "reached run-out", "{:.0%}"),
-        ("return", "return", "{:.2f}"),
-        ("tracking_rmse_rad_s", "tracking RMSE rad/s", "{:.2f}"),
-        ("mean_omega_d_rad_s", "mean ω_d rad/s", "{:.2f}"),
-        ("lateral_drift_m", "lateral drift m", "{:.3f}"),
-        ("energy_j", "energy J", "{:.1f}"),
-        ("peak_torque_nm", "peak torque N m", "{:.1f}"),
-    ]
+    lines += ["## Summary per controller (all cells)", "", markdown_table(agg_ctrl, _CONTROLLER_COLUMNS), ""]
+    cells = sorted(agg_model, key=lambda a: (a["controller"], a["shell_model"], a["friction"], a["pressure_kpa"]))
     lines += [
         "## Per controller, shell model and pressure (mean over seeds)",
         "",
-        markdown_table(
-            sorted(agg_model, key=lambda a: (a["controller"], a["shell_model"], a["friction"], a["pressure_kpa"])), cols
-        ),
+        markdown_table(cells, _CELL_COLUMNS),
         "",
     ]
     if conditions:
         lines += [conditions]
     if pmes:
-        pm = aggregate_pme(pmes)
-        lines += [
-            "## Point Mean Error (eq. 12), zero-torque descent",
-            "",
-            "PME = mean over the reference's on-ramp samples of (ω_e − ω_s)/ω_e × 100 %, ω_e the "
-            f"reference's and ω_s the simulation's drive velocity (samples with |ω_e| < {PME_MIN_SPEED_RAD_S} "
-            "rad/s, the release, left out); positive when "
-            "the simulation underestimates the reference. Mean ± std over seeds.",
-            "",
-            markdown_table(
-                pm,
-                [
-                    ("reference", "reference", ""),
-                    ("simulation", "simulation", ""),
-                    ("friction", "friction", ""),
-                    ("pressure_kpa", "pressure kPa", "{:g}"),
-                    ("pme", "PME %", ""),
-                ],
-            ),
-            "",
-        ]
+        lines += _pme_section(pmes)
     lines += ["## Files", ""] + [
         f"- {k}: `{v.relative_to(out) if v.is_relative_to(out) else v}`" for k, v in files.items()
     ]

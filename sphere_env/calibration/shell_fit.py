@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -348,6 +349,71 @@ def _fitted_values(res, names: Sequence[str], lo: np.ndarray, hi: np.ndarray, ra
     return values, ci, poor
 
 
+# least_squares' settings of every shell fit (besides its bounds and evaluation budget)
+_SOLVER = {"diff_step": 1e-3, "x_scale": "jac", "xtol": 1e-6, "ftol": 1e-8}
+
+
+def _search_box(
+    names: Sequence[str], base: ShellCalibration, p0: float, robot: RobotParameters, start: Mapping[str, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lower bounds, upper bounds, start) of the search over ``names``: :data:`BOUNDS`, with ω_n
+    kept where the robot can stand (:func:`omega_n_floor`); the start is ``start``'s value or
+    :func:`start_value`, clipped into the box."""
+    lo = np.array([BOUNDS[n][0] for n in names])
+    hi = np.array([BOUNDS[n][1] for n in names])
+    if "omega_n" in names:
+        i = names.index("omega_n")
+        lo[i] = max(lo[i], omega_n_floor(base, p0, robot))
+    x0 = np.clip([float(start.get(n, start_value(n, base, p0, robot))) for n in names], lo, hi)
+    return lo, hi, x0
+
+
+def _optimum(res, cal_for, where: str, require_convergence: bool) -> tuple[ShellCalibration, dict]:
+    """The calibration ``cal_for`` gives at a ``least_squares`` result, and its file's data. Refuses (:class:`FitError`)
+    a result that did not converge (when ``require_convergence``), an optimum that is not finite,
+    and one the robot cannot stand still with."""
+    if require_convergence and res.status <= 0:
+        raise FitError(
+            f"{where}: did not converge after {res.nfev} evaluations ({res.message}); "
+            "raise max_nfev, start closer or fit fewer parameters. Nothing written."
+        )
+    if not np.all(np.isfinite(res.x)) or not np.isfinite(res.cost):
+        raise FitError(f"{where}: the optimum is not finite ({res.x}). Nothing written.")
+    cal = cal_for(res.x)
+    raw = dict(cal.raw)
+    try:
+        ShellCalibration.from_dict(raw, source=f"<{where}>")  # the stand-still check, naming the field
+    except ValueError as err:
+        raise FitError(f"{where}: refused: {err}. Nothing written.") from err
+    return cal, raw
+
+
+def _calibration_at(x, base, p0: float, names, fixed, law_form: str | None, robot) -> ShellCalibration:
+    """The calibration with the searched ``names`` at ``x`` and the ``fixed`` values at p₀ (the law
+    of ``law_form`` for an injected fit), not yet checked for standing still."""
+    vals = dict(fixed, **dict(zip(names, map(float, x))))
+    raw = calibration_with(base, p0, vals, law_form, robot)
+    return ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
+
+
+def _residuals(x, cal_for, pool: TwinPool, p0: float, logs: Sequence[RobotLog], theta_weight: float) -> np.ndarray:
+    """φ and θ errors [rad] of every log with the calibration ``cal_for(x)`` (θ times
+    ``theta_weight``), each sample weighted 1/√n: a log weighs by its length. A calibration whose
+    curves leave their valid range somewhere in p (e.g. ζ ≥ 1) counts as a 1 rad error."""
+    n_res = sum(2 * len(log.t_s) for log in logs)
+    w = 1.0 / math.sqrt(n_res)
+    try:
+        cal = cal_for(x)
+    except ValueError:
+        return np.full(n_res, w)
+    pool.install(cal, p0)
+    parts = []
+    for log in logs:
+        tr = simulate_log(pool.get(log.fixture), log)
+        parts += [w * (tr["phi"] - log["phi"]), theta_weight * w * (tr["theta"] - log["theta"])]
+    return np.concatenate(parts)
+
+
 def fit_shell(
     logs: Sequence[RobotLog],
     model: str,
@@ -386,78 +452,42 @@ def fit_shell(
     not converge within ``max_nfev`` evaluations (unless ``require_convergence`` is False), a
     diverged simulation at the optimum, and a result the robot cannot stand still with.
     """
-    # Long for its seventeen documented options; the body is one search: its set-up, the residuals
-    # as a closure over the fit's state, and the checks of the optimum.
+    # The body is one search: its set-up (held parameters, the box, the twins), least_squares over
+    # _residuals, and the optimum's checks and intervals.
     validate(ShellFitOptions, {"model": model, "form": form, "params": params}, "fit_shell")
     _check_segments(logs)
     base = base or ShellCalibration.load()
     robot = RobotParameters.from_urdf()
     p0 = base.check_pressure(pressure_kpa)
     form = form or base.steer_law.form
+    law_form = form if model == "injected" else None
     held = {k: v for k, v in check_hold(hold or {}).items() if k in model_params(model, form)}
     if held:
-        raw0 = calibration_with(base, p0, held, form if model == "injected" else None, robot)
+        raw0 = calibration_with(base, p0, held, law_form, robot)
         base = ShellCalibration.from_dict(raw0, source=base.source, check_stand_still=False)
     if params is None:
         params = model_params(model, form, held)
     names = [n for n in params if n not in held]
     fixed = dict(fixed_injected or {}) if model == "hydroelastic" else {}
-    lo = np.array([BOUNDS[n][0] for n in names])
-    hi = np.array([BOUNDS[n][1] for n in names])
-    if "omega_n" in names:  # keep the search where the robot can stand (see omega_n_floor)
-        i = names.index("omega_n")
-        lo[i] = max(lo[i], omega_n_floor(base, p0, robot))
-    x0 = np.clip([float((start or {}).get(n, start_value(n, base, p0, robot))) for n in names], lo, hi)
+    lo, hi, x0 = _search_box(names, base, p0, robot, start or {})
     if pool is None:
         pool = TwinPool(model, steer_friction, time_step_s, drive_friction)
         if twin is not None:
             pool.twins[twin.config.fixture] = twin
-
-    def cal_for(x) -> ShellCalibration:
-        vals = dict(fixed, **dict(zip(names, map(float, x))))
-        raw = calibration_with(base, p0, vals, form if model == "injected" else None, robot)
-        return ShellCalibration.from_dict(raw, source="<fit>", check_stand_still=False)
-
-    n_res = sum(2 * len(log.t_s) for log in logs)
-    w = 1.0 / math.sqrt(n_res)  # one weight for every sample: each log weighs by its length
-
-    def residuals(x) -> np.ndarray:
-        try:
-            cal = cal_for(x)
-        except ValueError:  # curves leave their valid range somewhere in p (e.g. ζ ≥ 1): a 1 rad error
-            return np.full(n_res, 1.0 / math.sqrt(n_res))
-        pool.install(cal, p0)
-        parts = []
-        for log in logs:
-            tr = simulate_log(pool.get(log.fixture), log)
-            parts += [w * (tr["phi"] - log["phi"]), theta_weight * w * (tr["theta"] - log["theta"])]
-        return np.concatenate(parts)
-
+    cal_for = functools.partial(
+        _calibration_at, base=base, p0=p0, names=names, fixed=fixed, law_form=law_form, robot=robot
+    )
     res = least_squares(
-        residuals, x0, bounds=(lo, hi), diff_step=1e-3, x_scale="jac", max_nfev=max_nfev, xtol=1e-6, ftol=1e-8
+        _residuals, x0, bounds=(lo, hi), args=(cal_for, pool, p0, logs, theta_weight), max_nfev=max_nfev, **_SOLVER
     )
     where = f"shell fit of {model!r} (form {form!r}) on {[log.name for log in logs]}"
-    if require_convergence and res.status <= 0:
-        raise FitError(
-            f"{where}: did not converge after {res.nfev} evaluations ({res.message}); "
-            "raise max_nfev, start closer or fit fewer parameters. Nothing written."
-        )
-    if not np.all(np.isfinite(res.x)) or not np.isfinite(res.cost):
-        raise FitError(f"{where}: the optimum is not finite ({res.x}). Nothing written.")
-    cal = cal_for(res.x)
-    raw = dict(cal.raw)
-    try:
-        ShellCalibration.from_dict(raw, source=f"<{where}>")  # the stand-still check, naming the field
-    except ValueError as err:
-        raise FitError(f"{where}: refused: {err}. Nothing written.") from err
+    cal, raw = _optimum(res, cal_for, where, require_convergence)
     pool.install(cal, p0)
     per = _rmse_at_optimum(pool, logs, where)
     values, ci, poor = _fitted_values(res, names, lo, hi, raw)
     K, C = cal.bind(robot).injected_gains(p0)
     values.update(K_inject=K, C_inject=C)
-    return ShellFit(
-        model, p0, values, per, raw, ci, form if model == "injected" else cal.steer_law.form, res.nfev, poor, held
-    )
+    return ShellFit(model, p0, values, per, raw, ci, law_form or cal.steer_law.form, res.nfev, poor, held)
 
 
 def window(log: RobotLog, start_s: float, end_s: float, name: str | None = None) -> RobotLog:
