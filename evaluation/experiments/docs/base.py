@@ -39,6 +39,16 @@ class Results:
                 raise DocsError(f"cannot read results file {path}: {e}") from e
         return self._read[name]
 
+    def text(self, name: str) -> str:
+        """A results page as text."""
+        if name not in self._read:
+            path = self.folder / name
+            try:
+                self._read[name] = path.read_text()
+            except OSError as e:
+                raise DocsError(f"cannot read results file {path}: {e}") from e
+        return self._read[name]
+
     def calibration(self, name: str) -> dict[str, Any]:
         """A shipped calibration file (``assets/calibration/<name>.yaml``) as a mapping: the fits it records."""
         key = f"calibration:{name}"

@@ -3,6 +3,8 @@ study (``learning/summary.json``)."""
 
 from __future__ import annotations
 
+import re
+
 from sphere_env.evaluation.experiments.docs.base import Results, percent, renders, slash, whole
 
 
@@ -30,6 +32,15 @@ def demo_results(res: Results) -> str:
         f"{d['train_wall_s']['ppo_from_scratch']:.0f} s at {d['train_steps_per_s']['ppo_from_scratch']:.0f} env "
         f"steps/s, evaluation {d['eval_wall_s']:.0f} s)"
     )
+
+
+@renders("demo_machine")
+def demo_machine(res: Results) -> str:
+    """The cores of the machine the demo ran on, from its report's ``Machine:`` line."""
+    m = re.search(r"^Machine: .*?, (\d+) cores;", res.text("demo/report.md"), re.M)
+    if m is None:
+        raise KeyError("demo/report.md: Machine line")
+    return f"{m[1]}-core"
 
 
 FAULTS = {

@@ -29,6 +29,17 @@ def drive_runtime(res: Results) -> str:
     return f"about {_drive(res)['runtime_s'] / 60:.0f} min"
 
 
+@renders("drive_windows")
+def drive_windows(res: Results) -> str:
+    """The driven windows of the free-robot log the drive fit replayed [s from its first sample]."""
+    w = _drive(res)["windows"]
+
+    def s(name: str) -> str:
+        return f"{w[name][0]:g}–{w[name][1]:g} s"
+
+    return f"{s('drive_all')} from its first sample: forward {s('drive_forward')}, backward {s('drive_backward')}"
+
+
 @renders("drive_replay_table")
 def drive_replay_table(res: Results) -> str:
     """Every calibration and model on the forward / backward parts before any drive fit, with the torques."""
