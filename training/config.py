@@ -271,17 +271,7 @@ def resolve_config(
         tensorboard_log=tensorboard_log,
     )
     path = Path(hyperparams_file) if hyperparams_file else hyperparams_path(algo)
-    section = load_section(path, env_id)
-    if isinstance(section, Mapping):  # else refused by check_section, naming the file's section
-        section = dict(section)
-        overrides = dict(overrides or {})
-        # An override choosing one layout replaces the file's other one (n_threads vs n_workers).
-        for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
-            if overrides.get(key) is not None and other not in overrides:
-                section.pop(other, None)
-        for key, val in overrides.items():
-            section[key] = copy.deepcopy(val)
-
+    section = _overridden(load_section(path, env_id), overrides)
     spec = check_section(algo, section, f"hyperparams file {str(path)!r}, section {env_id!r}")
     given = spec.model_dump(exclude_unset=True)
     hyper = {k: plain_data(v) for k, v in given.items() if k not in SPECIAL_KEYS}
@@ -290,13 +280,7 @@ def resolve_config(
     eval_kwargs = {"randomization": "off", **copy.deepcopy(opts.eval_env_kwargs)}
     check_episode_length(env_id, kwargs)
     check_episode_length(env_id, {**kwargs, **eval_kwargs}, "eval_env_kwargs")
-    policy, n_envs, n_threads, n_workers, n_timesteps = (
-        spec.policy,
-        spec.n_envs,
-        spec.n_threads,
-        spec.n_workers,
-        spec.n_timesteps,
-    )
+    n_envs, n_timesteps = spec.n_envs, spec.n_timesteps
     # Steps the algorithm takes at the least (PPO collects whole rollouts of n_steps per env): the
     # default evaluation and checkpoint periods are never shorter, so a tiny budget (--n-timesteps 10)
     # gives a handful of checkpoints, not one per env step of the first rollout.
@@ -307,9 +291,9 @@ def resolve_config(
         seed=opts.seed,
         n_timesteps=n_timesteps,
         n_envs=n_envs,
-        n_workers=n_workers,
-        n_threads=n_threads,
-        policy=policy,
+        n_workers=spec.n_workers,
+        n_threads=spec.n_threads,
+        policy=spec.policy,
         normalize=_normalize(spec.normalize),
         env_kwargs=kwargs,
         hyperparams=hyper,
@@ -331,6 +315,22 @@ def resolve_config(
     if build_env:
         validate_with_env(cfg)
     return cfg
+
+
+def _overridden(section: Any, overrides: Mapping[str, Any] | None) -> Any:
+    """The YAML ``section`` with ``overrides`` set key by key (copies); an override choosing one
+    layout replaces the section's other one (``n_threads`` vs ``n_workers``). A section that is not
+    a mapping comes back as it is, for :func:`check_section` to refuse naming the file's section."""
+    if not isinstance(section, Mapping):
+        return section
+    section = dict(section)
+    overrides = dict(overrides or {})
+    for key, other in (("n_workers", "n_threads"), ("n_threads", "n_workers")):
+        if overrides.get(key) is not None and other not in overrides:
+            section.pop(other, None)
+    for key, val in overrides.items():
+        section[key] = copy.deepcopy(val)
+    return section
 
 
 def _eval_pressures(kwargs: Mapping[str, Any], pressures: Sequence[float] | None) -> list[float]:
