@@ -99,62 +99,80 @@ def _ckpt_file(run_dir: Path, kind: str, steps: int, suffix: str = ".pkl") -> Pa
     return run_dir / "checkpoints" / f"{CHECKPOINT_PREFIX}_{kind}_{steps}_steps{suffix}"
 
 
+LEARNING_CURVE_COLUMNS = [
+    "kind",
+    "timesteps",
+    "return_mean",
+    "return_std",
+    "length_mean",
+    "success_rate",
+    "pressure_kpa",
+]
+
+
 def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
     """learning_curve.csv (kind = train episode / eval mean) and learning_curve.png."""
-    rows: list[dict[str, Any]] = []
-    train = run_dir / "learning_curve_train.csv"
-    if train.exists():
-        with open(train) as f:
-            for r in csv.DictReader(f):
-                rows.append(
-                    dict(
-                        kind="train",
-                        timesteps=int(r["timesteps"]),
-                        return_mean=float(r["return"]),
-                        return_std=0.0,
-                        length_mean=float(r["length"]),
-                        success_rate=float(r["is_success"]),
-                        pressure_kpa=float(r["pressure_kpa"]),
-                    )
-                )
-    ev = run_dir / "eval" / "evaluations.npz"
-    if ev.exists():
-        d = np.load(ev)
-        for i, t in enumerate(d["timesteps"]):
-            succ = float(np.mean(d["successes"][i])) if "successes" in d and len(d["successes"]) > i else math.nan
-            rows.append(
-                dict(
-                    kind="eval",
-                    timesteps=int(t),
-                    return_mean=float(np.mean(d["results"][i])),
-                    return_std=float(np.std(d["results"][i])),
-                    length_mean=float(np.mean(d["ep_lengths"][i])),
-                    success_rate=succ,
-                    pressure_kpa=math.nan,
-                )
-            )
+    rows = _train_rows(run_dir / "learning_curve_train.csv") + _eval_rows(run_dir / "eval" / "evaluations.npz")
     rows.sort(key=lambda r: (r["timesteps"], r["kind"]))
     csv_path = run_dir / "learning_curve.csv"
     with open(csv_path, "w", newline="") as f:
-        w = csv.DictWriter(
-            f,
-            fieldnames=[
-                "kind",
-                "timesteps",
-                "return_mean",
-                "return_std",
-                "length_mean",
-                "success_rate",
-                "pressure_kpa",
-            ],
-        )
+        w = csv.DictWriter(f, fieldnames=LEARNING_CURVE_COLUMNS)
         w.writeheader()
         w.writerows(rows)
+    png = run_dir / "learning_curve.png"
+    _plot_learning_curve(rows, png, run_dir.name)
+    return csv_path, png
 
+
+def _train_rows(path: Path) -> list[dict[str, Any]]:
+    """One learning-curve row per finished training episode of learning_curve_train.csv (none
+    without the file)."""
+    if not path.exists():
+        return []
+    with open(path) as f:
+        return [
+            dict(
+                kind="train",
+                timesteps=int(r["timesteps"]),
+                return_mean=float(r["return"]),
+                return_std=0.0,
+                length_mean=float(r["length"]),
+                success_rate=float(r["is_success"]),
+                pressure_kpa=float(r["pressure_kpa"]),
+            )
+            for r in csv.DictReader(f)
+        ]
+
+
+def _eval_rows(path: Path) -> list[dict[str, Any]]:
+    """One learning-curve row per evaluation of evaluations.npz (mean and std over its episodes;
+    none without the file)."""
+    if not path.exists():
+        return []
+    d = np.load(path)
+    rows = []
+    for i, t in enumerate(d["timesteps"]):
+        succ = float(np.mean(d["successes"][i])) if "successes" in d and len(d["successes"]) > i else math.nan
+        rows.append(
+            dict(
+                kind="eval",
+                timesteps=int(t),
+                return_mean=float(np.mean(d["results"][i])),
+                return_std=float(np.std(d["results"][i])),
+                length_mean=float(np.mean(d["ep_lengths"][i])),
+                success_rate=succ,
+                pressure_kpa=math.nan,
+            )
+        )
+    return rows
+
+
+def _plot_learning_curve(rows: Sequence[Mapping[str, Any]], png: Path, title: str) -> None:
+    """Training episodes' returns (dots and a running mean of a twentieth of them) and the
+    evaluations' mean ± std against environment steps."""
     from sphere_env.plotting import pyplot
 
     plt = pyplot()
-
     fig, ax = plt.subplots(figsize=(7, 4))
     tr = [r for r in rows if r["kind"] == "train"]
     if tr:
@@ -174,15 +192,13 @@ def write_learning_curves(run_dir: Path) -> tuple[Path, Path]:
         ax.errorbar(t, m, yerr=s, color="C3", marker="o", capsize=3, label="evaluation (deterministic)")
     ax.set_xlabel("environment steps")
     ax.set_ylabel("episode return")
-    ax.set_title(run_dir.name, fontsize=9)
+    ax.set_title(title, fontsize=9)
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:  # a tiny run may have neither a finished episode nor an evaluation
         ax.legend(fontsize=8)
     fig.tight_layout()
-    png = run_dir / "learning_curve.png"
     fig.savefig(png, dpi=110)
     plt.close(fig)
-    return csv_path, png
 
 
 # ---- training ----------------------------------------------------------------------------------------
