@@ -30,7 +30,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -131,6 +131,59 @@ def make_policy(folder: Path, which: str, deterministic: bool, seed: int, env: A
     return sample
 
 
+def _make_env(r: dict[str, Any], render_mode: str | None, meshcat: bool):
+    """The run's env, randomization off, at the resolved shell model and friction; env kwargs it
+    refuses raised as a ValueError naming ``env_kwargs``."""
+    import gymnasium as gym
+
+    try:
+        return gym.make(
+            r["env_id"],
+            shell_model=r["shell_model"],
+            friction_model=r["friction"],
+            randomization="off",
+            render_mode=render_mode,
+            meshcat=meshcat,
+            **r["env_kwargs"],
+        )
+    except TypeError as err:
+        raise ValueError(f"env_kwargs: {err}") from None
+
+
+def _play(env, controller, r: dict[str, Any], spec: EnjoySpec, seed: int, video, video_work) -> dict[str, Any]:
+    """One episode as an evaluation cell, recorded into ``video_work`` when given; its row of
+    metrics (with the MP4's final path under ``video``)."""
+    from sphere_env.evaluation.cells import rollout
+    from sphere_env.evaluation.video import record_episode, video_name
+
+    job = {
+        "controller": r["label"],
+        "spec": str(spec.run),
+        "env_id": r["env_id"],
+        "shell_model": r["shell_model"],
+        "friction": r["friction"],
+        "pressure_kpa": r["pressure_kpa"],
+        "seed": seed,
+        "env_kwargs": r["env_kwargs"],
+    }
+    if video_work is None:
+        return rollout(job, env=env, controller=controller)[0]
+    name = video_name(r["label"], r["shell_model"], r["pressure_kpa"], seed)
+    row, _ = record_episode(env, video_work, name, lambda rec: rollout(job, env=rec, controller=controller))
+    row["video"] = str(Path(video) / f"{name}.mp4")
+    return row
+
+
+def _said(k: int, row: Mapping[str, Any]) -> str:
+    """The line that reports episode ``k``."""
+    return (
+        f"episode {k}: seed {row['seed']}, {row['pressure_kpa']:g} kPa, {row['shell_model']}: "
+        f"return {row['return']:.3f}, {row['length']} steps, success {bool(row['is_success'])}, "
+        f"tracking RMSE {row['tracking_rmse_rad_s']:.3f} rad/s"
+        + (f", truncated ({row['truncation_reason']})" if row["truncation_reason"] else "")
+    )
+
+
 def enjoy(
     spec: EnjoySpec,
     meshcat: bool = False,
@@ -141,15 +194,7 @@ def enjoy(
 ) -> list[dict[str, Any]]:
     """Roll out ``spec.episodes`` episodes; returns one row of metrics per episode (the evaluation's
     columns). ``video``: folder for the MP4s; ``meshcat``: live view."""
-    import gymnasium as gym
-
-    from sphere_env.evaluation.cells import rollout
-    from sphere_env.evaluation.video import (
-        check_video_support,
-        record_episode,
-        staged_videos,
-        video_name,
-    )
+    from sphere_env.evaluation.video import check_video_support, staged_videos
 
     view = validate(ViewOptions, dict(meshcat=meshcat, video=video, realtime_rate=realtime_rate))
     meshcat, video = view.meshcat, view.video
@@ -159,19 +204,7 @@ def enjoy(
     import torch
 
     torch.set_num_threads(1)
-    render_mode = "rgb_array" if video is not None else ("human" if meshcat else None)
-    try:
-        env = gym.make(
-            r["env_id"],
-            shell_model=r["shell_model"],
-            friction_model=r["friction"],
-            randomization="off",
-            render_mode=render_mode,
-            meshcat=bool(meshcat),
-            **r["env_kwargs"],
-        )
-    except TypeError as err:
-        raise ValueError(f"env_kwargs: {err}") from None
+    env = _make_env(r, "rgb_array" if video is not None else ("human" if meshcat else None), bool(meshcat))
     rows = []
     try:
         controller = make_policy(r["folder"], r["which"], spec.deterministic, spec.seed, env)
@@ -180,33 +213,11 @@ def enjoy(
             controller = Paced(controller, env, view.realtime_rate)
         with staged_videos(video) as video_work:
             for k in range(spec.episodes):
-                job = {
-                    "controller": r["label"],
-                    "spec": str(spec.run),
-                    "env_id": r["env_id"],
-                    "shell_model": r["shell_model"],
-                    "friction": r["friction"],
-                    "pressure_kpa": r["pressure_kpa"],
-                    "seed": spec.seed + k,
-                    "env_kwargs": r["env_kwargs"],
-                }
-                if video_work is not None:
-                    name = video_name(r["label"], r["shell_model"], r["pressure_kpa"], spec.seed + k)
-                    row, _ = record_episode(
-                        env, video_work, name, lambda rec, job=job: rollout(job, env=rec, controller=controller)
-                    )
-                    row["video"] = str(Path(video) / f"{name}.mp4")
-                else:
-                    row, _ = rollout(job, env=env, controller=controller)
+                row = _play(env, controller, r, spec, spec.seed + k, video, video_work)
                 if meshcat:
                     env.unwrapped.twin.publish()  # the last state
                 rows.append(row)
-                say(
-                    f"episode {k}: seed {row['seed']}, {row['pressure_kpa']:g} kPa, {row['shell_model']}: "
-                    f"return {row['return']:.3f}, {row['length']} steps, success {bool(row['is_success'])}, "
-                    f"tracking RMSE {row['tracking_rmse_rad_s']:.3f} rad/s"
-                    + (f", truncated ({row['truncation_reason']})" if row["truncation_reason"] else "")
-                )
+                say(_said(k, row))
         for row in rows:
             if "video" in row:
                 say(f"video: {row['video']}")
