@@ -314,6 +314,53 @@ def _policy_json(
     }
 
 
+def _write_checked(module, fmt: str, path: Path, obs, expected, starts, residual: bool, tol: float) -> float:
+    """Write ``module`` to ``path`` in ``fmt`` and run the file on ``obs``: batched, or (a
+    ``residual`` policy) one step at a time, its PD state carried through each episode and reset at
+    its ``starts``. Returns the largest difference from the ``expected`` actions; refuses
+    (ValueError) one over ``tol``."""
+    from sphere_env.controllers_torch import PD_STATE_RESET
+
+    examples = {"observation": obs[:2]}
+    if residual:
+        examples["state"] = np.repeat(np.asarray([PD_STATE_RESET], np.float64), 2, axis=0)
+    if fmt == "onnx":
+        write_onnx(module, examples, ["action", "next_state"] if residual else ["action"], path)
+    else:
+        write_torchscript(module, list(examples.values()), path)
+    if residual:
+        got = run_exported_episodes(path, fmt, obs, starts, PD_STATE_RESET)
+    else:
+        got = run_exported(path, fmt, obs)
+    diff = float(np.max(np.abs(got - expected)))
+    if not diff <= tol:
+        reference = "the evaluation's (PD + scale × residual)" if residual else "the SB3 policy's"
+        raise ValueError(
+            f"check: the exported policy's actions differ from {reference} by up to {diff:.3g} "
+            f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written"
+        )
+    return diff
+
+
+def _check_record(fmt: str, n_obs: int, pressures, residual: bool, diff: float, tol: float) -> dict[str, Any]:
+    """policy.json's ``check``: what the exported file was compared with, on how many
+    observations, and the largest difference found."""
+    return {
+        "observations": n_obs,
+        "pressures_kpa": list(pressures),
+        "reference": (
+            "PolicyController's actions (the evaluation's PD + scale × residual) along its own "
+            "episodes, one per pressure; the file run one step at a time, its state reset at each "
+            "episode's start and carried through it"
+            if residual
+            else "model.predict(vecnormalize.normalize_obs(obs), deterministic=True), batched"
+        ),
+        "max_abs_action_diff": diff,
+        "tol": tol,
+        "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
+    }
+
+
 def export(
     run: str,
     fmt: str = "onnx",
@@ -326,7 +373,6 @@ def export(
     The options are loaded as :class:`~sphere_env.evaluation.command_options.ExportOptions` first."""
     import torch
 
-    from sphere_env.controllers_torch import PD_STATE_RESET
     from sphere_env.evaluation.controller_specs import PolicyController, run_path
     from sphere_env.evaluation.enjoy import EnjoySpec
 
@@ -366,39 +412,8 @@ def export(
     # check passed (_swap_in), so policy file and policy.json are never from two exports.
     with staged_folder(out, _swap_in) as work:
         tmp, tmp_json = work / name, work / "policy.json"
-        examples = {"observation": obs[:2]}
-        if residual is not None:
-            examples["state"] = np.repeat(np.asarray([PD_STATE_RESET], np.float64), 2, axis=0)
-        if fmt == "onnx":
-            write_onnx(module, examples, ["action"] if residual is None else ["action", "next_state"], tmp)
-        else:
-            write_torchscript(module, list(examples.values()), tmp)
-        if residual is None:
-            got = run_exported(tmp, fmt, obs)
-        else:  # one step at a time, the state carried through each episode and reset at its start
-            got = run_exported_episodes(tmp, fmt, obs, rec["starts"], PD_STATE_RESET)
-        diff = float(np.max(np.abs(got - expected)))
-        if not diff <= tol:
-            reference = "the SB3 policy's" if residual is None else "the evaluation's (PD + scale × residual)"
-            raise ValueError(
-                f"check: the exported policy's actions differ from {reference} by up to {diff:.3g} "
-                f"(> tol {tol:g}) on {len(obs)} recorded observations; nothing written"
-            )
+        diff = _write_checked(module, fmt, tmp, obs, expected, rec["starts"], residual is not None, tol)
         stats = _normalization(controller.vecnormalize, observation_layout)
-        check = {
-            "observations": len(obs),
-            "pressures_kpa": list(rec["pressures"]),
-            "reference": (
-                "model.predict(vecnormalize.normalize_obs(obs), deterministic=True), batched"
-                if residual is None
-                else "PolicyController's actions (the evaluation's PD + scale × residual) along its own "
-                "episodes, one per pressure; the file run one step at a time, its state reset at each "
-                "episode's start and carried through it"
-            ),
-            "max_abs_action_diff": diff,
-            "tol": tol,
-            "runtime": "onnxruntime" if fmt == "onnx" else "torch.jit",
-        }
         layout = _policy_json(
             fmt,
             obs.shape[1],
@@ -411,7 +426,7 @@ def export(
             controller,
             residual_info,
         )
-        layout["check"] = check
+        layout["check"] = _check_record(fmt, len(obs), rec["pressures"], residual is not None, diff, tol)
         layout["versions"] = _versions(fmt)
         layout["created_utc"] = datetime.now(UTC).isoformat(timespec="seconds")
         tmp_json.write_text(json.dumps(layout, indent=2, ensure_ascii=False, default=str) + "\n")
