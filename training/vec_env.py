@@ -36,6 +36,10 @@ from stable_baselines3.common.vec_env.base_vec_env import CloudpickleWrapper, Ve
 from sphere_env.parallel import deferred_interrupts
 from sphere_env.schemas import checker, count
 
+#: The module the fork server of the workers imports before it serves: it ignores SIGINT, and so
+#: does every worker it forks, from the fork on (:mod:`sphere_env.training.worker_signals`).
+WORKER_PRELOAD = "sphere_env.training.worker_signals"
+
 #: Seconds :meth:`BatchedSubprocVecEnv.close` waits, for all workers together, before stopping the
 #: ones that have not ended.
 CLOSE_TIMEOUT_S = 10.0
@@ -324,6 +328,8 @@ class BatchedSubprocVecEnv(_Replies, VecEnv):
                 if start_method is None:
                     start_method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
                 ctx = mp.get_context(start_method)
+                if start_method == "forkserver":  # workers that ignore Ctrl-C from their start
+                    ctx.set_forkserver_preload(["__main__", WORKER_PRELOAD])
                 for block in self.blocks[1:]:
                     remote, work_remote = ctx.Pipe()
                     args = (work_remote, remote, CloudpickleWrapper([env_fns[i] for i in block]))

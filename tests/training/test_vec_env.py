@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import multiprocessing as mp
 from functools import partial
 
 import numpy as np
@@ -88,6 +89,31 @@ def test_batched_equals_dummy_over_episodes_with_resets():
     finally:
         a.close()
         b.close()
+
+
+def _sigint_disposition(queue) -> None:
+    """A child's SIGINT disposition as its first code runs (put on ``queue``)."""
+    import signal
+
+    queue.put(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
+
+
+@pytest.mark.skipif("forkserver" not in mp.get_all_start_methods(), reason="no forkserver start method here")
+def test_workers_are_forked_ignoring_ctrl_c_before_their_own_code_runs():
+    """The fork server that started the workers hands out processes that ignore SIGINT from the
+    fork on, so a Ctrl-C during a worker's seconds of unpickling (imports of torch, SB3 and Drake)
+    never raises in it: a probe forked by that server ignores SIGINT at its first instruction."""
+    fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, seed) for seed in range(2)]
+    vec = BatchedSubprocVecEnv(fns, n_workers=2)
+    try:
+        ctx = mp.get_context("forkserver")
+        queue = ctx.Queue()
+        probe = ctx.Process(target=_sigint_disposition, args=(queue,))
+        probe.start()
+        assert queue.get(timeout=60) is True
+        probe.join(timeout=60)
+    finally:
+        vec.close()
 
 
 def test_threaded_equals_dummy_over_episodes_with_resets():
