@@ -47,6 +47,13 @@ def _temp_prefix(path: Path, kind: str) -> str:
     return f".{file_stem(path.name, _TEMP_STEM)}.{kind}-"
 
 
+def _umask() -> int:
+    """The process's file-mode creation mask (read by setting it and setting it back)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
 def write_text_atomic(
     path: str | Path, text: str, exclusive: bool = False, check: Callable[[Path], object] | None = None
 ) -> Path:
@@ -55,13 +62,15 @@ def write_text_atomic(
     ``exclusive``, only when ``path`` does not exist yet: the complete file is linked into place,
     which fails (``FileExistsError``) when another process got there first. ``check(temporary
     path)``, when given, runs on the complete file before it goes into place; what it raises
-    leaves ``path`` as it was."""
+    leaves ``path`` as it was. The file gets the mode of any file the process creates (0666 less
+    the umask), not the temporary file's private 0600."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f"{file_stem(path.name, _TEMP_STEM)}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())
         if check is not None:
             check(Path(tmp))
         (os.link if exclusive else os.replace)(tmp, path)
@@ -173,9 +182,7 @@ def staged_folder(folder: str | Path, publish: Callable[[Path, Path], None], loc
         with held:
             folder.parent.mkdir(parents=True, exist_ok=True)
             work = Path(tempfile.mkdtemp(prefix=_temp_prefix(folder, "partial"), dir=folder.parent))
-            umask = os.umask(0)
-            os.umask(umask)
-            work.chmod(0o777 & ~umask)  # mkdtemp makes it private; the folder it becomes should not be
+            work.chmod(0o777 & ~_umask())  # mkdtemp makes it private; the folder it becomes should not be
             try:
                 yield work
             except BaseException:

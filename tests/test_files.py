@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from sphere_env.files import swap_folder, write_text_atomic
@@ -30,3 +32,13 @@ def test_a_folder_swap_replaces_the_outputs_as_a_set_and_keeps_other_files(tmp_p
     assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "report.md"]
     assert (out / "report.md").read_text() == "new" and (out / "notes.txt").read_text() == "mine"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077], ids=["umask 022", "umask 077"])
+def test_an_atomic_write_gives_the_file_the_umask_mode_not_the_temporary_files(tmp_path, umask):
+    old = os.umask(umask)
+    try:
+        out = write_text_atomic(tmp_path / "results.json", "{}\n")
+    finally:
+        os.umask(old)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask
