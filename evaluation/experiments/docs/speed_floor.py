@@ -129,14 +129,24 @@ def solver_accuracy(res: Results) -> str:
     return "\n".join(lines)
 
 
-@renders("solver_training")
-def solver_training(res: Results) -> str:
-    t = res.json("benchmark_train.json")["solvers"]
+def _solver_line(t: dict, commit: str) -> str:
     ref, fast = t["rows"]
     r = t["ratio"]
     return (
         f"{whole(ref['train_steps_per_s'])} → **{whole(fast['train_steps_per_s'])} env steps/s** "
         f"(×{r['train_steps_per_s']:.2f}; rollout ×{r['rollout_steps_per_s']:.2f}, single env "
         f"×{r['single_env_steps_per_s']:.2f}), {t['env_id'].split('/')[-1]}, {ref['steps']:,} + {fast['steps']:,} env "
-        f"steps timed, commit {t['machine']['commit']}, {_load(t)}"
+        f"steps timed, commit {commit}, {_load(t)}"
+    )
+
+
+@renders("solver_training")
+def solver_training(res: Results) -> str:
+    bench = res.json("benchmark.json")
+    alone = res.json("benchmark_train.json")["solvers"]
+    return (
+        f"- `make bench` (`evaluation/results/benchmark.md`, the run of the floor and the profile above): "
+        f"{_solver_line(bench['train']['solvers'], bench['machine']['commit'])};\n"
+        f"- the training benchmark alone (`evaluation/results/benchmark_train.md`): "
+        f"{_solver_line(alone, alone['machine']['commit'])}"
     )
