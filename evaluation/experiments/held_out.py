@@ -13,7 +13,7 @@ reference physics (SAP: a policy trained with the TAMSI solver is evaluated with
 :func:`~sphere_env.evaluation.controller_specs.env_kwargs_of`). Each figure is cached in the run
 folder as it finishes, so an interrupted pass continues.
 
-    python -m evaluation.experiments.held_out runs [--recipe NAME ...]
+    python -m evaluation.experiments.held_out runs [--recipe NAME ...] [--seeds N ...]
     python -m evaluation.experiments.held_out baselines
     python -m evaluation.experiments.held_out summary     # held_out.json: per recipe, the aims it meets
     python -m evaluation.experiments.held_out screen RUN@STEPS [pd ...] [--faults NAME ...] [--calibrations NAME ...]
@@ -131,14 +131,20 @@ def validation_curve(run_dir: Path, offset: int = 0) -> list[dict[str, Any]]:
     return curve
 
 
-def add_to_runs(recipes: Sequence[str] | None = None, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
+def add_to_runs(
+    recipes: Sequence[str] | None = None,
+    runs_root: Path = RUNS,
+    results: Path = RESULTS,
+    seeds: Sequence[int] | None = None,
+) -> None:
     """Add ``test`` to every finished run's result file that has a validation-chosen checkpoint
-    and a run folder, and lacks it (``recipes``: only these)."""
+    and a run folder, and lacks it (``recipes``, ``seeds``: only these, so that two passes can share
+    a study without doing the same run twice)."""
     import torch
 
     torch.set_num_threads(1)
     for f in sorted((results / "runs").glob("*/seed*.json")):
-        if recipes and f.parent.name not in recipes:
+        if (recipes and f.parent.name not in recipes) or (seeds and f.stem not in {f"seed{n}" for n in seeds}):
             continue
         res = json.loads(f.read_text())
         run_dir = runs_root / f.parent.name / f.stem
@@ -321,6 +327,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     sub = p.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("runs", help="add the test-set figures to every finished run's result file")
     r.add_argument("--recipe", nargs="+", default=None)
+    r.add_argument("--seeds", nargs="+", type=int, default=None, help="only these seeds' runs")
     sub.add_parser("baselines", help="add the test-set figures of the PD, zero torque and the shipped policy")
     sub.add_parser("summary", help="write held_out.json: the test-set figures per recipe and the aims they meet")
     sc = sub.add_parser("screen", help="controllers on the validation set, nominal, under faults and calibrations")
@@ -335,7 +342,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             sys.exit(str(err))
         return
     if args.cmd == "runs":
-        add_to_runs(args.recipe)
+        add_to_runs(args.recipe, seeds=args.seeds)
     elif args.cmd == "baselines":
         add_to_baselines()
     else:
