@@ -310,3 +310,64 @@ def randomization_study(res: Results) -> str:
     else:
         out.append(f"The conditions are compared once two of them have {MIN_STUDY_RUNS} finished runs each.")
     return "\n".join(ln if ln.startswith("  - ") else f"- {ln}" for ln in out)
+
+
+def _held_out_row(name: str, runs: str, r: dict, pd: dict, margin: float) -> list[str]:
+    """One controller's test-set cells; ``r`` has the recipe summary's keys or a baseline's."""
+    shells = r.get("per_shell_mean") or r["per_shell"]
+    faults = r.get("faults_mean") or r["faults"]
+    cals = r.get("calibrations_mean") or r["calibrations"]
+    gap = {k: faults[k] - pd["faults"][k] for k in faults}
+    worst = min(gap, key=lambda k: (gap[k], k))
+    held = sum(gap[k] >= -margin - 1e-9 for k in gap)
+    nominal = percent(r.get("mean", r["success_rate"]))
+    if "worst_run" in r:
+        nominal += f" ({percent(r['worst_run'])})"
+    if r is pd:
+        return [name, runs, nominal, slash(shells.values(), percent), "", "", slash(cals.values(), percent)]
+    return [
+        name,
+        runs,
+        nominal,
+        slash(shells.values(), percent),
+        f"{held} of {len(gap)}",
+        f"{worst} {percent(faults[worst])} ({percent(pd['faults'][worst])})",
+        slash((f"{percent(cals[k])} ({percent(pd['calibrations'][k])})" for k in cals)),
+    ]
+
+
+@renders("held_out_table")
+def held_out_table(res: Results) -> str:
+    h = res.json("learning/held_out.json")
+    pd = h["baselines"]["pd"]
+    margin = h["aims"]["pd_margin"]
+    rows = [
+        _held_out_row(f"`{name}`" if name not in ("pd", "zero") else name, "", b, pd, margin)
+        for name, b in h["baselines"].items()
+    ]
+    notes = []
+    for name, r in h["recipes"].items():
+        rows.append(_held_out_row(f"`{name}`", str(r["runs"]), r, pd, margin))
+        aims = r.get("aims", {})
+        met = [k.replace("_", " ") for k, ok in aims.items() if ok]
+        missed = [k.replace("_", " ") for k, ok in aims.items() if not ok]
+        drop = max(r["final_below_chosen_on_validation"])
+        crossings = [c for c in r["validation_pd_level_crossing_env_steps"] if c is not None]
+        notes.append(
+            f"- `{name}` (seeds {', '.join(map(str, r['seeds']))}): nominal mean {percent(r['mean'])}, 95 % CI over "
+            f"whole runs {percent(r['mean_ci'][0])}–{percent(r['mean_ci'][1])}; the final model at most "
+            f"{100 * drop:.0f} points below the chosen checkpoint on the validation set; "
+            f"{len(crossings)} of {r['runs']} runs at PD level on the validation set"
+            + (f", after {steps_k(sum(crossings) / len(crossings))} env steps in the mean" if crossings else "")
+            + f". Aims met: {', '.join(met) or 'none'}; not met: {', '.join(missed) or 'none'}."
+        )
+    headers = (
+        "controller",
+        "runs",
+        "nominal: mean (worst run)",
+        "point / injected / hydroelastic",
+        "faults at or above the PD − 3 points",
+        "the fault with the least margin over the PD (the PD)",
+        "free_robot / v0_linear (the PD)",
+    )
+    return table(headers, rows) + "\n\n" + "\n".join(notes)
