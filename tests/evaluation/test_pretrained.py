@@ -11,7 +11,7 @@ import pytest
 
 import sphere_env  # noqa: F401
 from sphere_env.evaluation.cells import rollout
-from sphere_env.evaluation.controller_specs import check_spec, make_controller, run_folder
+from sphere_env.evaluation.controller_specs import check_spec, env_kwargs_of, make_controller, run_folder
 from sphere_env.evaluation.enjoy import EnjoySpec, enjoy
 from sphere_env.evaluation.evaluate import SweepSpec, evaluate
 from sphere_env.resources import shipped_policy_path
@@ -29,7 +29,7 @@ def test_the_shipped_policy_is_a_complete_run_folder_with_its_card():
 def test_the_shipped_policy_tracks_where_zero_torque_does_not():
     """Rigid point contact at 8.5 kPa, the grid's seeds: zero torque keeps accelerating past the
     command; the shipped policy's tracking error is far below it in every episode."""
-    kw = {"observe_pressure": True, "observe_shell_model": True}
+    kw = env_kwargs_of("pretrained")  # the observations it was trained on
     for seed in (0, 1, 2):
         job = dict(
             controller="x",
@@ -60,13 +60,8 @@ def test_evaluate_and_enjoy_take_the_shipped_policy_by_name(tmp_path):
 
 
 def test_the_shipped_policy_acts_on_the_env_it_was_trained_for():
-    env = gym.make(
-        "sphere_env/RampDescent-v3",
-        shell_model="hydroelastic",
-        randomization="off",
-        observe_pressure=True,
-        observe_shell_model=True,
-    )
+    kw = {**env_kwargs_of("pretrained"), "shell_model": "hydroelastic", "randomization": "off"}
+    env = gym.make("sphere_env/RampDescent-v3", **kw)
     ctrl = make_controller("pretrained", env)
     obs, info = env.reset(seed=0)
     a = ctrl(obs, info)
