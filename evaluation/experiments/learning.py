@@ -47,6 +47,9 @@ HERE = Path(__file__).resolve().parent
 RECIPES = HERE / "recipes.yml"
 RESULTS = HERE.parent / "results" / "learning"
 RUNS = Path("runs") / "learning"
+#: The recipe that RampDescent-v3's section of ``training/hyperparams/ppo.yml`` is: what
+#: ``sphere-env train`` and rl-zoo3 train by default.
+SECTION_RECIPE = "curriculum_scheduled"
 PD_MARGIN = 0.03  # "PD level": grid success ≥ the PD's − 3 points
 # the validation set's seeds (evaluation/episode_sets.yml): every choice is made on these
 VALIDATION_SEEDS = tuple(sorted({e.seed for e in episodes("validation")}))

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from sphere_env.evaluation.experiments.learning import load_recipes, phase_offset, recipe_config
+from sphere_env.evaluation.experiments.learning import SECTION_RECIPE, load_recipes, phase_offset, recipe_config
 
 RECIPES = load_recipes()
 
@@ -37,14 +37,14 @@ def test_a_continuation_counts_its_steps_from_its_first_phase():
     assert all(phase_offset(r) == 0 for r in RECIPES.values() if not r.get("continue_from"))
 
 
-def test_the_default_ppo_section_is_the_shipped_policys_recipe():
+def test_the_default_ppo_section_is_its_recipe():
     """``training/hyperparams/ppo.yml``'s RampDescent-v3 section (what ``sphere-env train`` and
-    rl-zoo3 train by default) resolves to the configuration of ``curriculum_scheduled``, the recipe
-    the shipped policy was trained with; the other recipes keep their frozen base file."""
+    rl-zoo3 train by default) resolves to the configuration of ``SECTION_RECIPE``
+    (``curriculum_scheduled``); the other recipes keep their frozen base file."""
     from sphere_env.resources import hyperparams_path
     from sphere_env.training.config import resolve_config
 
-    recipe = RECIPES["curriculum_scheduled"]
+    recipe = RECIPES[SECTION_RECIPE]
     assert recipe["conf"] == "ppo_mixture"
     ours = recipe_config(recipe, seed=0)
     default = resolve_config(

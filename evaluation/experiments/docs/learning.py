@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
-from sphere_env.evaluation.experiments.learning import PD_MARGIN
+from sphere_env.evaluation.experiments.learning import PD_MARGIN, SECTION_RECIPE
 from sphere_env.evaluation.experiments.study_summary import MIN_STUDY_RUNS, STUDY_RECIPES, VERDICTS, chose_budget_end
 from sphere_env.resources import asset_path
 
@@ -151,15 +151,14 @@ def learning_best_recipe(res: Results) -> str:
     )
 
 
-@renders("learning_shipped_recipe")
-def learning_shipped_recipe(res: Results) -> str:
-    """The figures over seeds of the recipe the shipped policy was trained with (its card's), and
+@renders("learning_section_recipe")
+def learning_section_recipe(res: Results) -> str:
+    """The figures over seeds of the recipe that ppo.yml's section is (:data:`SECTION_RECIPE`), and
     how many of its runs reached PD level on the validation grid."""
-    card = json.loads(asset_path(*CARD).read_text())
     s = _summary(res)
-    r = _recipes(res).get(f"{card['recipe']}@selected")
+    r = _recipes(res).get(f"{SECTION_RECIPE}@selected")
     if r is None:
-        raise DocsError(f"the shipped policy's recipe {card['recipe']!r} has no finished runs in learning/summary.json")
+        raise DocsError(f"ppo.yml's recipe {SECTION_RECIPE!r} has no finished runs in learning/summary.json")
     per = r["per_shell_mean"]
     met = [k for k, ok in r["aims"].items() if ok]
     reached = r["validation_reached_pd_level"]
@@ -170,7 +169,7 @@ def learning_shipped_recipe(res: Results) -> str:
         else "; PD level on the validation grid is not recorded"
     )
     return (
-        f"`{card['recipe']}` wins {percent(r['mean_success'])} of the development grid in the mean over {r['seeds']} "
+        f"`{SECTION_RECIPE}` wins {percent(r['mean_success'])} of the development grid in the mean over {r['seeds']} "
         f"seeds with each seed's validation-chosen checkpoint (worst seed {percent(r['worst_seed_success'])}; point / "
         f"injected / hydroelastic {slash(percent(per[m]) for m in ('point', 'injected', 'hydroelastic'))}; tracking "
         f"RMSE {r['mean_tracking_rmse_rad_s']:.2f} rad/s; rliable IQM over whole runs {percent(r['rliable_iqm'])}, "
