@@ -43,10 +43,21 @@ def learning_shipped_policy(res: Results) -> str:
         raise DocsError(f"cannot read policy card {path}: {e}") from e
     pd = _summary(res)["pd"]
     n = len(card["episodes"])
-    return (
+    text = (
         f"the recipe `{card['recipe']}`'s seed {card['seed']} at {steps_k(card.get('env_steps') or card['checkpoint_steps'])} env steps; it "
         f"wins {round(card['success_rate'] * n)} of {n} development-grid episodes (the PD {round(pd['success_rate'] * n)}) "
         f"at a tracking RMSE of {card['tracking_rmse_rad_s']:.2f} rad/s (the PD {pd['tracking_rmse_rad_s']:.2f})"
+    )
+    if "test" not in card:
+        return text
+    test, pd_test = card["test"], res.json("learning/held_out.json")["baselines"]["pd"]
+    below = [k for k, v in test["faults"].items() if v["success_rate"] < pd_test["faults"][k] - 1e-9]
+    below += [k for k, v in test["calibrations"].items() if v["success_rate"] < pd_test["calibrations"][k] - 1e-9]
+    return (
+        f"{text}; on the test set it wins {percent(test['nominal']['success_rate'])} (the PD "
+        f"{percent(pd_test['success_rate'])}), and under the {len(test['faults'])} graded faults and "
+        f"{len(test['calibrations'])} other calibrations it is at or above the PD on all but "
+        f"{len(below)}" + (f" ({', '.join(sorted(below))})" if below else "")
     )
 
 
