@@ -1,6 +1,6 @@
 """`make demo`: the project's main job on its default configuration, end to end.
 
-1. Train a PPO policy from scratch on ``sphere_env/RampDescent-v3`` with the shipped recipe
+1. Train a PPO policy from scratch on ``sphere_env/RampDescent-v3`` with the default recipe
    (``training/hyperparams/ppo.yml``: the point and injected shells drawn per episode, the pressure
    uniform over the calibrated range, an asymmetric critic) for a short budget (``--train-steps``),
    so that the training route is seen to work.
@@ -149,7 +149,7 @@ def main(argv: list[str] | None = None) -> dict:
 def _train(
     policies: dict[str, Path], steps: int, seed: int, pressure_range_kpa: tuple[float, float]
 ) -> tuple[dict[str, float], dict[str, dict]]:
-    """Step 1: train each of ``policies`` (label -> run folder) from scratch with the shipped recipe
+    """Step 1: train each of ``policies`` (label -> run folder) from scratch with the default recipe
     for ``steps`` env steps; (wall seconds, the run's ``timing.json``) per label."""
     from sphere_env.training.config import resolve_config
     from sphere_env.training.trainer import train
@@ -158,7 +158,7 @@ def _train(
     t_train, timings = {}, {}
     for label, run_dir in policies.items():
         print(
-            f"[1/3] Training {label} on {ENV_ID} for {steps} env steps with the shipped recipe "
+            f"[1/3] Training {label} on {ENV_ID} for {steps} env steps with the default recipe "
             f"(point and injected shells, pressure ~ U[{lo:g}, {hi:g}] kPa per episode) ...",
             flush=True,
         )

@@ -108,7 +108,7 @@ class ShellModelMixture(gym.Wrapper):
 
     The shell model is also an ordinary randomizable parameter: ``randomization={"shell_model":
     [...], ...}`` draws it per episode in one env (its twins built on first use), reported like
-    every parameter in ``info["params"]``. This wrapper stays because the shipped recipe and policy
+    every parameter in ``info["params"]``. This wrapper stays because recipes of the learning study
     were trained with it (its draws come from its own generator, so changing it would change them).
 
     Holds one env per shell model, built like the wrapped one (same id and ``gym.make`` kwargs but

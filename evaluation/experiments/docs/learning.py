@@ -56,8 +56,8 @@ def learning_shipped_policy(res: Results) -> str:
     return (
         f"{text}; on the test set it wins {percent(test['nominal']['success_rate'])} (the PD "
         f"{percent(pd_test['success_rate'])}), and under the {len(test['faults'])} graded faults and "
-        f"{len(test['calibrations'])} other calibrations it is at or above the PD on all but "
-        f"{len(below)}" + (f" ({', '.join(sorted(below))})" if below else "")
+        f"{len(test['calibrations'])} other calibrations it is at or above the PD "
+        + (f"on all but {len(below)} ({', '.join(sorted(below))})" if below else "on every one")
     )
 
 
