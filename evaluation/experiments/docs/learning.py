@@ -327,14 +327,14 @@ def _held_out_row(name: str, runs: str, r: dict, pd: dict, margin: float) -> lis
     shells = r.get("per_shell_mean") or r["per_shell"]
     faults = r.get("faults_mean") or r["faults"]
     cals = r.get("calibrations_mean") or r["calibrations"]
-    gap = {k: faults[k] - pd["faults"][k] for k in faults}
-    worst = min(gap, key=lambda k: (gap[k], k))
-    held = sum(gap[k] >= -margin - 1e-9 for k in gap)
     nominal = percent(r.get("mean", r["success_rate"]))
     if "worst_run" in r:
         nominal += f" ({percent(r['worst_run'])})"
     if r is pd:
         return [name, runs, nominal, slash(shells.values(), percent), "", "", slash(cals.values(), percent)]
+    gap = {k: faults[k] - pd["faults"][k] for k in faults}
+    worst = min(gap, key=lambda k: (gap[k], k))
+    held = sum(gap[k] >= -margin - 1e-9 for k in gap)
     return [
         name,
         runs,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from sphere_env.evaluation.experiments.benchmark_recipe import FAST_SOLVER
-from sphere_env.evaluation.experiments.docs.base import Results, fixed, fixed2, kpa, renders, table, whole
+from sphere_env.evaluation.experiments.docs.base import Results, fixed, fixed2, kpa, percent, renders, table, whole
 
 SHELLS = ("point", "injected", "hydroelastic")
 
@@ -168,8 +168,8 @@ def tamsi_policy(res: Results) -> str:
         aims = r.get("aims", {})
         lines.append(
             f"- `{name}`, trained with {FAST_SOLVER.upper()}, evaluated under SAP on the test set over {r['runs']} "
-            f"run{'s' if r['runs'] != 1 else ''}: nominal mean {100 * r['mean']:.0f} % (worst run "
-            f"{100 * r['worst_run']:.0f} %; the PD {100 * pd:.0f} %); test-set aims met "
+            f"run{'s' if r['runs'] != 1 else ''}: nominal mean {percent(r['mean'])} (worst run "
+            f"{percent(r['worst_run'])}; the PD {percent(pd)}); test-set aims met "
             f"{sum(aims.values())} of {len(aims)} (not met: {', '.join(k for k, ok in aims.items() if not ok) or 'none'})"
         )
     return "\n".join(lines) or "- no recipe trained with the fast solver has test-set figures yet"
