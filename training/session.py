@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -120,7 +119,7 @@ def train_session(
                     "num_timesteps": model.num_timesteps,
                     "steps_this_session": steps,
                     "wall_s": wall,
-                    "steps_per_s": steps / wall if wall > 0 else math.nan,
+                    "steps_per_s": steps / wall if steps > 0 and wall > 0 else None,  # None: no step trained
                 },
                 indent=2,
             )

@@ -4,7 +4,9 @@ usable checkpoint.
 :func:`train` decides, under the folder's lock and before anything in the folder changes, what the
 folder holds and where training starts: a fresh folder, a folder whose run stopped before its first
 checkpoint (cleared and started over), or a resume from the newest checkpoint that loads (newer
-unreadable ones skipped, saying so; the learning-curve history cut back to it). It then writes
+unreadable ones skipped, saying so; the learning-curve history cut back to it). A checkpoint at the
+step budget of a run stopped before its final save is saved as the run's model with no more
+training (a session of zero steps, its rate unknown). It then writes
 ``config.yaml`` (a resume keeps the original command and lists its own), runs one
 :func:`~sphere_env.training.session.train_session` and writes the learning curves. A fresh run that
 fails before its first checkpoint removes the folder it created.
@@ -12,6 +14,7 @@ fails before its first checkpoint removes the folder it created.
 
 from __future__ import annotations
 
+import json
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Sequence
@@ -70,6 +73,16 @@ def train(
         return _train_locked(cfg, cls, run_dir, resume, created, progress_bar, verbose, command, return_model)
 
 
+def _saved_steps(run_dir: Path) -> int:
+    """The step count of the run's last finished session (its ``timing.json``); -1 when no session
+    finished: a run stopped after its last checkpoint and before its final save has none at that
+    checkpoint's count."""
+    try:
+        return int(json.loads((run_dir / "timing.json").read_text())["num_timesteps"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return -1
+
+
 def _train_locked(
     cfg: TrainConfig,
     cls,
@@ -100,10 +113,15 @@ def _train_locked(
             )
         if ckpt is not None:
             start_steps = ckpt[0]
-            if start_steps >= cfg.n_timesteps:
+            if start_steps >= cfg.n_timesteps and _saved_steps(run_dir) >= start_steps:
                 raise ValueError(
                     f"n_timesteps: {cfg.n_timesteps} already reached (checkpoint at {start_steps}); "
                     "pass a larger --n-timesteps to continue"
+                )
+            if start_steps >= cfg.n_timesteps:
+                say(
+                    f"resume: the checkpoint at {start_steps} steps reaches n_timesteps ({cfg.n_timesteps}) but the "
+                    "run stopped before its final save; saving the model from it, with no more training"
                 )
             for problem in skipped:
                 say(f"resume: skipping a checkpoint: {problem}")

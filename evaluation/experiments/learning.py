@@ -314,7 +314,9 @@ def run_job(
         if not agent.is_file():
             raise ValueError(f"continue_from: {agent} is missing (run {recipe['continue_from']} seed {seed} first)")
         t = json.loads((first / "timing.json").read_text()) if (first / "timing.json").exists() else None
-        offset_wall = offset * (t["wall_s"] / max(t["steps_this_session"], 1)) if t else math.nan
+        offset_wall = (
+            offset * (t["wall_s"] / max(t["steps_this_session"], 1)) if t and t["steps_this_session"] > 0 else math.nan
+        )
     cfg = recipe_config(recipe, seed, trained_agent=agent)
     check_training_seed(seed, cfg.n_envs)
     run_dir = runs_root / recipe_name / f"seed{seed}"
@@ -327,7 +329,14 @@ def run_job(
     if not (done is not None and done[0] >= steps and (run_dir / "timing.json").exists()):  # trained: evaluate
         train(cfg, run_dir, resume=resume, progress_bar=False, command=["evaluation.experiments.learning", recipe_name])
     timing = json.loads((run_dir / "timing.json").read_text())
-    wall_per_step = timing["wall_s"] / max(timing["steps_this_session"], 1)
+    # a session of zero steps (a run saved from its checkpoint at the budget) has no rate: the
+    # wall-clock figures of such a run are unknown (None)
+    wall_per_step = timing["wall_s"] / timing["steps_this_session"] if timing["steps_this_session"] > 0 else None
+
+    def wall_at(steps: int) -> float | None:
+        known = wall_per_step is not None and offset_wall == offset_wall  # offset_wall NaN: not timed
+        return offset_wall + steps * wall_per_step if known else None
+
     curve = []
     ckpts = checkpoint_steps(run_dir)
     cache = run_dir / "grid_eval"  # one file per evaluated checkpoint: a longer budget re-uses them
@@ -340,7 +349,7 @@ def run_job(
             fig = evaluate_policy(f"{run_dir}@{n}", env_id)
             fig.pop("episodes_detail")
             write_text_atomic(done, json.dumps(fig) + "\n")
-        curve.append({"env_steps": offset + n, "wall_clock_s": offset_wall + n * wall_per_step, **fig})
+        curve.append({"env_steps": offset + n, "wall_clock_s": wall_at(n), **fig})
     final = evaluate_policy(str(run_dir), env_id)
     level = pd_level()
     reached = next((c for c in curve if c["success_rate"] >= level - 1e-9), None)
@@ -362,7 +371,7 @@ def run_job(
         "wall_clock_to_pd_level_s": reached["wall_clock_s"] if reached else None,
         # the last training session's rate over the whole run: a resumed run's earlier sessions are
         # not timed (timing.json is per session), so its own wall time would count the last one only
-        "wall_clock_s": offset_wall + timing["num_timesteps"] * wall_per_step,
+        "wall_clock_s": wall_at(timing["num_timesteps"]),
         "env_steps": offset + timing["num_timesteps"],
         "steps_per_s": timing["steps_per_s"],
         "job_wall_s": time.perf_counter() - t0,

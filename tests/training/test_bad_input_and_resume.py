@@ -196,6 +196,31 @@ def test_resume_falls_back_past_truncated_checkpoint_and_missing_vecnormalize(tm
     assert list(ev) == sorted(ev) and len(ev) == len(set(ev))
 
 
+def test_a_run_stopped_after_its_last_checkpoint_is_saved_from_it_and_then_refuses_more(tmp_path, capsys):
+    """Stopped during the last rollout, after the checkpoint at the budget and before the final save:
+    a resume saves that checkpoint as the run's model (no step trained, its rate unknown); once saved,
+    a resume at the same budget is refused."""
+    import json
+    import zipfile
+
+    run = _checkpointed_run(tmp_path)
+    for name in ("model.zip", "vecnormalize.json", "timing.json"):
+        (run / name).unlink()
+    ck = run / "checkpoints"
+    main(["--resume", str(run), "--n-timesteps", "64", "--no-progress"])
+    assert "stopped before its final save" in capsys.readouterr().err
+    timing = json.loads((run / "timing.json").read_text())
+    assert timing["num_timesteps"] == 64 and timing["steps_this_session"] == 0 and timing["steps_per_s"] is None
+    with zipfile.ZipFile(run / "model.zip") as a, zipfile.ZipFile(ck / "rl_model_64_steps.zip") as b:
+        assert a.read("policy.pth") == b.read("policy.pth")
+    assert json.loads((run / "vecnormalize.json").read_text()) == json.loads(
+        (ck / "rl_model_vecnormalize_64_steps.json").read_text()
+    )
+    with pytest.raises(SystemExit):
+        main(["--resume", str(run), "--n-timesteps", "64", "--no-progress"])
+    assert "already reached" in capsys.readouterr().err
+
+
 def test_run_stopped_before_first_checkpoint_restarts_or_is_reused(tmp_path, capsys):
     run = _checkpointed_run(tmp_path, n=32)
     import shutil
