@@ -327,8 +327,10 @@ def markdown(
             + ", ".join(CONDITION_ORDER[::-1])
             + "; the runs of the recipes "
             + ", ".join(f"`{r}`" for r in STUDY_RECIPES)
-            + ": the first three differ in their training randomization only, and the fourth arm, "
-            "pressure_faults_4m, is the pressure_faults runs continued to twice their budget), every run by "
+            + ": nominal, pressure and pressure_faults differ in their training randomization only; "
+            "calibration draws what the twin does not know and trains under TAMSI contact, evaluated under SAP "
+            "like the others; pressure_faults_4m, an arm beside them, is the pressure_faults runs continued to "
+            "twice their budget), every run by "
             "its validation-chosen checkpoint, on the development grid and the fault grid. A run's score on a "
             "grid is one number, its success over the grid's episodes, and every interval is a 95 % bootstrap "
             "over whole runs: rliable's IQM per condition, and for each pair one bootstrap, paired by seed where "

@@ -16,16 +16,18 @@ from sphere_env.evaluation.experiments.intervals import SHELLS, bootstrap_runs, 
 from sphere_env.reporting import markdown_table
 
 #: The randomization study's recipes, one per training condition (``recipes.yml``):
-#: curriculum_scheduled is the pressure condition; study_faults_4m, the fourth arm, is study_faults's
-#: runs continued to twice the budget. Other recipes (variants, and continuations of recipes outside
-#: the study) are not runs of a condition and stay out of the study.
-STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults", "study_faults_4m")
+#: curriculum_scheduled is the pressure condition; study_calibration the calibration-aware one;
+#: study_faults_4m, an arm beside them, is study_faults's runs continued to twice the budget. Other
+#: recipes (variants, and continuations of recipes outside the study) are not runs of a condition
+#: and stay out of the study.
+STUDY_RECIPES = ("study_nominal", "curriculum_scheduled", "study_faults", "study_calibration", "study_faults_4m")
 
 
-#: The study's conditions from the most randomized (and, for the fourth arm, the most trained) to the
+#: The study's conditions from the most randomized (and, for the 4 M arm, the most trained) to the
 #: least: each pair is written first minus second, so a positive difference is what the added
-#: randomization or budget bought.
-CONDITION_ORDER = ("pressure_faults_4m", "pressure_faults", "pressure", "nominal")
+#: randomization or budget bought. The calibration-aware condition draws what the calibrations leave
+#: unknown over the pressure condition's range, and no sensing or actuation fault.
+CONDITION_ORDER = ("pressure_faults_4m", "calibration", "pressure_faults", "pressure", "nominal")
 #: Runs a condition needs before the study compares it: a training claim rests on 5 seeds or more,
 #: and a bootstrap over 2 or 3 runs has too few distinct resamples for an interval.
 MIN_STUDY_RUNS = 5

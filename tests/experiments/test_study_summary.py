@@ -159,19 +159,22 @@ def test_a_run_chose_its_budget_end_only_when_its_last_checkpoint_or_final_model
 
 
 def test_each_pair_puts_the_more_randomized_or_longer_trained_condition_first():
-    """A positive difference reads as what the added randomization (or, for the fourth arm, the
+    """A positive difference reads as what the added randomization (or, for the 4 M arm, the
     doubled budget) bought: the pairs run from pressure_faults_4m to nominal whatever order the
     conditions arrive in, a condition this order does not know comes last, and one with fewer than
     5 runs is left out."""
     five = {"nominal": _grid(np.full((5, 3), 0.5)), "faults": NO_FAULTS}
     four = {"nominal": _grid(np.full((4, 3), 0.5)), "faults": NO_FAULTS}
-    scores = {c: five for c in ("nominal", "other", "pressure", "pressure_faults_4m", "pressure_faults")}
+    conditions = ("nominal", "other", "pressure", "calibration", "pressure_faults_4m", "pressure_faults")
+    scores = {c: five for c in conditions}
     have, pairs = compared({**scores, "few": four}, "nominal")
     assert "few" not in have
-    assert pairs[:4] == [
+    assert pairs[:5] == [
+        ("pressure_faults_4m", "calibration"),
         ("pressure_faults_4m", "pressure_faults"),
         ("pressure_faults_4m", "pressure"),
         ("pressure_faults_4m", "nominal"),
         ("pressure_faults_4m", "other"),
     ]
-    assert pairs[-1] == ("nominal", "other") and len(pairs) == 10
+    assert ("calibration", "pressure") in pairs and ("calibration", "nominal") in pairs
+    assert pairs[-1] == ("nominal", "other") and len(pairs) == 15
