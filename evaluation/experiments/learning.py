@@ -306,7 +306,8 @@ def run_job(
     # a second phase: the same seed's run of another recipe, continued from one of its checkpoints
     # with this recipe's hyperparameters (the trainer's -i); steps and wall-clock count from zero
     # of the first phase
-    offset, offset_wall, agent = 0, 0.0, None
+    offset, agent = 0, None
+    offset_wall: float | None = 0.0  # None: the first phase was not timed
     if recipe.get("continue_from"):
         offset = phase_offset(recipe)
         first = runs_root / recipe["continue_from"] / f"seed{seed}"
@@ -314,9 +315,7 @@ def run_job(
         if not agent.is_file():
             raise ValueError(f"continue_from: {agent} is missing (run {recipe['continue_from']} seed {seed} first)")
         t = json.loads((first / "timing.json").read_text()) if (first / "timing.json").exists() else None
-        offset_wall = (
-            offset * (t["wall_s"] / max(t["steps_this_session"], 1)) if t and t["steps_this_session"] > 0 else math.nan
-        )
+        offset_wall = offset * (t["wall_s"] / t["steps_this_session"]) if t and t["steps_this_session"] > 0 else None
     cfg = recipe_config(recipe, seed, trained_agent=agent)
     check_training_seed(seed, cfg.n_envs)
     run_dir = runs_root / recipe_name / f"seed{seed}"
@@ -334,7 +333,7 @@ def run_job(
     wall_per_step = timing["wall_s"] / timing["steps_this_session"] if timing["steps_this_session"] > 0 else None
 
     def wall_at(steps: int) -> float | None:
-        known = wall_per_step is not None and offset_wall == offset_wall  # offset_wall NaN: not timed
+        known = wall_per_step is not None and offset_wall is not None
         return offset_wall + steps * wall_per_step if known else None
 
     curve = []
