@@ -8,13 +8,14 @@ randomization off) and writes ``<results>/runs/<recipe>/seed<k>.json`` atomicall
 file exists is skipped, so an interrupted study continues where it stopped (``--jobs`` runs that
 many jobs at once through :func:`sphere_env.parallel.run_parallel`, each training on one core;
 ``--ray-address`` runs them on a Ray cluster; ``--complete`` writes each result with its
-validation-chosen checkpoint and fault grid, which ``select`` and ``faults`` otherwise add later
-from the run folders).
+validation-chosen checkpoint, fault grid and other calibrations, which ``select``, ``faults`` and
+``calibrations`` otherwise add later from the run folders).
 
     python -m evaluation.experiments.learning run --recipe asym_mix --seeds 0 1 2 3 4 [--jobs 2] [--complete]
     python -m evaluation.experiments.learning pd            # the PD and zero-torque baselines on the grid
     python -m evaluation.experiments.learning select        # each finished run's checkpoint chosen on validation
     python -m evaluation.experiments.learning faults        # PD, zero, pretrained and every run on the fault grid
+    python -m evaluation.experiments.learning calibrations  # every run under the other shipped calibrations
     python -m evaluation.experiments.learning summary       # summary.json, tables and plots
 
 The result of a run holds its learning curve (grid success, per shell and tracking RMSE at every
@@ -96,31 +97,60 @@ def evaluate_policy(spec: str, env_id: str = ENV_ID, seeds: Sequence[int] = EVAL
     }
 
 
-def fault_figures(
-    spec: str, env_kwargs: Mapping[str, Any], cache: Path | None = None, env_id: str = ENV_ID
-) -> dict[str, dict[str, Any]]:
-    """A controller (``pd``, ``zero``, or a run spec of a policy) on every fault of
-    :data:`sphere_env.evaluation.faults.FAULTS`: grid figures per fault, each cached as
-    ``<cache>/fault_<name>.json`` so an interrupted evaluation continues."""
+def _figures_per_condition(spec: str, conditions: Mapping[str, Any], cache: Path | None) -> dict[str, dict[str, Any]]:
+    """A controller (``pd``, ``zero``, or a run spec of a policy) under each of ``conditions``
+    (``name -> (file stem, jobs factory)``, the factory taking the controller kind): grid figures per
+    condition, each cached as ``<cache>/<file stem>.json`` so an interrupted evaluation continues."""
     from sphere_env.evaluation.cells import rollout
     from sphere_env.evaluation.controller_specs import PolicyController, run_folder
-    from sphere_env.evaluation.faults import FAULTS, fault_jobs
 
     ctrl = None if spec in ("pd", "zero") else PolicyController(*run_folder(spec))
     out = {}
-    for name in FAULTS:
-        done = cache / f"fault_{name}.json" if cache is not None else None
+    for name, (stem, make_jobs) in conditions.items():
+        done = cache / f"{stem}.json" if cache is not None else None
         if done is not None and done.exists():
             out[name] = json.loads(done.read_text())
             continue
-        jobs = fault_jobs(name, "policy" if ctrl else spec, spec, env_id, env_kwargs)
-        rows = [rollout(job, controller=ctrl)[0] for job in jobs]
+        rows = [rollout(job, controller=ctrl)[0] for job in make_jobs("policy" if ctrl else spec)]
         out[name] = grid_figures(rows)
         if done is not None:
             done.parent.mkdir(parents=True, exist_ok=True)
             write_text_atomic(done, json.dumps(out[name]) + "\n")
         print(f"  {spec} {name}: {out[name]['success_rate']:.0%}", flush=True)
     return out
+
+
+def fault_figures(
+    spec: str, env_kwargs: Mapping[str, Any], cache: Path | None = None, env_id: str = ENV_ID
+) -> dict[str, dict[str, Any]]:
+    """A controller (``pd``, ``zero``, or a run spec of a policy) on every fault of
+    :data:`sphere_env.evaluation.faults.FAULTS`: grid figures per fault, each cached as
+    ``<cache>/fault_<name>.json``."""
+    from sphere_env.evaluation.faults import FAULTS, fault_jobs
+
+    conditions = {
+        name: (f"fault_{name}", lambda kind, name=name: fault_jobs(name, kind, spec, env_id, env_kwargs))
+        for name in FAULTS
+    }
+    return _figures_per_condition(spec, conditions, cache)
+
+
+def calibration_figures(
+    spec: str, env_kwargs: Mapping[str, Any], cache: Path | None = None, env_id: str = ENV_ID
+) -> dict[str, dict[str, Any]]:
+    """A controller on the development grid in the twin built with each other shipped calibration
+    (:data:`sphere_env.evaluation.demo.CALIBRATIONS`): grid figures per calibration, each cached as
+    ``<cache>/calibration_<name>.json``."""
+    from sphere_env.evaluation.demo import CALIBRATIONS
+
+    conditions = {
+        cal: (
+            f"calibration_{cal}",
+            lambda kind, cal=cal: grid_jobs(kind, spec, env_id, {**env_kwargs, "calibration": cal}),
+        )
+        for cal in CALIBRATIONS
+    }
+    return _figures_per_condition(spec, conditions, cache)
 
 
 SELECT_FROM = 0.5  # the validation choice looks at checkpoints from this fraction of the budget on
@@ -173,9 +203,10 @@ def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) 
 
 
 def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
-    """Add ``selected`` (:func:`select_checkpoint`) or ``faults`` (the selected checkpoint's
-    :func:`fault_figures`) to every finished run's result file that lacks it, and (faults) the
-    PD's, zero torque's and the pretrained policy's to ``baselines.json``."""
+    """Add ``selected`` (:func:`select_checkpoint`), ``faults`` (the selected checkpoint's
+    :func:`fault_figures`) or ``calibrations`` (its :func:`calibration_figures`) to every finished
+    run's result file that lacks it, and (faults) the PD's, zero torque's and the pretrained
+    policy's to ``baselines.json``."""
     import torch
 
     from sphere_env.evaluation.controller_specs import env_kwargs_of
@@ -201,9 +232,9 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
     for f in sorted((results / "runs").glob("*/seed*.json")):
         res = json.loads(f.read_text())
         run_dir = runs_root / f.parent.name / f.stem
-        if kind in res or not run_dir.is_dir() or (kind == "faults" and "selected" not in res):
+        if kind in res or not run_dir.is_dir() or (kind != "selected" and "selected" not in res):
             continue
-        (add_selection if kind == "selected" else add_faults)(res, run_dir)
+        {"selected": add_selection, "faults": add_faults, "calibrations": add_calibrations}[kind](res, run_dir)
         write_text_atomic(f, json.dumps(res, indent=1) + "\n")
         print(f"{f}: {kind} added", flush=True)
 
@@ -226,6 +257,16 @@ def add_faults(res: dict[str, Any], run_dir: Path) -> None:
     n = res["selected"]["checkpoint_steps"]
     sel = f"{run_dir}@{n}"
     res["faults"] = fault_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
+
+
+def add_calibrations(res: dict[str, Any], run_dir: Path) -> None:
+    """``res["calibrations"]``: the run's validation-chosen checkpoint on the development grid under
+    every other shipped calibration."""
+    from sphere_env.evaluation.controller_specs import env_kwargs_of
+
+    n = res["selected"]["checkpoint_steps"]
+    sel = f"{run_dir}@{n}"
+    res["calibrations"] = calibration_figures(sel, env_kwargs_of(sel), run_dir / "grid_eval" / f"at_{n}")
 
 
 def pd_level() -> float:
@@ -381,6 +422,7 @@ def run_job(
     if complete:
         add_selection(result, run_dir)
         add_faults(result, run_dir)
+        add_calibrations(result, run_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out, json.dumps(result, indent=1) + "\n")
     return out
@@ -442,8 +484,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     r.add_argument(
         "--complete",
         action="store_true",
-        help="also choose each run's checkpoint on validation and evaluate it on the fault grid before its"
-        " result file is written (what select and faults add later, while the run folder still exists)",
+        help="also choose each run's checkpoint on validation and evaluate it on the fault grid and under the"
+        " other calibrations before its result file is written (what select, faults and calibrations add"
+        " later, while the run folder still exists)",
     )
     r.add_argument(
         "--ray-address",
@@ -459,12 +502,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
     sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
     sub.add_parser("faults", help="evaluate PD, zero, the pretrained policy and every finished run on the fault grid")
+    sub.add_parser("calibrations", help="evaluate every finished run under the other shipped calibrations")
     args = p.parse_args(argv)
     if args.cmd == "pd":
         print(baselines())
         return
-    if args.cmd in ("select", "faults"):
-        augment("selected" if args.cmd == "select" else "faults")
+    if args.cmd in ("select", "faults", "calibrations"):
+        augment({"select": "selected"}.get(args.cmd, args.cmd))
         return
     if args.cmd == "summary":
         from sphere_env.evaluation.experiments.learning_summary import write_summary

@@ -1,6 +1,7 @@
 """The randomization study's statistics: which runs make up each training condition, rliable's
 intervals per condition and, per pair of conditions, the difference of mean success on the
-development grid and on the fault grid, over the whole grid and per shell and per fault, with what
+development grid, on the fault grid and on the calibration grid, over the whole grid and per shell,
+fault and calibration, with what
 each difference's interval lets the study say (:func:`verdict`). A run counts as one sample: its
 score on a grid is the mean over its episodes, and every interval resamples whole runs
 (:mod:`~sphere_env.evaluation.experiments.intervals`), paired by seed where both conditions ran the
@@ -31,9 +32,18 @@ CONDITION_ORDER = ("pressure_faults_4m", "calibration", "pressure_faults", "pres
 #: Runs a condition needs before the study compares it: a training claim rests on 5 seeds or more,
 #: and a bootstrap over 2 or 3 runs has too few distinct resamples for an interval.
 MIN_STUDY_RUNS = 5
-#: The grids a run is scored on: the development grid (``nominal``) and the fault grid (``faults``,
-#: the development grid under each fault), with the words the tables use.
-GRIDS = {"nominal": "development grid", "faults": "fault grid"}
+#: The grids a run is scored on: the development grid (``nominal``), the fault grid (``faults``, the
+#: development grid under each fault) and the calibration grid (``calibrations``, the development
+#: grid in the twin of each other shipped calibration), with the words the tables use.
+GRIDS = {"nominal": "development grid", "faults": "fault grid", "calibrations": "calibration grid"}
+
+
+def grid_tasks(grid: str) -> tuple[str, ...]:
+    """A grid's tasks: the shells, the faults or the other shipped calibrations."""
+    from sphere_env.evaluation.demo import CALIBRATIONS
+    from sphere_env.evaluation.faults import FAULTS
+
+    return {"nominal": tuple(SHELLS), "faults": tuple(FAULTS), "calibrations": tuple(CALIBRATIONS)}[grid]
 
 
 class GridScores(NamedTuple):
@@ -86,30 +96,29 @@ def retired_conditions(recipes: Mapping[str, Mapping[str, Any]]) -> dict[str, st
 
 def condition_scores(runs_by_recipe: Mapping[str, list[dict[str, Any]]]) -> dict[str, dict[str, GridScores]]:
     """Per training condition (the ``condition`` of the runs of :data:`STUDY_RECIPES`): the
-    development grid's scores per shell and the fault grid's per fault (:class:`GridScores`), each
-    run by its validation-chosen checkpoint when it has one, in the order of the seeds. Runs
-    without fault figures count for the development grid only."""
-    from sphere_env.evaluation.faults import FAULTS
-
+    development grid's scores per shell, the fault grid's per fault and the calibration grid's per
+    calibration (:class:`GridScores`), each run by its validation-chosen checkpoint when it has one,
+    in the order of the seeds. A run without a grid's figures counts for the other grids only."""
     out: dict[str, dict[str, list]] = {}
     for name, runs in runs_by_recipe.items():
         if name not in STUDY_RECIPES:
             continue
         for r in sorted(runs, key=lambda r: r["seed"]):
             sel = r.get("selected") or r
-            d = out.setdefault(r.get("condition", "pressure"), {"nominal": [], "faults": []})
+            d = out.setdefault(r.get("condition", "pressure"), {g: [] for g in GRIDS})
             # every shell has the same episodes (pressures × evaluation seeds): equal weights
             d["nominal"].append((r["seed"], [sel["per_shell"][m] for m in SHELLS], [1.0] * len(SHELLS)))
-            faults = r.get("faults") or {}
-            if all(f in faults for f in FAULTS):
-                d["faults"].append(
-                    (
-                        r["seed"],
-                        [faults[f]["success_rate"] for f in FAULTS],
-                        [faults[f].get("episodes", 1) for f in FAULTS],
+            for g in ("faults", "calibrations"):
+                figs, tasks = r.get(g) or {}, grid_tasks(g)
+                if all(t in figs for t in tasks):
+                    d[g].append(
+                        (
+                            r["seed"],
+                            [figs[t]["success_rate"] for t in tasks],
+                            [figs[t].get("episodes", 1) for t in tasks],
+                        )
                     )
-                )
-    width = {"nominal": len(SHELLS), "faults": len(FAULTS)}
+    width = {g: len(grid_tasks(g)) for g in GRIDS}
     out_scores: dict[str, dict[str, GridScores]] = {}
     for c, d in out.items():
         for g, v in d.items():
@@ -174,15 +183,14 @@ def study_tables(
     reason, and no interval or verdict); per pair of compared conditions, the probability of
     improvement of the first over the second and the difference of their mean success with their
     intervals, whether that interval's half-width is under 10 points (``resolves_10_points``) and
-    its :func:`verdict`. The second: per grid, task (each shell, each fault) and pair, the
+    its :func:`verdict`. The second: per grid, task (each shell, fault and calibration) and pair, the
     difference of mean success on that task with its interval and verdict, from the same resampled
     runs as the pair's row of the first."""
-    from sphere_env.evaluation.faults import FAULTS
-
     retired = dict(retired or {})
     rows: list[dict[str, Any]] = []
     task_rows: list[dict[str, Any]] = []
-    for grid, tasks in (("nominal", SHELLS), ("faults", tuple(FAULTS))):
+    for grid in GRIDS:
+        tasks = grid_tasks(grid)
         have, pairs = compared(scores, grid, retired)
         est = interval_estimates({c: x.runs for c, x in have.items()}) if have else {}
         for c, x in have.items():
@@ -255,7 +263,7 @@ def study_task_markdown(rows: Sequence[Mapping[str, Any]]) -> str:
     runs = {r["pair"]: _runs_label(r, " runs") for r in rows}
     return markdown_table(
         [[grid, task, *(cells.get(p, "") for p in pairs)] for (grid, task), cells in table.items()],
-        ["grid", "shell / fault", *(f"{p} ({runs[p]})" for p in pairs)],
+        ["grid", "shell / fault / calibration", *(f"{p} ({runs[p]})" for p in pairs)],
     )
 
 

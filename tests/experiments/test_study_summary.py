@@ -19,6 +19,7 @@ from sphere_env.evaluation.experiments.study_summary import (
 )
 
 NO_FAULTS = GridScores((), np.zeros((0, 9)), np.ones(9))
+NO_CALIBRATIONS = GridScores((), np.zeros((0, 2)), np.ones(2))
 
 
 def _grid(tasks, seeds=None, episodes=None) -> GridScores:
@@ -31,7 +32,7 @@ def _grid(tasks, seeds=None, episodes=None) -> GridScores:
 
 
 def _study(**nominal) -> dict:
-    return {c: {"nominal": g, "faults": NO_FAULTS} for c, g in nominal.items()}
+    return {c: {"nominal": g, "faults": NO_FAULTS, "calibrations": NO_CALIBRATIONS} for c, g in nominal.items()}
 
 
 def _pairs(rows):
@@ -131,21 +132,33 @@ def test_few_runs_and_retired_conditions_draw_no_verdict():
 
 
 def test_condition_scores_take_each_runs_validation_choice_in_seed_order():
+    """Each grid in seed order; a run without a grid's figures (seed 2: no calibrations) counts for
+    the other grids only."""
+    from sphere_env.evaluation.demo import CALIBRATIONS
     from sphere_env.evaluation.faults import FAULTS
 
-    def run(seed, point):
-        return {
+    def run(seed, point, calibrated=True):
+        out = {
             "seed": seed,
             "condition": "nominal",
             "per_shell": {"point": 0.0, "injected": 0.0, "hydroelastic": 0.0},
             "selected": {"per_shell": {"point": point, "injected": 1.0, "hydroelastic": 1.0}},
             "faults": {f: {"success_rate": 0.5, "episodes": 27} for f in FAULTS},
         }
+        if calibrated:
+            out["calibrations"] = {
+                c: {"success_rate": 0.25 * (seed + k), "episodes": 27} for k, c in enumerate(CALIBRATIONS)
+            }
+        return out
 
-    scores = condition_scores({"study_nominal": [run(1, 0.0), run(0, 1.0)], "other": [run(0, 0.5)]})
+    scores = condition_scores(
+        {"study_nominal": [run(1, 0.0), run(2, 0.0, calibrated=False), run(0, 1.0)], "other": [run(0, 0.5)]}
+    )
     g = scores["nominal"]["nominal"]
-    assert set(scores) == {"nominal"} and g.seeds == (0, 1) and g.runs == pytest.approx([1.0, 2 / 3])
-    assert scores["nominal"]["faults"].runs == pytest.approx([0.5, 0.5])
+    assert set(scores) == {"nominal"} and g.seeds == (0, 1, 2) and g.runs == pytest.approx([1.0, 2 / 3, 2 / 3])
+    assert scores["nominal"]["faults"].runs == pytest.approx([0.5, 0.5, 0.5])
+    cal = scores["nominal"]["calibrations"]
+    assert cal.seeds == (0, 1) and cal.tasks.tolist() == [[0.0, 0.25], [0.25, 0.5]]
 
 
 def test_a_run_chose_its_budget_end_only_when_its_last_checkpoint_or_final_model_was_chosen():
@@ -163,8 +176,8 @@ def test_each_pair_puts_the_more_randomized_or_longer_trained_condition_first():
     doubled budget) bought: the pairs run from pressure_faults_4m to nominal whatever order the
     conditions arrive in, a condition this order does not know comes last, and one with fewer than
     5 runs is left out."""
-    five = {"nominal": _grid(np.full((5, 3), 0.5)), "faults": NO_FAULTS}
-    four = {"nominal": _grid(np.full((4, 3), 0.5)), "faults": NO_FAULTS}
+    five = {"nominal": _grid(np.full((5, 3), 0.5)), "faults": NO_FAULTS, "calibrations": NO_CALIBRATIONS}
+    four = {"nominal": _grid(np.full((4, 3), 0.5)), "faults": NO_FAULTS, "calibrations": NO_CALIBRATIONS}
     conditions = ("nominal", "other", "pressure", "calibration", "pressure_faults_4m", "pressure_faults")
     scores = {c: five for c in conditions}
     have, pairs = compared({**scores, "few": four}, "nominal")

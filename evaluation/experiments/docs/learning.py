@@ -8,7 +8,13 @@ import json
 
 from sphere_env.evaluation.experiments.docs.base import DocsError, Results, percent, renders, slash, span, table
 from sphere_env.evaluation.experiments.learning import PD_MARGIN, SECTION_RECIPE
-from sphere_env.evaluation.experiments.study_summary import MIN_STUDY_RUNS, STUDY_RECIPES, VERDICTS, chose_budget_end
+from sphere_env.evaluation.experiments.study_summary import (
+    GRIDS,
+    MIN_STUDY_RUNS,
+    STUDY_RECIPES,
+    VERDICTS,
+    chose_budget_end,
+)
 from sphere_env.resources import asset_path
 
 CARD = ("policies", "ramp_descent_v3", "card.json")
@@ -234,8 +240,6 @@ STUDY_CONDITIONS = {
 #: The seeds the study aims at per condition: 10 for each of the four conditions, 5 (the floor of a
 #: training claim) for the 4 M arm, which continues study_faults's runs and costs as much again.
 STUDY_SEEDS = {"nominal": 10, "pressure": 10, "pressure_faults": 10, "calibration": 10, "pressure_faults_4m": 5}
-#: The grids' names on the page.
-GRID_NAMES = {"nominal": "development grid", "faults": "fault grid"}
 
 
 @renders("randomization_study")
@@ -243,7 +247,7 @@ def randomization_study(res: Results) -> str:
     """The randomization study as it stands, as a list: runs per condition (a retired condition
     marked so) and how many chose the end of their budget, each grid's IQM per compared condition,
     each pair's difference of mean success per grid with what its interval says and whether it can
-    show 10 points, and per pair the shells and faults by what their difference's interval says
+    show 10 points, and per pair the shells, faults and calibrations by what their difference's interval says
     (:data:`VERDICTS`). Every interval resamples whole runs, paired by seed where the seeds match."""
     s = _summary(res)
     rows = s.get("randomization_study") or []
@@ -265,7 +269,7 @@ def randomization_study(res: Results) -> str:
         "Runs whose validation chose the end of their training budget (not past their best when training "
         f"stopped): {ends}.",
     ]
-    for grid in ("nominal", "faults"):
+    for grid in GRIDS:
         iqm = [r for r in rows if r["grid"] == grid and "iqm" in r]
         if not iqm:
             continue
@@ -274,7 +278,7 @@ def randomization_study(res: Results) -> str:
             f"{percent(r['iqm_ci'][1])}]"
             for r in iqm
         )
-        out.append(f"IQM over whole runs on the {GRID_NAMES[grid]}: {parts}.")
+        out.append(f"IQM over whole runs on the {GRIDS[grid]}: {parts}.")
 
     def pair(p: str) -> str:
         a, b = p.split(" − ")
@@ -286,7 +290,7 @@ def randomization_study(res: Results) -> str:
         for r in diffs:
             lo, hi = r["mean_diff_ci"]
             by_pair.setdefault(r["pair"], []).append(
-                f"{GRID_NAMES[r['grid']]} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], "
+                f"{GRIDS[r['grid']]} {100 * r['mean_diff']:+.0f} points [{100 * lo:+.0f}, {100 * hi:+.0f}], "
                 f"{r['verdict']}"
             )
         paired = all(r.get("paired_by_seed") for r in diffs)
@@ -311,7 +315,7 @@ def randomization_study(res: Results) -> str:
             named = f"{r['task']} {100 * r['mean_diff']:+.0f}" if told else r["task"]
             by_task.setdefault(r["pair"], {}).setdefault(r["verdict"], []).append(named)
         out.append(
-            "Per shell and per fault, what each difference's interval says of the first condition (with the "
+            "Per shell, fault and calibration, what each difference's interval says of the first condition (with the "
             "points where it excludes 0; the intervals are in the learning study's README):"
         )
         out += [
