@@ -202,11 +202,11 @@ def select_checkpoint(run_dir: Path, env_id: str = ENV_ID, from_steps: int = 0) 
     }
 
 
-def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
+def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS, recipes: Sequence[str] | None = None) -> None:
     """Add ``selected`` (:func:`select_checkpoint`), ``faults`` (the selected checkpoint's
     :func:`fault_figures`) or ``calibrations`` (its :func:`calibration_figures`) to every finished
-    run's result file that lacks it, and (faults) the PD's, zero torque's and the pretrained
-    policy's to ``baselines.json``."""
+    run's result file (of ``recipes``, or of every recipe) that lacks it, and (faults) the PD's, zero
+    torque's and the pretrained policy's to ``baselines.json``."""
     import torch
 
     from sphere_env.evaluation.controller_specs import env_kwargs_of
@@ -230,6 +230,8 @@ def augment(kind: str, runs_root: Path = RUNS, results: Path = RESULTS) -> None:
             }
             write_text_atomic(base_path, json.dumps(base, indent=1) + "\n")
     for f in sorted((results / "runs").glob("*/seed*.json")):
+        if recipes is not None and f.parent.name not in recipes:
+            continue
         res = json.loads(f.read_text())
         run_dir = runs_root / f.parent.name / f.stem
         if kind in res or not run_dir.is_dir() or (kind != "selected" and "selected" not in res):
@@ -500,15 +502,22 @@ def main(argv: Sequence[str] | None = None) -> None:
     t.add_argument("--ray-address", default=None, help="run the jobs on a Ray cluster")
     sub.add_parser("pd", help="evaluate the PD and zero torque on the grid")
     sub.add_parser("summary", help="write summary.json, the tables and the plots")
-    sub.add_parser("select", help="add each finished run's checkpoint chosen on the validation grid")
-    sub.add_parser("faults", help="evaluate PD, zero, the pretrained policy and every finished run on the fault grid")
-    sub.add_parser("calibrations", help="evaluate every finished run under the other shipped calibrations")
+    for name, text in (
+        ("select", "add each finished run's checkpoint chosen on the validation grid"),
+        ("faults", "evaluate PD, zero, the pretrained policy and every finished run on the fault grid"),
+        ("calibrations", "evaluate every finished run under the other shipped calibrations"),
+    ):
+        a = sub.add_parser(name, help=text)
+        a.add_argument("--recipe", nargs="+", default=None, help="these recipes' runs only (default: every recipe)")
     args = p.parse_args(argv)
     if args.cmd == "pd":
         print(baselines())
         return
     if args.cmd in ("select", "faults", "calibrations"):
-        augment({"select": "selected"}.get(args.cmd, args.cmd))
+        bad = [n for n in args.recipe or [] if n not in load_recipes()]
+        if bad:
+            p.error(f"--recipe: unknown {bad}; allowed: {sorted(load_recipes())}")
+        augment({"select": "selected"}.get(args.cmd, args.cmd), recipes=args.recipe)
         return
     if args.cmd == "summary":
         from sphere_env.evaluation.experiments.learning_summary import write_summary
