@@ -397,6 +397,7 @@ def _run_entry(r: Mapping[str, Any], recipes: Mapping[str, Mapping[str, Any]]) -
         "resumed_at_env_steps": resumed_at(recipe, r["seed"]),
         **{k: r.get(k) for k in ("wall_clock_s", "steps_per_s", "job_wall_s", "load_avg_1min", "commit")},
         "faults": r.get("faults", {}),
+        "calibrations": r.get("calibrations", {}),
         "selected": {k: v for k, v in r.get("selected", {}).items() if k != "faults"},
     }
 
