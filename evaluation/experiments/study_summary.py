@@ -1,11 +1,10 @@
 """The randomization study's statistics: which runs make up each training condition, rliable's
 intervals per condition and, per pair of conditions, the difference of mean success on the
 development grid, on the fault grid and on the calibration grid, over the whole grid and per shell,
-fault and calibration, with what
-each difference's interval lets the study say (:func:`verdict`). A run counts as one sample: its
-score on a grid is the mean over its episodes, and every interval resamples whole runs
-(:mod:`~sphere_env.evaluation.experiments.intervals`), paired by seed where both conditions ran the
-same seeds."""
+fault and calibration, with what each difference's interval lets the study say (:func:`verdict`). A
+run counts as one sample: its score on a grid is the mean over its episodes, and every interval
+resamples whole runs (:mod:`~sphere_env.evaluation.experiments.intervals`), paired by seed where
+both conditions ran the same seeds."""
 
 from __future__ import annotations
 
