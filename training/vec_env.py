@@ -40,6 +40,19 @@ from sphere_env.schemas import checker, count
 #: does every worker it forks, from the fork on (:mod:`sphere_env.training.worker_signals`).
 WORKER_PRELOAD = "sphere_env.training.worker_signals"
 
+
+def _worker_start_method(start_method: str | None = None) -> str:
+    """The multiprocessing start method of worker processes (``forkserver`` where available, else
+    ``spawn``, unless ``start_method`` names one). For ``forkserver`` it first sets the preload of
+    the process's one fork server to :data:`WORKER_PRELOAD`, so that its workers ignore Ctrl-C from
+    the fork on, whichever vector env starts the server first."""
+    if start_method is None:
+        start_method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
+    if start_method == "forkserver":
+        mp.get_context("forkserver").set_forkserver_preload(["__main__", WORKER_PRELOAD])
+    return start_method
+
+
 #: Seconds :meth:`BatchedSubprocVecEnv.close` waits, for all workers together, before stopping the
 #: ones that have not ended.
 CLOSE_TIMEOUT_S = 10.0
@@ -325,11 +338,7 @@ class BatchedSubprocVecEnv(_Replies, VecEnv):
         self.local = _Block([env_fns[i] for i in self.blocks[0]])
         try:
             if len(self.blocks) > 1:
-                if start_method is None:
-                    start_method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
-                ctx = mp.get_context(start_method)
-                if start_method == "forkserver":  # workers that ignore Ctrl-C from their start
-                    ctx.set_forkserver_preload(["__main__", WORKER_PRELOAD])
+                ctx = mp.get_context(_worker_start_method(start_method))
                 for block in self.blocks[1:]:
                     remote, work_remote = ctx.Pipe()
                     args = (work_remote, remote, CloudpickleWrapper([env_fns[i] for i in block]))
@@ -509,12 +518,13 @@ class SafeSubprocVecEnv(SubprocVecEnv):
     ``set_attr`` raise a bad call's error in the caller; the worker stays alive and its env
     unchanged (SB3's worker loop ends on any exception, which killed a training run). Their replies
     are numbered (:meth:`_SafeCalls.numbered_call`): a reply left in a pipe by an interrupted
-    command is dropped, never taken for a later one's."""
+    command is dropped, never taken for a later one's. Its workers ignore Ctrl-C from the fork on,
+    as :class:`BatchedSubprocVecEnv`'s do (:func:`_worker_start_method`)."""
 
     _number = 0
 
     def __init__(self, env_fns, start_method: str | None = None):
-        super().__init__([partial(_safe_env, fn) for fn in env_fns], start_method)
+        super().__init__([partial(_safe_env, fn) for fn in env_fns], _worker_start_method(start_method))
 
     def _call(self, method_name: str, args, kwargs, indices) -> list[Any]:
         self._number += 1

@@ -1,5 +1,7 @@
 """Imported for its effect, by the fork server that starts the training workers, before the server
-starts serving (``set_forkserver_preload`` in :class:`~sphere_env.training.vec_env.BatchedSubprocVecEnv`).
+starts serving (``set_forkserver_preload`` in
+:func:`sphere_env.training.vec_env._worker_start_method`, which both vector envs of worker processes
+call).
 
 Every process the fork server forks starts with the SIGINT disposition the server had when its
 loop began, and a training worker then spends seconds unpickling its envs (importing torch, SB3 and

@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import multiprocessing as mp
+import subprocess
+import sys
 from functools import partial
 
 import numpy as np
@@ -91,29 +93,53 @@ def test_batched_equals_dummy_over_episodes_with_resets():
         b.close()
 
 
-def _sigint_disposition(queue) -> None:
-    """A child's SIGINT disposition as its first code runs (put on ``queue``)."""
-    import signal
+#: Run as a script in a fresh interpreter, whose fork server is not yet started: builds the vector
+#: env named by argv[1] with two workers, then prints whether a probe forked by the fork server
+#: ignores SIGINT at its first instruction.
+_PROBE = """
+import multiprocessing as mp
+import signal
+import sys
+from functools import partial
 
+from sphere_env.training.env_factory import make_env
+from sphere_env.training.vec_env import BatchedSubprocVecEnv, SafeSubprocVecEnv
+
+
+def disposition(queue):
     queue.put(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
 
 
-@pytest.mark.skipif("forkserver" not in mp.get_all_start_methods(), reason="no forkserver start method here")
-def test_workers_are_forked_ignoring_ctrl_c_before_their_own_code_runs():
-    """The fork server that started the workers hands out processes that ignore SIGINT from the
-    fork on, so a Ctrl-C during a worker's seconds of unpickling (imports of torch, SB3 and Drake)
-    never raises in it: a probe forked by that server ignores SIGINT at its first instruction."""
-    fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, seed) for seed in range(2)]
-    vec = BatchedSubprocVecEnv(fns, n_workers=2)
+if __name__ == "__main__":
+    fns = [partial(make_env, "sphere_env/RampDescent-v0", {"shell_model": "point"}, s) for s in range(2)]
+    vec = BatchedSubprocVecEnv(fns, n_workers=2) if sys.argv[1] == "batched" else SafeSubprocVecEnv(fns)
     try:
         ctx = mp.get_context("forkserver")
         queue = ctx.Queue()
-        probe = ctx.Process(target=_sigint_disposition, args=(queue,))
+        probe = ctx.Process(target=disposition, args=(queue,))
         probe.start()
-        assert queue.get(timeout=60) is True
+        print(queue.get(timeout=60))
         probe.join(timeout=60)
     finally:
         vec.close()
+"""
+
+
+@pytest.mark.skipif("forkserver" not in mp.get_all_start_methods(), reason="no forkserver start method here")
+@pytest.mark.parametrize("vec_env", ["batched", "one_process_per_env"])
+def test_workers_are_forked_ignoring_ctrl_c_before_their_own_code_runs(vec_env, tmp_path):
+    """The fork server that starts either vector env's workers hands out processes that ignore
+    SIGINT from the fork on, so a Ctrl-C during a worker's seconds of unpickling (imports of torch,
+    SB3 and Drake) never raises in it: a probe forked by that server ignores SIGINT at its first
+    instruction. Each vector env starts the server in a fresh interpreter, so neither finds it
+    started by the other."""
+    script = tmp_path / "probe.py"
+    script.write_text(_PROBE)
+    done = subprocess.run(
+        [sys.executable, str(script), vec_env], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[-1] == "True"
 
 
 def test_threaded_equals_dummy_over_episodes_with_resets():
